@@ -1,0 +1,311 @@
+"""Commutation laws and the current <-> drive-input transformation.
+
+* Minimum-energy inversion of any gain matrix ``K(y)`` (eq. Commutation_Solution_Ideal
+  and eq. Commutation_Model_Currents): ``i = argmin |i|^2 s.t. K i = F*``.
+* The single-direction closed form (eq. Commutation_Solution_Ideal_SingleCoilset)
+  with force split ``k̂_l^2 / Σ_m k̂_m^2``.
+* The drive with fixed commutation: ``Γ(y)`` (eq. Commutation_Rewritten1_Gamma),
+  ``T`` / ``T^{-1}`` (eq. Input_Transformation, ``atan2``), the drive law
+  (eq. Commutation_Solution_With_PhaseOffset) and currents -> ``(Fy^l*, Δ^l)``
+  (eq. Current_To_ForceDelta).
+
+Every law is a pytree with a method ``currents(y, F_star)`` taking positions of
+shape ``S`` (m) and desired forces ``S + (3,)`` (``[Fy, Fx, Tz]`` in N, N, N·m) and
+returning star currents ``S + (L, 2)`` (A). All are vectorised and jittable.
+
+Energy metric. Copper loss is proportional to ``ia^2 + ib^2 + ic^2`` with
+``ic = -ia - ib``, i.e. ``i^T Q i`` per coil set with ``Q = [[2, 1], [1, 2]]``.
+Minimising it over the star currents equals the paper's ``K^†`` of the full
+``3 x 3L`` phase matrix (its rows sum to zero over phases, so the pseudo-inverse
+already satisfies the star constraint). ``metric="star"`` minimises the plain
+``ia^2 + ib^2`` instead, which is the literal ``K̂^†`` of the reduced ``3 x 2L``
+matrix of eq. Commutation_Model_Currents.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from pgcomm._pytree import pytree_dataclass, static_field
+from pgcomm.motor import Motor, commutation_phase, ideal_gain_phases, star_reduce, star_to_phases
+
+#: Inverse of the per-coil-set copper-loss metric ``Q = [[2, 1], [1, 2]]``.
+_QINV_PHASE = np.array([[2.0, -1.0], [-1.0, 2.0]]) / 3.0
+
+#: Normalised determinant below which the 3x3 system is damped (see :func:`min_energy_currents`).
+DEFAULT_DET_MIN = 1e-6
+#: Tikhonov damping (relative, on the row-normalised system) when fully singular.
+DEFAULT_DAMPING = 1e-6
+
+
+def metric_inverse(n_coil_sets: int, metric: str = "phase"):
+    """Inverse energy metric ``W^{-1}`` of shape ``(L, 2, 2)`` (block diagonal over coil sets)."""
+    if metric == "phase":
+        blk = _QINV_PHASE
+    elif metric == "star":
+        blk = np.eye(2)
+    else:
+        raise ValueError(f"metric must be 'phase' or 'star', got {metric!r}")
+    return jnp.asarray(np.broadcast_to(blk, (n_coil_sets, 2, 2)).copy())
+
+
+def _inv3_sym(a):
+    """Inverse of symmetric ``(..., 3, 3)`` matrices by the adjugate (fast for large batches)."""
+    a00, a01, a02 = a[..., 0, 0], a[..., 0, 1], a[..., 0, 2]
+    a11, a12, a22 = a[..., 1, 1], a[..., 1, 2], a[..., 2, 2]
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    c11 = a00 * a22 - a02 * a02
+    c12 = a01 * a02 - a00 * a12
+    c22 = a00 * a11 - a01 * a01
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    adj = jnp.stack(
+        [jnp.stack([c00, c01, c02], -1), jnp.stack([c01, c11, c12], -1), jnp.stack([c02, c12, c22], -1)], -2
+    )
+    return adj / det[..., None, None], det
+
+
+def min_energy_currents(gain, force, winv, det_min=DEFAULT_DET_MIN, damping=DEFAULT_DAMPING):
+    """Minimum-energy currents that produce ``force`` through ``gain``.
+
+    Solves ``min i^T W i  s.t.  K i = F`` in closed form,
+    ``i = W^{-1} K^T (K W^{-1} K^T)^{-1} F``, with ``K`` the ``3 x 2L`` matrix
+    ``[K^1, ..., K^L]``. The ``3 x 3`` matrix ``A = K W^{-1} K^T`` is row-normalised,
+    ``Â = D A D`` with ``D = diag(A)^{-1/2}`` (so units of N and N·m do not matter),
+    and its determinant ``c = det Â ∈ [0, 1]`` measures conditioning. If
+    ``c >= det_min`` the solution is the exact minimum-norm one. Below it, Tikhonov
+    damping ``(Â + ε² I)`` with ``ε² = damping · (1 - c/det_min)²`` is added, so the
+    law stays bounded where ``K`` loses rank (e.g. one coil set, or a lever arm of
+    zero) and approaches the least-squares compromise there.
+
+    Args:
+        gain: ``(..., L, 3, 2)`` gain matrices (N/A).
+        force: ``(..., 3)`` desired force ``[Fy, Fx, Tz]``.
+        winv: ``(L, 2, 2)`` inverse energy metric (:func:`metric_inverse`).
+
+    Returns:
+        ``(..., L, 2)`` star currents (A).
+    """
+    kw = jnp.einsum("...lqj,ljk->...lqk", gain, winv)  # K W^{-1}, per coil set
+    a = jnp.einsum("...lqk,...lrk->...qr", kw, gain)  # Σ_l K^l W^{-1} K^lT
+    diag = jnp.diagonal(a, axis1=-2, axis2=-1)
+    scale = jnp.max(diag, axis=-1, keepdims=True)
+    dinv = 1.0 / jnp.sqrt(jnp.maximum(diag, 1e-30 * scale + 1e-300))
+    an = a * dinv[..., :, None] * dinv[..., None, :]
+    _, c = _inv3_sym(an)
+    eps2 = damping * jnp.clip(1.0 - c / det_min, 0.0, 1.0) ** 2
+    inv, _ = _inv3_sym(an + eps2[..., None, None] * jnp.eye(3))
+    z = jnp.einsum("...qr,...r->...q", inv, force * dinv) * dinv
+    return jnp.einsum("...lqk,...q->...lk", kw, z)
+
+
+def limit_currents(currents, current_limit):
+    """Scale all coil sets by one factor so that no phase current exceeds ``current_limit`` (A).
+
+    Scaling keeps the force direction; ``ic = -ia - ib`` is included. ``None`` = no limit.
+    """
+    if current_limit is None:
+        return currents
+    peak = jnp.max(jnp.abs(star_to_phases(currents)), axis=(-2, -1))
+    s = jnp.minimum(1.0, current_limit / jnp.maximum(peak, 1e-300))
+    return currents * s[..., None, None]
+
+
+@pytree_dataclass
+class ClassicalLaw:
+    """Classical commutation ``i = K(y)^† F*`` with the ideal gain matrix (eq. Commutation_Solution_Ideal).
+
+    Attributes:
+        k, zeta: ``(L,)`` motor constants ``k̂^l`` (N/A) and phase offsets ``ζ̂^l`` (rad).
+        mu: ``μ̂`` (-); lever_arms ``(L,)`` (m).
+        pole_pitch: ``d_m`` (m).
+    """
+
+    k: jnp.ndarray
+    zeta: jnp.ndarray
+    mu: jnp.ndarray
+    lever_arms: jnp.ndarray
+    pole_pitch: float = static_field()
+    metric: str = static_field(default="phase")
+    current_limit: float | None = static_field(default=None)
+
+    @classmethod
+    def from_motor(cls, motor: Motor, k=None, zeta=None, metric="phase") -> "ClassicalLaw":
+        """Build from a :class:`Motor`, optionally overriding ``k̂``, ``ζ̂`` (scalars or ``(L,)``)."""
+        n = motor.n_coil_sets
+        k = np.broadcast_to(np.asarray(motor.k if k is None else k, float), (n,))
+        zeta = np.broadcast_to(np.asarray(motor.zeta if zeta is None else zeta, float), (n,))
+        return cls(jnp.asarray(k), jnp.asarray(zeta), jnp.asarray(float(motor.mu)),
+                   jnp.asarray(motor.lever_arms), float(motor.pole_pitch), metric, motor.current_limit)
+
+    def gain(self, y):
+        """Ideal star-reduced gain ``(..., L, 3, 2)`` of this law's parameters."""
+        g3 = ideal_gain_phases(jnp.asarray(y)[..., None], self.k, self.zeta, self.mu, self.lever_arms,
+                               self.pole_pitch)
+        return star_reduce(g3)
+
+    def currents(self, y, f_star):
+        """Star currents ``(..., L, 2)`` (A) for positions ``y`` (m) and desired ``F*`` ``(..., 3)``."""
+        winv = metric_inverse(self.k.shape[0], self.metric)
+        i = min_energy_currents(self.gain(y), f_star, winv)
+        return limit_currents(i, self.current_limit)
+
+
+def force_split(k):
+    """Weights ``k̂_l^2 / Σ_m k̂_m^2`` that split ``Fy*`` over coil sets (eq. Commutation_Solution_Ideal_SingleCoilset)."""
+    k = jnp.asarray(k)
+    return k**2 / jnp.sum(k**2)
+
+
+def classical_single_direction(y, fy_star, k, zeta, pole_pitch):
+    """Closed-form classical commutation for ``F* = [Fy*, 0, 0]`` (eq. Commutation_Solution_Ideal_SingleCoilset).
+
+    ``i^l = [sin η̂^l, sin(η̂^l + 2π/3)] · w_l Fy* / k̂^l`` with ``w_l = k̂_l² / Σ k̂_m²``.
+
+    Args:
+        y: ``S`` positions (m); fy_star: ``S`` desired driving force (N).
+        k, zeta: ``(L,)`` nominal ``k̂^l`` (N/A), ``ζ̂^l`` (rad).
+
+    Returns:
+        ``S + (L, 2)`` star currents (A).
+    """
+    k = jnp.asarray(k)
+    eta = commutation_phase(jnp.asarray(y)[..., None], jnp.asarray(zeta), pole_pitch)
+    amp = (force_split(k) / k) * jnp.asarray(fy_star)[..., None]
+    return jnp.stack([jnp.sin(eta), jnp.sin(eta + 2 * jnp.pi / 3)], axis=-1) * amp[..., None]
+
+
+# --- drives with fixed commutation -----------------------------------------------------------
+
+
+def gamma(y, k_hat, zeta_hat, pole_pitch):
+    """``Γ(y)`` of eq. Commutation_Rewritten1_Gamma, shape ``S + (2, 2)`` (A/N).
+
+    ``Γ = (1/k̂) [[sin η̂, cos η̂], [sin(η̂ + 2π/3), cos(η̂ + 2π/3)]]``; its determinant
+    is ``-(√3/2)/k̂²``, so it is invertible at every position.
+    """
+    eta = commutation_phase(jnp.asarray(y), zeta_hat, pole_pitch)
+    e2 = eta + 2 * jnp.pi / 3
+    g = jnp.stack([jnp.stack([jnp.sin(eta), jnp.cos(eta)], -1), jnp.stack([jnp.sin(e2), jnp.cos(e2)], -1)], -2)
+    return g / jnp.asarray(k_hat)[..., None, None]
+
+
+def gamma_inverse(y, k_hat, zeta_hat, pole_pitch):
+    """Closed-form ``Γ(y)^{-1}``, shape ``S + (2, 2)`` (N/A)."""
+    eta = commutation_phase(jnp.asarray(y), zeta_hat, pole_pitch)
+    e2 = eta + 2 * jnp.pi / 3
+    # inverse of [[a, b], [c, d]] is [[d, -b], [-c, a]] / (ad - bc); ad - bc = -sin(2π/3)
+    det = -np.sin(2 * np.pi / 3)
+    inv = jnp.stack([jnp.stack([jnp.cos(e2), -jnp.cos(eta)], -1), jnp.stack([-jnp.sin(e2), jnp.sin(eta)], -1)], -2)
+    return inv * (jnp.asarray(k_hat)[..., None, None] / det)
+
+
+def transform_T(fy, delta):
+    """``T``: ``(Fy*, Δ) -> (F1*, F2*) = (cos Δ · Fy*, sin Δ · Fy*)`` (eq. Input_Transformation). Shape ``S + (2,)``."""
+    return jnp.stack([jnp.cos(delta) * fy, jnp.sin(delta) * fy], axis=-1)
+
+
+def transform_T_inverse(f12):
+    """``T^{-1}``: ``(F1*, F2*) -> (Fy*, Δ) = (|F|, atan2(F2*, F1*))``; ``Δ ∈ (-π, π]``, ``Fy* >= 0``.
+
+    Args:
+        f12: ``S + (2,)`` (N). Returns ``(fy, delta)`` each of shape ``S``.
+    """
+    return jnp.hypot(f12[..., 0], f12[..., 1]), jnp.arctan2(f12[..., 1], f12[..., 0])
+
+
+def drive_currents(y, fy, delta, k_hat, zeta_hat, pole_pitch):
+    """Currents a fixed-commutation drive makes from ``(Fy^l*, Δ^l)`` (eq. Commutation_Solution_With_PhaseOffset).
+
+    ``i^l = (1/k̂) [sin(η̂ + Δ^l), sin(η̂ + Δ^l + 2π/3)] Fy^l* = Γ(y) T(Fy^l*, Δ^l)``.
+
+    Args:
+        y: ``S`` (m); fy, delta: ``S + (L,)`` (N, rad); k_hat, zeta_hat: drive's fixed
+            ``k̂`` (N/A), ``ζ̂`` (rad), scalars or ``(L,)``.
+
+    Returns:
+        ``S + (L, 2)`` star currents (A).
+    """
+    eta = commutation_phase(jnp.asarray(y)[..., None], zeta_hat, pole_pitch) + delta
+    amp = fy / jnp.asarray(k_hat)
+    return jnp.stack([jnp.sin(eta), jnp.sin(eta + 2 * jnp.pi / 3)], axis=-1) * amp[..., None]
+
+
+def currents_to_drive_inputs(y, currents, k_hat, zeta_hat, pole_pitch):
+    """Drive inputs ``(Fy^l*, Δ^l) = T^{-1}(Γ(y)^{-1} i^l)`` (eq. Current_To_ForceDelta).
+
+    Args:
+        y: ``S`` (m); currents: ``S + (L, 2)`` (A).
+
+    Returns:
+        ``(fy, delta)`` each ``S + (L,)`` in N and rad.
+    """
+    ginv = gamma_inverse(jnp.asarray(y)[..., None], k_hat, zeta_hat, pole_pitch)
+    f12 = jnp.einsum("...ij,...j->...i", ginv, currents)
+    return transform_T_inverse(f12)
+
+
+@pytree_dataclass
+class DriveInputLaw:
+    """Fixed-commutation operation of one coil set with a constant phase offset (data sets ``Z_i^l``, eq. DataSets).
+
+    Coil set ``coil_set`` gets ``Fy^l* = Fy*`` and ``Δ^l = delta``; all others get zero force.
+    The drive's commutation uses ``k_hat`` (N/A) and ``zeta_hat`` (rad) of that coil set.
+    """
+
+    k_hat: jnp.ndarray
+    zeta_hat: jnp.ndarray
+    delta: jnp.ndarray
+    pole_pitch: float = static_field()
+    n_coil_sets: int = static_field()
+    coil_set: int = static_field()
+
+    def currents(self, y, f_star):
+        """Star currents ``(..., L, 2)``: only ``coil_set`` carries current."""
+        y = jnp.asarray(y)
+        eta = commutation_phase(y, self.zeta_hat, self.pole_pitch) + self.delta
+        amp = f_star[..., 0] / self.k_hat
+        i_l = jnp.stack([jnp.sin(eta), jnp.sin(eta + 2 * jnp.pi / 3)], axis=-1) * amp[..., None]
+        onehot = jnp.zeros(self.n_coil_sets).at[self.coil_set].set(1.0)
+        return i_l[..., None, :] * onehot[:, None]
+
+
+@pytree_dataclass
+class ModelLaw:
+    """Model-based minimum-energy commutation ``i = K̂(y)^† (F* - F̂_cog(y))`` (eq. Commutation_Model_Currents).
+
+    ``model`` is any pytree with ``gain(y) -> (..., L, 3, 2)`` and ``cogging(y) -> (..., 3)``:
+    a PGNN, the physics-only model, or the twin's exact truth (the oracle).
+    Damped where ``K̂`` is ill-conditioned (see :func:`min_energy_currents`) and scaled
+    to respect ``current_limit`` (A).
+    """
+
+    model: object
+    metric: str = static_field(default="phase")
+    current_limit: float | None = static_field(default=None)
+    det_min: float = static_field(default=DEFAULT_DET_MIN)
+
+    def currents(self, y, f_star):
+        """Star currents ``(..., L, 2)`` (A) for ``y`` (m) and ``F*`` ``(..., 3)``."""
+        gain = self.model.gain(y)
+        winv = metric_inverse(gain.shape[-3], self.metric)
+        i = min_energy_currents(gain, f_star - self.model.cogging(y), winv, det_min=self.det_min)
+        return limit_currents(i, self.current_limit)
+
+
+@pytree_dataclass
+class OffsetLaw:
+    """Classical commutation of ``F* - F_off(y)``: a drive's anti-cogging table or harmonic fit.
+
+    ``offset`` is a pytree with ``__call__(y) -> (..., 3)`` force offset (N, N, N·m).
+    """
+
+    base: ClassicalLaw
+    offset: object
+
+    def currents(self, y, f_star):
+        """Star currents ``(..., L, 2)`` (A)."""
+        return self.base.currents(y, f_star - self.offset(y))
+
