@@ -88,8 +88,9 @@ def min_energy_currents(gain, force, winv, det_min=DEFAULT_DET_MIN, damping=DEFA
     Returns:
         ``(..., L, 2)`` star currents (A).
     """
-    kw = jnp.einsum("...lqj,ljk->...lqk", gain, winv)  # K W^{-1}, per coil set
-    a = jnp.einsum("...lqk,...lrk->...qr", kw, gain)  # Σ_l K^l W^{-1} K^lT
+    # broadcast-and-sum rather than einsum: tiny dots are slow inside XLA loops (scan bodies)
+    kw = jnp.sum(gain[..., :, :, :, None] * winv[:, None, :, :], axis=-2)  # K^l W^{-1}: (..., L, 3, 2)
+    a = jnp.sum(kw[..., :, :, None, :] * gain[..., :, None, :, :], axis=(-4, -1))  # Σ_l K^l W^{-1} K^lT
     diag = jnp.diagonal(a, axis1=-2, axis2=-1)
     scale = jnp.max(diag, axis=-1, keepdims=True)
     dinv = 1.0 / jnp.sqrt(jnp.maximum(diag, 1e-30 * scale + 1e-300))
@@ -97,8 +98,8 @@ def min_energy_currents(gain, force, winv, det_min=DEFAULT_DET_MIN, damping=DEFA
     _, c = _inv3_sym(an)
     eps2 = damping * jnp.clip(1.0 - c / det_min, 0.0, 1.0) ** 2
     inv, _ = _inv3_sym(an + eps2[..., None, None] * jnp.eye(3))
-    z = jnp.einsum("...qr,...r->...q", inv, force * dinv) * dinv
-    return jnp.einsum("...lqk,...q->...lk", kw, z)
+    z = jnp.sum(inv * (force * dinv)[..., None, :], axis=-1) * dinv
+    return jnp.sum(kw * z[..., None, :, None], axis=-2)
 
 
 def limit_currents(currents, current_limit):
@@ -243,7 +244,7 @@ def currents_to_drive_inputs(y, currents, k_hat, zeta_hat, pole_pitch):
         ``(fy, delta)`` each ``S + (L,)`` in N and rad.
     """
     ginv = gamma_inverse(jnp.asarray(y)[..., None], k_hat, zeta_hat, pole_pitch)
-    f12 = jnp.einsum("...ij,...j->...i", ginv, currents)
+    f12 = jnp.sum(ginv * currents[..., None, :], axis=-1)
     return transform_T_inverse(f12)
 
 

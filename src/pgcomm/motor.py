@@ -113,7 +113,8 @@ def star_reduce(gain3):
     Returns:
         shape ``(..., 3, 2)``.
     """
-    return gain3 @ jnp.asarray(STAR)
+    # explicit columns instead of a matmul: tiny dots are slow inside XLA loops
+    return jnp.stack([gain3[..., 0] - gain3[..., 2], gain3[..., 1] - gain3[..., 2]], axis=-1)
 
 
 def ideal_gain(y, motor: Motor, k=None, zeta=None, mu=None):
@@ -147,7 +148,7 @@ def total_force(gain, currents):
     Returns:
         ``(..., 3)`` force ``[Fy, Fx, Tz]`` (N, N, N·m).
     """
-    return jnp.einsum("...lqj,...lj->...q", gain, currents)
+    return jnp.sum(gain * jnp.asarray(currents)[..., None, :], axis=(-3, -1))
 
 
 def star_to_phases(currents):

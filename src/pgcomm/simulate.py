@@ -1,0 +1,162 @@
+"""Closed-loop simulation: trajectory -> control -> commutation -> drive -> plant -> sensors.
+
+One ``jax.lax.scan`` step per controller sample ``k``:
+
+1. the encoder reads ``y_m[k] = Q(y(t_k))``; ``e[k] = r[k] - y_m[k]``;
+2. feedback + feedforward give ``F*[k] = [u_ff[k] + u_fb[k], 0, 0]``;
+3. the commutation law maps ``(y_m[k], F*[k])`` to star currents, the drive limits
+   them and holds them over ``[t_k, t_k+1)`` (zero-order hold);
+4. the plant produces ``F[k] = F(y(t_k), v(t_k), i[k])``; the mechanics integrate
+   ``F_y[k]`` over the sample in RK4 sub-steps.
+
+Force-sensor noise is added to ``F`` afterwards (it does not act on the motion),
+and the drive inputs ``(Fy^l*, Δ^l)`` that a fixed-commutation drive would need for
+the same currents are computed afterwards (eq. Current_To_ForceDelta), vectorised.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from pgcomm import mechanics as mech_mod
+from pgcomm.commutation import currents_to_drive_inputs, limit_currents
+from pgcomm.control import PID, Feedforward, feedforward_signal
+from pgcomm.errors import DataError
+from pgcomm.mechanics import Mechanics
+from pgcomm.motor import Motor
+from pgcomm.plant import plant_force
+from pgcomm.sensors import Sensors, force_noise, quantise
+
+
+@dataclass(frozen=True)
+class SimResult:
+    """Everything logged by a closed-loop run; all arrays have ``N`` rows (one per controller sample).
+
+    Attributes:
+        t: (N,) s; r: (N,) reference (m); y: (N,) true position (m); y_meas: (N,) encoder (m);
+        e: (N,) tracking error ``r - y`` (m); f_star: (N, 3) desired force;
+        f_meas: (N, 3) measured force (with sensor noise); f_true: (N, 3) generated force;
+        currents: (N, L, 2) star currents (A); drive_fy: (N, L) (N); drive_delta: (N, L) (rad);
+        sample_time: s; drive: the :class:`Motor` whose ``k̂``, ``ζ̂`` define the drive inputs.
+    """
+
+    t: np.ndarray
+    r: np.ndarray
+    y: np.ndarray
+    y_meas: np.ndarray
+    e: np.ndarray
+    f_star: np.ndarray
+    f_meas: np.ndarray
+    f_true: np.ndarray
+    currents: np.ndarray
+    drive_fy: np.ndarray
+    drive_delta: np.ndarray
+    sample_time: float
+    drive: Motor
+    info: dict = field(default_factory=dict)
+
+    @property
+    def commutation_error(self) -> np.ndarray:
+        """Measured commutation error ``F - F*`` (N, 3)."""
+        return self.f_meas - self.f_star
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Log columns in the DESIGN.md log format (plus ``Fy_star, Fx_star, Tz_star``)."""
+        cols = {"t": self.t, "r": self.r, "y": self.y_meas,
+                "Fy": self.f_meas[:, 0], "Fx": self.f_meas[:, 1], "Tz": self.f_meas[:, 2],
+                "Fy_star": self.f_star[:, 0], "Fx_star": self.f_star[:, 1], "Tz_star": self.f_star[:, 2]}
+        for l in range(self.currents.shape[1]):
+            cols[f"ia_{l + 1}"] = self.currents[:, l, 0]
+            cols[f"ib_{l + 1}"] = self.currents[:, l, 1]
+        for l in range(self.currents.shape[1]):
+            cols[f"Fy_ref_{l + 1}"] = self.drive_fy[:, l]
+            cols[f"delta_{l + 1}"] = self.drive_delta[:, l]
+        return cols
+
+
+@partial(jax.jit, static_argnames=("pid", "mech", "sample_time", "resolution", "current_limit"))
+def _run(plant, law, r, u_ff, y0, *, pid: PID, mech: Mechanics, sample_time: float, resolution: float,
+         current_limit):
+    ts = sample_time
+    alpha = pid.alpha(ts)
+
+    def body(carry, x):
+        y, v, integ, e_prev, u_fb = carry
+        r_k, uff_k = x
+        ym = quantise(y, resolution)
+        e = r_k - ym
+        integ = integ + e * ts
+        u_pid = pid.kp * e + pid.ki * integ + pid.kd * (e - e_prev) / ts
+        u_fb = u_fb + alpha * (u_pid - u_fb)
+        f_star = jnp.stack([uff_k + u_fb, 0.0, 0.0])
+        i = limit_currents(law.currents(ym, f_star), current_limit)
+        f = plant_force(plant, y, v, i)
+        y_next, v_next = mech_mod.step(mech, y, v, f[0], ts)
+        return (y_next, v_next, integ, e, u_fb), (y, ym, f_star, f, i)
+
+    e0 = r[0] - quantise(y0, resolution)
+    carry0 = (y0, jnp.zeros_like(y0), jnp.zeros_like(y0), e0, jnp.zeros_like(y0))
+    _, out = jax.lax.scan(body, carry0, (r, u_ff))
+    return out
+
+
+def simulate(plant, law, reference, *, drive: Motor, pid: PID | None = None,
+             feedforward: Feedforward = Feedforward(), mechanics: Mechanics = Mechanics(),
+             sensors: Sensors = Sensors(), seed: int = 0, y0: float | None = None) -> SimResult:
+    """Run the closed loop on ``plant`` with commutation ``law`` along ``reference``.
+
+    Args:
+        plant: electromagnetic truth (:mod:`pgcomm.plant` interface): twin or force map.
+        law: commutation law with ``currents(y, F*)`` (:mod:`pgcomm.commutation`).
+        reference: a :class:`pgcomm.trajectory.Reference` (``r, v, a`` sampled at ``drive.sample_time``).
+        drive: motor description: sample time, current limit, and the drive's fixed
+            commutation ``k̂``, ``ζ̂`` used to express currents as drive inputs.
+        pid: feedback; default :meth:`PID.tuned` for ``mechanics.mass``.
+        feedforward: ``m, f_v, f_c`` of eq. FeedforwardController (zeros = none).
+        mechanics, sensors: translator and sensor models.
+        seed: force-sensor noise seed.
+        y0: initial position (m), default ``r[0]``.
+
+    Returns:
+        :class:`SimResult`.
+
+    Raises:
+        DataError: if the motion leaves the plant's defined position range (e.g. a force map).
+    """
+    ts = float(drive.sample_time)
+    if abs(reference.sample_time - ts) > 1e-12 * ts:
+        raise DataError(f"reference sample time {reference.sample_time} s differs from the motor's {ts} s")
+    mech_mod.check_stable(mechanics, ts)
+    pid = pid or PID.tuned(mechanics.mass)
+    r = np.asarray(reference.r, float)
+    u_ff = feedforward_signal(feedforward, np.asarray(reference.v), np.asarray(reference.a))
+    y0 = float(r[0] if y0 is None else y0)
+    y, ym, f_star, f_true, cur = _run(plant, law, jnp.asarray(r), jnp.asarray(u_ff), jnp.asarray(y0), pid=pid,
+                                      mech=mechanics, sample_time=ts,
+                                      resolution=float(sensors.encoder_resolution),
+                                      current_limit=drive.current_limit)
+    y = np.asarray(y)
+    _check_range(plant, y)
+    n = r.shape[0]
+    noise = np.asarray(force_noise(jax.random.PRNGKey(seed), n, sensors))
+    k_hat = jnp.asarray(drive.k)
+    zeta_hat = jnp.asarray(drive.zeta)
+    fy, delta = currents_to_drive_inputs(jnp.asarray(ym), cur, k_hat, zeta_hat, drive.pole_pitch)
+    f_true = np.asarray(f_true)
+    return SimResult(t=np.arange(n) * ts, r=r, y=y, y_meas=np.asarray(ym), e=r - y, f_star=np.asarray(f_star),
+                     f_meas=f_true + noise, f_true=f_true, currents=np.asarray(cur), drive_fy=np.asarray(fy),
+                     drive_delta=np.asarray(delta), sample_time=ts, drive=drive)
+
+
+def _check_range(plant, y):
+    ok = np.asarray(plant.in_range(jnp.asarray(y)))
+    if not ok.all():
+        k = int(np.argmin(ok))
+        lo, hi = plant.y_range
+        raise DataError(f"simulation: position y = {y[k]:.6g} m at sample {k} is outside the plant's range "
+                        f"[{lo:.6g}, {hi:.6g}] m")

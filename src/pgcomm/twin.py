@@ -1,0 +1,254 @@
+"""Digital twin of an industrial coreless linear motor: the electromagnetic truth.
+
+The twin is the stand-in for the paper's real CLM (three coil sets, Table
+Parameters_CLM). Its force is
+
+    F(y, v, i) = Σ_l K^l(y) i^l + F_cog(y) + F_dir(v),
+
+with every parasitic effect of DESIGN.md switchable through its own parameter
+(set it to zero to switch the effect off):
+
+1. per-coil-set motor constant ``k`` and phase offset ``zeta``;
+2. per-phase winding imbalance: amplitude ``phase_gain_error`` and angle
+   ``phase_angle_error`` of each phase column;
+3. slow position dependence of the field along the stroke, evaluated where the
+   coil set sits (``y + d^l``): linear/quadratic magnet-strength drift
+   ``field_slope``/``field_curvature``, a long-wavelength magnet-to-magnet
+   intensity variation ``field_ripple``, a slow commutation-phase drift
+   ``phase_drift`` (magnet orientation), and an end effect ``end_drop`` near the
+   magnet-track ends ``track_ends`` with decay length ``end_length``;
+4. higher spatial harmonics of the magnet field: ``harmonic_5``, ``harmonic_7``
+   (relative amplitude) with phases ``harmonic_phase``;
+5. out-of-plane coupling ``mu``, lever arms ``lever_arms`` (Tz row = d^l · Fx row)
+   and lateral coil offsets ``lateral_offsets`` (Tz row gets ``-x^l`` · Fy row);
+6. a current-independent force (cable slab / cogging): a smooth part
+   (``cog_offset``, ``cog_slope``, ``cog_curvature``, ``cog_wave`` with wavelength
+   ``cog_wave_length``) plus a weak periodic part ``cog_periodic`` with period
+   ``cog_period`` that is not a multiple of the pole pitch;
+7. a direction-dependent force ``direction_force · tanh(v / direction_velocity)``
+   (paper, Remark on ``sign(dy/dt)``);
+8. force-sensor noise and encoder quantisation live in :mod:`pgcomm.sensors`.
+
+Effects 4 and 7 are outside the PGNN model class on purpose. The twin also knows
+its exact static inverse: :meth:`TwinPlant.gain` and :meth:`TwinPlant.cogging` are
+what the oracle commutation inverts.
+
+Defaults are of the paper's scale: the fundamental ``k``, ``zeta`` are Table
+Parameters_CLM's calibrated values, and the parasitic amplitudes are set from
+typical magnitudes for a CLM with a cable slab so that classical commutation
+shows a commutation error of the paper's size (Table Commutation_Performance).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import jax.numpy as jnp
+import numpy as np
+
+from pgcomm._pytree import pytree_dataclass, static_field
+from pgcomm.motor import PHASE_OFFSETS, Motor, star_reduce
+
+
+@dataclass(frozen=True)
+class TwinParams:
+    """Parameters of the twin's electromagnetics (SI units; see the module docstring for the effects)."""
+
+    # 1. fundamental
+    pole_pitch: float = 0.03
+    k: tuple[float, ...] = (61.34, 61.62, 60.07)
+    zeta: tuple[float, ...] = (-0.54, -0.55, -0.55)
+    # 2. winding imbalance, per coil set and phase a, b, c
+    phase_gain_error: tuple[tuple[float, ...], ...] = (
+        (0.012, -0.007, -0.005), (-0.006, 0.010, -0.004), (0.004, 0.003, -0.007))
+    phase_angle_error: tuple[tuple[float, ...], ...] = (
+        (0.010, -0.004, -0.006), (-0.008, 0.002, 0.006), (0.003, -0.009, 0.006))
+    # 3. slow position dependence (relative to the fundamental; positions in m)
+    field_slope: float = 0.006           # relative change per 0.1 m
+    field_curvature: float = -0.004      # relative, times ((p/0.1)^2 - 1/3)
+    field_ripple: float = 0.004          # long-wavelength magnet intensity variation
+    field_ripple_length: float = 0.113   # m
+    phase_drift: float = 0.006           # rad per 0.1 m
+    end_drop: float = 0.03               # relative field drop at a track end
+    end_length: float = 0.015            # m
+    track_ends: tuple[float, float] = (-0.2, 0.2)
+    # 4. higher harmonics
+    harmonic_5: float = 0.006
+    harmonic_7: float = 0.003
+    harmonic_phase: tuple[float, float] = (0.3, -0.8)
+    # 5. out-of-plane coupling
+    mu: float = 0.05
+    lever_arms: tuple[float, ...] = (-0.065, 0.005, 0.075)
+    lateral_offsets: tuple[float, ...] = (0.003, -0.002, 0.004)
+    # 6. current-independent force: [Fy (N), Fx (N), Tz (N*m)]
+    cog_offset: tuple[float, float, float] = (2.0, 0.15, 0.35)
+    cog_slope: tuple[float, float, float] = (4.5, 0.25, 0.45)        # per 0.1 m
+    cog_curvature: tuple[float, float, float] = (-2.5, 0.1, -0.2)    # times ((y/0.1)^2 - 1/3)
+    cog_wave: tuple[float, float, float] = (2.0, 0.2, 0.3)
+    cog_wave_length: float = 0.16
+    cog_periodic: tuple[float, float, float] = (0.5, 0.05, 0.05)
+    cog_period: float = 0.0235
+    # 7. direction-dependent force
+    direction_force: tuple[float, float, float] = (1.0, 0.05, 0.1)
+    direction_velocity: float = 0.002    # m/s
+
+    @property
+    def n_coil_sets(self) -> int:
+        """Number of coil sets ``L``."""
+        return len(self.k)
+
+    def motor(self, k_hat=67.0, zeta_hat=-0.52, mu_hat=None, sample_time=1e-3, current_limit=10.0) -> Motor:
+        """Nominal :class:`Motor` description of this twin with a starting guess ``k̂`` (N/A), ``ζ̂`` (rad)."""
+        return Motor(pole_pitch=self.pole_pitch, lever_arms=self.lever_arms, k=k_hat, zeta=zeta_hat,
+                     mu=self.mu if mu_hat is None else mu_hat, sample_time=sample_time,
+                     current_limit=current_limit)
+
+    def plant(self) -> "TwinPlant":
+        """The jittable plant (pytree of arrays) for these parameters."""
+        a = lambda x: jnp.asarray(np.asarray(x, dtype=float))  # noqa: E731
+        return TwinPlant(
+            k=a(self.k), zeta=a(self.zeta), phase_gain_error=a(self.phase_gain_error),
+            phase_angle_error=a(self.phase_angle_error), field=a([self.field_slope, self.field_curvature,
+                                                                  self.field_ripple, self.phase_drift,
+                                                                  self.end_drop]),
+            harmonics=a([self.harmonic_5, self.harmonic_7, *self.harmonic_phase]), mu=a(self.mu),
+            lever_arms=a(self.lever_arms), lateral_offsets=a(self.lateral_offsets),
+            cog=a([self.cog_offset, self.cog_slope, self.cog_curvature, self.cog_wave, self.cog_periodic]),
+            direction=a(self.direction_force),
+            pole_pitch=float(self.pole_pitch), field_ripple_length=float(self.field_ripple_length),
+            end_length=float(self.end_length), track_ends=tuple(float(t) for t in self.track_ends),
+            cog_wave_length=float(self.cog_wave_length), cog_period=float(self.cog_period),
+            direction_velocity=float(self.direction_velocity))
+
+    def without(self, *effects: str) -> "TwinParams":
+        """Copy with named effects switched off: any of ``imbalance, field, harmonics, out_of_plane,
+        cogging, direction``."""
+        z3 = (0.0, 0.0, 0.0)
+        changes = {}
+        L = self.n_coil_sets
+        for e in effects:
+            if e == "imbalance":
+                changes.update(phase_gain_error=((0.0,) * 3,) * L, phase_angle_error=((0.0,) * 3,) * L)
+            elif e == "field":
+                changes.update(field_slope=0.0, field_curvature=0.0, field_ripple=0.0, phase_drift=0.0,
+                               end_drop=0.0)
+            elif e == "harmonics":
+                changes.update(harmonic_5=0.0, harmonic_7=0.0)
+            elif e == "out_of_plane":
+                changes.update(lateral_offsets=(0.0,) * L)
+            elif e == "cogging":
+                changes.update(cog_offset=z3, cog_slope=z3, cog_curvature=z3, cog_wave=z3, cog_periodic=z3)
+            elif e == "direction":
+                changes.update(direction_force=z3)
+            else:
+                raise ValueError(f"unknown twin effect {e!r}")
+        return replace(self, **changes)
+
+
+DEFAULT_TWIN = TwinParams()
+
+
+@pytree_dataclass
+class TwinPlant:
+    """Jittable electromagnetic truth of the twin (build it with :meth:`TwinParams.plant`).
+
+    Implements the plant interface of :mod:`pgcomm.plant`.
+    """
+
+    k: jnp.ndarray                  # (L,)
+    zeta: jnp.ndarray               # (L,)
+    phase_gain_error: jnp.ndarray   # (L, 3)
+    phase_angle_error: jnp.ndarray  # (L, 3)
+    field: jnp.ndarray              # (5,) slope, curvature, ripple, phase drift, end drop
+    harmonics: jnp.ndarray          # (4,) h5, h7, phase5, phase7
+    mu: jnp.ndarray                 # ()
+    lever_arms: jnp.ndarray         # (L,)
+    lateral_offsets: jnp.ndarray    # (L,)
+    cog: jnp.ndarray                # (5, 3)
+    direction: jnp.ndarray          # (3,)
+    pole_pitch: float = static_field()
+    field_ripple_length: float = static_field()
+    end_length: float = static_field()
+    track_ends: tuple = static_field()
+    cog_wave_length: float = static_field()
+    cog_period: float = static_field()
+    direction_velocity: float = static_field()
+
+    @property
+    def y_range(self):
+        """Positions (m) where the twin is defined: coil sets stay on the magnet track."""
+        lo = self.track_ends[0] - float(np.min(np.asarray(self.lever_arms)))
+        hi = self.track_ends[1] - float(np.max(np.asarray(self.lever_arms)))
+        return lo, hi
+
+    def gain_phases(self, y):
+        """True gain per coil set and phase, ``S + (L, 3, 3)`` (rows Fy, Fx, Tz; columns a, b, c).
+
+        Every angle is an affine function of ``y``, so only ``sin/cos`` of three base angles
+        and ``exp(±y/λ)`` are evaluated; per-coil-set and per-phase offsets are applied by
+        angle addition with constants (transcendentals dominate the cost in a scan body).
+        """
+        y = jnp.asarray(y, dtype=float)[..., None, None]  # S + (1, 1): broadcast over (L, phase)
+        slope, curv, ripple, drift, end_drop = (self.field[i] for i in range(5))
+        d = self.lever_arms[:, None]                      # (L, 1)
+        lo, hi = self.track_ends
+        # slow field scale where the coil set sits, p = y + d (m)
+        u = (y + d) / 0.1
+        wr = 2 * jnp.pi / self.field_ripple_length
+        sr, cr = jnp.sin(wr * y), jnp.cos(wr * y)
+        ripple_term = sr * jnp.cos(wr * d + 0.7) + cr * jnp.sin(wr * d + 0.7)
+        e_hi, e_lo = jnp.exp(y / self.end_length), jnp.exp(-y / self.end_length)
+        end = e_hi * jnp.exp((d - hi) / self.end_length) + e_lo * jnp.exp((lo - d) / self.end_length)
+        scale = 1.0 + slope * u + curv * (u * u - 1.0 / 3.0) + ripple * ripple_term - end_drop * end
+        # electrical angle θ_lp = ω y + c_lp, with the phase drift's slope folded into ω
+        w = 2 * jnp.pi / self.pole_pitch + drift / 0.1
+        c = (self.zeta[:, None] + drift * d / 0.1 + jnp.asarray(PHASE_OFFSETS) + self.phase_angle_error)
+        s1, c1 = jnp.sin(w * y), jnp.cos(w * y)
+        st = s1 * jnp.cos(c) + c1 * jnp.sin(c)
+        ct = c1 * jnp.cos(c) - s1 * jnp.sin(c)
+        h5, h7, ph5, ph7 = (self.harmonics[i] for i in range(4))
+        # multiple angles from (cos θ + i sin θ)^n: no extra transcendentals
+        z1 = ct + 1j * st
+        z2 = z1 * z1
+        z5 = z2 * z2 * z1
+        z7 = z5 * z2
+        r5 = z5 * jnp.exp(1j * ph5)
+        r7 = z7 * jnp.exp(1j * ph7)
+        wy = st + h5 * r5.imag + h7 * r7.imag
+        wx = ct + h5 * r5.real + h7 * r7.real
+        amp = (2.0 / 3.0) * self.k[:, None] * (1.0 + self.phase_gain_error) * scale
+        fy = amp * wy
+        fx = amp * self.mu * wx
+        tz = self.lever_arms[:, None] * fx - self.lateral_offsets[:, None] * fy
+        return jnp.stack([fy, fx, tz], axis=-2)
+
+    def gain(self, y):
+        """True star-reduced gain ``S + (L, 3, 2)`` (N/A, N/A, N·m/A)."""
+        return star_reduce(self.gain_phases(y))
+
+    def cogging(self, y):
+        """Current-independent force ``S + (3,)`` (N, N, N·m): cable slab plus weak periodic cogging."""
+        y = jnp.asarray(y, dtype=float)[..., None]
+        u = y / 0.1
+        off, slope, curv, wave, per = (self.cog[i] for i in range(5))
+        return (off + slope * u + curv * (u * u - 1.0 / 3.0)
+                + wave * jnp.sin(2 * jnp.pi * y / self.cog_wave_length + 0.4)
+                + per * jnp.sin(2 * jnp.pi * y / self.cog_period + 1.1))
+
+    def direction_force(self, y, v):
+        """Direction-dependent force ``S + (3,)``: ``c · tanh(v / v_d)`` (outside the PGNN class)."""
+        del y
+        return self.direction * jnp.tanh(jnp.asarray(v, dtype=float)[..., None] / self.direction_velocity)
+
+    def in_range(self, y):
+        """``True`` where ``y`` lies inside :attr:`y_range`."""
+        lo, hi = self.y_range
+        return (jnp.asarray(y) >= lo) & (jnp.asarray(y) <= hi)
+
+
+def true_fundamental(params: TwinParams):
+    """The twin's true fundamental ``(k^l, ζ^l)`` per coil set (N/A, rad), what calibration should recover."""
+    return np.asarray(params.k, float), np.asarray(params.zeta, float)
+
+
+__all__ = ["TwinParams", "TwinPlant", "DEFAULT_TWIN", "true_fundamental"]
