@@ -252,25 +252,33 @@ def currents_to_drive_inputs(y, currents, k_hat, zeta_hat, pole_pitch):
 class DriveInputLaw:
     """Fixed-commutation operation of one coil set with a constant phase offset (data sets ``Z_i^l``, eq. DataSets).
 
-    Coil set ``coil_set`` gets ``Fy^l* = Fy*`` and ``Δ^l = delta``; all others get zero force.
+    The active coil set gets ``Fy^l* = Fy*`` and ``Δ^l = delta``; all others get zero force.
     The drive's commutation uses ``k_hat`` (N/A) and ``zeta_hat`` (rad) of that coil set.
+    ``active`` is a one-hot ``(L,)`` array (data, not static), so the ``2L`` data-set
+    experiments share one compiled simulation and can run batched.
     """
 
     k_hat: jnp.ndarray
     zeta_hat: jnp.ndarray
     delta: jnp.ndarray
+    active: jnp.ndarray
     pole_pitch: float = static_field()
-    n_coil_sets: int = static_field()
-    coil_set: int = static_field()
+
+    @classmethod
+    def for_coil_set(cls, motor: Motor, coil_set: int, delta: float) -> "DriveInputLaw":
+        """Law exciting coil set ``coil_set`` (0-based) with phase offset ``delta`` (rad), drive ``k̂``, ``ζ̂`` of ``motor``."""
+        active = np.zeros(motor.n_coil_sets)
+        active[coil_set] = 1.0
+        return cls(jnp.asarray(motor.k[coil_set]), jnp.asarray(motor.zeta[coil_set]), jnp.asarray(float(delta)),
+                   jnp.asarray(active), float(motor.pole_pitch))
 
     def currents(self, y, f_star):
-        """Star currents ``(..., L, 2)``: only ``coil_set`` carries current."""
+        """Star currents ``(..., L, 2)``: only the active coil set carries current."""
         y = jnp.asarray(y)
         eta = commutation_phase(y, self.zeta_hat, self.pole_pitch) + self.delta
         amp = f_star[..., 0] / self.k_hat
         i_l = jnp.stack([jnp.sin(eta), jnp.sin(eta + 2 * jnp.pi / 3)], axis=-1) * amp[..., None]
-        onehot = jnp.zeros(self.n_coil_sets).at[self.coil_set].set(1.0)
-        return i_l[..., None, :] * onehot[:, None]
+        return i_l[..., None, :] * self.active[:, None]
 
 
 @pytree_dataclass

@@ -128,29 +128,65 @@ def simulate(plant, law, reference, *, drive: Motor, pid: PID | None = None,
     Raises:
         DataError: if the motion leaves the plant's defined position range (e.g. a force map).
     """
+    return simulate_many(plant, [law], reference, drive=drive, pid=pid, feedforwards=[feedforward],
+                         mechanics=mechanics, sensors=sensors, seeds=[seed], y0=y0)[0]
+
+
+def simulate_many(plant, laws, reference, *, drive: Motor, pid: PID | None = None, feedforwards=None,
+                  mechanics: Mechanics = Mechanics(), sensors: Sensors = Sensors(), seeds=None,
+                  y0: float | None = None) -> list[SimResult]:
+    """Run several closed loops that differ only in the law's values, feedforward and noise seed, batched.
+
+    ``laws`` must share one pytree structure (same law class and static fields, e.g.
+    the ``2L`` data-set experiments of :class:`pgcomm.commutation.DriveInputLaw`); they
+    are stacked and simulated together with ``jax.vmap`` over one compiled scan.
+
+    Args:
+        laws: list of ``B`` laws; feedforwards: list of ``B`` :class:`Feedforward` (default none);
+        seeds: list of ``B`` noise seeds (default ``0..B-1``). Other arguments as :func:`simulate`.
+
+    Returns:
+        list of ``B`` :class:`SimResult`.
+    """
     ts = float(drive.sample_time)
     if abs(reference.sample_time - ts) > 1e-12 * ts:
         raise DataError(f"reference sample time {reference.sample_time} s differs from the motor's {ts} s")
     mech_mod.check_stable(mechanics, ts)
     pid = pid or PID.tuned(mechanics.mass)
+    b = len(laws)
+    feedforwards = feedforwards or [Feedforward()] * b
+    seeds = list(range(b)) if seeds is None else list(seeds)
     r = np.asarray(reference.r, float)
-    u_ff = feedforward_signal(feedforward, np.asarray(reference.v), np.asarray(reference.a))
+    u_ff = np.stack([feedforward_signal(ff, np.asarray(reference.v), np.asarray(reference.a))
+                     for ff in feedforwards])
     y0 = float(r[0] if y0 is None else y0)
-    y, ym, f_star, f_true, cur = _run(plant, law, jnp.asarray(r), jnp.asarray(u_ff), jnp.asarray(y0), pid=pid,
-                                      mech=mechanics, sample_time=ts,
-                                      resolution=float(sensors.encoder_resolution),
-                                      current_limit=drive.current_limit)
-    y = np.asarray(y)
-    _check_range(plant, y)
+    kw = dict(pid=pid, mech=mechanics, sample_time=ts, resolution=float(sensors.encoder_resolution),
+              current_limit=drive.current_limit)
+    if b == 1:
+        outs = [_run(plant, laws[0], jnp.asarray(r), jnp.asarray(u_ff[0]), jnp.asarray(y0), **kw)]
+        outs = [tuple(np.asarray(o) for o in outs[0])]
+    else:
+        stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *laws)
+        batched = _run_batched(plant, stacked, jnp.asarray(r), jnp.asarray(u_ff), jnp.asarray(y0), **kw)
+        batched = [np.asarray(o) for o in batched]
+        outs = [tuple(o[j] for o in batched) for j in range(b)]
     n = r.shape[0]
-    noise = np.asarray(force_noise(jax.random.PRNGKey(seed), n, sensors))
     k_hat = jnp.asarray(drive.k)
     zeta_hat = jnp.asarray(drive.zeta)
-    fy, delta = currents_to_drive_inputs(jnp.asarray(ym), cur, k_hat, zeta_hat, drive.pole_pitch)
-    f_true = np.asarray(f_true)
-    return SimResult(t=np.arange(n) * ts, r=r, y=y, y_meas=np.asarray(ym), e=r - y, f_star=np.asarray(f_star),
-                     f_meas=f_true + noise, f_true=f_true, currents=np.asarray(cur), drive_fy=np.asarray(fy),
-                     drive_delta=np.asarray(delta), sample_time=ts, drive=drive)
+    results = []
+    for (y, ym, f_star, f_true, cur), seed in zip(outs, seeds):
+        _check_range(plant, y)
+        noise = np.asarray(force_noise(jax.random.PRNGKey(seed), n, sensors))
+        fy, delta = currents_to_drive_inputs(jnp.asarray(ym), jnp.asarray(cur), k_hat, zeta_hat, drive.pole_pitch)
+        results.append(SimResult(t=np.arange(n) * ts, r=r, y=y, y_meas=ym, e=r - y, f_star=f_star,
+                                 f_meas=f_true + noise, f_true=f_true, currents=cur, drive_fy=np.asarray(fy),
+                                 drive_delta=np.asarray(delta), sample_time=ts, drive=drive))
+    return results
+
+
+@partial(jax.jit, static_argnames=("pid", "mech", "sample_time", "resolution", "current_limit"))
+def _run_batched(plant, laws, r, u_ff, y0, **kw):
+    return jax.vmap(lambda law, uff: _run(plant, law, r, uff, y0, **kw))(laws, u_ff)
 
 
 def _check_range(plant, y):

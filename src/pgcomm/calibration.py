@@ -1,0 +1,181 @@
+"""Data-based calibration of ``k̂^l`` and ``ζ̂^l`` (Algorithm 1, eqs. Ci and Update_Calibration).
+
+With the drive's phase offset ``ζ̂_i = ζ̂ + (-1)^i Δ`` the ideal motor gives
+``F_y = c_i F_y*`` with ``c_i = (k/k̂) cos(ζ - ζ̂_i)``. From the least-squares
+coefficients ``ĉ_1, ĉ_2`` (eq. Ci):
+
+    ζ̂ <- ζ̂_1 + atan((ĉ_2/ĉ_1 - cos 2Δ) / sin 2Δ)
+    k̂ <- ĉ_1 k̂ / cos(ζ̂ - ζ̂_1)
+
+(``ζ̂_1 = ζ̂ - Δ``). ``method="paper"`` estimates ``c_i`` by eq. Ci exactly. With forces
+in the data that do not scale with the current, eq. Ci is biased: the loop's demand is
+``F_y* = (F_tot - D)/c`` with ``D`` the cable-slab/cogging force and the
+direction-dependent force, so ``ĉ_i/c_i - 1 ≈ (Σ F_tot D - Σ D²) / Σ F_tot²``. The
+direction-dependent force correlates with the friction the loop must overcome, so
+this is about +1 % on the default twin. ``method="offset"`` (default) removes the bias
+by fitting both data sets jointly with the shared nuisance terms they both contain,
+``F_y,i(t) = c_i F_y*,i(t) + b(y(t)) + d sign(v(t))`` (``b`` piecewise linear on
+``n_bins`` bins), which is still linear least squares; the update equations are
+unchanged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pgcomm.errors import DataError
+
+
+@dataclass(frozen=True)
+class CalibrationStep:
+    """One update of one coil set: coefficients ``c1, c2`` and the new ``k̂`` (N/A), ``ζ̂`` (rad)."""
+
+    coil_set: int
+    c1: float
+    c2: float
+    k: float
+    zeta: float
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """Calibrated ``k`` (L,) N/A and ``zeta`` (L,) rad, initial values, and the history of updates."""
+
+    k: np.ndarray
+    zeta: np.ndarray
+    k_initial: np.ndarray
+    zeta_initial: np.ndarray
+    iterations: int
+    history: list = field(default_factory=list)
+
+
+def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset", n_bins: int = 40,
+                     y_range=None, sample_time: float = 1e-3, deadband: float = 1e-3):
+    """Least-squares ``ĉ_1, ĉ_2`` of eq. Ci from the two data sets of one coil set.
+
+    Args:
+        fy*, fy_star*, y*: ``(N_i,)`` measured ``F_y`` (N), demanded ``F_y*`` (N), position (m).
+        method: ``"paper"`` (eq. Ci per data set) or ``"offset"`` (joint fit with a shared
+            piecewise-linear offset ``b(y)`` on ``n_bins`` bins over ``y_range`` and a shared
+            direction term ``d · sign(v)``, ``v`` from the positions, zero for ``|v| <= deadband`` m/s).
+        sample_time: s, to express ``deadband`` in m/s.
+
+    Returns:
+        ``(c1, c2)``.
+    """
+    fy1, fs1, fy2, fs2 = (np.asarray(a, float) for a in (fy1, fy_star1, fy2, fy_star2))
+    if method == "paper":
+        c = []
+        for fy, fs in ((fy1, fs1), (fy2, fs2)):
+            den = float(fs @ fs)
+            if den <= 0:
+                raise DataError("calibration: the demanded force F_y* is zero throughout a data set")
+            c.append(float(fy @ fs) / den)
+        return c[0], c[1]
+    if method != "offset":
+        raise ValueError(f"method must be 'paper' or 'offset', got {method!r}")
+    y = np.concatenate([np.asarray(y1, float), np.asarray(y2, float)])
+    lo, hi = (float(y.min()), float(y.max())) if y_range is None else y_range
+    n1 = fy1.shape[0]
+    # Direction of motion from the positions, zero inside a dead band: at standstill the
+    # position only jitters and its sign would be noise.
+    v = np.concatenate([np.gradient(np.asarray(y1, float)), np.gradient(np.asarray(y2, float))]) / sample_time
+    sgn = np.sign(v) * (np.abs(v) > deadband)
+    reg = np.zeros((y.shape[0], 2))
+    reg[:n1, 0] = fs1
+    reg[n1:, 1] = fs2
+    x = np.hstack([reg, _hat_basis(y, lo, hi, n_bins), sgn[:, None]])
+    theta, *_ = np.linalg.lstsq(x, np.concatenate([fy1, fy2]), rcond=None)
+    return float(theta[0]), float(theta[1])
+
+
+def update(c1: float, c2: float, k_hat: float, zeta_hat: float, delta: float):
+    """Update of eq. Update_Calibration; returns ``(k_new, zeta_new)`` (N/A, rad).
+
+    Args:
+        c1, c2: coefficients of data sets ``i = 1`` (``ζ̂ - Δ``) and ``i = 2`` (``ζ̂ + Δ``).
+        k_hat, zeta_hat: drive values used to generate the data; delta: ``Δ`` (rad), ``0 < |Δ| < π/2``.
+    """
+    if c1 == 0:
+        raise DataError("calibration: coefficient c1 is zero; the coil set produced no driving force")
+    zeta1 = zeta_hat - delta
+    x = np.arctan((c2 / c1 - np.cos(2 * delta)) / np.sin(2 * delta))
+    zeta_new = zeta1 + x
+    return float(c1 * k_hat / np.cos(x)), float(zeta_new)
+
+
+def calibrate_from_datasets(datasets, k_hat, zeta_hat, delta: float, method: str = "offset",
+                            n_bins: int = 40) -> list[CalibrationStep]:
+    """One pass of Algorithm 1 over coil sets, from already generated data sets.
+
+    Args:
+        datasets: ``datasets[l] = (Z_1, Z_2)``, each with ``.result.f_meas``, ``.result.f_star``,
+            ``.result.y_meas`` and ``.coil_set`` (see :func:`pgcomm.datasets.generate_datasets`).
+        k_hat, zeta_hat: ``(L,)`` values the data were generated with.
+        delta: ``Δ`` (rad).
+
+    Returns:
+        one :class:`CalibrationStep` per coil set in ``datasets``.
+    """
+    steps = []
+    for z1, z2 in datasets:
+        l = z1.coil_set
+        r1, r2 = z1.result, z2.result
+        c1, c2 = fit_coefficients(r1.f_meas[:, 0], r1.f_star[:, 0], r1.y_meas,
+                                  r2.f_meas[:, 0], r2.f_star[:, 0], r2.y_meas, method=method, n_bins=n_bins,
+                                  sample_time=r1.sample_time)
+        k_new, z_new = update(c1, c2, float(k_hat[l]), float(zeta_hat[l]), delta)
+        steps.append(CalibrationStep(l, c1, c2, k_new, z_new))
+    return steps
+
+
+def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1, tol: float = 1e-4,
+              method: str = "offset", n_bins: int = 40, progress=None) -> CalibrationResult:
+    """Algorithm 1, optionally iterated until the update is below ``tol``.
+
+    Args:
+        generate: ``generate(k_hat (L,), zeta_hat (L,)) -> datasets`` producing ``Z_{1,2}^l``
+            with the drive set to those values (e.g. a closure over
+            :func:`pgcomm.datasets.generate_datasets` on the twin).
+        k0, zeta0: ``(L,)`` initial ``k̂`` (N/A), ``ζ̂`` (rad).
+        iterations: maximum passes; stops earlier when ``max |Δk̂/k̂|`` and ``max |Δζ̂|`` (rad)
+            are both below ``tol``.
+        progress: optional callable ``progress(iteration, k, zeta)``.
+
+    Returns:
+        :class:`CalibrationResult`.
+    """
+    k = np.asarray(k0, float).copy()
+    zeta = np.asarray(zeta0, float).copy()
+    history = []
+    it = 0
+    for it in range(1, iterations + 1):
+        steps = calibrate_from_datasets(generate(k, zeta), k, zeta, delta, method=method, n_bins=n_bins)
+        k_new, z_new = k.copy(), zeta.copy()
+        for s in steps:
+            k_new[s.coil_set], z_new[s.coil_set] = s.k, s.zeta
+        change = max(np.max(np.abs(k_new - k) / np.abs(k)), np.max(np.abs(z_new - zeta)))
+        k, zeta = k_new, z_new
+        history.append(steps)
+        if progress:
+            progress(it, k, zeta)
+        if change < tol:
+            break
+    return CalibrationResult(k=k, zeta=zeta, k_initial=np.asarray(k0, float), zeta_initial=np.asarray(zeta0, float),
+                             iterations=it, history=history)
+
+
+def _hat_basis(y, lo: float, hi: float, n_bins: int):
+    """Piecewise-linear ("hat") basis on ``n_bins + 1`` uniform knots over ``[lo, hi]``: ``(N, n_bins + 1)``."""
+    knots = np.linspace(lo, hi, n_bins + 1)
+    h = knots[1] - knots[0] if n_bins > 0 else 1.0
+    u = np.clip((y - lo) / h, 0, n_bins)
+    j = np.minimum(np.floor(u).astype(int), n_bins - 1)
+    w = u - j
+    b = np.zeros((y.shape[0], n_bins + 1))
+    rows = np.arange(y.shape[0])
+    b[rows, j] = 1 - w
+    b[rows, j + 1] += w
+    return b

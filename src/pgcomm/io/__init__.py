@@ -1,0 +1,44 @@
+"""Input/output: logs, force maps' CSV machinery, motor/experiment configs, results.json.
+
+Every reader validates what it reads and raises :class:`pgcomm.errors.DataError`
+(data files) or :class:`pgcomm.errors.ConfigError` (TOML/settings) with one line
+naming the file and the column/row/key/value; every writer goes through
+:mod:`pgcomm.io.atomic` so that no output file is ever half-written.
+
+Modules:
+
+* :mod:`pgcomm.io.atomic`: write-to-temporary-then-rename helpers;
+* :mod:`pgcomm.io.config`: TOML loading, generic dataclass loader, motor configs;
+* :mod:`pgcomm.io.logs`: the :class:`~pgcomm.io.logs.Log` type and its readers/writers;
+* :mod:`pgcomm.io.results`: results.json with dotted keys.
+
+Force maps live in :mod:`pgcomm.forcemap` (they are a plant).
+"""
+
+from pgcomm.io.atomic import atomic_open, atomic_path, atomic_write_bytes, atomic_write_text
+from pgcomm.io.config import load_dataclass, load_motor, load_toml, motor_to_toml, write_motor
+from pgcomm.io.logs import ColumnMapping, Log, load_column_mapping, read_log, read_logs, write_log
+from pgcomm.io.results import get_key, read_results, set_key, to_jsonable, write_results
+
+__all__ = [
+    "atomic_open",
+    "atomic_path",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "load_dataclass",
+    "load_motor",
+    "load_toml",
+    "motor_to_toml",
+    "write_motor",
+    "ColumnMapping",
+    "Log",
+    "load_column_mapping",
+    "read_log",
+    "read_logs",
+    "write_log",
+    "get_key",
+    "read_results",
+    "set_key",
+    "to_jsonable",
+    "write_results",
+]

@@ -1,0 +1,530 @@
+"""TOML configuration: motor descriptions and a generic dataclass loader.
+
+Motor config (DESIGN, "Formats")::
+
+    pole_pitch = 0.03         # d_m (m)
+    sample_time = 0.001       # controller sample time (s)
+    current_limit = 10.0      # optional, peak phase current (A); absent = no limit
+
+    [nominal]
+    k = [67.0, 67.0, 67.0]    # k̂ (N/A): one number for all coil sets or one per coil set
+    zeta = -0.52              # ζ̂ (rad): idem
+    mu = 0.05                 # optional μ̂ (-)
+
+    [[coil_set]]              # one table per coil set, in order l = 1..L
+    lever_arm = -0.065        # d^l (m)
+
+Every value is checked for plausibility, because the common mistake with such
+files is a unit of the wrong magnitude (a pole pitch of 30 "m" that was meant
+in mm). Unknown keys are refused with the closest valid key: a misspelt
+optional key must not silently fall back to its default.
+
+:func:`load_dataclass` does the same for any (nested) frozen dataclass schema,
+e.g. experiment configs defined elsewhere.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import enum
+import math
+import tomllib
+import types
+import typing
+from pathlib import Path
+
+from pgcomm.errors import ConfigError
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.motor import Motor
+
+__all__ = [
+    "closest_match",
+    "closest_hint",
+    "load_toml",
+    "load_dataclass",
+    "load_motor",
+    "motor_to_toml",
+    "write_motor",
+    "PLAUSIBLE",
+]
+
+
+# --------------------------------------------------------------------------- names
+
+
+def closest_match(name: str, candidates, cutoff: float = 0.5) -> str | None:
+    """The candidate most similar to ``name`` (case-insensitive), or ``None``.
+
+    Uses :class:`difflib.SequenceMatcher` on lower-cased strings; ties go to
+    the candidate listed first. ``cutoff`` is the minimum similarity ratio.
+    """
+    best, best_ratio = None, cutoff
+    key = str(name).lower()
+    for c in candidates:
+        r = difflib.SequenceMatcher(None, key, str(c).lower()).ratio()
+        if r > best_ratio or (best is None and r >= best_ratio):
+            best, best_ratio = c, r
+    return best
+
+
+def closest_hint(name: str, candidates, what: str = "closest match") -> str:
+    """``" (closest match: 'x')"`` or ``""`` when nothing is similar enough."""
+    c = closest_match(name, candidates)
+    return f" ({what}: '{c}')" if c is not None else ""
+
+
+def list_names(names, limit: int = 12) -> str:
+    """Comma-separated names, shortened to ``limit`` entries for one-line messages."""
+    names = list(names)
+    if len(names) <= limit:
+        return ", ".join(names)
+    return ", ".join(names[:limit]) + f", ... ({len(names) - limit} more)"
+
+
+# --------------------------------------------------------------------------- TOML
+
+
+def load_toml(path) -> dict:
+    """Read a TOML file into a dict.
+
+    Raises:
+        ConfigError: file missing/unreadable, not UTF-8, or a TOML syntax error
+            (the message names the file, line and column).
+    """
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: file not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a directory, expected a TOML file") from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    except tomllib.TOMLDecodeError as e:
+        # tomllib's message already ends with "(at line N, column M)".
+        msg = " ".join(str(e).split())
+        raise ConfigError(f"{path}: TOML syntax error: {msg}") from None
+    except OSError as e:
+        raise ConfigError(f"{path}: cannot read ({e.strerror})") from None
+
+
+# --------------------------------------------------------------------------- locations
+
+
+class _Where:
+    """A location in a TOML document for messages: file plus table path."""
+
+    def __init__(self, file: str, table: str = ""):
+        self.file, self.table = file, table
+
+    @classmethod
+    def parse(cls, where: str) -> "_Where":
+        # "exp.toml [controller.fb]" -> file "exp.toml", table "controller.fb"
+        where = str(where)
+        if where.endswith("]") and " [" in where:
+            file, table = where.rsplit(" [", 1)
+            return cls(file, table[:-1])
+        return cls(where)
+
+    def sub(self, name) -> "_Where":
+        if isinstance(name, int):
+            return _Where(self.file, f"{self.table}[{name}]")
+        return _Where(self.file, f"{self.table}.{name}" if self.table else str(name))
+
+    def __str__(self) -> str:
+        return f"{self.file} [{self.table}]" if self.table else self.file
+
+    def table_desc(self) -> str:
+        return f"table [{self.table}]" if self.table else "the top-level table"
+
+
+def _check_keys(table: dict, valid, where: _Where, desc: str | None = None) -> None:
+    """Refuse keys of ``table`` that are not in ``valid`` (with the closest valid key)."""
+    valid = list(valid)
+    for key in table:
+        if key not in valid:
+            hint = closest_hint(key, valid, "closest valid key")
+            raise ConfigError(
+                f"{where.file}: unknown key '{key}' in {desc or where.table_desc()}{hint}; valid keys: {', '.join(valid)}"
+            )
+
+
+def _fmt(v) -> str:
+    return f"{v:g}" if isinstance(v, float) else repr(v) if isinstance(v, str) else str(v)
+
+
+def _describe(value) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, int):
+        return "an integer"
+    if isinstance(value, float):
+        return "a float"
+    return type(value).__name__
+
+
+# --------------------------------------------------------------------------- generic dataclass loader
+
+_MISSING = dataclasses.MISSING
+
+
+def _type_name(tp) -> str:
+    origin = typing.get_origin(tp)
+    if tp is float:
+        return "a number"
+    if tp is int:
+        return "an integer"
+    if tp is bool:
+        return "true or false"
+    if tp is str:
+        return "a string"
+    if tp is Path:
+        return "a path (string)"
+    if dataclasses.is_dataclass(tp):
+        return "a table"
+    if origin in (tuple, list):
+        return "an array"
+    if origin is dict:
+        return "a table"
+    if origin is typing.Literal:
+        return "one of " + ", ".join(repr(a) for a in typing.get_args(tp))
+    if origin in (typing.Union, types.UnionType):
+        return " or ".join(_type_name(a) for a in typing.get_args(tp) if a is not type(None))
+    if isinstance(tp, type) and issubclass(tp, enum.Enum):
+        return "one of " + ", ".join(repr(m.name) for m in tp)
+    return getattr(tp, "__name__", str(tp))
+
+
+def _convert(value, tp, where: _Where, key: str):
+    """Convert a TOML value to type ``tp``; ``where``/``key`` are for messages."""
+    origin = typing.get_origin(tp)
+    args = typing.get_args(tp)
+
+    def bad(expected=None):
+        shown = value if not isinstance(value, (dict, list)) else None
+        val = f" = {_fmt(shown)}" if shown is not None else ""
+        raise ConfigError(f"{where}: {key}{val} is {_describe(value)}, expected {expected or _type_name(tp)}")
+
+    if tp is typing.Any:
+        return value
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            bad()
+        return float(value)
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            bad()
+        return value
+    if tp is bool:
+        if not isinstance(value, bool):
+            bad()
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            bad()
+        return value
+    if tp is Path:
+        if not isinstance(value, str):
+            bad()
+        return Path(value)
+    if dataclasses.is_dataclass(tp):
+        if not isinstance(value, dict):
+            bad()
+        return _load(tp, value, where.sub(key))
+    if isinstance(tp, type) and issubclass(tp, enum.Enum):
+        names = [m.name for m in tp]
+        if isinstance(value, str) and value in names:
+            return tp[value]
+        try:
+            return tp(value)
+        except ValueError:
+            hint = closest_hint(str(value), names) if isinstance(value, str) else ""
+            raise ConfigError(f"{where}: {key} = {_fmt(value)} is not {_type_name(tp)}{hint}") from None
+    if origin is typing.Literal:
+        # compare types too: TOML true must not match a Literal[1]
+        if any(type(a) is type(value) and a == value for a in args):
+            return value
+        hint = closest_hint(str(value), [str(a) for a in args]) if isinstance(value, str) else ""
+        raise ConfigError(f"{where}: {key} = {_fmt(value)} is not {_type_name(tp)}{hint}")
+    if origin in (typing.Union, types.UnionType):
+        members = [a for a in args if a is not type(None)]
+        errors = []
+        for member in members:
+            try:
+                return _convert(value, member, where, key)
+            except ConfigError as e:
+                errors.append(e)
+        if len(errors) == 1:
+            raise errors[0]
+        bad()
+    if origin is tuple:
+        if not isinstance(value, list):
+            bad()
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(v, args[0], where, f"{key}[{i}]") for i, v in enumerate(value))
+        if args == ():
+            return tuple(value)
+        if len(value) != len(args):
+            raise ConfigError(f"{where}: {key} has {len(value)} entries, expected {len(args)}")
+        return tuple(_convert(v, a, where, f"{key}[{i}]") for i, (v, a) in enumerate(zip(value, args)))
+    if origin is list:
+        if not isinstance(value, list):
+            bad()
+        elem = args[0] if args else typing.Any
+        return [_convert(v, elem, where, f"{key}[{i}]") for i, v in enumerate(value)]
+    if origin is dict:
+        if not isinstance(value, dict):
+            bad()
+        vt = args[1] if len(args) == 2 else typing.Any
+        return {k: _convert(v, vt, where.sub(key), k) for k, v in value.items()}
+    if tp in (list, tuple, dict):
+        return _convert(value, tp[typing.Any, ...] if tp is tuple else tp[typing.Any] if tp is list else dict[str, typing.Any], where, key)
+    raise TypeError(f"load_dataclass: unsupported field type {tp!r} for {key}")
+
+
+def _check_range(value, f: dataclasses.Field, where: _Where, key: str) -> None:
+    """Check ``metadata={"range": (lo, hi), "unit": "m", "hint": "..."}`` of a field."""
+    rng = f.metadata.get("range")
+    if rng is None or value is None:
+        return
+    lo, hi = rng
+    unit = f.metadata.get("unit", "")
+    values = value if isinstance(value, (tuple, list)) else (value,)
+    for i, v in enumerate(values):
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            continue
+        if not (lo <= v <= hi):  # NaN fails too
+            name = key if len(values) == 1 and not isinstance(value, (tuple, list)) else f"{key}[{i}]"
+            hint = f"; {f.metadata['hint']}" if "hint" in f.metadata else ""
+            u = f" {unit}" if unit else ""
+            raise ConfigError(f"{where}: {name} = {_fmt(float(v))}{u} is out of range (expected {lo:g}–{hi:g}{u}{hint})")
+
+
+def _load(cls, table: dict, where: _Where):
+    if not isinstance(table, dict):
+        raise ConfigError(f"{where}: expected a table, found {_describe(table)}")
+    hints = typing.get_type_hints(cls)
+    fields = [f for f in dataclasses.fields(cls) if f.init]
+    _check_keys(table, [f.name for f in fields], where)
+    kwargs = {}
+    for f in fields:
+        if f.name in table:
+            value = _convert(table[f.name], hints[f.name], where, f.name)
+            _check_range(value, f, where, f.name)
+            kwargs[f.name] = value
+        elif f.default is _MISSING and f.default_factory is _MISSING:
+            raise ConfigError(f"{where.file}: key '{f.name}' missing in {where.table_desc()} (expected {_type_name(hints[f.name])})")
+    try:
+        return cls(**kwargs)
+    except (ValueError, TypeError) as e:
+        # the dataclass's own __post_init__ validation, re-raised as a user error
+        raise ConfigError(f"{where}: {' '.join(str(e).split())}") from None
+
+
+def load_dataclass(cls, table: dict, where: str):
+    """Build a (possibly nested) dataclass ``cls`` from a TOML table.
+
+    Rules:
+
+    * every key of ``table`` must be a field of ``cls`` (else :class:`ConfigError`
+      naming the key, the table and the closest valid field);
+    * fields without a default are required; absent fields keep their default;
+    * ``float`` accepts TOML integers and floats (not booleans), ``int`` only
+      integers, ``bool`` only booleans, ``str``/``Path`` only strings;
+    * ``tuple[X, ...]``, ``tuple[X, Y]`` and ``list[X]`` from TOML arrays,
+      ``dict[str, X]`` from tables, nested dataclasses from (arrays of) tables,
+      ``Literal[...]`` and :class:`enum.Enum` by value/name, ``X | None`` (absent
+      means the default; TOML has no null);
+    * a field with ``metadata={"range": (lo, hi), "unit": "m", "hint": "..."}``
+      is checked to lie in ``[lo, hi]`` (every entry of a tuple);
+    * errors raised by ``cls.__post_init__`` (``ValueError``/``TypeError``) become
+      :class:`ConfigError` with the location prefixed.
+
+    Args:
+        cls: a dataclass type.
+        table: dict as returned by :func:`load_toml` (or a sub-table of it).
+        where: location for messages: the file name, optionally followed by the
+            table, e.g. ``"exp.toml"`` or ``"exp.toml [controller]"``.
+
+    Returns:
+        an instance of ``cls``.
+    """
+    if not dataclasses.is_dataclass(cls):
+        raise TypeError(f"load_dataclass needs a dataclass type, got {cls!r}")
+    return _load(cls, table, _Where.parse(where))
+
+
+# --------------------------------------------------------------------------- motor
+
+#: Plausibility ranges of motor-config values: key -> (lo, hi, unit). They catch
+#: values given in the wrong unit (mm for m, ms for s, degrees for rad).
+PLAUSIBLE = {
+    "pole_pitch": (1e-3, 0.5, "m"),
+    "sample_time": (1e-6, 0.1, "s"),
+    "current_limit": (0.0, 1e4, "A"),  # lower bound exclusive
+    "lever_arm": (-2.0, 2.0, "m"),
+    "k": (0.01, 1e4, "N/A"),
+    "zeta": (-2.0 * math.pi, 2.0 * math.pi, "rad"),
+    "mu": (-10.0, 10.0, "-"),
+}
+
+_UNIT_HINTS = {
+    # unit -> [(factor to apply to the given value, unit the user probably used)]
+    "m": [(1e-3, "mm")],
+    "s": [(1e-3, "ms"), (1e-6, "µs")],
+    "rad": [(math.pi / 180.0, "degrees")],
+    "A": [(1e-3, "mA")],
+}
+
+
+def _plausible(value: float, key: str, where: str, name: str | None = None) -> float:
+    """Return ``value`` if it lies in ``PLAUSIBLE[key]``, else raise with a unit hint."""
+    lo, hi, unit = PLAUSIBLE[key]
+    name = name or key
+    lo_ok = (value > lo) if key == "current_limit" else (value >= lo)
+    if lo_ok and value <= hi:
+        return value
+    shown_unit = "" if unit == "-" else f" {unit}"
+    if not math.isfinite(value):
+        raise ConfigError(f"{where}: {name} = {value:g} is not finite (expected {lo:g}–{hi:g}{shown_unit})")
+    hint = ""
+    for factor, guess in _UNIT_HINTS.get(unit, []):
+        v = value * factor
+        if (v > lo if key == "current_limit" else v >= lo) and v <= hi and abs(value) > hi:
+            hint = f"; did you give {guess}?"
+            break
+    rng = f"{lo:g}–{hi:g}" if key != "current_limit" else f"0 < value ≤ {hi:g}"
+    raise ConfigError(f"{where}: {name} = {value:g}{shown_unit} is implausible (expected {rng}{shown_unit}{hint})")
+
+
+def _number(table: dict, key: str, where: str, required: bool = True, name: str | None = None):
+    """``table[key]`` as a plausible float (``None`` if absent and not required)."""
+    if key not in table:
+        if required:
+            lo, hi, unit = PLAUSIBLE[key]
+            raise ConfigError(f"{where}: key '{key}' missing (expected a number in {unit})")
+        return None
+    v = table[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        shown = f" = {_fmt(v)}" if not isinstance(v, (dict, list)) else ""
+        raise ConfigError(f"{where}: {name or key}{shown} is {_describe(v)}, expected a number in {PLAUSIBLE[key][2]}")
+    return _plausible(float(v), key, where, name)
+
+
+def _per_coil_set(table: dict, key: str, where: str, n: int, required: bool = True):
+    """Scalar or one-entry-per-coil-set list -> tuple of ``n`` floats (or None)."""
+    if key not in table:
+        if required:
+            raise ConfigError(f"{where}: key '{key}' missing (a number, or an array with one entry per coil set)")
+        return None
+    v = table[key]
+    if isinstance(v, list):
+        if len(v) != n:
+            raise ConfigError(f"{where}: {key} has {len(v)} entries but there are {n} [[coil_set]] tables")
+        return tuple(_number({key: x}, key, where, True, name=f"{key}[{i}]") for i, x in enumerate(v))
+    return (_number(table, key, where),) * n
+
+
+def load_motor(path) -> Motor:
+    """Load a motor description (TOML, format in the module docstring).
+
+    Args:
+        path: TOML file.
+
+    Returns:
+        :class:`pgcomm.motor.Motor` with ``L`` = number of ``[[coil_set]]`` tables.
+
+    Raises:
+        ConfigError: syntax error, unknown or missing key, wrong type, an
+            implausible value (wrong unit), or ``k``/``zeta`` arrays whose length
+            is not the number of coil sets.
+    """
+    file = str(path)
+    doc = load_toml(path)
+    top = ("pole_pitch", "sample_time", "current_limit", "nominal", "coil_set")
+    _check_keys(doc, top, _Where(file))
+    pole_pitch = _number(doc, "pole_pitch", file)
+    sample_time = _number(doc, "sample_time", file)
+    current_limit = _number(doc, "current_limit", file, required=False)
+
+    coil_sets = doc.get("coil_set")
+    if coil_sets is None:
+        raise ConfigError(f"{file}: no [[coil_set]] tables (one per coil set, each with lever_arm in m)")
+    if not isinstance(coil_sets, list) or not all(isinstance(c, dict) for c in coil_sets):
+        raise ConfigError(f"{file}: coil_set must be an array of tables ([[coil_set]]), found {_describe(coil_sets)}")
+    if not coil_sets:
+        raise ConfigError(f"{file}: no [[coil_set]] tables (one per coil set, each with lever_arm in m)")
+    lever_arms = []
+    for i, cs in enumerate(coil_sets, start=1):
+        w = f"{file} [[coil_set]] {i}"
+        _check_keys(cs, ("lever_arm",), _Where(file), desc=f"[[coil_set]] {i}")
+        lever_arms.append(_number(cs, "lever_arm", w))
+    n = len(lever_arms)
+
+    nominal = doc.get("nominal")
+    if nominal is None:
+        raise ConfigError(f"{file}: table [nominal] missing (with k in N/A and zeta in rad)")
+    if not isinstance(nominal, dict):
+        raise ConfigError(f"{file}: nominal must be a table [nominal], found {_describe(nominal)}")
+    _check_keys(nominal, ("k", "zeta", "mu"), _Where(file, "nominal"))
+    w = f"{file} [nominal]"
+    k = _per_coil_set(nominal, "k", w, n)
+    zeta = _per_coil_set(nominal, "zeta", w, n)
+    mu = _number(nominal, "mu", w, required=False)
+    kwargs = {} if mu is None else {"mu": mu}
+    return Motor(
+        pole_pitch=pole_pitch,
+        lever_arms=tuple(lever_arms),
+        k=k,
+        zeta=zeta,
+        sample_time=sample_time,
+        current_limit=current_limit,
+        **kwargs,
+    )
+
+
+def _toml_float(x) -> str:
+    """A float as TOML text that reads back bit-identically."""
+    x = float(x)
+    if math.isnan(x):
+        return "nan"
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return repr(x)  # shortest round-trip form; always has '.', 'e' or is 'inf'/'nan'
+
+
+def _toml_list(xs) -> str:
+    return "[" + ", ".join(_toml_float(x) for x in xs) + "]"
+
+
+def motor_to_toml(motor: Motor) -> str:
+    """The TOML text of ``motor`` (readable back with :func:`load_motor`, bit-exact floats)."""
+    lines = [
+        "# pgcomm motor description (SI units: m, s, A, N, rad)",
+        f"pole_pitch = {_toml_float(motor.pole_pitch)}  # d_m (m): length of two magnets",
+        f"sample_time = {_toml_float(motor.sample_time)}  # controller sample time (s)",
+    ]
+    if motor.current_limit is not None:
+        lines.append(f"current_limit = {_toml_float(motor.current_limit)}  # peak phase current of the drive (A)")
+    lines += [
+        "",
+        "[nominal]",
+        f"k = {_toml_list(motor.k)}  # nominal motor constant per coil set (N/A)",
+        f"zeta = {_toml_list(motor.zeta)}  # nominal commutation phase offset per coil set (rad)",
+        f"mu = {_toml_float(motor.mu)}  # nominal out-of-plane force ratio (-)",
+    ]
+    for i, d in enumerate(motor.lever_arms, start=1):
+        lines += ["", "[[coil_set]]", f"lever_arm = {_toml_float(d)}  # d^{i} (m): position of coil set {i} relative to the centre of mass"]
+    return "\n".join(lines) + "\n"
+
+
+def write_motor(path, motor: Motor) -> None:
+    """Write ``motor`` as TOML to ``path`` (atomically)."""
+    atomic_write_text(path, motor_to_toml(motor))

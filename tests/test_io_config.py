@@ -1,0 +1,230 @@
+"""TOML configs: generic dataclass loader, motor config, atomic writing."""
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import pytest
+
+from pgcomm.errors import ConfigError
+from pgcomm.io.atomic import atomic_open, atomic_write_text
+from pgcomm.io.config import closest_match, load_dataclass, load_motor, load_toml, motor_to_toml, write_motor
+from pgcomm.motor import Motor
+
+
+def _toml(tmp_path, text, name="motor.toml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+# ----------------------------------------------------------------------------- load_toml / atomic
+
+
+def test_load_toml_syntax_error_names_file_and_line(tmp_path):
+    p = _toml(tmp_path, "a = 1\nb = [1, 2\nc = 3\n", "bad.toml")
+    with pytest.raises(ConfigError, match=r"bad.toml: TOML syntax error: .*line 3"):
+        load_toml(p)
+    with pytest.raises(ConfigError, match=r"missing.toml: file not found"):
+        load_toml(tmp_path / "missing.toml")
+
+
+def test_atomic_write_leaves_old_file_on_error(tmp_path):
+    p = tmp_path / "out.txt"
+    atomic_write_text(p, "old\n")
+    with pytest.raises(RuntimeError):
+        with atomic_open(p) as f:
+            f.write("half")
+            raise RuntimeError("crash while writing")
+    assert p.read_text() == "old\n"
+    assert [q.name for q in tmp_path.iterdir()] == ["out.txt"]
+
+
+def test_atomic_write_missing_directory(tmp_path):
+    with pytest.raises(ConfigError, match=r"out.txt: cannot write, directory '.*nodir' does not exist"):
+        atomic_write_text(tmp_path / "nodir" / "out.txt", "x")
+
+
+def test_closest_match():
+    assert closest_match("Fy", ["Fz", "temp"]) == "Fz"
+    assert closest_match("pole_pich", ["pole_pitch", "sample_time"]) == "pole_pitch"
+    assert closest_match("zzz", ["pole_pitch"]) is None
+
+
+# ----------------------------------------------------------------------------- load_dataclass
+
+
+@dataclass(frozen=True)
+class Feedback:
+    kp: float
+    ki: float = 0.0
+    cutoff_hz: float = field(default=200.0, metadata={"range": (1.0, 1e4), "unit": "Hz", "hint": "cutoff in Hz"})
+
+
+@dataclass(frozen=True)
+class Move:
+    distance: float
+    velocity: float = 1.0
+
+
+@dataclass(frozen=True)
+class Experiment:
+    name: str
+    feedback: Feedback
+    seeds: tuple[int, ...] = (0,)
+    gains: tuple[float, float] = (1.0, 2.0)
+    mode: Literal["twin", "forcemap"] = "twin"
+    forcemap: Path | None = None
+    moves: tuple[Move, ...] = ()
+    enabled: bool = True
+    repeats: int = 1
+    extra: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.repeats < 1:
+            raise ValueError(f"repeats = {self.repeats} must be at least 1")
+
+
+def test_load_dataclass_nested_and_conversions():
+    table = {
+        "name": "run",
+        "feedback": {"kp": 3, "ki": 0.5},  # int accepted for float
+        "seeds": [1, 2, 3],
+        "gains": [1, 2.5],
+        "mode": "forcemap",
+        "forcemap": "maps/fm.csv",
+        "moves": [{"distance": 0.1}, {"distance": -0.1, "velocity": 2}],
+        "extra": {"a": 1},
+    }
+    exp = load_dataclass(Experiment, table, "exp.toml")
+    assert exp.feedback == Feedback(kp=3.0, ki=0.5)
+    assert isinstance(exp.feedback.kp, float)
+    assert exp.seeds == (1, 2, 3) and exp.gains == (1.0, 2.5)
+    assert exp.forcemap == Path("maps/fm.csv")
+    assert exp.moves == (Move(0.1), Move(-0.1, 2.0))
+    assert exp.extra == {"a": 1.0} and exp.enabled is True
+
+
+def test_load_dataclass_unknown_key_closest():
+    with pytest.raises(ConfigError, match=r"^exp.toml: unknown key 'feedbak' in the top-level table \(closest valid key: 'feedback'\)"):
+        load_dataclass(Experiment, {"name": "x", "feedbak": {}}, "exp.toml")
+    with pytest.raises(ConfigError, match=r"^exp.toml: unknown key 'kd' in table \[feedback\] \(closest valid key: 'kp'\); valid keys: kp, ki, cutoff_hz$"):
+        load_dataclass(Experiment, {"name": "x", "feedback": {"kp": 1.0, "kd": 2.0}}, "exp.toml")
+    with pytest.raises(ConfigError, match=r"unknown key 'velocty' in table \[moves\[1\]\] \(closest valid key: 'velocity'\)"):
+        load_dataclass(Experiment, {"name": "x", "feedback": {"kp": 1}, "moves": [{"distance": 1}, {"distance": 1, "velocty": 1}]}, "exp.toml")
+
+
+def test_load_dataclass_where_with_table():
+    with pytest.raises(ConfigError, match=r"^exp.toml: key 'kp' missing in table \[controller.feedback\] \(expected a number\)$"):
+        load_dataclass(Feedback, {}, "exp.toml [controller.feedback]")
+
+
+def test_load_dataclass_missing_key():
+    with pytest.raises(ConfigError, match=r"exp.toml: key 'feedback' missing in the top-level table \(expected a table\)"):
+        load_dataclass(Experiment, {"name": "x"}, "exp.toml")
+
+
+@pytest.mark.parametrize(
+    "patch, message",
+    [
+        ({"feedback": {"kp": "3"}}, r"exp.toml \[feedback\]: kp = '3' is a string, expected a number"),
+        ({"feedback": {"kp": True}}, r"kp = True is a boolean, expected a number"),
+        ({"repeats": 2.0}, r"exp.toml: repeats = 2 is a float, expected an integer"),
+        ({"seeds": [1, "a"]}, r"seeds\[1\] = 'a' is a string, expected an integer"),
+        ({"gains": [1.0]}, r"gains has 1 entries, expected 2"),
+        ({"mode": "twn"}, r"mode = 'twn' is not one of 'twin', 'forcemap' \(closest match: 'twin'\)"),
+        ({"enabled": 1}, r"enabled = 1 is an integer, expected true or false"),
+        ({"feedback": 3}, r"feedback = 3 is an integer, expected a table"),
+        ({"feedback": {"kp": 1, "cutoff_hz": 0.5}}, r"\[feedback\]: cutoff_hz = 0.5 Hz is out of range \(expected 1–10000 Hz; cutoff in Hz\)"),
+        ({"repeats": 0}, r"^exp.toml: repeats = 0 must be at least 1$"),
+    ],
+)
+def test_load_dataclass_type_errors(patch, message):
+    table = {"name": "x", "feedback": {"kp": 1.0}, **patch}
+    with pytest.raises(ConfigError, match=message):
+        load_dataclass(Experiment, table, "exp.toml")
+
+
+# ----------------------------------------------------------------------------- motor
+
+
+MOTOR = """
+pole_pitch = 0.03
+sample_time = 0.001
+current_limit = 10.0
+
+[nominal]
+k = [61.0, 62.0, 60.0]
+zeta = -0.52
+mu = 0.04
+
+[[coil_set]]
+lever_arm = -0.065
+[[coil_set]]
+lever_arm = 0.005
+[[coil_set]]
+lever_arm = 0.075
+"""
+
+
+def test_load_motor(tmp_path):
+    m = load_motor(_toml(tmp_path, MOTOR))
+    assert m == Motor(
+        pole_pitch=0.03, lever_arms=(-0.065, 0.005, 0.075), k=(61.0, 62.0, 60.0), zeta=-0.52, mu=0.04,
+        sample_time=0.001, current_limit=10.0,
+    )
+
+
+def test_motor_optional_keys(tmp_path):
+    text = MOTOR.replace("current_limit = 10.0\n", "").replace("mu = 0.04\n", "").replace("k = [61.0, 62.0, 60.0]", "k = 67")
+    m = load_motor(_toml(tmp_path, text))
+    assert m.current_limit is None and m.mu == Motor().mu and m.k == (67.0, 67.0, 67.0)
+
+
+def test_motor_round_trip(tmp_path):
+    motor = Motor(k=(61.34, 61.62, 60.07), zeta=(-0.54, -0.55, -0.55), current_limit=None, sample_time=1.0 / 3000.0)
+    p = tmp_path / "out" / "motor.toml"
+    p.parent.mkdir()
+    write_motor(p, motor)
+    assert load_motor(p) == motor  # bit-exact floats
+    assert load_motor(_toml(tmp_path, motor_to_toml(Motor()), "default.toml")) == Motor()
+
+
+@pytest.mark.parametrize(
+    "old, new, message",
+    [
+        ("pole_pitch = 0.03", "pole_pitch = 30", r"^.*motor.toml: pole_pitch = 30 m is implausible \(expected 0.001–0.5 m; did you give mm\?\)$"),
+        ("sample_time = 0.001", "sample_time = 1", r"motor.toml: sample_time = 1 s is implausible \(expected 1e-06–0.1 s; did you give ms\?\)"),
+        ("zeta = -0.52", "zeta = -30", r"motor.toml \[nominal\]: zeta = -30 rad is implausible \(expected -6.28319–6.28319 rad; did you give degrees\?\)"),
+        ("k = [61.0, 62.0, 60.0]", "k = [61.0, 62.0e5, 60.0]", r"\[nominal\]: k\[1\] = 6.2e\+06 N/A is implausible \(expected 0.01–10000 N/A\)"),
+        ("lever_arm = 0.075", "lever_arm = 75", r"motor.toml \[\[coil_set\]\] 3: lever_arm = 75 m is implausible \(expected -2–2 m; did you give mm\?\)"),
+        ("current_limit = 10.0", "current_limit = 0", r"current_limit = 0 A is implausible \(expected 0 < value ≤ 10000 A\)"),
+        ("current_limit = 10.0", "current_limit = 10000", None),
+        ("mu = 0.04", "mu = 40", r"\[nominal\]: mu = 40 is implausible \(expected -10–10\)"),
+        ("mu = 0.04", "mu = nan", r"\[nominal\]: mu = nan is not finite"),
+        ("k = [61.0, 62.0, 60.0]", "k = [61.0, 62.0]", r"motor.toml \[nominal\]: k has 2 entries but there are 3 \[\[coil_set\]\] tables"),
+        ("pole_pitch = 0.03", "pole_pitch = '30 mm'", r"motor.toml: pole_pitch = '30 mm' is a string, expected a number in m"),
+        ("pole_pitch = 0.03", "pole_pich = 0.03", r"motor.toml: unknown key 'pole_pich' in the top-level table \(closest valid key: 'pole_pitch'\)"),
+        ("mu = 0.04", "muu = 0.04", r"unknown key 'muu' in table \[nominal\] \(closest valid key: 'mu'\)"),
+        ("lever_arm = 0.005", "lever = 0.005", r"unknown key 'lever' in \[\[coil_set\]\] 2 \(closest valid key: 'lever_arm'\)"),
+        ("sample_time = 0.001", "", r"motor.toml: key 'sample_time' missing \(expected a number in s\)"),
+        ("zeta = -0.52", "", r"motor.toml \[nominal\]: key 'zeta' missing"),
+    ],
+)
+def test_motor_bad_values(tmp_path, old, new, message):
+    assert old in MOTOR
+    p = _toml(tmp_path, MOTOR.replace(old, new, 1))
+    if message is None:
+        load_motor(p)
+        return
+    with pytest.raises(ConfigError, match=message):
+        load_motor(p)
+
+
+def test_motor_structure_errors(tmp_path):
+    no_sets = MOTOR.split("[[coil_set]]")[0]
+    with pytest.raises(ConfigError, match=r"motor.toml: no \[\[coil_set\]\] tables"):
+        load_motor(_toml(tmp_path, no_sets))
+    no_nominal = MOTOR.replace("[nominal]\nk = [61.0, 62.0, 60.0]\nzeta = -0.52\nmu = 0.04\n", "")
+    with pytest.raises(ConfigError, match=r"motor.toml: table \[nominal\] missing"):
+        load_motor(_toml(tmp_path, no_nominal, "x.toml").rename(tmp_path / "motor.toml"))
