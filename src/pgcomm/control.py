@@ -12,7 +12,11 @@ Feedforward (eq. FeedforwardController) with ``δ = (z + 1)/2``::
 
 The default tuning is the classical loop-shaping rule for a mass ``m`` with a
 target bandwidth ``f_bw``: ``kp = m ω²/3``, ``kd = m ω`` (lead around ``ω``),
-``ki = kp ω/10`` (integrator well below crossover), low-pass at ``5 f_bw``.
+``ki = kp ω/10`` (integrator well below crossover), low-pass at ``5 f_bw``. The
+default ``f_bw = 6 Hz`` for the 30 kg translator is a soft industrial tuning; it is
+what the paper's classical tracking-error MSE (2.75e-8 m² on its long reference)
+implies for a commutation error of its size (27 N²): with 10 Hz the same
+commutation error would give a tracking MSE about 15x smaller.
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ class PID:
     lowpass_hz: float
 
     @classmethod
-    def tuned(cls, mass: float = 30.0, bandwidth_hz: float = 10.0) -> "PID":
+    def tuned(cls, mass: float = 30.0, bandwidth_hz: float = 6.0) -> "PID":
         """Loop-shaping tuning for a mass ``mass`` (kg) and crossover ``bandwidth_hz`` (Hz)."""
         w = 2 * np.pi * bandwidth_hz
         kp = mass * w**2 / 3.0

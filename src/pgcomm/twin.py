@@ -81,10 +81,10 @@ class TwinParams:
     lever_arms: tuple[float, ...] = (-0.065, 0.005, 0.075)
     lateral_offsets: tuple[float, ...] = (0.003, -0.002, 0.004)
     # 6. current-independent force: [Fy (N), Fx (N), Tz (N*m)]
-    cog_offset: tuple[float, float, float] = (2.0, 0.15, 0.35)
-    cog_slope: tuple[float, float, float] = (4.5, 0.25, 0.45)        # per 0.1 m
-    cog_curvature: tuple[float, float, float] = (-2.5, 0.1, -0.2)    # times ((y/0.1)^2 - 1/3)
-    cog_wave: tuple[float, float, float] = (2.0, 0.2, 0.3)
+    cog_offset: tuple[float, float, float] = (2.7, 0.15, 0.35)
+    cog_slope: tuple[float, float, float] = (6.0, 0.25, 0.45)        # per 0.1 m
+    cog_curvature: tuple[float, float, float] = (-3.4, 0.1, -0.2)    # times ((y/0.1)^2 - 1/3)
+    cog_wave: tuple[float, float, float] = (2.7, 0.2, 0.3)
     cog_wave_length: float = 0.16
     cog_periodic: tuple[float, float, float] = (0.5, 0.05, 0.05)
     cog_period: float = 0.0235

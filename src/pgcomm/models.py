@@ -1,0 +1,388 @@
+"""Electromagnetic models: MLP, physics-only and PGNN coil-set models, and their combination.
+
+* :class:`MLP` — eq. NeuralNetwork on a scaled position ``s`` (any depth and widths).
+* :class:`CoilSetModel` — one coil set (eqs. PGNN_Electromagnetics_SingleCoilset and
+  GainMatrix_Cogging)::
+
+      K̂(y) = A cos(2πy/d_m) + B sin(2πy/d_m) + [f_1(s), f_2(s)]      (3 x 2, N/A)
+      F̂_cog(y) = f_φ(s)                                              (3,   N, N, N·m)
+      F̂(y, i) = K̂(y) i + F̂_cog(y)
+
+  with ``s = (y - y_center) / y_scale``. Without networks it is the physics-only model
+  (``A cos + B sin``), which for the :func:`physics_from_ideal` values equals the ideal
+  gain matrix of eq. Electromagnetics_GainMatrix reduced to the star currents.
+* :class:`CombinedModel` — ``L`` coil-set models stacked (eq. PGNN_Electromagnetics):
+  ``F̂ = Σ_l K̂^l i^l + (1/L) Σ_l F̂^l_cog``. It has ``gain(y) -> S + (L, 3, 2)`` and
+  ``cogging(y) -> S + (3,)`` and so plugs into :class:`pgcomm.commutation.ModelLaw`.
+
+Input scaling. The networks see ``s = (y - y_center) / y_scale`` (training positions map
+to about ``[-1, 1]``) instead of ``y``. This is an exact reparametrisation of
+eq. NeuralNetwork, ``W_1 y + B_1 = W_1' s + B_1'`` with ``W_1' = y_scale W_1`` and
+``B_1' = B_1 + y_center W_1``, chosen because raw positions of ±0.1 m make the
+least-squares problem of Proposition 1 hopelessly ill-conditioned.
+
+Conventions: a network's hidden layer ``i`` computes ``h_i = α(h_{i-1} W_i + b_i)`` with
+``W_i`` of shape ``(n_{i-1}, n_i)`` and ``h_0 = s`` (``n_0 = 1``); the output layer is
+``h_I W_out + b_out`` with ``W_out`` of shape ``(n_I, 3)``. Output rows are
+``[Fy, Fx, Tz]``. All models are immutable pytrees; methods are vectorised over any
+leading shape ``S`` of ``y`` and jittable.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from pgcomm._pytree import pytree_dataclass, static_field
+from pgcomm.commutation import drive_currents
+from pgcomm.motor import PHASE_OFFSETS, STAR
+
+#: Activation functions by name (the static ``activation`` field of :class:`MLP`).
+ACTIVATIONS = {
+    "tanh": jnp.tanh,
+    "sigmoid": jax.nn.sigmoid,
+    "relu": jax.nn.relu,
+    "softplus": jax.nn.softplus,
+    "gelu": jax.nn.gelu,
+    "linear": lambda z: z,
+}
+
+#: Paper defaults (§Experimental results): one hidden layer, 2 neurons per gain column, 16 for cogging.
+DEFAULT_GAIN_WIDTHS = (2,)
+DEFAULT_COG_WIDTHS = (16,)
+
+
+def activation_fn(name: str):
+    """The activation function called ``name`` (a key of :data:`ACTIVATIONS`)."""
+    try:
+        return ACTIVATIONS[name]
+    except KeyError:
+        raise ValueError(f"unknown activation {name!r}; expected one of {sorted(ACTIVATIONS)}") from None
+
+
+@pytree_dataclass
+class MLP:
+    """Feed-forward network ``R -> R^3`` on the scaled position (eq. NeuralNetwork).
+
+    Attributes:
+        hidden: hidden layers ``((W_1, b_1), ..., (W_I, b_I))`` with ``W_i`` of shape
+            ``G + (n_{i-1}, n_i)`` and ``b_i`` of shape ``G + (n_i,)``, ``n_0 = 1``.
+        W_out: output weights ``G + (n_I, 3)``; b_out: output bias ``G + (3,)``.
+        activation: name in :data:`ACTIVATIONS` (static).
+
+    ``G`` is empty for one network. A leading ``G`` stacks several networks of the same
+    structure (as :class:`CombinedModel` does); the input ``s`` then has shape ``S + G``
+    and every network gets its own input.
+    """
+
+    hidden: tuple
+    W_out: jnp.ndarray
+    b_out: jnp.ndarray
+    activation: str = static_field(default="tanh")
+
+    @property
+    def widths(self) -> tuple[int, ...]:
+        """Hidden widths ``(n_1, ..., n_I)``."""
+        return tuple(int(b.shape[-1]) for _, b in self.hidden)
+
+    def features(self, s):
+        """Last hidden layer ``h_I(s)``, shape ``S + G + (n_I,)`` for ``s`` of shape ``S + G``."""
+        act = activation_fn(self.activation)
+        (w1, b1), *rest = self.hidden
+        # The first layer has one input, so it is a broadcast multiply (no matmul).
+        h = act(jnp.asarray(s)[..., None] * w1[..., 0, :] + b1)
+        for w, b in rest:
+            h = act(jnp.einsum("...i,...ij->...j", h, w) + b)
+        return h
+
+    def __call__(self, s):
+        """Network output ``S + G + (3,)`` for scaled positions ``s`` of shape ``S + G``."""
+        h = self.features(s)
+        # Multiply-and-sum instead of a matmul: the contraction is tiny (n_I) and XLA fuses it.
+        return jnp.sum(h[..., :, None] * self.W_out, axis=-2) + self.b_out
+
+    @classmethod
+    def init(cls, key, widths=DEFAULT_GAIN_WIDTHS, activation="tanh", first_scale=2.0) -> "MLP":
+        """Random hidden layers, zero output layer.
+
+        First-layer weights ``~ N(0, first_scale²)`` and biases ``~ N(0, 1)`` put the
+        units' transitions inside ``s ∈ [-1, 1]``; deeper layers are Glorot-normal with
+        zero bias. The output layer is zero (Proposition 1 sets it).
+
+        Args:
+            key: ``jax.random.PRNGKey``. widths: hidden widths ``(n_1, ..., n_I)``, ``I >= 1``.
+        """
+        widths = tuple(int(n) for n in widths)
+        if not widths or min(widths) < 1:
+            raise ValueError(f"widths must be a non-empty tuple of positive ints, got {widths}")
+        activation_fn(activation)
+        keys = jax.random.split(key, 2 * len(widths))
+        hidden, n_prev = [], 1
+        for i, n in enumerate(widths):
+            if i == 0:
+                w = first_scale * jax.random.normal(keys[0], (1, n))
+                b = jax.random.normal(keys[1], (n,))
+            else:
+                w = jax.random.normal(keys[2 * i], (n_prev, n)) / np.sqrt(n_prev)
+                b = jnp.zeros((n,))
+            hidden.append((w, b))
+            n_prev = n
+        return cls(tuple(hidden), jnp.zeros((n_prev, 3)), jnp.zeros(3), activation)
+
+
+def _phase_angles(y, pole_pitch):
+    """``(cos, sin)`` of ``2π y / d_m``, each of the shape of ``y``."""
+    theta = (2.0 * np.pi / pole_pitch) * jnp.asarray(y, dtype=float)
+    return jnp.cos(theta), jnp.sin(theta)
+
+
+@pytree_dataclass
+class CoilSetModel:
+    """PGNN (or physics-only) model of one coil set (eqs. PGNN_Electromagnetics_SingleCoilset, GainMatrix_Cogging).
+
+    Attributes:
+        A, B: ``(3, 2)`` physical parameters (N/A); rows ``[Fy, Fx, Tz]``, columns ``ia, ib``.
+        gain_nets: ``(f_1, f_2)`` two :class:`MLP` giving the columns of the gain
+            correction, or ``None`` (physics-only gain).
+        cog_net: :class:`MLP` for the cogging force, or ``None`` (no cogging).
+        pole_pitch: ``d_m`` (m). y_center, y_scale: input scaling (m), ``s = (y - y_center) / y_scale``.
+        y_min, y_max: positions covered by the training data (m), or ``None`` if unknown.
+    """
+
+    A: jnp.ndarray
+    B: jnp.ndarray
+    gain_nets: tuple | None
+    cog_net: MLP | None
+    pole_pitch: float = static_field()
+    y_center: float = static_field(default=0.0)
+    y_scale: float = static_field(default=1.0)
+    y_min: float | None = static_field(default=None)
+    y_max: float | None = static_field(default=None)
+
+    @classmethod
+    def physics(cls, A, B, pole_pitch, y_center=0.0, y_scale=1.0, y_min=None, y_max=None) -> "CoilSetModel":
+        """Physics-only model ``K̂ = A cos + B sin``, no cogging."""
+        return cls(jnp.asarray(A, float), jnp.asarray(B, float), None, None, float(pole_pitch),
+                   float(y_center), float(y_scale), y_min, y_max)
+
+    @classmethod
+    def init(cls, key, A, B, pole_pitch, y_center, y_scale, gain_widths=DEFAULT_GAIN_WIDTHS,
+             cog_widths=DEFAULT_COG_WIDTHS, activation="tanh", y_min=None, y_max=None) -> "CoilSetModel":
+        """PGNN with random hidden layers (:meth:`MLP.init`) and zero output layers.
+
+        ``gain_widths`` / ``cog_widths`` of ``None`` leave that network out.
+        """
+        k1, k2, k3 = jax.random.split(key, 3)
+        gain = None if gain_widths is None else (MLP.init(k1, gain_widths, activation),
+                                                 MLP.init(k2, gain_widths, activation))
+        cog = None if cog_widths is None else MLP.init(k3, cog_widths, activation)
+        return cls(jnp.asarray(A, float), jnp.asarray(B, float), gain, cog, float(pole_pitch),
+                   float(y_center), float(y_scale), y_min, y_max)
+
+    def scaled_position(self, y):
+        """``s = (y - y_center) / y_scale`` (-), shape of ``y``."""
+        return (jnp.asarray(y, dtype=float) - self.y_center) / self.y_scale
+
+    def gain(self, y):
+        """``K̂(y)``, shape ``S + (3, 2)`` (N/A, N/A, N·m/A)."""
+        c, s = _phase_angles(y, self.pole_pitch)
+        k = self.A * c[..., None, None] + self.B * s[..., None, None]
+        if self.gain_nets is not None:
+            sc = self.scaled_position(y)
+            k = k + jnp.stack([net(sc) for net in self.gain_nets], axis=-1)
+        return k
+
+    def cogging(self, y):
+        """``F̂_cog(y)``, shape ``S + (3,)`` (N, N, N·m); zeros without a cogging network."""
+        if self.cog_net is None:
+            return jnp.zeros(jnp.shape(y) + (3,))
+        return self.cog_net(self.scaled_position(y))
+
+    def force(self, y, currents):
+        """``F̂ = K̂(y) i + F̂_cog(y)``; currents ``S + (2,)`` (A) -> ``S + (3,)``."""
+        return jnp.einsum("...qj,...j->...q", self.gain(y), currents) + self.cogging(y)
+
+    def with_outputs(self, A, B, gain_out=None, cog_out=None) -> "CoilSetModel":
+        """Copy with new linear parameters θ_L.
+
+        Args:
+            A, B: ``(3, 2)``. gain_out: ``((W_1, b_1), (W_2, b_2))`` output layers of the
+                gain networks (``(n_I, 3)``, ``(3,)``). cog_out: ``(W, b)`` of the cogging network.
+        """
+        gain = self.gain_nets
+        if gain is not None:
+            gain = tuple(MLP(net.hidden, w, b, net.activation) for net, (w, b) in zip(gain, gain_out))
+        cog = self.cog_net
+        if cog is not None:
+            cog = MLP(cog.hidden, cog_out[0], cog_out[1], cog.activation)
+        return CoilSetModel(jnp.asarray(A), jnp.asarray(B), gain, cog, self.pole_pitch, self.y_center,
+                            self.y_scale, self.y_min, self.y_max)
+
+    def with_range(self, y_min, y_max) -> "CoilSetModel":
+        """Copy with another training range (m)."""
+        return CoilSetModel(self.A, self.B, self.gain_nets, self.cog_net, self.pole_pitch, self.y_center,
+                            self.y_scale, None if y_min is None else float(y_min),
+                            None if y_max is None else float(y_max))
+
+    def physics_only(self) -> "CoilSetModel":
+        """This model's ``A, B`` without networks."""
+        return CoilSetModel(self.A, self.B, None, None, self.pole_pitch, self.y_center, self.y_scale,
+                            self.y_min, self.y_max)
+
+
+def force_from_drive_inputs(model: CoilSetModel, y, fy, delta, k_hat, zeta_hat):
+    """Model force from drive inputs ``(Fy^l*, Δ^l)`` (the dotted block of Fig. PGNN_Parametrization).
+
+    ``F̂ = K̂(y) Γ(y) T(Fy*, Δ) + F̂_cog(y)`` (eq. PGNN_Electromagnetics_SingleCoilset).
+
+    Args:
+        y: ``S`` (m); fy: ``S`` (N); delta: ``S`` (rad); k_hat (N/A), zeta_hat (rad): the
+            drive's fixed commutation parameters.
+
+    Returns:
+        ``S + (3,)`` (N, N, N·m).
+    """
+    i = drive_currents(y, jnp.asarray(fy)[..., None], jnp.asarray(delta)[..., None], k_hat, zeta_hat,
+                       model.pole_pitch)[..., 0, :]
+    return model.force(y, i)
+
+
+def physics_from_ideal(pole_pitch, k, zeta, mu, lever_arm):
+    """``(A, B)`` for which the physics model equals the ideal star-reduced gain (eq. Electromagnetics_GainMatrix).
+
+    With ``θ = 2π y / d_m`` and phase offsets ``φ_p``, eq. 8 gives per phase ``p``
+    ``Fy: (2/3) k sin(θ + ζ + φ_p)`` and ``Fx: (2/3) k μ cos(θ + ζ + φ_p)``, ``Tz = d · Fx``;
+    expanding the sums, the ``cos θ`` coefficients form ``A`` and the ``sin θ``
+    coefficients ``B`` (per phase), then ``ic = -ia - ib`` reduces them to ``(3, 2)``.
+    ``A`` and ``B`` do not depend on ``d_m``; ``pole_pitch`` (m) is only checked.
+
+    Args:
+        k (N/A), zeta (rad), mu (-), lever_arm (m): scalars of one coil set.
+
+    Returns:
+        ``(A, B)``, each ``(3, 2)`` numpy arrays (N/A, N/A, N·m/A).
+    """
+    if not pole_pitch > 0:
+        raise ValueError(f"pole_pitch must be positive, got {pole_pitch}")
+    ph = float(zeta) + np.asarray(PHASE_OFFSETS)
+    amp = (2.0 / 3.0) * float(k)
+    a3 = np.stack([amp * np.sin(ph), amp * mu * np.cos(ph), lever_arm * amp * mu * np.cos(ph)])
+    b3 = np.stack([amp * np.cos(ph), -amp * mu * np.sin(ph), -lever_arm * amp * mu * np.sin(ph)])
+    return a3 @ STAR, b3 @ STAR
+
+
+@pytree_dataclass
+class CombinedModel:
+    """``L`` coil-set models with stacked parameters (eq. PGNN_Electromagnetics).
+
+    ``F̂(y, i) = Σ_l K̂^l(y) i^l + (1/L) Σ_l F̂^l_cog(y)``: the cogging force is the MEAN over
+    coil sets, because each coil set's identification captures the whole cogging force.
+
+    Attributes:
+        A, B: ``(L, 3, 2)`` (N/A).
+        gain_nets: one :class:`MLP` with leading dims ``G = (L, 2)`` (coil set, current
+            column) or ``None``.
+        cog_nets: one :class:`MLP` with leading dim ``G = (L,)``, or ``None``.
+        y_center, y_scale: ``(L,)`` input scaling of each coil set (m).
+        pole_pitch: ``d_m`` (m).
+        y_min, y_max: per-coil-set training range (m), tuples of length ``L`` or ``None``.
+
+    All coil sets must have the same network structure (so that their parameters stack
+    and one vectorised evaluation covers all of them).
+    """
+
+    A: jnp.ndarray
+    B: jnp.ndarray
+    gain_nets: MLP | None
+    cog_nets: MLP | None
+    y_center: jnp.ndarray
+    y_scale: jnp.ndarray
+    pole_pitch: float = static_field()
+    y_min: tuple | None = static_field(default=None)
+    y_max: tuple | None = static_field(default=None)
+
+    @property
+    def n_coil_sets(self) -> int:
+        """``L``."""
+        return int(self.A.shape[0])
+
+    @property
+    def training_range(self) -> tuple[float, float] | None:
+        """Positions covered by the training data of EVERY coil set, ``(y_min, y_max)`` (m), or ``None``."""
+        if self.y_min is None or self.y_max is None:
+            return None
+        return max(self.y_min), min(self.y_max)
+
+    @classmethod
+    def from_coil_sets(cls, models) -> "CombinedModel":
+        """Stack a sequence of :class:`CoilSetModel` (same pole pitch and network structure)."""
+        models = list(models)
+        if not models:
+            raise ValueError("need at least one coil-set model")
+        m0 = models[0]
+        for l, m in enumerate(models):
+            if m.pole_pitch != m0.pole_pitch:
+                raise ValueError(f"coil set {l + 1}: pole pitch {m.pole_pitch} differs from {m0.pole_pitch}")
+            if jax.tree_util.tree_structure((m.gain_nets, m.cog_net)) != jax.tree_util.tree_structure(
+                    (m0.gain_nets, m0.cog_net)):
+                raise ValueError(f"coil set {l + 1}: network structure differs from coil set 1")
+            if jax.tree_util.tree_map(jnp.shape, (m.gain_nets, m.cog_net)) != jax.tree_util.tree_map(
+                    jnp.shape, (m0.gain_nets, m0.cog_net)):
+                raise ValueError(f"coil set {l + 1}: network widths differ from coil set 1")
+
+        def stack(*xs):
+            return jnp.stack([jnp.asarray(x) for x in xs])
+
+        gain = None
+        if m0.gain_nets is not None:
+            per_l = [jax.tree_util.tree_map(stack, *m.gain_nets) for m in models]  # leading (2,)
+            gain = jax.tree_util.tree_map(stack, *per_l)  # leading (L, 2)
+        cog = None if m0.cog_net is None else jax.tree_util.tree_map(stack, *[m.cog_net for m in models])
+        has_range = all(m.y_min is not None and m.y_max is not None for m in models)
+        return cls(stack(*[m.A for m in models]), stack(*[m.B for m in models]), gain, cog,
+                   jnp.asarray([m.y_center for m in models], float), jnp.asarray([m.y_scale for m in models], float),
+                   float(m0.pole_pitch),
+                   tuple(float(m.y_min) for m in models) if has_range else None,
+                   tuple(float(m.y_max) for m in models) if has_range else None)
+
+    def coil_set(self, l: int) -> CoilSetModel:
+        """The model of coil set ``l`` (0-based) as a :class:`CoilSetModel`."""
+        take = lambda x: x[l]  # noqa: E731
+        gain = None
+        if self.gain_nets is not None:
+            g = jax.tree_util.tree_map(take, self.gain_nets)
+            gain = tuple(jax.tree_util.tree_map(lambda x, j=j: x[j], g) for j in range(2))
+        cog = None if self.cog_nets is None else jax.tree_util.tree_map(take, self.cog_nets)
+        return CoilSetModel(self.A[l], self.B[l], gain, cog, self.pole_pitch, float(self.y_center[l]),
+                            float(self.y_scale[l]), None if self.y_min is None else self.y_min[l],
+                            None if self.y_max is None else self.y_max[l])
+
+    def scaled_positions(self, y):
+        """Per-coil-set scaled positions ``S + (L,)``."""
+        return (jnp.asarray(y, dtype=float)[..., None] - self.y_center) / self.y_scale
+
+    def gain(self, y):
+        """``K̂^l(y)`` for all coil sets, ``S + (L, 3, 2)`` (N/A)."""
+        c, s = _phase_angles(y, self.pole_pitch)
+        k = self.A * c[..., None, None, None] + self.B * s[..., None, None, None]
+        if self.gain_nets is not None:
+            sl = self.scaled_positions(y)
+            out = self.gain_nets(jnp.broadcast_to(sl[..., None], sl.shape + (2,)))  # S + (L, 2, 3)
+            k = k + jnp.swapaxes(out, -1, -2)
+        return k
+
+    def cogging(self, y):
+        """Mean cogging force of the coil sets, ``S + (3,)`` (N, N, N·m)."""
+        if self.cog_nets is None:
+            return jnp.zeros(jnp.shape(y) + (3,))
+        return jnp.mean(self.cog_nets(self.scaled_positions(y)), axis=-2)
+
+    def force(self, y, currents):
+        """``F̂ = Σ_l K̂^l i^l + mean_l F̂^l_cog``; currents ``S + (L, 2)`` (A) -> ``S + (3,)``."""
+        return jnp.einsum("...lqj,...lj->...q", self.gain(y), currents) + self.cogging(y)
+
+    def physics_only(self) -> "CombinedModel":
+        """The same ``A, B`` without networks (the physics-only combined model)."""
+        return CombinedModel(self.A, self.B, None, None, self.y_center, self.y_scale, self.pole_pitch,
+                             self.y_min, self.y_max)

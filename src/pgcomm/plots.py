@@ -1,0 +1,181 @@
+"""Figures. Each function takes results and returns a Matplotlib figure; saving is separate.
+
+Matplotlib runs with the non-interactive Agg backend (no display needed).
+"""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from pgcomm.metrics import lowpass  # noqa: E402
+
+#: One colour per comparison row, stable across figures.
+ROW_COLORS = {"original": "#9e9e9e", "classical": "#d62728", "physics": "#ff7f0e", "pgnn": "#1f77b4",
+              "cogging_table": "#8c564b", "harmonic_cogging": "#e377c2", "oracle": "#2ca02c"}
+_DIR_LABEL = ("$F_y - F_y^*$ [N]", "$F_x - F_x^*$ [N]", "$T_z - T_z^*$ [N m]")
+
+
+def save(fig, path) -> None:
+    """Save ``fig`` as PNG at ``path`` (atomically) and close it."""
+    from pgcomm.io.atomic import atomic_path
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
+    plt.close(fig)
+
+
+def plot_run(result, lowpass_hz: float = 50.0, title: str = ""):
+    """One closed-loop run: reference, filtered commutation error in y, x, z, tracking error, currents."""
+    t = result.t
+    err = lowpass(result.commutation_error, result.sample_time, lowpass_hz)
+    fig, ax = plt.subplots(6, 1, figsize=(10, 11), sharex=True)
+    ax[0].plot(t, result.r * 1e3, label="$r$")
+    ax[0].plot(t, result.y * 1e3, "--", label="$y$")
+    ax[0].set_ylabel("position [mm]")
+    ax[0].legend(loc="upper right")
+    for q in range(3):
+        ax[q + 1].plot(t, err[:, q], lw=0.8)
+        ax[q + 1].set_ylabel(_DIR_LABEL[q])
+    ax[4].plot(t, result.e * 1e6, lw=0.8)
+    ax[4].set_ylabel("tracking error [µm]")
+    cur = result.currents
+    for l in range(cur.shape[1]):
+        ax[5].plot(t, cur[:, l, 0], lw=0.6, label=f"$i_a^{l + 1}$")
+    ax[5].set_ylabel("current [A]")
+    ax[5].set_xlabel("time [s]")
+    ax[5].legend(loc="upper right", ncol=cur.shape[1])
+    ax[1].set_title(f"commutation error, {lowpass_hz:g} Hz low-pass" + (f" — {title}" if title else ""))
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def plot_comparison(runs: dict, lowpass_hz: float = 50.0, title: str = ""):
+    """Paper Figs. CommutationError_Ref1/2: reference, filtered commutation error y, x, z and
+    tracking error, every row of ``runs`` (name -> SimResult) overlaid."""
+    first = next(iter(runs.values()))
+    t = first.t
+    fig, ax = plt.subplots(5, 1, figsize=(10, 10), sharex=True)
+    ax[0].plot(t, first.r * 1e3, color="k")
+    ax[0].set_ylabel("$y^*$ [mm]")
+    for name, res in runs.items():
+        c = ROW_COLORS.get(name)
+        err = lowpass(res.commutation_error, res.sample_time, lowpass_hz)
+        for q in range(3):
+            ax[q + 1].plot(t, err[:, q], lw=0.7, color=c, label=name)
+        ax[4].plot(t, res.e * 1e6, lw=0.8, color=c, label=name)
+    for q in range(3):
+        ax[q + 1].set_ylabel(_DIR_LABEL[q])
+    ax[4].set_ylabel("$y^* - y$ [µm]")
+    ax[4].set_xlabel("time [s]")
+    ax[1].legend(loc="upper right", ncol=min(4, len(runs)), fontsize=8)
+    if title:
+        ax[0].set_title(title)
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def plot_reference(reference, title: str = "data-generation reference"):
+    """Paper Fig. Data_Generation: the reference position and velocity."""
+    fig, ax = plt.subplots(2, 1, figsize=(10, 4.5), sharex=True)
+    ax[0].plot(reference.t, reference.r * 1e3)
+    ax[0].set_ylabel("$y^*$ [mm]")
+    ax[0].set_title(title)
+    ax[1].plot(reference.t, reference.v)
+    ax[1].set_ylabel("$\\dot y^*$ [m/s]")
+    ax[1].set_xlabel("time [s]")
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def plot_calibration(k_initial, zeta_initial, k_cal, zeta_cal, k_true=None, zeta_true=None):
+    """Table Parameters_CLM as a figure: initial, calibrated and (twin) true ``k̂^l``, ``ζ̂^l`` per coil set."""
+    n = len(k_cal)
+    x = np.arange(1, n + 1)
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
+    for a, init, cal, true, lab in ((ax[0], k_initial, k_cal, k_true, "$\\hat k^l$ [N/A]"),
+                                    (ax[1], zeta_initial, zeta_cal, zeta_true, "$\\hat\\zeta^l$ [rad]")):
+        a.plot(x, np.broadcast_to(init, (n,)), "s", color="#9e9e9e", label="initial")
+        a.plot(x, cal, "o", color="#d62728", label="calibrated")
+        if true is not None:
+            a.plot(x, true, "x", color="#2ca02c", ms=10, label="true (twin)")
+        a.set_xticks(x)
+        a.set_xlabel("coil set $l$")
+        a.set_ylabel(lab)
+        a.grid(alpha=0.3)
+    ax[0].legend()
+    fig.suptitle("Algorithm 1: data-based calibration")
+    fig.tight_layout()
+    return fig
+
+
+def plot_cogging(y, cog_model, cog_true=None, title="identified cogging force"):
+    """Paper Fig. Cogging_Force: ``(1/L) Σ_l F̂_cog^l(y)`` in y, x, z, against the truth when known.
+
+    Args:
+        y: (N,) m; cog_model: (N, 3); cog_true: (N, 3) or None.
+    """
+    fig, ax = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    labels = ("$F_{cog,y}$ [N]", "$F_{cog,x}$ [N]", "$T_{cog,z}$ [N m]")
+    for q in range(3):
+        ax[q].plot(y * 1e3, cog_model[:, q], color="#1f77b4", label="PGNN")
+        if cog_true is not None:
+            ax[q].plot(y * 1e3, cog_true[:, q], "--", color="#2ca02c", label="truth")
+        ax[q].set_ylabel(labels[q])
+        ax[q].grid(alpha=0.3)
+    ax[0].legend()
+    ax[0].set_title(title)
+    ax[2].set_xlabel("position $y$ [mm]")
+    fig.tight_layout()
+    return fig
+
+
+def plot_gain_columns(y, gain_model, gain_true=None, coil_set: int = 0):
+    """Gain-matrix columns ``K̂^l(y)`` (3 x 2 panels) of one coil set against the truth when known.
+
+    Args:
+        y: (N,) m; gain_model, gain_true: (N, 3, 2) N/A.
+    """
+    fig, ax = plt.subplots(3, 2, figsize=(11, 7), sharex=True)
+    rows = ("$F_y$", "$F_x$", "$T_z$")
+    for q in range(3):
+        for j in range(2):
+            a = ax[q, j]
+            a.plot(y * 1e3, gain_model[:, q, j], color="#1f77b4", lw=0.9, label="model")
+            if gain_true is not None:
+                a.plot(y * 1e3, gain_true[:, q, j], "--", color="#2ca02c", lw=0.9, label="truth")
+            a.set_title(f"{rows[q]} per $i_{'ab'[j]}^{coil_set + 1}$", fontsize=9)
+            a.grid(alpha=0.3)
+    ax[0, 0].legend(fontsize=8)
+    for j in range(2):
+        ax[2, j].set_xlabel("position $y$ [mm]")
+    fig.tight_layout()
+    return fig
+
+
+def plot_mse_bars(table: dict, title: str = "commutation-error MSE (filtered)"):
+    """Bar chart of ``table[row][dir]`` (log scale), one group per direction."""
+    rows = list(table)
+    dirs = ("y", "x", "z")
+    fig, ax = plt.subplots(1, 3, figsize=(12, 3.8))
+    for q, d in enumerate(dirs):
+        vals = [table[r][d] for r in rows]
+        ax[q].bar(range(len(rows)), vals, color=[ROW_COLORS.get(r, "k") for r in rows])
+        ax[q].set_xticks(range(len(rows)))
+        ax[q].set_xticklabels(rows, rotation=40, ha="right", fontsize=8)
+        ax[q].set_yscale("log")
+        ax[q].set_title(f"{d}  [{'N²m²' if d == 'z' else 'N²'}]")
+        ax[q].grid(alpha=0.3, axis="y")
+    fig.suptitle(title)
+    fig.tight_layout()
+    return fig
