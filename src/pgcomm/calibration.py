@@ -11,12 +11,25 @@ coefficients ``ĉ_1, ĉ_2`` (eq. Ci):
 in the data that do not scale with the current, eq. Ci is biased: the loop's demand is
 ``F_y* = (F_tot - D)/c`` with ``D`` the cable-slab/cogging force and the
 direction-dependent force, so ``ĉ_i/c_i - 1 ≈ (Σ F_tot D - Σ D²) / Σ F_tot²``. The
-direction-dependent force correlates with the friction the loop must overcome, so
-this is about +1 % on the default twin. ``method="offset"`` (default) removes the bias
-by fitting both data sets jointly with the shared nuisance terms they both contain,
-``F_y,i(t) = c_i F_y*,i(t) + b(y(t)) + d sign(v(t))`` (``b`` piecewise linear on
-``n_bins`` bins), which is still linear least squares; the update equations are
-unchanged.
+direction-dependent force correlates with the friction the loop must overcome, which
+makes eq. Ci about 1-2 % high on the default twin.
+
+``method="offset"`` (default) fits both data sets jointly, still by linear least squares,
+with what they share as nuisance and the gain resolved along the stroke::
+
+    F_y,i(t) = F_y*,i(t) (c_i(y) + ripple_i(y)) + b_sign(v)(y) + e(t),   |v| > v_min
+
+* ``c_i(y)``: piecewise linear on ``gain_bins`` bins; ``ĉ_i`` is its mean over the stroke
+  (the field varies along the stroke; only the mean is the fundamental);
+* ``ripple_i``: 2nd and 6th electrical harmonics of ``2π y/d_m`` (winding imbalance and
+  5th/7th field harmonics make force ripple proportional to the current);
+* ``b_+``, ``b_-``: one offset table per direction of motion on ``n_bins`` bins (cable
+  slab/cogging, the direction-dependent force, and the ripple of the friction the loop
+  demands);
+* samples slower than ``v_min`` (standstill, reversals) are left out.
+
+The update equations are unchanged. On noise-free data from an ideal motor both methods
+return the exact ``k``, ``ζ``.
 """
 
 from __future__ import annotations
@@ -52,15 +65,16 @@ class CalibrationResult:
 
 
 def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset", n_bins: int = 40,
-                     y_range=None, sample_time: float = 1e-3, deadband: float = 1e-3):
+                     y_range=None, sample_time: float = 1e-3, min_speed: float = 0.01, pole_pitch=None,
+                     gain_bins: int = 8):
     """Least-squares ``ĉ_1, ĉ_2`` of eq. Ci from the two data sets of one coil set.
 
     Args:
         fy*, fy_star*, y*: ``(N_i,)`` measured ``F_y`` (N), demanded ``F_y*`` (N), position (m).
-        method: ``"paper"`` (eq. Ci per data set) or ``"offset"`` (joint fit with a shared
-            piecewise-linear offset ``b(y)`` on ``n_bins`` bins over ``y_range`` and a shared
-            direction term ``d · sign(v)``, ``v`` from the positions, zero for ``|v| <= deadband`` m/s).
-        sample_time: s, to express ``deadband`` in m/s.
+        method: ``"paper"`` (eq. Ci per data set) or ``"offset"`` (module docstring), with
+            ``n_bins`` offset bins and ``gain_bins`` gain bins over ``y_range`` (m, default the
+            data's range), samples with ``|v| <= min_speed`` (m/s; ``v`` from the positions and
+            ``sample_time``, s) left out, ripple terms when ``pole_pitch`` (m) is given.
 
     Returns:
         ``(c1, c2)``.
@@ -79,16 +93,34 @@ def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset
     y = np.concatenate([np.asarray(y1, float), np.asarray(y2, float)])
     lo, hi = (float(y.min()), float(y.max())) if y_range is None else y_range
     n1 = fy1.shape[0]
-    # Direction of motion from the positions, zero inside a dead band: at standstill the
-    # position only jitters and its sign would be noise.
     v = np.concatenate([np.gradient(np.asarray(y1, float)), np.gradient(np.asarray(y2, float))]) / sample_time
-    sgn = np.sign(v) * (np.abs(v) > deadband)
-    reg = np.zeros((y.shape[0], 2))
-    reg[:n1, 0] = fs1
-    reg[n1:, 1] = fs2
-    x = np.hstack([reg, _hat_basis(y, lo, hi, n_bins), sgn[:, None]])
-    theta, *_ = np.linalg.lstsq(x, np.concatenate([fy1, fy2]), rcond=None)
-    return float(theta[0]), float(theta[1])
+    # Standstill and reversals are left out: there the direction-dependent force and the
+    # friction change shape with speed and no position-only term can describe them.
+    keep = np.abs(v) > min_speed
+    if keep.sum() < 10 * (n_bins + gain_bins):
+        raise DataError(f"calibration: only {int(keep.sum())} samples move faster than {min_speed:g} m/s")
+    y, v = y[keep], v[keep]
+    fs = np.concatenate([fs1, fs2])[keep]
+    first = (np.arange(fy1.shape[0] + fy2.shape[0]) < n1)[keep]
+    # Position-resolved gain c_i(y) on a coarse grid (the field varies along the stroke; its
+    # mean is the fundamental) and current-proportional ripple at the 2nd (winding imbalance)
+    # and 6th (5th/7th field harmonics) electrical harmonics, separately per data set.
+    gain = _hat_basis(y, lo, hi, gain_bins)
+    cols = [gain]
+    if pole_pitch:
+        w = 4 * np.pi / pole_pitch
+        cols += [np.stack([np.cos(h * w * y), np.sin(h * w * y)], axis=1) for h in (1, 3)]
+    per_set = np.hstack(cols) * fs[:, None]
+    # Shared nuisance: one offset table per direction of motion (cogging, direction-dependent
+    # force, and the ripple of the friction force the loop demands).
+    hats = _hat_basis(y, lo, hi, n_bins)
+    nuisance = np.hstack([hats * (v > 0)[:, None], hats * (v < 0)[:, None]])
+    x = np.hstack([per_set * first[:, None], per_set * ~first[:, None], nuisance])
+    theta, *_ = np.linalg.lstsq(x, np.concatenate([fy1, fy2])[keep], rcond=None)
+    wts = np.full(gain_bins + 1, 1.0 / gain_bins)
+    wts[[0, -1]] *= 0.5  # trapezoid mean of a piecewise-linear function over [lo, hi]
+    m = per_set.shape[1]
+    return float(wts @ theta[: gain_bins + 1]), float(wts @ theta[m: m + gain_bins + 1])
 
 
 def update(c1: float, c2: float, k_hat: float, zeta_hat: float, delta: float):
@@ -107,7 +139,7 @@ def update(c1: float, c2: float, k_hat: float, zeta_hat: float, delta: float):
 
 
 def calibrate_from_datasets(datasets, k_hat, zeta_hat, delta: float, method: str = "offset",
-                            n_bins: int = 40) -> list[CalibrationStep]:
+                            n_bins: int = 40, pole_pitch=None) -> list[CalibrationStep]:
     """One pass of Algorithm 1 over coil sets, from already generated data sets.
 
     Args:
@@ -125,14 +157,14 @@ def calibrate_from_datasets(datasets, k_hat, zeta_hat, delta: float, method: str
         r1, r2 = z1.result, z2.result
         c1, c2 = fit_coefficients(r1.f_meas[:, 0], r1.f_star[:, 0], r1.y_meas,
                                   r2.f_meas[:, 0], r2.f_star[:, 0], r2.y_meas, method=method, n_bins=n_bins,
-                                  sample_time=r1.sample_time)
+                                  sample_time=r1.sample_time, pole_pitch=pole_pitch)
         k_new, z_new = update(c1, c2, float(k_hat[l]), float(zeta_hat[l]), delta)
         steps.append(CalibrationStep(l, c1, c2, k_new, z_new))
     return steps
 
 
 def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1, tol: float = 1e-4,
-              method: str = "offset", n_bins: int = 40, progress=None) -> CalibrationResult:
+              method: str = "offset", n_bins: int = 40, progress=None, pole_pitch=None) -> CalibrationResult:
     """Algorithm 1, optionally iterated until the update is below ``tol``.
 
     Args:
@@ -143,6 +175,7 @@ def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1
         iterations: maximum passes; stops earlier when ``max |Δk̂/k̂|`` and ``max |Δζ̂|`` (rad)
             are both below ``tol``.
         progress: optional callable ``progress(iteration, k, zeta)``.
+        pole_pitch: ``d_m`` (m) for the ripple terms of ``method="offset"``.
 
     Returns:
         :class:`CalibrationResult`.
@@ -152,7 +185,8 @@ def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1
     history = []
     it = 0
     for it in range(1, iterations + 1):
-        steps = calibrate_from_datasets(generate(k, zeta), k, zeta, delta, method=method, n_bins=n_bins)
+        steps = calibrate_from_datasets(generate(k, zeta), k, zeta, delta, method=method, n_bins=n_bins,
+                                        pole_pitch=pole_pitch)
         k_new, z_new = k.copy(), zeta.copy()
         for s in steps:
             k_new[s.coil_set], z_new[s.coil_set] = s.k, s.zeta

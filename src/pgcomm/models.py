@@ -88,13 +88,7 @@ class MLP:
 
     def features(self, s):
         """Last hidden layer ``h_I(s)``, shape ``S + G + (n_I,)`` for ``s`` of shape ``S + G``."""
-        act = activation_fn(self.activation)
-        (w1, b1), *rest = self.hidden
-        # The first layer has one input, so it is a broadcast multiply (no matmul).
-        h = act(jnp.asarray(s)[..., None] * w1[..., 0, :] + b1)
-        for w, b in rest:
-            h = act(jnp.einsum("...i,...ij->...j", h, w) + b)
-        return h
+        return hidden_features(self.hidden, s, self.activation)
 
     def __call__(self, s):
         """Network output ``S + G + (3,)`` for scaled positions ``s`` of shape ``S + G``."""
@@ -131,8 +125,22 @@ class MLP:
         return cls(tuple(hidden), jnp.zeros((n_prev, 3)), jnp.zeros(3), activation)
 
 
-def _phase_angles(y, pole_pitch):
-    """``(cos, sin)`` of ``2π y / d_m``, each of the shape of ``y``."""
+def hidden_features(hidden, s, activation="tanh"):
+    """Last hidden layer of a network with hidden layers ``hidden`` (see :class:`MLP`) at scaled positions ``s``.
+
+    Returns ``S + G + (n_I,)`` for ``s`` of shape ``S + G``.
+    """
+    act = activation_fn(activation)
+    (w1, b1), *rest = hidden
+    # The first layer has one input, so it is a broadcast multiply (no matmul).
+    h = act(jnp.asarray(s)[..., None] * w1[..., 0, :] + b1)
+    for w, b in rest:
+        h = act(jnp.einsum("...i,...ij->...j", h, w) + b)
+    return h
+
+
+def harmonic_basis(y, pole_pitch):
+    """``(cos, sin)`` of ``2π y / d_m`` (-), each of the shape of ``y`` (m)."""
     theta = (2.0 * np.pi / pole_pitch) * jnp.asarray(y, dtype=float)
     return jnp.cos(theta), jnp.sin(theta)
 
@@ -186,7 +194,7 @@ class CoilSetModel:
 
     def gain(self, y):
         """``K̂(y)``, shape ``S + (3, 2)`` (N/A, N/A, N·m/A)."""
-        c, s = _phase_angles(y, self.pole_pitch)
+        c, s = harmonic_basis(y, self.pole_pitch)
         k = self.A * c[..., None, None] + self.B * s[..., None, None]
         if self.gain_nets is not None:
             sc = self.scaled_position(y)
@@ -364,7 +372,7 @@ class CombinedModel:
 
     def gain(self, y):
         """``K̂^l(y)`` for all coil sets, ``S + (L, 3, 2)`` (N/A)."""
-        c, s = _phase_angles(y, self.pole_pitch)
+        c, s = harmonic_basis(y, self.pole_pitch)
         k = self.A * c[..., None, None, None] + self.B * s[..., None, None, None]
         if self.gain_nets is not None:
             sl = self.scaled_positions(y)

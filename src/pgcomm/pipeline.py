@@ -56,7 +56,8 @@ def run_calibration(setup: Setup, reference, seed: int = 0, progress=None) -> tu
                           f"zeta = {np.array2string(zeta, precision=4)} rad")
 
     cal = calibrate(gen, np.asarray(setup.motor.k), np.asarray(setup.motor.zeta), delta=cc.delta,
-                    iterations=cc.iterations, tol=cc.tol, method=cc.method, n_bins=cc.n_bins, progress=report)
+                    iterations=cc.iterations, tol=cc.tol, method=cc.method, n_bins=cc.n_bins, progress=report,
+                    pole_pitch=setup.motor.pole_pitch)
     return cal, last["data"]
 
 

@@ -59,10 +59,12 @@ class TwinParams:
     k: tuple[float, ...] = (61.34, 61.62, 60.07)
     zeta: tuple[float, ...] = (-0.54, -0.55, -0.55)
     # 2. winding imbalance, per coil set and phase a, b, c
+    # Coreless windings: a few % spread between phases from turn length and coil placement,
+    # mostly systematic (every coil set is wound alike) plus a small per-coil-set part.
     phase_gain_error: tuple[tuple[float, ...], ...] = (
-        (0.012, -0.007, -0.005), (-0.006, 0.010, -0.004), (0.004, 0.003, -0.007))
+        (0.040, -0.022, -0.018), (0.036, -0.016, -0.020), (0.042, -0.020, -0.022))
     phase_angle_error: tuple[tuple[float, ...], ...] = (
-        (0.010, -0.004, -0.006), (-0.008, 0.002, 0.006), (0.003, -0.009, 0.006))
+        (0.030, -0.012, -0.018), (0.026, -0.016, -0.010), (0.032, -0.014, -0.018))
     # 3. slow position dependence (relative to the fundamental; positions in m)
     field_slope: float = 0.006           # relative change per 0.1 m
     field_curvature: float = -0.004      # relative, times ((p/0.1)^2 - 1/3)

@@ -1,0 +1,1135 @@
+"""Identification of the electromagnetic part: cost, Proposition 1 and variable-projection training.
+
+What this module implements (labels of the paper):
+
+* the cost eq. Identification_CostFunction for one coil set ``l``::
+
+      V = 1/(2N) Σ_{t ∈ Z_1 ∪ Z_2} ||F(t) - F̂(t)||² + ||Λ (θ_phy - θ_phy*)||²
+
+  with ``2N`` the total number of (training) samples of both data sets, ``Λ`` diagonal
+  (12 entries, default ``0.1 I``) and ``θ_phy = [col(A); col(B)]``;
+* the physics-only fit (linear least squares for ``A, B``) giving ``θ_phy*``;
+* the linear-in-the-parameters rewrite (eqs. PGNN_Rewritten_LIP, Linear_Parameter_Vector):
+  ``F̂_q(t) = M(θ_NL, t) θ_L,q`` for ``q ∈ {y, x, z}`` with ONE regressor row shared by the
+  three directions (each network outputs ``R^3`` from shared hidden features)::
+
+      M = [cos·ia, cos·ib, sin·ia, sin·ib, h_1(s)·ia, ia, h_2(s)·ib, ib, h_φ(s), 1]
+
+  (``cos, sin`` of ``2πy/d_m``, ``h`` the last hidden layers, ``s`` the scaled position);
+  ``θ_L,q = [A_q1, A_q2, B_q1, B_q2, W_1[:, q], b_1[q], W_2[:, q], b_2[q], W_φ[:, q], b_φ[q]]``;
+* Proposition 1 (eq. Optimal_Initialization): the optimal ``θ_L`` for given hidden
+  weights ``θ_NL``, solved as a least-squares problem through an orthogonal factorisation
+  (never by inverting the normal matrix);
+* Algorithm 2 by variable projection: Levenberg–Marquardt over ``θ_NL`` only, with
+  ``θ_L = Prop1(θ_NL)`` inside the loop and the exact Jacobian of the projected residual,
+  several random starts at once (``jax.vmap``), the best kept;
+* the persistent-excitation check of the paper's Remark.
+
+Numerics (why it is done this way)
+----------------------------------
+The regressor of a 16-unit cogging network is nearly rank deficient (condition numbers of
+``1e13``–``1e15`` even on scaled positions), so Proposition 1 needs an orthogonal
+factorisation. A Householder QR from JAX on CPU is two orders of magnitude slower than a
+matrix product, so the factorisation ``[M, F] D^{-1} = Q R`` is computed as a *repeated
+Gram factorisation* (CholeskyQR3 with an eigenvalue floor in place of the Cholesky shift):
+each pass accumulates ``G = Σ_chunks (A_c R^{-1})ᵀ (A_c R^{-1})`` over chunks of samples
+(matrix products only), factors ``G = R_kᵀ R_k`` by a symmetric eigendecomposition with
+eigenvalues floored at ``10·m·u·λ_max``, and updates ``R <- R_k R``. After three passes ``Q``
+is orthonormal to working precision for condition numbers up to about ``1/u``, and exactly
+dependent directions are damped instead of producing NaN. ``R`` is square (``m = p + 3``),
+not triangular; the small least-squares problems are then solved by SVD with the relative
+cut-off ``rcond`` (a minimum-norm solution), exactly like ``numpy.linalg.lstsq`` on the full
+problem. Memory is bounded by the chunk size, independent of ``N``.
+
+Sums over samples are never formed as an ``N x n`` Jacobian: the structured path (single
+hidden layer, the paper's networks) reads every sum it needs from one Gram matrix of
+``[M, F, V]`` accumulated in the first pass (``V`` are the derivatives of the features with
+respect to their own hidden weights, obtained with ``jax.jvp`` of the activation); the
+generic path (deeper networks) makes one more chunked pass with ``jax.jacfwd`` of the
+feature map. Both give the same ``JᵀJ`` and ``Jᵀr`` (tested).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from pgcomm._pytree import pytree_dataclass
+from pgcomm.commutation import currents_to_drive_inputs, drive_currents
+from pgcomm.errors import DataError, ExcitationError
+from pgcomm.models import (
+    DEFAULT_COG_WIDTHS,
+    DEFAULT_GAIN_WIDTHS,
+    MLP,
+    CoilSetModel,
+    CombinedModel,
+    activation_fn,
+    harmonic_basis,
+    hidden_features,
+)
+
+#: Default regularisation weight (``Λ = 0.1 I``, paper §Experimental results).
+DEFAULT_LAMBDA = 0.1
+#: Samples per chunk of the accumulated sums (structured / generic Jacobian path).
+DEFAULT_CHUNK = 4096
+DEFAULT_CHUNK_GENERIC = 512
+#: Relative singular-value cut-off of the small least-squares problems (minimum-norm solution).
+DEFAULT_RCOND = 1e-10
+#: Eigenvalue floor of the Gram factorisations, relative to the largest eigenvalue, per column.
+_FLOOR_PER_COLUMN = 10 * np.finfo(float).eps
+
+_STOP_REASONS = {0: "running", 1: "relative cost change below tol", 2: "step below tol",
+                 3: "damping too large (no decrease possible)", 4: "maximum iterations", 5: "non-finite cost"}
+
+
+# --------------------------------------------------------------------------------------------
+# data
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CoilSetData:
+    """Measurements of one coil set operated alone (data sets ``Z_1^l ∪ Z_2^l``, eq. DataSets).
+
+    Attributes:
+        y: ``(N,)`` positions (m).
+        currents: ``(N, 2)`` star currents ``(ia, ib)`` of this coil set (A).
+        force: ``(N, 3)`` measured ``[Fy, Fx, Tz]`` (N, N, N·m).
+        experiment: ``(N,)`` integer label of the data set ``Z_i`` each sample belongs to.
+        name: used in messages, e.g. ``"coil set 2"``.
+    """
+
+    y: np.ndarray
+    currents: np.ndarray
+    force: np.ndarray
+    experiment: np.ndarray | None = None
+    name: str = "coil set"
+
+    def __post_init__(self):
+        y = np.asarray(self.y, dtype=float)
+        cur = np.asarray(self.currents, dtype=float)
+        frc = np.asarray(self.force, dtype=float)
+        n = y.shape[0] if y.ndim == 1 else -1
+        if y.ndim != 1:
+            raise DataError(f"{self.name}: positions y must be 1-D, got shape {y.shape}")
+        if cur.shape != (n, 2):
+            raise DataError(f"{self.name}: currents must have shape ({n}, 2), got {cur.shape}")
+        if frc.shape != (n, 3):
+            raise DataError(f"{self.name}: force must have shape ({n}, 3), got {frc.shape}")
+        exp = np.zeros(n, dtype=int) if self.experiment is None else np.asarray(self.experiment)
+        if exp.shape != (n,):
+            raise DataError(f"{self.name}: experiment labels must have shape ({n},), got {exp.shape}")
+        for label, arr in (("y", y), ("currents", cur), ("force", frc)):
+            bad = ~np.isfinite(arr.reshape(n, -1)).all(axis=1)
+            if bad.any():
+                raise DataError(f"{self.name}: {label} is not finite in row {int(np.argmax(bad))} "
+                                f"({int(bad.sum())} rows)")
+        object.__setattr__(self, "y", y)
+        object.__setattr__(self, "currents", cur)
+        object.__setattr__(self, "force", frc)
+        object.__setattr__(self, "experiment", exp.astype(int))
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return int(self.y.shape[0])
+
+    @classmethod
+    def from_drive_inputs(cls, y, fy, delta, force, k_hat, zeta_hat, pole_pitch, experiment=None,
+                          name="coil set") -> "CoilSetData":
+        """Data logged as drive inputs ``(Fy^l*, Δ^l)`` (the dotted block of Fig. PGNN_Parametrization).
+
+        The currents are ``i = Γ(y) T(Fy*, Δ)`` (:func:`pgcomm.commutation.drive_currents`).
+
+        Args:
+            y: ``(N,)`` (m); fy: ``(N,)`` commanded force (N); delta: ``(N,)`` phase offset (rad);
+            force: ``(N, 3)``; k_hat (N/A), zeta_hat (rad): the drive's fixed commutation;
+            pole_pitch: ``d_m`` (m); experiment: ``(N,)`` labels.
+        """
+        y = np.asarray(y, dtype=float)
+        fy = np.asarray(fy, dtype=float)
+        delta = np.asarray(delta, dtype=float)
+        if fy.shape != y.shape or delta.shape != y.shape:
+            raise DataError(f"{name}: fy and delta must have the shape of y {y.shape}, got {fy.shape}, {delta.shape}")
+        cur = np.asarray(drive_currents(y, fy[:, None], delta[:, None], k_hat, zeta_hat, pole_pitch))[:, 0, :]
+        return cls(y, cur, force, experiment, name)
+
+    def take(self, index) -> "CoilSetData":
+        """The samples ``index`` (integer array or boolean mask)."""
+        return CoilSetData(self.y[index], self.currents[index], self.force[index], self.experiment[index], self.name)
+
+
+def split_indices(n: int, validation_fraction: float = 0.2, block_size: int = 500):
+    """Deterministic train/validation split of ``n`` samples by contiguous blocks.
+
+    Samples are grouped in blocks of ``block_size``; with ``k = round(1 / validation_fraction)``
+    the last block of every group of ``k`` goes to validation (``0.2`` -> every 5th block).
+    Contiguous blocks keep the strongly correlated neighbouring samples on one side.
+
+    Returns:
+        ``(train_index, validation_index)`` integer arrays.
+    """
+    if not 0.0 <= validation_fraction <= 0.5:
+        raise ValueError(f"validation_fraction must be in [0, 0.5], got {validation_fraction}")
+    idx = np.arange(n)
+    if validation_fraction == 0.0:
+        return idx, idx[:0]
+    k = max(2, int(round(1.0 / validation_fraction)))
+    is_val = (idx // int(block_size)) % k == k - 1
+    return idx[~is_val], idx[is_val]
+
+
+def train_validation_split(data: CoilSetData, validation_fraction: float = 0.2, block_size: int = 500):
+    """``(train, validation)`` :class:`CoilSetData` by :func:`split_indices`."""
+    tr, va = split_indices(data.n, validation_fraction, block_size)
+    return data.take(tr), data.take(va)
+
+
+# --------------------------------------------------------------------------------------------
+# parameters: θ_phy, Λ, θ_L layout
+# --------------------------------------------------------------------------------------------
+
+
+def theta_phy(A, B) -> np.ndarray:
+    """``θ_phy = [col(A); col(B)]`` (12,) for ``A, B`` of shape ``(3, 2)`` (column stacking)."""
+    return np.concatenate([np.asarray(A, float).T.ravel(), np.asarray(B, float).T.ravel()])
+
+
+def theta_phy_to_AB(theta) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of :func:`theta_phy`: ``(A, B)``, each ``(3, 2)``."""
+    theta = np.asarray(theta, float)
+    return theta[:6].reshape(2, 3).T, theta[6:].reshape(2, 3).T
+
+
+def lambda_diagonal(Lambda) -> np.ndarray:
+    """The 12 diagonal entries of ``Λ`` from a scalar, a ``(12,)`` vector or a diagonal ``(12, 12)`` matrix."""
+    lam = np.asarray(Lambda, dtype=float)
+    if lam.ndim == 0:
+        return np.full(12, float(lam))
+    if lam.shape == (12,):
+        return lam.copy()
+    if lam.shape == (12, 12):
+        if np.any(lam - np.diag(np.diag(lam))):
+            raise ValueError("Λ must be diagonal (Proposition 1 needs a diagonal Λ)")
+        return np.diag(lam).copy()
+    raise ValueError(f"Λ must be a scalar, (12,) or (12, 12); got shape {lam.shape}")
+
+
+def _physics_columns(q: int) -> np.ndarray:
+    """Indices in ``θ_phy`` of ``A[q, 0], A[q, 1], B[q, 0], B[q, 1]`` (the first 4 entries of ``θ_L,q``)."""
+    return np.array([q, 3 + q, 6 + q, 9 + q])
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Static structure of the LIP rewrite: which networks, widths, activation, Jacobian method."""
+
+    gain_widths: tuple | None
+    cog_widths: tuple | None
+    activation: str
+    method: str = "auto"  # "structured" | "generic" | "auto"
+
+    @classmethod
+    def of(cls, model: CoilSetModel, method="auto") -> "_Layout":
+        gw = None if model.gain_nets is None else model.gain_nets[0].widths
+        if model.gain_nets is not None and model.gain_nets[1].widths != gw:
+            raise ValueError("both gain networks must have the same widths")
+        cw = None if model.cog_net is None else model.cog_net.widths
+        nets = ([] if model.gain_nets is None else list(model.gain_nets)) + ([] if model.cog_net is None else [model.cog_net])
+        acts = {net.activation for net in nets} or {"tanh"}
+        if len(acts) != 1:
+            raise ValueError(f"all networks must share one activation, got {sorted(acts)}")
+        return cls(gw, cw, acts.pop(), method)
+
+    @property
+    def blocks(self) -> tuple:
+        """``(multiplier, widths)`` per network in column order; multiplier 0 = ia, 1 = ib, 2 = 1."""
+        out = []
+        if self.gain_widths is not None:
+            out += [(0, self.gain_widths), (1, self.gain_widths)]
+        if self.cog_widths is not None:
+            out.append((2, self.cog_widths))
+        return tuple(out)
+
+    @property
+    def p(self) -> int:
+        """Length of one regressor row (of ``θ_L,q``)."""
+        return 4 + sum(w[-1] + 1 for _, w in self.blocks)
+
+    @property
+    def n_nl(self) -> int:
+        """Number of hidden-layer parameters ``θ_NL``."""
+        total = 0
+        for _, widths in self.blocks:
+            n_prev = 1
+            for n in widths:
+                total += n_prev * n + n
+                n_prev = n
+        return total
+
+    @property
+    def structured(self) -> bool:
+        """Use the single-hidden-layer structure for the Jacobian sums."""
+        single = all(len(w) == 1 for _, w in self.blocks)
+        if self.method == "structured" and not single:
+            raise ValueError("the structured Jacobian needs networks with one hidden layer")
+        return single if self.method == "auto" else self.method == "structured"
+
+    def feature_columns(self) -> list[int]:
+        """First column in ``M`` of each network's hidden-feature block."""
+        cols, c = [], 4
+        for _, w in self.blocks:
+            cols.append(c)
+            c += w[-1] + 1
+        return cols
+
+    def output_weight_mask(self) -> np.ndarray:
+        """``(p,)`` True at the columns of ``M`` whose parameters are network output WEIGHTS."""
+        mask = np.zeros(self.p, bool)
+        for c, (_, w) in zip(self.feature_columns(), self.blocks):
+            mask[c:c + w[-1]] = True
+        return mask
+
+    def param_feature_column(self) -> np.ndarray:
+        """Structured path: for each entry of ``θ_NL`` the column of ``M`` of the unit it feeds."""
+        out = []
+        for c, (_, w) in zip(self.feature_columns(), self.blocks):
+            units = np.arange(w[0])
+            out += [c + units, c + units]  # weights then biases of the single hidden layer
+        return np.concatenate(out) if out else np.zeros(0, int)
+
+
+def _hidden_list(model: CoilSetModel) -> list:
+    nets = ([] if model.gain_nets is None else list(model.gain_nets)) + ([] if model.cog_net is None else [model.cog_net])
+    return [net.hidden for net in nets]
+
+
+def hidden_vector(model: CoilSetModel) -> jnp.ndarray:
+    """``θ_NL`` of ``model`` as a flat vector.
+
+    Order: networks ``f_1, f_2, f_φ`` (those present); per network its hidden layers in
+    order; per layer ``W.ravel()`` (row-major ``(n_{i-1}, n_i)``) then ``b``.
+    """
+    parts = [jnp.ravel(a) for hidden in _hidden_list(model) for wb in hidden for a in wb]
+    return jnp.concatenate(parts) if parts else jnp.zeros(0)
+
+
+def _unflatten(layout: _Layout, flat) -> list:
+    out, i = [], 0
+    for _, widths in layout.blocks:
+        layers, n_prev = [], 1
+        for n in widths:
+            w = flat[i:i + n_prev * n].reshape(n_prev, n)
+            i += n_prev * n
+            b = flat[i:i + n]
+            i += n
+            layers.append((w, b))
+            n_prev = n
+        out.append(tuple(layers))
+    return out
+
+
+def with_hidden_vector(model: CoilSetModel, flat) -> CoilSetModel:
+    """Copy of ``model`` with ``θ_NL`` replaced by the flat vector ``flat`` (order of :func:`hidden_vector`)."""
+    layout = _Layout.of(model)
+    hidden = iter(_unflatten(layout, jnp.asarray(flat)))
+    gain = None
+    if model.gain_nets is not None:
+        gain = tuple(MLP(next(hidden), net.W_out, net.b_out, net.activation) for net in model.gain_nets)
+    cog = None
+    if model.cog_net is not None:
+        cog = MLP(next(hidden), model.cog_net.W_out, model.cog_net.b_out, model.cog_net.activation)
+    return CoilSetModel(model.A, model.B, gain, cog, model.pole_pitch, model.y_center, model.y_scale,
+                        model.y_min, model.y_max)
+
+
+def theta_L_of(model: CoilSetModel) -> jnp.ndarray:
+    """``θ_L`` of ``model`` as a ``(p, 3)`` matrix whose column ``q`` is ``θ_L,q`` (eq. Linear_Parameter_Vector)."""
+    rows = [model.A[:, 0], model.A[:, 1], model.B[:, 0], model.B[:, 1]]
+    nets = ([] if model.gain_nets is None else list(model.gain_nets)) + ([] if model.cog_net is None else [model.cog_net])
+    for net in nets:
+        rows += list(net.W_out) + [net.b_out]
+    return jnp.stack(rows)
+
+
+def with_theta_L(model: CoilSetModel, theta_L) -> CoilSetModel:
+    """Copy of ``model`` with the linear parameters from a ``(p, 3)`` ``θ_L`` (inverse of :func:`theta_L_of`)."""
+    theta_L = jnp.asarray(theta_L)
+    A = jnp.stack([theta_L[0], theta_L[1]], axis=1)
+    B = jnp.stack([theta_L[2], theta_L[3]], axis=1)
+    i = 4
+    outs = []
+    nets = ([] if model.gain_nets is None else list(model.gain_nets)) + ([] if model.cog_net is None else [model.cog_net])
+    for net in nets:
+        n = net.W_out.shape[0]
+        outs.append((theta_L[i:i + n], theta_L[i + n]))
+        i += n + 1
+    gain_out = outs[:2] if model.gain_nets is not None else None
+    cog_out = outs[-1] if model.cog_net is not None else None
+    return model.with_outputs(A, B, gain_out, cog_out)
+
+
+# --------------------------------------------------------------------------------------------
+# regressor
+# --------------------------------------------------------------------------------------------
+
+
+def _features(layout: _Layout, hidden, y, currents, pole_pitch, y_center, y_scale, with_v=False):
+    """Regressor ``M`` ``(c, p)`` and, for the structured path, ``V`` ``(c, n_NL)``.
+
+    ``V[:, i] = ∂M[:, col(i)] / ∂θ_NL[i]`` where ``col(i)`` is the feature column of the unit
+    that parameter ``i`` feeds: ``u·s`` for a weight and ``u`` for a bias, ``u = α'(z)·mult``.
+    """
+    c, sn = harmonic_basis(y, pole_pitch)
+    s = (y - y_center) / y_scale
+    ia, ib = currents[..., 0], currents[..., 1]
+    mults = (ia, ib, jnp.ones_like(y))
+    cols = [(c * ia)[:, None], (c * ib)[:, None], (sn * ia)[:, None], (sn * ib)[:, None]]
+    vcols = []
+    act = activation_fn(layout.activation)
+    for (kind, _), layers in zip(layout.blocks, hidden):
+        mult = mults[kind][:, None]
+        if with_v:
+            ((w, b),) = layers
+            z = s[:, None] * w[0] + b
+            h, dh = jax.jvp(act, (z,), (jnp.ones_like(z),))
+            u = dh * mult
+            vcols += [u * s[:, None], u]
+        else:
+            h = hidden_features(layers, s, layout.activation)
+        cols += [h * mult, mult]
+    m = jnp.concatenate(cols, axis=1)
+    return (m, jnp.concatenate(vcols, axis=1)) if with_v else m
+
+
+def regressor(theta_nl: CoilSetModel, y, currents):
+    """LIP regressor ``M(θ_NL, t)`` (eq. PGNN_Rewritten_LIP), the same for the three directions.
+
+    ``F̂_q(t) = M(θ_NL, t) θ_L,q`` with ``θ_L = theta_L_of(model)``.
+
+    Args:
+        theta_nl: a :class:`CoilSetModel`; its hidden layers are ``θ_NL`` (its ``A, B`` and
+            output layers are not used) and it gives ``d_m`` and the input scaling.
+        y: ``(N,)`` (m); currents: ``(N, 2)`` (A).
+
+    Returns:
+        ``(N, p)`` with columns ``[cos·ia, cos·ib, sin·ia, sin·ib, h_1·ia, ia, h_2·ib, ib, h_φ, 1]``
+        (networks that are absent leave their columns out).
+    """
+    layout = _Layout.of(theta_nl)
+    return _features(layout, _hidden_list(theta_nl), jnp.asarray(y, float), jnp.asarray(currents, float),
+                     theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
+
+
+# --------------------------------------------------------------------------------------------
+# the projected problem (jitted core)
+# --------------------------------------------------------------------------------------------
+
+
+@pytree_dataclass
+class _Chunks:
+    """Training data padded to whole chunks: ``(C, c)`` positions, ``(C, c, 2)`` currents, ``(C, c, 3)`` forces, mask."""
+
+    y: jnp.ndarray
+    currents: jnp.ndarray
+    force: jnp.ndarray
+    mask: jnp.ndarray
+
+
+@pytree_dataclass
+class _Consts:
+    """Numbers of the problem (traced, so other values do not recompile)."""
+
+    pole_pitch: jnp.ndarray
+    y_center: jnp.ndarray
+    y_scale: jnp.ndarray
+    two_n: jnp.ndarray  # 2N: number of training samples
+    reg_w: jnp.ndarray  # (3, p) weight of each regularisation row (Λ_q on physics, sqrt(ridge) on W_out)
+    theta_bar: jnp.ndarray  # (p, 3) regularisation targets (θ_phy* on physics, 0 elsewhere)
+    rcond: jnp.ndarray
+
+
+@pytree_dataclass
+class _Eval:
+    """One evaluation of the projected problem at ``θ_NL``.
+
+    ``f = ½ ||r̃||²`` with ``r̃`` all data rows and regularisation rows (so ``V_obj = f / N``);
+    ``data2, phys2, ridge2``: the three parts of ``||r̃||²``; ``jtj, jtr``: ``JᵀJ`` and ``Jᵀr̃``.
+    """
+
+    f: jnp.ndarray
+    data2: jnp.ndarray
+    phys2: jnp.ndarray
+    ridge2: jnp.ndarray
+    theta_L: jnp.ndarray
+    jtj: jnp.ndarray
+    jtr: jnp.ndarray
+
+
+def _to_chunks(data: CoilSetData, chunk: int, y_fill: float) -> _Chunks:
+    n = data.n
+    n_chunks = max(1, -(-n // chunk))
+    pad = n_chunks * chunk - n
+    y = np.concatenate([data.y, np.full(pad, y_fill)])
+    cur = np.concatenate([data.currents, np.zeros((pad, 2))])
+    frc = np.concatenate([data.force, np.zeros((pad, 3))])
+    mask = np.concatenate([np.ones(n), np.zeros(pad)])
+    return _Chunks(jnp.asarray(y.reshape(n_chunks, chunk)), jnp.asarray(cur.reshape(n_chunks, chunk, 2)),
+                   jnp.asarray(frc.reshape(n_chunks, chunk, 3)), jnp.asarray(mask.reshape(n_chunks, chunk)))
+
+
+def _gram_factor(g):
+    """``G = Rᵀ R`` with ``R = Λ^{1/2} Vᵀ`` from ``eigh`` (eigenvalues floored); returns ``(R, R^{-1})``."""
+    lam, vec = jnp.linalg.eigh(g)
+    floor = _FLOOR_PER_COLUMN * g.shape[0] * jnp.maximum(lam[-1], 1e-300)
+    sq = jnp.sqrt(jnp.maximum(lam, floor))
+    return sq[:, None] * vec.T, vec / sq[None, :]
+
+
+def _evaluate(layout: _Layout, flat, chunks: _Chunks, k: _Consts, want_jac: bool = True) -> _Eval:
+    """Proposition 1 at ``θ_NL = flat`` plus, if ``want_jac``, the normal equations of the projected residual.
+
+    Per direction ``q`` the least-squares problem of eq. Identification_CostFunctionRewritten
+    (times ``2N``) is::
+
+        min_θ || [ M          ] θ  -  [ F_q              ] ||²
+              || [ √(2N) W_q  ]       [ √(2N) W_q θ̄_q    ] ||
+
+    with ``W_q`` diagonal (``Λ_q`` on the physics entries, ``√ridge`` on network output
+    weights, 0 elsewhere); its solution is eq. Optimal_Initialization. With
+    ``[M, F] D^{-1} = Q R`` it becomes the small problem ``[R_M; √(2N) W_q D_M^{-1}] θ_s ≈
+    [R_F,q d_q; √(2N) W_q θ̄_q]`` in ``θ_s = D_M θ``, solved by SVD ``Ũ Σ Ṽᵀ`` (cut-off ``rcond``).
+
+    Jacobian (exact, Golub–Pereyra): with ``G = Σ_t M_tᵀM_t + 2N W_q²``, ``r = F - M θ_L``,
+    ``a_t,q = (∂M_t/∂θ_NL)ᵀ θ_L,q``, ``P_q = Σ_t M_tᵀ a_t,qᵀ``, ``E_q = Σ_t r_t,q ∂M_t/∂θ_NL``::
+
+        dθ_L,q/dθ_NL = G^{-1}(E_q - P_q)
+        J_t,q = -(a_t,q + M_t dθ_L,q/dθ_NL),   J_reg,q = -√(2N) W_q dθ_L,q/dθ_NL
+        JᵀJ = Σ_q [ Σ_t a_t,q a_t,qᵀ - P_qᵀ G^{-1} P_q + E_qᵀ G^{-1} E_q ]
+        Jᵀr̃ = -Σ_q E_qᵀ θ_L,q
+
+    (``Jᵀr̃`` has no ``dθ_L`` term because ``[M; √(2N)W_q]ᵀ r̃_q = 0`` at the least-squares
+    solution); ``G^{-1}`` is applied as ``Ṽ Σ^{-2} Ṽᵀ`` from the same SVD.
+    """
+    hidden = _unflatten(layout, flat)
+    p, m = layout.p, layout.p + 3
+    structured = want_jac and layout.structured
+
+    def rows(yc, cc, fc, mc, with_v):
+        out = _features(layout, hidden, yc, cc, k.pole_pitch, k.y_center, k.y_scale, with_v=with_v)
+        mm, vv = out if with_v else (out, None)
+        a = jnp.concatenate([mm, fc], axis=1) * mc[:, None]
+        return a, (None if vv is None else vv * mc[:, None])
+
+    # Pass 1: Gram of [M, F] (and, structured, of [M, F, V]).
+    def pass1(g, ch):
+        a, v = rows(*ch, with_v=structured)
+        z = a if v is None else jnp.concatenate([a, v], axis=1)
+        return g + z.T @ z, None
+
+    mz = m + (layout.n_nl if structured else 0)
+    g1, _ = lax.scan(pass1, jnp.zeros((mz, mz)), (chunks.y, chunks.currents, chunks.force, chunks.mask))
+    ga = g1[:m, :m]
+    d = jnp.sqrt(jnp.diagonal(ga))
+    d = jnp.where(d > 0, d, 1.0)
+    r_tot, r_inv = _gram_factor(ga / (d[:, None] * d[None, :]))
+
+    # Passes 2 and 3: re-orthogonalise (CholeskyQR3 with eigenvalue floor).
+    def pass_q(t_inv):
+        def body(g, ch):
+            a, _ = rows(*ch, with_v=False)
+            q = (a / d) @ t_inv
+            return g + q.T @ q, None
+
+        g, _ = lax.scan(body, jnp.zeros((m, m)), (chunks.y, chunks.currents, chunks.force, chunks.mask))
+        return _gram_factor(g)
+
+    for _ in range(2):
+        rk, rk_inv = pass_q(r_inv)
+        r_tot, r_inv = rk @ r_tot, r_inv @ rk_inv
+
+    # Small problems, one per direction q.
+    d_m, d_f = d[:p], d[p:]
+    sq2n = jnp.sqrt(k.two_n)
+    r_m = r_tot[:, :p]
+
+    def solve_q(q):
+        w = sq2n * k.reg_w[q]
+        a_small = jnp.concatenate([r_m, jnp.diag(w / d_m)], axis=0)
+        b_small = jnp.concatenate([r_tot[:, p + q] * d_f[q], w * k.theta_bar[:, q]])
+        u, sv, vt = jnp.linalg.svd(a_small, full_matrices=False)
+        sinv = jnp.where(sv > k.rcond * sv[0], 1.0 / jnp.where(sv > 0, sv, 1.0), 0.0)
+        th_s = vt.T @ (sinv * (u.T @ b_small))
+        res = b_small - a_small @ th_s
+        return th_s / d_m, res, sinv, vt
+
+    theta_L, res, sinv, vt = jax.vmap(solve_q, out_axes=(1, 0, 0, 0))(jnp.arange(3))
+    data2 = jnp.sum(res[:, :m] ** 2)
+    phys = jnp.asarray(np.arange(p) < 4)
+    phys2 = jnp.sum(jnp.where(phys, res[:, m:] ** 2, 0.0))
+    ridge2 = jnp.sum(jnp.where(phys, 0.0, res[:, m:] ** 2))
+    f = 0.5 * (data2 + phys2 + ridge2)
+    n = layout.n_nl
+    if not want_jac:
+        return _Eval(f, data2, phys2, ridge2, theta_L, jnp.zeros((n, n)), jnp.zeros(n))
+
+    if structured:
+        # Every sum follows from the Gram of [M, F, V] (see _features): with w_q = θ_L[col(i), q],
+        # a_t,q[i] = w_q[i] V_t[i], (∂M_t/∂θ_NL)[col(i), i] = V_t[i], zero elsewhere.
+        col = layout.param_feature_column()
+        s_vv, s_vm, s_vf = g1[m:, m:], g1[m:, :p], g1[m:, p:m]
+        wq = theta_L[col, :].T  # (3, n)
+        s_aa = wq[:, :, None] * s_vv[None] * wq[:, None, :]
+        p_q = s_vm.T[None] * wq[:, None, :]
+        rho = s_vf.T - (s_vm @ theta_L).T  # Σ_t r_t,q V_t[i]
+        onehot = jnp.asarray(np.arange(p)[:, None] == col[None, :], dtype=float)
+        e_q = onehot[None] * rho[:, None, :]
+    else:
+        s_aa, p_q, e_q = _generic_sums(layout, flat, chunks, k, theta_L)
+
+    def assemble(q):
+        x = sinv[q][:, None] * (vt[q] @ (p_q[q] / d_m[:, None]))
+        z = sinv[q][:, None] * (vt[q] @ (e_q[q] / d_m[:, None]))
+        return s_aa[q] - x.T @ x + z.T @ z, -(e_q[q].T @ theta_L[:, q])
+
+    jtj_q, jtr_q = jax.vmap(assemble)(jnp.arange(3))
+    jtj = jnp.sum(jtj_q, axis=0)
+    return _Eval(f, data2, phys2, ridge2, theta_L, 0.5 * (jtj + jtj.T), jnp.sum(jtr_q, axis=0))
+
+
+def _generic_sums(layout: _Layout, flat, chunks: _Chunks, k: _Consts, theta_L):
+    """Chunked ``Σ_t a a^T``, ``P_q``, ``E_q`` with ``∂M/∂θ_NL`` from ``jax.jacfwd`` (any depth)."""
+    p, n = layout.p, layout.n_nl
+
+    def feats(fl, yc, cc):
+        return _features(layout, _unflatten(layout, fl), yc, cc, k.pole_pitch, k.y_center, k.y_scale)
+
+    def body(acc, ch):
+        yc, cc, fc, mc = ch
+        mm, dm = feats(flat, yc, cc), jax.jacfwd(feats)(flat, yc, cc)  # (c, p), (c, p, n)
+        mm = mm * mc[:, None]
+        dm = dm * mc[:, None, None]
+        r = (fc - mm @ theta_L) * mc[:, None]
+        a = jnp.einsum("cpn,pq->qcn", dm, theta_L)
+        s_aa, p_q, e_q = acc
+        return (s_aa + jnp.einsum("qcn,qcm->qnm", a, a), p_q + jnp.einsum("cp,qcn->qpn", mm, a),
+                e_q + jnp.einsum("cq,cpn->qpn", r, dm)), None
+
+    init = (jnp.zeros((3, n, n)), jnp.zeros((3, p, n)), jnp.zeros((3, p, n)))
+    out, _ = lax.scan(body, init, (chunks.y, chunks.currents, chunks.force, chunks.mask))
+    return out
+
+
+_evaluate_jit = jax.jit(_evaluate, static_argnums=(0, 4))
+_evaluate_batch = jax.jit(jax.vmap(_evaluate, in_axes=(None, 0, None, None, None)), static_argnums=(0, 4))
+
+
+# --------------------------------------------------------------------------------------------
+# public: physics fit, cost, Proposition 1, projected residual
+# --------------------------------------------------------------------------------------------
+
+
+def fit_physics(data: CoilSetData, pole_pitch: float) -> tuple[np.ndarray, np.ndarray]:
+    """Physics-only least squares: ``min Σ_t ||F - (A cos + B sin) i||²`` (no networks, no cogging, no Λ).
+
+    Solved per direction ``q`` by ``numpy.linalg.lstsq`` on the columns
+    ``[cos·ia, cos·ib, sin·ia, sin·ib]``.
+
+    Returns:
+        ``(A, B)``, each ``(3, 2)`` (N/A); ``θ_phy* = theta_phy(A, B)``.
+    """
+    c, s = (np.asarray(x) for x in harmonic_basis(data.y, pole_pitch))
+    ia, ib = data.currents[:, 0], data.currents[:, 1]
+    x = np.column_stack([c * ia, c * ib, s * ia, s * ib])
+    coef, *_ = np.linalg.lstsq(x, data.force, rcond=None)  # (4, 3)
+    return coef[:2].T.copy(), coef[2:].T.copy()
+
+
+@dataclass(frozen=True)
+class CostTerms:
+    """Parts of eq. Identification_CostFunction.
+
+    Attributes:
+        data: ``1/(2N) Σ ||F - F̂||²`` (N²).
+        regularisation: ``||Λ (θ_phy - θ_phy*)||²`` (0 if no ``θ_phy*`` was given).
+        total: ``data + regularisation`` (the paper's ``V``).
+    """
+
+    data: float
+    regularisation: float
+
+    @property
+    def total(self) -> float:
+        return self.data + self.regularisation
+
+
+def cost(model: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_phy_star=None) -> CostTerms:
+    """Evaluate eq. Identification_CostFunction of ``model`` on ``data`` directly (no LIP rewrite).
+
+    Args:
+        model: :class:`CoilSetModel`; data: the samples (``2N = data.n``);
+        Lambda: ``Λ`` (see :func:`lambda_diagonal`); theta_phy_star: ``(12,)`` or ``None``
+            (then the regularisation term is 0).
+    """
+    if data.n == 0:
+        return CostTerms(float("nan"), 0.0)
+    f_hat = np.asarray(_force_jit(model, data.y, data.currents))
+    dat = float(np.sum((data.force - f_hat) ** 2) / (2 * data.n))
+    reg = 0.0
+    if theta_phy_star is not None:
+        reg = float(np.sum((lambda_diagonal(Lambda) * (theta_phy(model.A, model.B) - np.asarray(theta_phy_star))) ** 2))
+    return CostTerms(dat, reg)
+
+
+_force_jit = jax.jit(lambda model, y, currents: model.force(y, currents))
+
+
+def _consts(layout: _Layout, model: CoilSetModel, n_train: int, Lambda, theta_phy_star, ridge_output, rcond) -> _Consts:
+    lam = lambda_diagonal(Lambda)
+    if ridge_output < 0:
+        raise ValueError(f"ridge_output must be >= 0, got {ridge_output}")
+    p = layout.p
+    reg_w = np.zeros((3, p))
+    theta_bar = np.zeros((p, 3))
+    star = np.asarray(theta_phy_star, float)
+    for q in range(3):
+        cols = _physics_columns(q)
+        reg_w[q, :4] = lam[cols]
+        theta_bar[:4, q] = star[cols]
+        reg_w[q, layout.output_weight_mask()] = np.sqrt(ridge_output)
+    return _Consts(jnp.asarray(float(model.pole_pitch)), jnp.asarray(float(model.y_center)),
+                   jnp.asarray(float(model.y_scale)), jnp.asarray(float(n_train)), jnp.asarray(reg_w),
+                   jnp.asarray(theta_bar), jnp.asarray(float(rcond)))
+
+
+def _star_or_fit(data, pole_pitch, theta_phy_star):
+    if theta_phy_star is None:
+        return theta_phy(*fit_physics(data, pole_pitch))
+    if isinstance(theta_phy_star, tuple) and len(theta_phy_star) == 2:
+        return theta_phy(*theta_phy_star)
+    star = np.asarray(theta_phy_star, float)
+    if star.shape != (12,):
+        raise ValueError(f"theta_phy_star must be (12,) or (A, B); got shape {star.shape}")
+    return star
+
+
+@dataclass(frozen=True)
+class Proposition1Result:
+    """Result of :func:`proposition1`.
+
+    Attributes:
+        theta_L: ``(p, 3)``, column ``q`` is ``θ_L,q`` (eq. Optimal_Initialization).
+        model: the input model with these linear parameters.
+        cost: ``V`` (data + Λ term, eq. Identification_CostFunction) at that point.
+        cost_data, cost_regularisation: its two parts; ridge_term: ``ridge·||W_out||²`` (not in ``V``).
+    """
+
+    theta_L: np.ndarray
+    model: CoilSetModel
+    cost: float
+    cost_data: float
+    cost_regularisation: float
+    ridge_term: float
+
+
+def _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond, chunk_size, method):
+    layout = _Layout.of(theta_nl, method)
+    if chunk_size is None:
+        chunk_size = DEFAULT_CHUNK if layout.structured else DEFAULT_CHUNK_GENERIC
+    star = _star_or_fit(data, theta_nl.pole_pitch, theta_phy_star)
+    k = _consts(layout, theta_nl, data.n, Lambda, star, ridge_output, rcond)
+    return layout, _to_chunks(data, int(chunk_size), theta_nl.y_center), k
+
+
+def proposition1(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_phy_star=None,
+                 ridge_output: float = 0.0, rcond: float = DEFAULT_RCOND, chunk_size: int | None = None
+                 ) -> Proposition1Result:
+    """Optimal linear parameters ``θ_L`` for the hidden weights of ``theta_nl`` (Proposition 1).
+
+    For each direction ``q`` (eq. Optimal_Initialization, multiplied by ``2N``)::
+
+        θ_L,q = argmin || M θ - F_q ||² + 2N || Λ_q ([I 0] θ - θ_phy,q*) ||² + 2N·ridge·||W_out,q||²
+              = (Σ_t M_tᵀ M_t + 2N diag(Λ_q², 0) + 2N·ridge·I_W)^{-1}
+                (Σ_t F_q(t) M_tᵀ + 2N diag(Λ_q², 0) [θ_phy,q*; 0])
+
+    solved through the orthogonal factorisation described in the module docstring
+    (minimum-norm solution, singular values below ``rcond·σ_max`` dropped), never by
+    inverting the normal matrix. ``ridge_output`` (default 0, the paper's cost) is an explicit
+    ridge on the network output WEIGHTS (not biases) for badly conditioned cases; it is
+    reported separately and not part of ``V``.
+
+    Args:
+        theta_nl: :class:`CoilSetModel` providing ``θ_NL`` (hidden layers), ``d_m`` and scaling.
+        data: training samples (``2N = data.n``).
+        Lambda: ``Λ`` (scalar, ``(12,)`` or diagonal ``(12, 12)``).
+        theta_phy_star: ``(12,)``, ``(A, B)`` or ``None`` (then the physics-only fit).
+        chunk_size: samples per accumulated chunk (results do not depend on it).
+
+    Returns:
+        :class:`Proposition1Result`.
+    """
+    layout, chunks, k = _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond, chunk_size, "auto")
+    ev = _evaluate_jit(layout, hidden_vector(theta_nl), chunks, k, False)
+    theta_L = np.asarray(ev.theta_L)
+    two_n = float(data.n)
+    return Proposition1Result(theta_L, with_theta_L(theta_nl, theta_L), float(ev.data2 + ev.phys2) / two_n,
+                              float(ev.data2) / two_n, float(ev.phys2) / two_n, float(ev.ridge2) / two_n)
+
+
+def projected_normal_equations(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_phy_star=None,
+                               ridge_output: float = 0.0, rcond: float = DEFAULT_RCOND,
+                               chunk_size: int | None = None, method: str = "auto"):
+    """``(f, JᵀJ, Jᵀr̃, θ_L)`` of the projected residual at ``θ_NL`` (see :func:`projected_residual`).
+
+    ``f = ½||r̃||²``; ``JᵀJ`` ``(n, n)`` and ``Jᵀr̃`` ``(n,)`` with ``n = len(hidden_vector(theta_nl))``;
+    ``method``: ``"structured"`` (single hidden layer), ``"generic"`` (``jax.jacfwd``) or ``"auto"``.
+    """
+    layout, chunks, k = _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond, chunk_size, method)
+    ev = _evaluate_jit(layout, hidden_vector(theta_nl), chunks, k, True)
+    return float(ev.f), np.asarray(ev.jtj), np.asarray(ev.jtr), np.asarray(ev.theta_L)
+
+
+def projected_residual(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_phy_star=None,
+                       ridge_output: float = 0.0, rcond: float = DEFAULT_RCOND):
+    """The projected residual ``r̃(θ_NL)`` as one vector (for checks; memory ``O(N)``).
+
+    ``r̃ = [vec(F - M θ_L); √(2N) vec(W ⊙ (θ_L - θ̄))]`` with ``θ_L = Prop1(θ_NL)``, ``W`` the
+    regularisation weights (``Λ_q`` on the physics entries, ``√ridge`` on output weights) and
+    ``θ̄`` their targets; ``½||r̃||² = N·V`` (plus the ridge term). Differentiable in ``θ_NL``
+    only through its value (use finite differences).
+    """
+    layout, _, k = _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond, data.n, "auto")
+    theta_L = jnp.asarray(proposition1(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond).theta_L)
+    m = regressor(theta_nl, data.y, data.currents)
+    r_data = jnp.asarray(data.force) - m @ theta_L
+    r_reg = jnp.sqrt(k.two_n) * k.reg_w.T * (theta_L - k.theta_bar)
+    return np.concatenate([np.asarray(r_data).ravel(), np.asarray(r_reg).ravel()])
+
+
+# --------------------------------------------------------------------------------------------
+# Levenberg–Marquardt with variable projection
+# --------------------------------------------------------------------------------------------
+
+
+@pytree_dataclass
+class _LMState:
+    flat: jnp.ndarray
+    ev: _Eval
+    lam: jnp.ndarray
+    nu: jnp.ndarray
+    done: jnp.ndarray
+    reason: jnp.ndarray
+    n_iter: jnp.ndarray
+
+
+def _lm_init(layout, flats, chunks, k, lam0):
+    ev = _evaluate_batch(layout, flats, chunks, k, True)
+    s = flats.shape[0]
+    bad = ~jnp.isfinite(ev.f)
+    return _LMState(flats, ev, jnp.full(s, lam0), jnp.full(s, 2.0), bad, jnp.where(bad, 5, 0),
+                    jnp.zeros(s, jnp.int32))
+
+
+def _lm_step_one(layout, st: _LMState, chunks, k, tol, max_iter):
+    """One Levenberg–Marquardt iteration of one start.
+
+    Solves ``(JᵀJ + λ D) δ = -Jᵀr̃`` with ``D = diag(max(diag(JᵀJ), 1e-12·max diag JᵀJ))``;
+    accepts ``θ_NL + δ`` if ``f`` decreases; ``λ`` follows Nielsen's rule from the gain ratio
+    ``ρ = (f - f_new) / (-δᵀJᵀr̃ - ½ δᵀJᵀJ δ)``. Stops on a relative decrease of an accepted
+    step below ``tol``, ``||δ|| <= tol (||θ_NL|| + tol)``, ``λ > 1e16`` or ``max_iter``.
+    """
+    ev = st.ev
+    diag = jnp.diagonal(ev.jtj)
+    dd = jnp.maximum(diag, 1e-12 * jnp.max(diag) + 1e-300)
+    delta = jnp.linalg.solve(ev.jtj + st.lam * jnp.diag(dd), -ev.jtr)
+    delta = jnp.where(jnp.all(jnp.isfinite(delta)), delta, 0.0)
+    new_flat = st.flat + delta
+    new = _evaluate(layout, new_flat, chunks, k, True)
+    pred = -(delta @ ev.jtr + 0.5 * delta @ ev.jtj @ delta)
+    actual = ev.f - new.f
+    accept = jnp.isfinite(new.f) & (new.f < ev.f) & ~st.done
+    rho = actual / jnp.where(pred > 0, pred, jnp.inf)
+    lam = jnp.where(accept, st.lam * jnp.maximum(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3), st.lam * st.nu)
+    nu = jnp.where(accept, 2.0, 2.0 * st.nu)
+    n_iter = st.n_iter + jnp.where(st.done, 0, 1)
+    small_f = accept & (actual <= tol * jnp.abs(new.f))
+    small_x = jnp.linalg.norm(delta) <= tol * (jnp.linalg.norm(st.flat) + tol)
+    reason = jnp.select([small_f, small_x, lam > 1e16, n_iter >= max_iter], [1, 2, 3, 4], 0)
+    reason = jnp.where(st.done, st.reason, reason)
+    keep = lambda a, b: jnp.where(accept, a, b)  # noqa: E731
+    out = _LMState(keep(new_flat, st.flat), jax.tree_util.tree_map(keep, new, ev),
+                   jnp.where(st.done, st.lam, lam), jnp.where(st.done, st.nu, nu), st.done | (reason > 0), reason,
+                   n_iter)
+    return out
+
+
+_lm_step = jax.jit(jax.vmap(_lm_step_one, in_axes=(None, 0, None, None, None, None)), static_argnums=(0,))
+
+
+@dataclass(frozen=True)
+class IdentifyResult:
+    """Identification of one coil set (Algorithm 2).
+
+    Costs follow eq. Identification_CostFunction with ``2N`` the number of samples of the set
+    they are evaluated on:
+
+    * ``cost_physics``: physics-only model on the training data (data term; its Λ term is 0
+      because ``θ_phy = θ_phy*``);
+    * ``cost_pgnn``: the paper's ``V`` of the PGNN on the training data (data + Λ term; the
+      optional ``ridge`` term is NOT included, see ``ridge_term``);
+    * ``cost_pgnn_data``: data term only of ``cost_pgnn``;
+    * ``cost_physics_validation``, ``cost_pgnn_validation``: DATA TERM ONLY on the validation
+      data (a prediction error; comparable between models);
+    * ``cost_pgnn_validation_full``: validation data term + the same Λ term (the full ``V``).
+
+    Validation costs are NaN when ``n_validation == 0``.
+    """
+
+    name: str
+    model: CoilSetModel
+    physics_model: CoilSetModel
+    cost_physics: float
+    cost_pgnn: float
+    cost_pgnn_data: float
+    cost_physics_validation: float
+    cost_pgnn_validation: float
+    cost_pgnn_validation_full: float
+    iterations: int
+    seconds: float
+    ridge: float
+    ridge_term: float
+    n_train: int
+    n_validation: int
+    seed: int
+    n_starts: int
+    start_costs: tuple = ()
+    stop_reason: str = ""
+    history: tuple = field(default=(), repr=False)
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (keys of ``results.json`` ``identification.coil_sets[l]``)."""
+        keys = ("name", "cost_physics", "cost_pgnn", "cost_pgnn_data", "cost_physics_validation",
+                "cost_pgnn_validation", "cost_pgnn_validation_full", "iterations", "seconds", "ridge",
+                "ridge_term", "n_train", "n_validation", "seed", "n_starts", "stop_reason")
+        out = {key: getattr(self, key) for key in keys}
+        out["start_costs"] = list(self.start_costs)
+        return {key: (None if isinstance(v, float) and not np.isfinite(v) else v) for key, v in out.items()}
+
+
+def _progress_printer(name):
+    def show(info):
+        print(f"pgcomm: {name}: iteration {info['iteration']:3d}  best V = {info['best_cost']:.6g}  "
+              f"lambda = {info['lambda']:.2e}  active starts {info['active']}/{info['starts']}",
+              file=sys.stderr, flush=True)
+    return show
+
+
+def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_WIDTHS, cog_widths=DEFAULT_COG_WIDTHS,
+             activation: str = "tanh", Lambda=DEFAULT_LAMBDA, theta_phy_star=None, ridge_output: float = 0.0,
+             n_starts: int = 8, seed: int = 0, max_iter: int = 200, tol: float = 1e-9,
+             validation_fraction: float = 0.2, block_size: int = 500, chunk_size: int | None = None,
+             rcond: float = DEFAULT_RCOND, lambda0: float = 1e-3, method: str = "auto",
+             check_data: bool = True, progress=None) -> IdentifyResult:
+    """Identify the PGNN of one coil set (Algorithm 2) by variable-projection Levenberg–Marquardt.
+
+    Steps: split the data (:func:`train_validation_split`); check excitation
+    (:func:`check_excitation`, raises :class:`~pgcomm.errors.ExcitationError`); fit the
+    physics-only model (``θ_phy*`` unless given); draw ``n_starts`` random hidden layers from
+    ``jax.random.PRNGKey(seed)``; iterate, for all starts at once (``jax.vmap``)::
+
+        θ_L = Prop1(θ_NL)                                   (eq. Optimal_Initialization)
+        (JᵀJ + λ D) δ = -Jᵀr̃,   θ_NL <- θ_NL + δ  if V decreases   (see _lm_step_one)
+
+    where ``r̃`` is the projected residual (data rows and ``√(2N) Λ`` rows) and ``J`` its exact
+    Jacobian in ``θ_NL`` (see ``_evaluate``); keep the start with the lowest training cost.
+    The result is deterministic for a given ``seed``.
+
+    Args:
+        data: samples of both data sets ``Z_1, Z_2`` of this coil set.
+        pole_pitch: ``d_m`` (m).
+        gain_widths, cog_widths: hidden widths of the gain-column and cogging networks
+            (``None`` leaves the network out); paper: ``(2,)`` and ``(16,)``.
+        Lambda: ``Λ`` (default ``0.1 I``); theta_phy_star: ``θ_phy*`` or ``None`` (physics fit).
+        ridge_output: explicit ridge on the networks' output weights (0 = the paper's cost).
+        n_starts, seed: random starts run together; seed of ``jax.random.PRNGKey``.
+        max_iter, tol: LM limits (relative cost change and step size tolerance).
+        validation_fraction, block_size: see :func:`split_indices`.
+        chunk_size: samples per accumulated chunk (memory bound; results independent of it).
+        rcond: singular-value cut-off of Proposition 1's least squares.
+        method: Jacobian sums, ``"auto"``, ``"structured"`` or ``"generic"``.
+        check_data: run :func:`check_excitation` first.
+        progress: ``None`` (silent), ``True`` (one line per iteration to stderr) or a callable
+            receiving a dict ``{iteration, best_cost, lambda, active, starts}``.
+
+    Returns:
+        :class:`IdentifyResult`.
+    """
+    t0 = time.perf_counter()
+    name = data.name
+    if data.n < 10:
+        raise DataError(f"{name}: too few samples ({data.n}) to identify a model")
+    if check_data:
+        problems = check_excitation(data, pole_pitch)
+        if problems:
+            raise ExcitationError(f"{name}: data do not persistently excite the model: " + "; ".join(problems))
+    train, val = train_validation_split(data, validation_fraction, block_size)
+    y_lo, y_hi = float(data.y.min()), float(data.y.max())
+    y_center = 0.5 * (float(train.y.min()) + float(train.y.max()))
+    y_scale = max(0.5 * (float(train.y.max()) - float(train.y.min())), 1e-9)
+
+    a_phy, b_phy = fit_physics(train, pole_pitch)
+    physics = CoilSetModel.physics(a_phy, b_phy, pole_pitch, y_center, y_scale, y_lo, y_hi)
+    star = _star_or_fit(train, pole_pitch, theta_phy_star)
+    lam12 = lambda_diagonal(Lambda)
+
+    keys = jax.random.split(jax.random.PRNGKey(seed), n_starts)
+    models0 = [CoilSetModel.init(kk, a_phy, b_phy, pole_pitch, y_center, y_scale, gain_widths, cog_widths, activation,
+                                 y_lo, y_hi) for kk in keys]
+    template = models0[0]
+    layout, chunks, k = _prepare(template, train, lam12, star, ridge_output, rcond, chunk_size, method)
+    flats = jnp.stack([hidden_vector(mm) for mm in models0])
+
+    show = _progress_printer(name) if progress is True else (progress or None)
+    st = _lm_init(layout, flats, chunks, k, lambda0)
+    history = [float(jnp.min(st.ev.f)) / train.n]
+    it = 0
+    while layout.n_nl > 0 and not bool(jnp.all(st.done)) and it < max_iter:
+        st = _lm_step(layout, st, chunks, k, tol, max_iter)
+        it += 1
+        fs = np.asarray(st.ev.f)
+        best = int(np.nanargmin(np.where(np.isfinite(fs), fs, np.inf)))
+        history.append(float(fs[best]) / train.n)
+        if show is not None:
+            show({"iteration": it, "best_cost": history[-1], "lambda": float(st.lam[best]),
+                  "active": int(np.sum(~np.asarray(st.done))), "starts": n_starts})
+
+    fs = np.asarray(st.ev.f)
+    best = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
+    model = with_theta_L(with_hidden_vector(template, st.flat[best]), st.ev.theta_L[best])
+    c_pgnn = cost(model, train, lam12, star)
+    c_phys = cost(physics, train)
+    nan = float("nan")
+    c_pgnn_val = cost(model, val, lam12, star) if val.n else CostTerms(nan, nan)
+    c_phys_val = cost(physics, val) if val.n else CostTerms(nan, 0.0)
+    return IdentifyResult(
+        name=name, model=model, physics_model=physics, cost_physics=c_phys.data, cost_pgnn=c_pgnn.total,
+        cost_pgnn_data=c_pgnn.data, cost_physics_validation=c_phys_val.data, cost_pgnn_validation=c_pgnn_val.data,
+        cost_pgnn_validation_full=c_pgnn_val.total, iterations=int(np.asarray(st.n_iter)[best]),
+        seconds=time.perf_counter() - t0, ridge=float(ridge_output), ridge_term=float(st.ev.ridge2[best]) / train.n,
+        n_train=train.n, n_validation=val.n, seed=int(seed), n_starts=int(n_starts),
+        start_costs=tuple(float(x) / train.n for x in fs), stop_reason=_STOP_REASONS[int(np.asarray(st.reason)[best])],
+        history=tuple(history))
+
+
+def identify_all(datasets, pole_pitch: float, *, seed: int = 0, progress=None, **kwargs):
+    """Identify every coil set independently (Algorithm 2's loop) and combine them (eq. PGNN_Electromagnetics).
+
+    Args:
+        datasets: list of :class:`CoilSetData`, one per coil set (in coil-set order).
+        pole_pitch: ``d_m`` (m). seed: coil set ``l`` (0-based) uses ``seed + l``.
+        kwargs: passed to :func:`identify`.
+
+    Returns:
+        ``(CombinedModel, [IdentifyResult, ...])``.
+    """
+    results = []
+    for l, data in enumerate(datasets):
+        results.append(identify(data, pole_pitch, seed=seed + l, progress=progress, **kwargs))
+    return CombinedModel.from_coil_sets([r.model for r in results]), results
+
+
+# --------------------------------------------------------------------------------------------
+# excitation and training range
+# --------------------------------------------------------------------------------------------
+
+
+def check_excitation(data: CoilSetData, pole_pitch: float, n_bins: int = 20, y_range=None, min_samples: int = 20,
+                     min_angle: float = 0.1, min_spread: float = 0.1) -> list[str]:
+    """Problems with persistent excitation (the paper's Remark), per position bin; empty = fine.
+
+    The position range (``y_range`` or the data's own) is cut into ``n_bins`` equal bins.
+    Each bin must have:
+
+    1. at least ``min_samples`` samples (else: a gap);
+    2. more than one ratio ``ia : ib`` — the current direction relative to the commutation
+       angle, ``ψ = atan2`` of ``Γ(y)^{-1} i`` (with ``k̂ = 1``, ``ζ̂ = 0``; for drive inputs
+       ``ψ = Δ + ζ̂``), taken modulo π (a sign change of the force is not a new ratio);
+       the 5–95 % range of ``ψ`` around its circular mean must exceed ``min_angle`` (rad);
+       samples with a current below 5 % of the median current are ignored here;
+    3. more than one force magnitude — the signed current amplitude ``a`` (sign from ψ's
+       half-turn) must have ``std(a) / mean(|a|) > min_spread``, to separate the Lorentz force
+       from the cogging force.
+
+    Consecutive bins with the same problem are merged into one range.
+
+    Args:
+        data: one coil set's samples; pole_pitch: ``d_m`` (m).
+
+    Returns:
+        list of one-line messages such as ``"y ∈ [0.01, 0.03] m: one ratio ia:ib (single Δ)"``.
+    """
+    amp, ang = currents_to_drive_inputs(data.y, data.currents[:, None, :], 1.0, 0.0, pole_pitch)
+    amp, ang = np.asarray(amp)[:, 0], np.asarray(ang)[:, 0]
+    psi = np.mod(ang, np.pi)
+    signed = np.where(np.mod(ang, 2 * np.pi) < np.pi, amp, -amp)
+    lo, hi = (float(data.y.min()), float(data.y.max())) if y_range is None else map(float, y_range)
+    edges = np.linspace(lo, hi, n_bins + 1)
+    which = np.clip(np.searchsorted(edges, data.y, side="right") - 1, 0, n_bins - 1)
+    inside = (data.y >= lo) & (data.y <= hi)
+    big = amp > 0.05 * max(float(np.median(amp)), 1e-300)
+    issues = []
+    for b in range(n_bins):
+        sel = inside & (which == b)
+        if sel.sum() < min_samples:
+            issues.append("no data (gap)")
+            continue
+        sb = sel & big
+        problem = None
+        if sb.sum() < 2:
+            problem = "no current"
+        else:
+            z = np.exp(2j * psi[sb])
+            dev = np.angle(z * np.conj(np.mean(z))) / 2.0
+            if np.percentile(dev, 95) - np.percentile(dev, 5) < min_angle:
+                problem = "one ratio ia:ib (a single Δ)"
+        if problem is None:
+            a = signed[sel]
+            if np.std(a) <= min_spread * max(np.mean(np.abs(a)), 1e-300):
+                problem = "a single force magnitude"
+        issues.append(problem)
+    out, b = [], 0
+    while b < n_bins:
+        e = b
+        while e + 1 < n_bins and issues[e + 1] == issues[b]:
+            e += 1
+        if issues[b] is not None:
+            out.append(f"y ∈ [{edges[b]:.4g}, {edges[e + 1]:.4g}] m: {issues[b]}")
+        b = e + 1
+    return out
+
+
+def warn_outside_training_range(model, y) -> str | None:
+    """A warning if positions ``y`` (m) leave the model's training range, else ``None``.
+
+    Works for :class:`CoilSetModel` (``y_min, y_max``) and :class:`CombinedModel` (the range
+    covered by every coil set). Models without a stored range give ``None``.
+    """
+    if isinstance(model, CombinedModel):
+        rng = model.training_range
+    else:
+        rng = None if model.y_min is None or model.y_max is None else (model.y_min, model.y_max)
+    if rng is None:
+        return None
+    y = np.asarray(y, dtype=float).ravel()
+    out = (y < rng[0]) | (y > rng[1])
+    if not out.any():
+        return None
+    return (f"{int(out.sum())} of {y.size} positions ({out.mean():.1%}) lie outside the training range "
+            f"[{rng[0]:.4g}, {rng[1]:.4g}] m (data span [{y.min():.4g}, {y.max():.4g}] m); the model extrapolates there")
