@@ -86,7 +86,7 @@ DEFAULT_RCOND = 1e-10
 _FLOOR_PER_COLUMN = 10 * np.finfo(float).eps
 
 _STOP_REASONS = {0: "running", 1: "relative cost change below tol", 2: "step below tol",
-                 3: "damping too large (no decrease possible)", 4: "maximum iterations", 5: "non-finite cost"}
+                 3: "damping above 1e10 (no further decrease)", 4: "maximum iterations", 5: "non-finite cost"}
 
 
 # --------------------------------------------------------------------------------------------
@@ -322,13 +322,15 @@ def hidden_vector(model: CoilSetModel) -> jnp.ndarray:
 
 
 def _unflatten(layout: _Layout, flat) -> list:
+    """Hidden layers per network from a flat ``θ_NL`` of shape ``lead + (n,)`` (arrays get the leading dims)."""
+    lead = flat.shape[:-1]
     out, i = [], 0
     for _, widths in layout.blocks:
         layers, n_prev = [], 1
         for n in widths:
-            w = flat[i:i + n_prev * n].reshape(n_prev, n)
+            w = flat[..., i:i + n_prev * n].reshape(lead + (n_prev, n))
             i += n_prev * n
-            b = flat[i:i + n]
+            b = flat[..., i:i + n]
             i += n
             layers.append((w, b))
             n_prev = n
@@ -339,7 +341,7 @@ def _unflatten(layout: _Layout, flat) -> list:
 def with_hidden_vector(model: CoilSetModel, flat) -> CoilSetModel:
     """Copy of ``model`` with ``θ_NL`` replaced by the flat vector ``flat`` (order of :func:`hidden_vector`)."""
     layout = _Layout.of(model)
-    hidden = iter(_unflatten(layout, jnp.asarray(flat)))
+    hidden = iter(_unflatten(layout, jnp.asarray(flat, dtype=float)))
     gain = None
     if model.gain_nets is not None:
         gain = tuple(MLP(next(hidden), net.W_out, net.b_out, net.activation) for net in model.gain_nets)
@@ -381,32 +383,44 @@ def with_theta_L(model: CoilSetModel, theta_L) -> CoilSetModel:
 # --------------------------------------------------------------------------------------------
 
 
-def _features(layout: _Layout, hidden, y, currents, pole_pitch, y_center, y_scale, with_v=False):
-    """Regressor ``M`` ``(c, p)`` and, for the structured path, ``V`` ``(c, n_NL)``.
-
-    ``V[:, i] = ∂M[:, col(i)] / ∂θ_NL[i]`` where ``col(i)`` is the feature column of the unit
-    that parameter ``i`` feeds: ``u·s`` for a weight and ``u`` for a bias, ``u = α'(z)·mult``.
-    """
+def _position_data(y, currents, pole_pitch, y_center, y_scale):
+    """Data-only parts of the regressor: ``x0 = [cos·ia, cos·ib, sin·ia, sin·ib]`` ``(N, 4)`` and ``s`` ``(N,)``."""
+    y = jnp.asarray(y, dtype=float)
+    cur = jnp.asarray(currents, dtype=float)
     c, sn = harmonic_basis(y, pole_pitch)
-    s = (y - y_center) / y_scale
-    ia, ib = currents[..., 0], currents[..., 1]
-    mults = (ia, ib, jnp.ones_like(y))
-    cols = [(c * ia)[:, None], (c * ib)[:, None], (sn * ia)[:, None], (sn * ib)[:, None]]
+    x0 = jnp.stack([c * cur[:, 0], c * cur[:, 1], sn * cur[:, 0], sn * cur[:, 1]], axis=1)
+    return x0, (y - y_center) / y_scale
+
+
+def _rows(layout: _Layout, hidden, x0, s, currents, with_v=False):
+    """Regressor rows for ``S`` sets of hidden weights at once: ``M`` ``(S, c, p)`` (and ``V`` ``(S, c, n_NL)``).
+
+    ``hidden`` holds arrays with a leading start axis ``S``; ``x0`` ``(c, 4)``, ``s`` ``(c,)``,
+    ``currents`` ``(c, 2)`` are shared. ``V[..., i] = ∂M[..., col(i)] / ∂θ_NL[i]`` with
+    ``col(i)`` the feature column of the unit that parameter ``i`` feeds (single hidden layer
+    only): ``u·s`` for a weight and ``u`` for a bias, ``u = α'(z)·mult``, ``α'`` by ``jax.jvp``.
+    """
+    n_s = hidden[0][0][0].shape[0] if hidden else 1
+    c = x0.shape[0]
+    mults = (currents[:, 0], currents[:, 1], jnp.ones(c))
+    cols = [jnp.broadcast_to(x0, (n_s,) + x0.shape)]
     vcols = []
     act = activation_fn(layout.activation)
     for (kind, _), layers in zip(layout.blocks, hidden):
-        mult = mults[kind][:, None]
+        mult = mults[kind][None, :, None]
+        (w1, b1), *rest = layers
+        z = s[None, :, None] * w1[:, None, 0, :] + b1[:, None, :]  # (S, c, n_1)
         if with_v:
-            ((w, b),) = layers
-            z = s[:, None] * w[0] + b
             h, dh = jax.jvp(act, (z,), (jnp.ones_like(z),))
             u = dh * mult
-            vcols += [u * s[:, None], u]
+            vcols += [u * s[None, :, None], u]
         else:
-            h = hidden_features(layers, s, layout.activation)
-        cols += [h * mult, mult]
-    m = jnp.concatenate(cols, axis=1)
-    return (m, jnp.concatenate(vcols, axis=1)) if with_v else m
+            h = act(z)
+            for w, b in rest:
+                h = act(jnp.einsum("sci,sij->scj", h, w) + b[:, None, :])
+        cols += [h * mult, jnp.broadcast_to(mult, (n_s, c, 1))]
+    m = jnp.concatenate(cols, axis=-1)
+    return (m, jnp.concatenate(vcols, axis=-1)) if with_v else m
 
 
 def regressor(theta_nl: CoilSetModel, y, currents):
@@ -424,8 +438,9 @@ def regressor(theta_nl: CoilSetModel, y, currents):
         (networks that are absent leave their columns out).
     """
     layout = _Layout.of(theta_nl)
-    return _features(layout, _hidden_list(theta_nl), jnp.asarray(y, float), jnp.asarray(currents, float),
-                     theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
+    x0, s = _position_data(y, currents, theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
+    hidden = _unflatten(layout, hidden_vector(theta_nl)[None])
+    return _rows(layout, hidden, x0, s, jnp.asarray(currents, dtype=float))[0]
 
 
 # --------------------------------------------------------------------------------------------
@@ -435,9 +450,14 @@ def regressor(theta_nl: CoilSetModel, y, currents):
 
 @pytree_dataclass
 class _Chunks:
-    """Training data padded to whole chunks: ``(C, c)`` positions, ``(C, c, 2)`` currents, ``(C, c, 3)`` forces, mask."""
+    """Training data padded to whole chunks of ``c`` samples (``C`` chunks); padded rows have ``mask = 0``.
 
-    y: jnp.ndarray
+    ``x0`` ``(C, c, 4)`` and ``s`` ``(C, c)`` are the data-only parts of the regressor
+    (:func:`_position_data`), computed once; currents ``(C, c, 2)``, force ``(C, c, 3)``.
+    """
+
+    x0: jnp.ndarray
+    s: jnp.ndarray
     currents: jnp.ndarray
     force: jnp.ndarray
     mask: jnp.ndarray
@@ -447,9 +467,6 @@ class _Chunks:
 class _Consts:
     """Numbers of the problem (traced, so other values do not recompile)."""
 
-    pole_pitch: jnp.ndarray
-    y_center: jnp.ndarray
-    y_scale: jnp.ndarray
     two_n: jnp.ndarray  # 2N: number of training samples
     reg_w: jnp.ndarray  # (3, p) weight of each regularisation row (Λ_q on physics, sqrt(ridge) on W_out)
     theta_bar: jnp.ndarray  # (p, 3) regularisation targets (θ_phy* on physics, 0 elsewhere)
@@ -458,10 +475,11 @@ class _Consts:
 
 @pytree_dataclass
 class _Eval:
-    """One evaluation of the projected problem at ``θ_NL``.
+    """Evaluations of the projected problem at ``S`` values of ``θ_NL`` (leading axis ``S``).
 
-    ``f = ½ ||r̃||²`` with ``r̃`` all data rows and regularisation rows (so ``V_obj = f / N``);
-    ``data2, phys2, ridge2``: the three parts of ``||r̃||²``; ``jtj, jtr``: ``JᵀJ`` and ``Jᵀr̃``.
+    ``f = ½ ||r̃||²`` with ``r̃`` all data rows and regularisation rows (so the objective is
+    ``f / N``); ``data2, phys2, ridge2``: the three parts of ``||r̃||²``; ``theta_L`` ``(p, 3)``;
+    ``jtj, jtr``: ``JᵀJ`` and ``Jᵀr̃``.
     """
 
     f: jnp.ndarray
@@ -473,28 +491,52 @@ class _Eval:
     jtr: jnp.ndarray
 
 
-def _to_chunks(data: CoilSetData, chunk: int, y_fill: float) -> _Chunks:
+def _to_chunks(data: CoilSetData, chunk: int, pole_pitch, y_center, y_scale) -> _Chunks:
     n = data.n
     n_chunks = max(1, -(-n // chunk))
     pad = n_chunks * chunk - n
-    y = np.concatenate([data.y, np.full(pad, y_fill)])
-    cur = np.concatenate([data.currents, np.zeros((pad, 2))])
-    frc = np.concatenate([data.force, np.zeros((pad, 3))])
-    mask = np.concatenate([np.ones(n), np.zeros(pad)])
-    return _Chunks(jnp.asarray(y.reshape(n_chunks, chunk)), jnp.asarray(cur.reshape(n_chunks, chunk, 2)),
-                   jnp.asarray(frc.reshape(n_chunks, chunk, 3)), jnp.asarray(mask.reshape(n_chunks, chunk)))
+    x0, s = (np.asarray(a) for a in _position_data(data.y, data.currents, pole_pitch, y_center, y_scale))
+
+    def padded(a, shape):
+        a = np.concatenate([a, np.zeros((pad,) + a.shape[1:])])
+        return jnp.asarray(a.reshape((n_chunks, chunk) + shape))
+
+    return _Chunks(padded(x0, (4,)), padded(s, ()), padded(data.currents, (2,)), padded(data.force, (3,)),
+                   padded(np.ones(n), ()))
 
 
 def _gram_factor(g):
     """``G = Rᵀ R`` with ``R = Λ^{1/2} Vᵀ`` from ``eigh`` (eigenvalues floored); returns ``(R, R^{-1})``."""
     lam, vec = jnp.linalg.eigh(g)
-    floor = _FLOOR_PER_COLUMN * g.shape[0] * jnp.maximum(lam[-1], 1e-300)
+    floor = _FLOOR_PER_COLUMN * g.shape[-1] * jnp.maximum(lam[..., -1:], 1e-300)
     sq = jnp.sqrt(jnp.maximum(lam, floor))
-    return sq[:, None] * vec.T, vec / sq[None, :]
+    return sq[..., :, None] * jnp.swapaxes(vec, -1, -2), vec / sq[..., None, :]
 
 
-def _evaluate(layout: _Layout, flat, chunks: _Chunks, k: _Consts, want_jac: bool = True) -> _Eval:
-    """Proposition 1 at ``θ_NL = flat`` plus, if ``want_jac``, the normal equations of the projected residual.
+def _solve_small(r_tot, d, k: _Consts, p: int):
+    """The three small least-squares problems of one start (see :func:`_evaluate`)."""
+    m = p + 3
+    d_m, d_f = d[:p], d[p:]
+    sq2n = jnp.sqrt(k.two_n)
+
+    def solve_q(q):
+        w = sq2n * k.reg_w[q]
+        a_small = jnp.concatenate([r_tot[:, :p], jnp.diag(w / d_m)], axis=0)
+        b_small = jnp.concatenate([r_tot[:, p + q] * d_f[q], w * k.theta_bar[:, q]])
+        u, sv, vt = jnp.linalg.svd(a_small, full_matrices=False)
+        sinv = jnp.where(sv > k.rcond * sv[0], 1.0 / jnp.where(sv > 0, sv, 1.0), 0.0)
+        th_s = vt.T @ (sinv * (u.T @ b_small))
+        return th_s / d_m, b_small - a_small @ th_s, sinv, vt
+
+    theta_l, res, sinv, vt = jax.vmap(solve_q, out_axes=(1, 0, 0, 0))(jnp.arange(3))
+    phys = jnp.arange(p) < 4
+    reg2 = res[:, m:] ** 2
+    return (theta_l, jnp.sum(res[:, :m] ** 2), jnp.sum(jnp.where(phys, reg2, 0.0)),
+            jnp.sum(jnp.where(phys, 0.0, reg2)), sinv, vt)
+
+
+def _evaluate(layout: _Layout, flats, chunks: _Chunks, k: _Consts, want_jac: bool = True) -> _Eval:
+    """Proposition 1 at ``S`` values of ``θ_NL`` (``flats`` ``(S, n)``) and the projected normal equations.
 
     Per direction ``q`` the least-squares problem of eq. Identification_CostFunctionRewritten
     (times ``2N``) is::
@@ -504,11 +546,13 @@ def _evaluate(layout: _Layout, flat, chunks: _Chunks, k: _Consts, want_jac: bool
 
     with ``W_q`` diagonal (``Λ_q`` on the physics entries, ``√ridge`` on network output
     weights, 0 elsewhere); its solution is eq. Optimal_Initialization. With
-    ``[M, F] D^{-1} = Q R`` it becomes the small problem ``[R_M; √(2N) W_q D_M^{-1}] θ_s ≈
-    [R_F,q d_q; √(2N) W_q θ̄_q]`` in ``θ_s = D_M θ``, solved by SVD ``Ũ Σ Ṽᵀ`` (cut-off ``rcond``).
+    ``[M, F] D^{-1} = Q R`` (module docstring) it becomes the small problem
+    ``[R_M; √(2N) W_q D_M^{-1}] θ_s ≈ [R_F,q d_q; √(2N) W_q θ̄_q]`` in ``θ_s = D_M θ``, solved
+    by the SVD ``Ũ Σ Ṽᵀ`` with cut-off ``rcond``.
 
-    Jacobian (exact, Golub–Pereyra): with ``G = Σ_t M_tᵀM_t + 2N W_q²``, ``r = F - M θ_L``,
-    ``a_t,q = (∂M_t/∂θ_NL)ᵀ θ_L,q``, ``P_q = Σ_t M_tᵀ a_t,qᵀ``, ``E_q = Σ_t r_t,q ∂M_t/∂θ_NL``::
+    Jacobian of the projected residual (exact, Golub–Pereyra): with
+    ``G = Σ_t M_tᵀM_t + 2N W_q²``, ``r = F - M θ_L``, ``a_t,q = (∂M_t/∂θ_NL)ᵀ θ_L,q``,
+    ``P_q = Σ_t M_tᵀ a_t,qᵀ`` and ``E_q = Σ_t r_t,q ∂M_t/∂θ_NL``::
 
         dθ_L,q/dθ_NL = G^{-1}(E_q - P_q)
         J_t,q = -(a_t,q + M_t dθ_L,q/dθ_NL),   J_reg,q = -√(2N) W_q dθ_L,q/dθ_NL
@@ -518,117 +562,114 @@ def _evaluate(layout: _Layout, flat, chunks: _Chunks, k: _Consts, want_jac: bool
     (``Jᵀr̃`` has no ``dθ_L`` term because ``[M; √(2N)W_q]ᵀ r̃_q = 0`` at the least-squares
     solution); ``G^{-1}`` is applied as ``Ṽ Σ^{-2} Ṽᵀ`` from the same SVD.
     """
-    hidden = _unflatten(layout, flat)
-    p, m = layout.p, layout.p + 3
+    n_s = flats.shape[0]
+    hidden = _unflatten(layout, flats)
+    p, m, n = layout.p, layout.p + 3, layout.n_nl
     structured = want_jac and layout.structured
+    xs = (chunks.x0, chunks.s, chunks.currents, chunks.force, chunks.mask)
 
-    def rows(yc, cc, fc, mc, with_v):
-        out = _features(layout, hidden, yc, cc, k.pole_pitch, k.y_center, k.y_scale, with_v=with_v)
+    def rows(ch, with_v):
+        x0, s, cur, frc, msk = ch
+        out = _rows(layout, hidden, x0, s, cur, with_v)
         mm, vv = out if with_v else (out, None)
-        a = jnp.concatenate([mm, fc], axis=1) * mc[:, None]
-        return a, (None if vv is None else vv * mc[:, None])
+        a = jnp.concatenate([mm, jnp.broadcast_to(frc, (n_s,) + frc.shape)], axis=-1) * msk[None, :, None]
+        return a, (None if vv is None else vv * msk[None, :, None])
 
-    # Pass 1: Gram of [M, F] (and, structured, of [M, F, V]).
+    # Pass 1: Gram of [M, F] (structured: of [M, F, V]); the start axis stays explicit so
+    # that XLA emits one batched matrix product per chunk.
     def pass1(g, ch):
-        a, v = rows(*ch, with_v=structured)
-        z = a if v is None else jnp.concatenate([a, v], axis=1)
-        return g + z.T @ z, None
+        a, v = rows(ch, structured)
+        z = a if v is None else jnp.concatenate([a, v], axis=-1)
+        return g + jnp.einsum("sck,scl->skl", z, z), None
 
-    mz = m + (layout.n_nl if structured else 0)
-    g1, _ = lax.scan(pass1, jnp.zeros((mz, mz)), (chunks.y, chunks.currents, chunks.force, chunks.mask))
-    ga = g1[:m, :m]
-    d = jnp.sqrt(jnp.diagonal(ga))
+    mz = m + (n if structured else 0)
+    g1, _ = lax.scan(pass1, jnp.zeros((n_s, mz, mz)), xs)
+    ga = g1[:, :m, :m]
+    d = jnp.sqrt(jnp.diagonal(ga, axis1=1, axis2=2))
     d = jnp.where(d > 0, d, 1.0)
-    r_tot, r_inv = _gram_factor(ga / (d[:, None] * d[None, :]))
+    r_tot, r_inv = _gram_factor(ga / (d[:, :, None] * d[:, None, :]))
 
-    # Passes 2 and 3: re-orthogonalise (CholeskyQR3 with eigenvalue floor).
-    def pass_q(t_inv):
+    # Passes 2 and 3: re-orthogonalise Q = [M, F] D^{-1} R^{-1} (CholeskyQR3 with eigenvalue floor).
+    def gram_of_q(t_inv):
         def body(g, ch):
-            a, _ = rows(*ch, with_v=False)
-            q = (a / d) @ t_inv
-            return g + q.T @ q, None
+            a, _ = rows(ch, False)
+            q = jnp.einsum("sck,skl->scl", a / d[:, None, :], t_inv)
+            return g + jnp.einsum("sck,scl->skl", q, q), None
 
-        g, _ = lax.scan(body, jnp.zeros((m, m)), (chunks.y, chunks.currents, chunks.force, chunks.mask))
-        return _gram_factor(g)
+        return lax.scan(body, jnp.zeros((n_s, m, m)), xs)[0]
 
     for _ in range(2):
-        rk, rk_inv = pass_q(r_inv)
+        rk, rk_inv = _gram_factor(gram_of_q(r_inv))
         r_tot, r_inv = rk @ r_tot, r_inv @ rk_inv
 
-    # Small problems, one per direction q.
-    d_m, d_f = d[:p], d[p:]
-    sq2n = jnp.sqrt(k.two_n)
-    r_m = r_tot[:, :p]
-
-    def solve_q(q):
-        w = sq2n * k.reg_w[q]
-        a_small = jnp.concatenate([r_m, jnp.diag(w / d_m)], axis=0)
-        b_small = jnp.concatenate([r_tot[:, p + q] * d_f[q], w * k.theta_bar[:, q]])
-        u, sv, vt = jnp.linalg.svd(a_small, full_matrices=False)
-        sinv = jnp.where(sv > k.rcond * sv[0], 1.0 / jnp.where(sv > 0, sv, 1.0), 0.0)
-        th_s = vt.T @ (sinv * (u.T @ b_small))
-        res = b_small - a_small @ th_s
-        return th_s / d_m, res, sinv, vt
-
-    theta_L, res, sinv, vt = jax.vmap(solve_q, out_axes=(1, 0, 0, 0))(jnp.arange(3))
-    data2 = jnp.sum(res[:, :m] ** 2)
-    phys = jnp.asarray(np.arange(p) < 4)
-    phys2 = jnp.sum(jnp.where(phys, res[:, m:] ** 2, 0.0))
-    ridge2 = jnp.sum(jnp.where(phys, 0.0, res[:, m:] ** 2))
+    theta_l, data2, phys2, ridge2, sinv, vt = jax.vmap(partial(_solve_small, k=k, p=p))(r_tot, d)
     f = 0.5 * (data2 + phys2 + ridge2)
-    n = layout.n_nl
     if not want_jac:
-        return _Eval(f, data2, phys2, ridge2, theta_L, jnp.zeros((n, n)), jnp.zeros(n))
+        return _Eval(f, data2, phys2, ridge2, theta_l, jnp.zeros((n_s, n, n)), jnp.zeros((n_s, n)))
 
     if structured:
-        # Every sum follows from the Gram of [M, F, V] (see _features): with w_q = θ_L[col(i), q],
-        # a_t,q[i] = w_q[i] V_t[i], (∂M_t/∂θ_NL)[col(i), i] = V_t[i], zero elsewhere.
-        col = layout.param_feature_column()
-        s_vv, s_vm, s_vf = g1[m:, m:], g1[m:, :p], g1[m:, p:m]
-        wq = theta_L[col, :].T  # (3, n)
-        s_aa = wq[:, :, None] * s_vv[None] * wq[:, None, :]
-        p_q = s_vm.T[None] * wq[:, None, :]
-        rho = s_vf.T - (s_vm @ theta_L).T  # Σ_t r_t,q V_t[i]
-        onehot = jnp.asarray(np.arange(p)[:, None] == col[None, :], dtype=float)
-        e_q = onehot[None] * rho[:, None, :]
+        s_aa, p_q, e_q = jax.vmap(partial(_structured_sums, layout))(g1, theta_l)
     else:
-        s_aa, p_q, e_q = _generic_sums(layout, flat, chunks, k, theta_L)
+        s_aa, p_q, e_q = _generic_sums(layout, flats, xs, theta_l)
 
-    def assemble(q):
-        x = sinv[q][:, None] * (vt[q] @ (p_q[q] / d_m[:, None]))
-        z = sinv[q][:, None] * (vt[q] @ (e_q[q] / d_m[:, None]))
-        return s_aa[q] - x.T @ x + z.T @ z, -(e_q[q].T @ theta_L[:, q])
+    def assemble(s_aa, p_q, e_q, sinv, vt, theta_l, d):
+        d_m = d[:p, None]
+        x = sinv[:, :, None] * (vt @ (p_q / d_m))  # (3, p, n)
+        z = sinv[:, :, None] * (vt @ (e_q / d_m))
+        jtj = jnp.sum(s_aa - jnp.swapaxes(x, 1, 2) @ x + jnp.swapaxes(z, 1, 2) @ z, axis=0)
+        jtr = -jnp.einsum("qpn,pq->n", e_q, theta_l)
+        return 0.5 * (jtj + jtj.T), jtr
 
-    jtj_q, jtr_q = jax.vmap(assemble)(jnp.arange(3))
-    jtj = jnp.sum(jtj_q, axis=0)
-    return _Eval(f, data2, phys2, ridge2, theta_L, 0.5 * (jtj + jtj.T), jnp.sum(jtr_q, axis=0))
+    jtj, jtr = jax.vmap(assemble)(s_aa, p_q, e_q, sinv, vt, theta_l, d)
+    return _Eval(f, data2, phys2, ridge2, theta_l, jtj, jtr)
 
 
-def _generic_sums(layout: _Layout, flat, chunks: _Chunks, k: _Consts, theta_L):
+def _structured_sums(layout: _Layout, g1, theta_l):
+    """``Σ_t a a^T``, ``P_q``, ``E_q`` (per q) of one start from the Gram of ``[M, F, V]``.
+
+    With ``w_q = θ_L[col(i), q]``: ``a_t,q[i] = w_q[i] V_t[i]`` and ``∂M_t/∂θ_NL`` has the
+    single entry ``V_t[i]`` in row ``col(i)`` of column ``i``; so
+    ``Σ a a^T = w w^T ⊙ VᵀV``, ``P_q = MᵀV diag(w_q)``, ``E_q[col(i), i] = Σ_t r_t,q V_t[i]
+    = (VᵀF - VᵀM θ_L)[i, q]``.
+    """
+    p = layout.p
+    m = p + 3
+    col = layout.param_feature_column()
+    s_vv, s_vm, s_vf = g1[m:, m:], g1[m:, :p], g1[m:, p:m]
+    wq = theta_l[col, :].T  # (3, n)
+    s_aa = wq[:, :, None] * s_vv[None] * wq[:, None, :]
+    p_q = s_vm.T[None] * wq[:, None, :]
+    rho = s_vf.T - (s_vm @ theta_l).T
+    onehot = jnp.asarray(np.arange(p)[:, None] == col[None, :], dtype=float)
+    return s_aa, p_q, onehot[None] * rho[:, None, :]
+
+
+def _generic_sums(layout: _Layout, flats, xs, theta_l):
     """Chunked ``Σ_t a a^T``, ``P_q``, ``E_q`` with ``∂M/∂θ_NL`` from ``jax.jacfwd`` (any depth)."""
     p, n = layout.p, layout.n_nl
 
-    def feats(fl, yc, cc):
-        return _features(layout, _unflatten(layout, fl), yc, cc, k.pole_pitch, k.y_center, k.y_scale)
+    def feats(fl, x0, s, cur):
+        return _rows(layout, _unflatten(layout, fl[None]), x0, s, cur)[0]
+
+    def per_start(fl, th, ch):
+        x0, s, cur, frc, msk = ch
+        mm = feats(fl, x0, s, cur) * msk[:, None]
+        dm = jax.jacfwd(feats)(fl, x0, s, cur) * msk[:, None, None]  # (c, p, n)
+        r = (frc - mm @ th) * msk[:, None]
+        a = jnp.einsum("cpn,pq->qcn", dm, th)
+        return (jnp.einsum("qcn,qcm->qnm", a, a), jnp.einsum("cp,qcn->qpn", mm, a),
+                jnp.einsum("cq,cpn->qpn", r, dm))
 
     def body(acc, ch):
-        yc, cc, fc, mc = ch
-        mm, dm = feats(flat, yc, cc), jax.jacfwd(feats)(flat, yc, cc)  # (c, p), (c, p, n)
-        mm = mm * mc[:, None]
-        dm = dm * mc[:, None, None]
-        r = (fc - mm @ theta_L) * mc[:, None]
-        a = jnp.einsum("cpn,pq->qcn", dm, theta_L)
-        s_aa, p_q, e_q = acc
-        return (s_aa + jnp.einsum("qcn,qcm->qnm", a, a), p_q + jnp.einsum("cp,qcn->qpn", mm, a),
-                e_q + jnp.einsum("cq,cpn->qpn", r, dm)), None
+        out = jax.vmap(per_start, in_axes=(0, 0, None))(flats, theta_l, ch)
+        return jax.tree_util.tree_map(jnp.add, acc, out), None
 
-    init = (jnp.zeros((3, n, n)), jnp.zeros((3, p, n)), jnp.zeros((3, p, n)))
-    out, _ = lax.scan(body, init, (chunks.y, chunks.currents, chunks.force, chunks.mask))
-    return out
+    n_s = flats.shape[0]
+    init = (jnp.zeros((n_s, 3, n, n)), jnp.zeros((n_s, 3, p, n)), jnp.zeros((n_s, 3, p, n)))
+    return lax.scan(body, init, xs)[0]
 
 
 _evaluate_jit = jax.jit(_evaluate, static_argnums=(0, 4))
-_evaluate_batch = jax.jit(jax.vmap(_evaluate, in_axes=(None, 0, None, None, None)), static_argnums=(0, 4))
 
 
 # --------------------------------------------------------------------------------------------
@@ -691,7 +732,7 @@ def cost(model: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_ph
 _force_jit = jax.jit(lambda model, y, currents: model.force(y, currents))
 
 
-def _consts(layout: _Layout, model: CoilSetModel, n_train: int, Lambda, theta_phy_star, ridge_output, rcond) -> _Consts:
+def _consts(layout: _Layout, n_train: int, Lambda, theta_phy_star, ridge_output, rcond) -> _Consts:
     lam = lambda_diagonal(Lambda)
     if ridge_output < 0:
         raise ValueError(f"ridge_output must be >= 0, got {ridge_output}")
@@ -704,9 +745,7 @@ def _consts(layout: _Layout, model: CoilSetModel, n_train: int, Lambda, theta_ph
         reg_w[q, :4] = lam[cols]
         theta_bar[:4, q] = star[cols]
         reg_w[q, layout.output_weight_mask()] = np.sqrt(ridge_output)
-    return _Consts(jnp.asarray(float(model.pole_pitch)), jnp.asarray(float(model.y_center)),
-                   jnp.asarray(float(model.y_scale)), jnp.asarray(float(n_train)), jnp.asarray(reg_w),
-                   jnp.asarray(theta_bar), jnp.asarray(float(rcond)))
+    return _Consts(jnp.asarray(float(n_train)), jnp.asarray(reg_w), jnp.asarray(theta_bar), jnp.asarray(float(rcond)))
 
 
 def _star_or_fit(data, pole_pitch, theta_phy_star):
@@ -744,8 +783,9 @@ def _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond, chunk_
     if chunk_size is None:
         chunk_size = DEFAULT_CHUNK if layout.structured else DEFAULT_CHUNK_GENERIC
     star = _star_or_fit(data, theta_nl.pole_pitch, theta_phy_star)
-    k = _consts(layout, theta_nl, data.n, Lambda, star, ridge_output, rcond)
-    return layout, _to_chunks(data, int(chunk_size), theta_nl.y_center), k
+    k = _consts(layout, data.n, Lambda, star, ridge_output, rcond)
+    chunks = _to_chunks(data, int(chunk_size), theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
+    return layout, chunks, k
 
 
 def proposition1(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_phy_star=None,
@@ -776,7 +816,7 @@ def proposition1(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBD
         :class:`Proposition1Result`.
     """
     layout, chunks, k = _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond, chunk_size, "auto")
-    ev = _evaluate_jit(layout, hidden_vector(theta_nl), chunks, k, False)
+    ev = jax.tree_util.tree_map(lambda a: a[0], _evaluate_jit(layout, hidden_vector(theta_nl)[None], chunks, k, False))
     theta_L = np.asarray(ev.theta_L)
     two_n = float(data.n)
     return Proposition1Result(theta_L, with_theta_L(theta_nl, theta_L), float(ev.data2 + ev.phys2) / two_n,
@@ -792,7 +832,7 @@ def projected_normal_equations(theta_nl: CoilSetModel, data: CoilSetData, Lambda
     ``method``: ``"structured"`` (single hidden layer), ``"generic"`` (``jax.jacfwd``) or ``"auto"``.
     """
     layout, chunks, k = _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond, chunk_size, method)
-    ev = _evaluate_jit(layout, hidden_vector(theta_nl), chunks, k, True)
+    ev = jax.tree_util.tree_map(lambda a: a[0], _evaluate_jit(layout, hidden_vector(theta_nl)[None], chunks, k, True))
     return float(ev.f), np.asarray(ev.jtj), np.asarray(ev.jtr), np.asarray(ev.theta_L)
 
 
@@ -805,7 +845,8 @@ def projected_residual(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT
     ``θ̄`` their targets; ``½||r̃||² = N·V`` (plus the ridge term). Differentiable in ``θ_NL``
     only through its value (use finite differences).
     """
-    layout, _, k = _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond, data.n, "auto")
+    layout = _Layout.of(theta_nl)
+    k = _consts(layout, data.n, Lambda, _star_or_fit(data, theta_nl.pole_pitch, theta_phy_star), ridge_output, rcond)
     theta_L = jnp.asarray(proposition1(theta_nl, data, Lambda, theta_phy_star, ridge_output, rcond).theta_L)
     m = regressor(theta_nl, data.y, data.currents)
     r_data = jnp.asarray(data.force) - m @ theta_L
@@ -830,28 +871,35 @@ class _LMState:
 
 
 def _lm_init(layout, flats, chunks, k, lam0):
-    ev = _evaluate_batch(layout, flats, chunks, k, True)
-    s = flats.shape[0]
+    ev = _evaluate(layout, flats, chunks, k, True)
+    n_s = flats.shape[0]
     bad = ~jnp.isfinite(ev.f)
-    return _LMState(flats, ev, jnp.full(s, lam0), jnp.full(s, 2.0), bad, jnp.where(bad, 5, 0),
-                    jnp.zeros(s, jnp.int32))
+    return _LMState(flats, ev, jnp.full(n_s, lam0), jnp.full(n_s, 2.0), bad, jnp.where(bad, 5, 0),
+                    jnp.zeros(n_s, jnp.int32))
 
 
-def _lm_step_one(layout, st: _LMState, chunks, k, tol, max_iter):
-    """One Levenberg–Marquardt iteration of one start.
+_lm_init = jax.jit(_lm_init, static_argnums=(0,))
 
-    Solves ``(JᵀJ + λ D) δ = -Jᵀr̃`` with ``D = diag(max(diag(JᵀJ), 1e-12·max diag JᵀJ))``;
-    accepts ``θ_NL + δ`` if ``f`` decreases; ``λ`` follows Nielsen's rule from the gain ratio
-    ``ρ = (f - f_new) / (-δᵀJᵀr̃ - ½ δᵀJᵀJ δ)``. Stops on a relative decrease of an accepted
-    step below ``tol``, ``||δ|| <= tol (||θ_NL|| + tol)``, ``λ > 1e16`` or ``max_iter``.
+#: Largest damping before a start is declared converged (steps are then ~1e-10 of Gauss–Newton's).
+_LAMBDA_MAX = 1e10
+
+
+def _lm_delta(ev_jtj, ev_jtr, lam):
+    """Solve ``(JᵀJ + λ D) δ = -Jᵀr̃`` with ``D = diag(max(diag(JᵀJ), 1e-12·max diag JᵀJ))``."""
+    diag = jnp.diagonal(ev_jtj)
+    dd = jnp.maximum(diag, 1e-12 * jnp.max(diag) + 1e-300)
+    delta = jnp.linalg.solve(ev_jtj + lam * jnp.diag(dd), -ev_jtr)
+    return jnp.where(jnp.all(jnp.isfinite(delta)), delta, 0.0)
+
+
+def _lm_accept(st: _LMState, delta, new: _Eval, tol, max_iter):
+    """Accept or reject one start's step; update ``λ`` by Nielsen's rule; test for convergence.
+
+    ``ρ = (f - f_new) / (-δᵀJᵀr̃ - ½ δᵀJᵀJ δ)``; accepted (``f_new < f``): ``λ <- λ·max(1/3,
+    1 - (2ρ - 1)³)``, else ``λ <- λ·ν``, ``ν <- 2ν``. Stops on an accepted relative decrease
+    below ``tol``, ``||δ|| <= tol (||θ_NL|| + tol)``, ``λ > 1e10`` or ``max_iter``.
     """
     ev = st.ev
-    diag = jnp.diagonal(ev.jtj)
-    dd = jnp.maximum(diag, 1e-12 * jnp.max(diag) + 1e-300)
-    delta = jnp.linalg.solve(ev.jtj + st.lam * jnp.diag(dd), -ev.jtr)
-    delta = jnp.where(jnp.all(jnp.isfinite(delta)), delta, 0.0)
-    new_flat = st.flat + delta
-    new = _evaluate(layout, new_flat, chunks, k, True)
     pred = -(delta @ ev.jtr + 0.5 * delta @ ev.jtj @ delta)
     actual = ev.f - new.f
     accept = jnp.isfinite(new.f) & (new.f < ev.f) & ~st.done
@@ -861,16 +909,22 @@ def _lm_step_one(layout, st: _LMState, chunks, k, tol, max_iter):
     n_iter = st.n_iter + jnp.where(st.done, 0, 1)
     small_f = accept & (actual <= tol * jnp.abs(new.f))
     small_x = jnp.linalg.norm(delta) <= tol * (jnp.linalg.norm(st.flat) + tol)
-    reason = jnp.select([small_f, small_x, lam > 1e16, n_iter >= max_iter], [1, 2, 3, 4], 0)
+    reason = jnp.select([small_f, small_x, lam > _LAMBDA_MAX, n_iter >= max_iter], [1, 2, 3, 4], 0)
     reason = jnp.where(st.done, st.reason, reason)
     keep = lambda a, b: jnp.where(accept, a, b)  # noqa: E731
-    out = _LMState(keep(new_flat, st.flat), jax.tree_util.tree_map(keep, new, ev),
-                   jnp.where(st.done, st.lam, lam), jnp.where(st.done, st.nu, nu), st.done | (reason > 0), reason,
-                   n_iter)
-    return out
+    return _LMState(keep(st.flat + delta, st.flat), jax.tree_util.tree_map(keep, new, ev),
+                    jnp.where(st.done, st.lam, lam), jnp.where(st.done, st.nu, nu), st.done | (reason > 0), reason,
+                    n_iter)
 
 
-_lm_step = jax.jit(jax.vmap(_lm_step_one, in_axes=(None, 0, None, None, None, None)), static_argnums=(0,))
+def _lm_step(layout, st: _LMState, chunks, k, tol, max_iter):
+    """One Levenberg–Marquardt iteration of all starts (see :func:`_lm_delta`, :func:`_lm_accept`)."""
+    delta = jax.vmap(_lm_delta)(st.ev.jtj, st.ev.jtr, st.lam)
+    new = _evaluate(layout, st.flat + delta, chunks, k, True)
+    return jax.vmap(_lm_accept, in_axes=(0, 0, 0, None, None))(st, delta, new, tol, max_iter)
+
+
+_lm_step = jax.jit(_lm_step, static_argnums=(0,))
 
 
 @dataclass(frozen=True)
@@ -945,7 +999,7 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     ``jax.random.PRNGKey(seed)``; iterate, for all starts at once (``jax.vmap``)::
 
         θ_L = Prop1(θ_NL)                                   (eq. Optimal_Initialization)
-        (JᵀJ + λ D) δ = -Jᵀr̃,   θ_NL <- θ_NL + δ  if V decreases   (see _lm_step_one)
+        (JᵀJ + λ D) δ = -Jᵀr̃,   θ_NL <- θ_NL + δ  if V decreases   (see _lm_delta, _lm_accept)
 
     where ``r̃`` is the projected residual (data rows and ``√(2N) Λ`` rows) and ``J`` its exact
     Jacobian in ``θ_NL`` (see ``_evaluate``); keep the start with the lowest training cost.
