@@ -82,6 +82,8 @@ DEFAULT_CHUNK = 4096
 DEFAULT_CHUNK_GENERIC = 512
 #: Relative singular-value cut-off of the small least-squares problems (minimum-norm solution).
 DEFAULT_RCOND = 1e-10
+#: Re-orthogonalisation passes after the first Gram factorisation (2 = CholeskyQR3).
+_REORTHOGONALISATIONS = 2
 #: Eigenvalue floor of the Gram factorisations, relative to the largest eigenvalue, per column.
 _FLOOR_PER_COLUMN = 10 * np.finfo(float).eps
 
@@ -384,43 +386,44 @@ def with_theta_L(model: CoilSetModel, theta_L) -> CoilSetModel:
 
 
 def _position_data(y, currents, pole_pitch, y_center, y_scale):
-    """Data-only parts of the regressor: ``x0 = [cos·ia, cos·ib, sin·ia, sin·ib]`` ``(N, 4)`` and ``s`` ``(N,)``."""
+    """Data-only parts of the regressor: ``x0 = [cos·ia, cos·ib, sin·ia, sin·ib]ᵀ`` ``(4, N)`` and ``s`` ``(N,)``."""
     y = jnp.asarray(y, dtype=float)
     cur = jnp.asarray(currents, dtype=float)
     c, sn = harmonic_basis(y, pole_pitch)
-    x0 = jnp.stack([c * cur[:, 0], c * cur[:, 1], sn * cur[:, 0], sn * cur[:, 1]], axis=1)
+    x0 = jnp.stack([c * cur[:, 0], c * cur[:, 1], sn * cur[:, 0], sn * cur[:, 1]])
     return x0, (y - y_center) / y_scale
 
 
 def _rows(layout: _Layout, hidden, x0, s, currents, with_v=False):
-    """Regressor rows for ``S`` sets of hidden weights at once: ``M`` ``(S, c, p)`` (and ``V`` ``(S, c, n_NL)``).
+    """Regressor for ``S`` sets of hidden weights at once, feature-major: ``Mᵀ`` ``(S, p, c)`` (and ``Vᵀ`` ``(S, n_NL, c)``).
 
-    ``hidden`` holds arrays with a leading start axis ``S``; ``x0`` ``(c, 4)``, ``s`` ``(c,)``,
-    ``currents`` ``(c, 2)`` are shared. ``V[..., i] = ∂M[..., col(i)] / ∂θ_NL[i]`` with
-    ``col(i)`` the feature column of the unit that parameter ``i`` feeds (single hidden layer
-    only): ``u·s`` for a weight and ``u`` for a bias, ``u = α'(z)·mult``, ``α'`` by ``jax.jvp``.
+    ``hidden`` holds arrays with a leading start axis ``S``; ``x0`` ``(4, c)``, ``s`` ``(c,)``,
+    ``currents`` ``(2, c)`` are shared. Samples are the minor axis so that the Gram products
+    below contract contiguous rows. ``V[i] = ∂M[col(i)] / ∂θ_NL[i]`` with ``col(i)`` the
+    feature column of the unit that parameter ``i`` feeds (single hidden layer only):
+    ``u·s`` for a weight and ``u`` for a bias, ``u = α'(z)·mult``, ``α'`` by ``jax.jvp``.
     """
     n_s = hidden[0][0][0].shape[0] if hidden else 1
-    c = x0.shape[0]
-    mults = (currents[:, 0], currents[:, 1], jnp.ones(c))
+    c = x0.shape[-1]
+    mults = (currents[0], currents[1], jnp.ones(c))
     cols = [jnp.broadcast_to(x0, (n_s,) + x0.shape)]
     vcols = []
     act = activation_fn(layout.activation)
     for (kind, _), layers in zip(layout.blocks, hidden):
-        mult = mults[kind][None, :, None]
+        mult = mults[kind][None, None, :]
         (w1, b1), *rest = layers
-        z = s[None, :, None] * w1[:, None, 0, :] + b1[:, None, :]  # (S, c, n_1)
+        z = w1[:, 0, :, None] * s[None, None, :] + b1[:, :, None]  # (S, n_1, c)
         if with_v:
             h, dh = jax.jvp(act, (z,), (jnp.ones_like(z),))
             u = dh * mult
-            vcols += [u * s[None, :, None], u]
+            vcols += [u * s[None, None, :], u]
         else:
             h = act(z)
             for w, b in rest:
-                h = act(jnp.einsum("sci,sij->scj", h, w) + b[:, None, :])
-        cols += [h * mult, jnp.broadcast_to(mult, (n_s, c, 1))]
-    m = jnp.concatenate(cols, axis=-1)
-    return (m, jnp.concatenate(vcols, axis=-1)) if with_v else m
+                h = act(jnp.einsum("sic,sij->sjc", h, w) + b[:, :, None])
+        cols += [h * mult, jnp.broadcast_to(mult, (n_s, 1, c))]
+    m = jnp.concatenate(cols, axis=1)
+    return (m, jnp.concatenate(vcols, axis=1)) if with_v else m
 
 
 def regressor(theta_nl: CoilSetModel, y, currents):
@@ -440,7 +443,7 @@ def regressor(theta_nl: CoilSetModel, y, currents):
     layout = _Layout.of(theta_nl)
     x0, s = _position_data(y, currents, theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
     hidden = _unflatten(layout, hidden_vector(theta_nl)[None])
-    return _rows(layout, hidden, x0, s, jnp.asarray(currents, dtype=float))[0]
+    return _rows(layout, hidden, x0, s, jnp.asarray(currents, dtype=float).T)[0].T
 
 
 # --------------------------------------------------------------------------------------------
@@ -450,10 +453,11 @@ def regressor(theta_nl: CoilSetModel, y, currents):
 
 @pytree_dataclass
 class _Chunks:
-    """Training data padded to whole chunks of ``c`` samples (``C`` chunks); padded rows have ``mask = 0``.
+    """Training data padded to whole chunks of ``c`` samples (``C`` chunks); padded samples have ``mask = 0``.
 
-    ``x0`` ``(C, c, 4)`` and ``s`` ``(C, c)`` are the data-only parts of the regressor
-    (:func:`_position_data`), computed once; currents ``(C, c, 2)``, force ``(C, c, 3)``.
+    Feature-major like :func:`_rows`: ``x0`` ``(C, 4, c)`` and ``s`` ``(C, c)`` are the data-only
+    parts of the regressor (:func:`_position_data`), computed once; currents ``(C, 2, c)``,
+    force ``(C, 3, c)``, mask ``(C, c)``.
     """
 
     x0: jnp.ndarray
@@ -497,12 +501,11 @@ def _to_chunks(data: CoilSetData, chunk: int, pole_pitch, y_center, y_scale) -> 
     pad = n_chunks * chunk - n
     x0, s = (np.asarray(a) for a in _position_data(data.y, data.currents, pole_pitch, y_center, y_scale))
 
-    def padded(a, shape):
-        a = np.concatenate([a, np.zeros((pad,) + a.shape[1:])])
-        return jnp.asarray(a.reshape((n_chunks, chunk) + shape))
+    def padded(a):  # (k, N) -> (C, k, c)
+        a = np.concatenate([np.atleast_2d(a), np.zeros((np.atleast_2d(a).shape[0], pad))], axis=1)
+        return jnp.asarray(a.reshape(-1, n_chunks, chunk).transpose(1, 0, 2))
 
-    return _Chunks(padded(x0, (4,)), padded(s, ()), padded(data.currents, (2,)), padded(data.force, (3,)),
-                   padded(np.ones(n), ()))
+    return _Chunks(padded(x0), padded(s)[:, 0], padded(data.currents.T), padded(data.force.T), padded(np.ones(n))[:, 0])
 
 
 def _gram_factor(g):
@@ -572,15 +575,15 @@ def _evaluate(layout: _Layout, flats, chunks: _Chunks, k: _Consts, want_jac: boo
         x0, s, cur, frc, msk = ch
         out = _rows(layout, hidden, x0, s, cur, with_v)
         mm, vv = out if with_v else (out, None)
-        a = jnp.concatenate([mm, jnp.broadcast_to(frc, (n_s,) + frc.shape)], axis=-1) * msk[None, :, None]
-        return a, (None if vv is None else vv * msk[None, :, None])
+        a = jnp.concatenate([mm, jnp.broadcast_to(frc, (n_s,) + frc.shape)], axis=1) * msk
+        return a, (None if vv is None else vv * msk)
 
-    # Pass 1: Gram of [M, F] (structured: of [M, F, V]); the start axis stays explicit so
-    # that XLA emits one batched matrix product per chunk.
+    # Pass 1: Gram of [M, F] (structured: of [M, F, V]); the start axis stays explicit and the
+    # samples minor so that XLA emits one batched "A Aᵀ" matrix product per chunk.
     def pass1(g, ch):
         a, v = rows(ch, structured)
-        z = a if v is None else jnp.concatenate([a, v], axis=-1)
-        return g + jnp.einsum("sck,scl->skl", z, z), None
+        z = a if v is None else jnp.concatenate([a, v], axis=1)
+        return g + jnp.einsum("skc,slc->skl", z, z), None
 
     mz = m + (n if structured else 0)
     g1, _ = lax.scan(pass1, jnp.zeros((n_s, mz, mz)), xs)
@@ -593,12 +596,12 @@ def _evaluate(layout: _Layout, flats, chunks: _Chunks, k: _Consts, want_jac: boo
     def gram_of_q(t_inv):
         def body(g, ch):
             a, _ = rows(ch, False)
-            q = jnp.einsum("sck,skl->scl", a / d[:, None, :], t_inv)
-            return g + jnp.einsum("sck,scl->skl", q, q), None
+            q = jnp.einsum("skc,skl->slc", a / d[:, :, None], t_inv)
+            return g + jnp.einsum("skc,slc->skl", q, q), None
 
         return lax.scan(body, jnp.zeros((n_s, m, m)), xs)[0]
 
-    for _ in range(2):
+    for _ in range(_REORTHOGONALISATIONS):
         rk, rk_inv = _gram_factor(gram_of_q(r_inv))
         r_tot, r_inv = rk @ r_tot, r_inv @ rk_inv
 
@@ -649,13 +652,13 @@ def _generic_sums(layout: _Layout, flats, xs, theta_l):
     p, n = layout.p, layout.n_nl
 
     def feats(fl, x0, s, cur):
-        return _rows(layout, _unflatten(layout, fl[None]), x0, s, cur)[0]
+        return _rows(layout, _unflatten(layout, fl[None]), x0, s, cur)[0].T  # (c, p)
 
     def per_start(fl, th, ch):
         x0, s, cur, frc, msk = ch
         mm = feats(fl, x0, s, cur) * msk[:, None]
         dm = jax.jacfwd(feats)(fl, x0, s, cur) * msk[:, None, None]  # (c, p, n)
-        r = (frc - mm @ th) * msk[:, None]
+        r = (frc.T - mm @ th) * msk[:, None]
         a = jnp.einsum("cpn,pq->qcn", dm, th)
         return (jnp.einsum("qcn,qcm->qnm", a, a), jnp.einsum("cp,qcn->qpn", mm, a),
                 jnp.einsum("cq,cpn->qpn", r, dm))

@@ -15,7 +15,7 @@ from pgcomm.control import Feedforward, identify_feedforward
 from pgcomm.datasets import generate_datasets
 from pgcomm.experiment import Setup
 from pgcomm.metrics import commutation_mse, tracking_mse
-from pgcomm.simulate import SimResult, simulate, simulate_many
+from pgcomm.simulate import SimResult, simulate_many
 
 
 def data_generation_reference(setup: Setup) -> trajectory.Reference:
@@ -40,14 +40,20 @@ def generate(setup: Setup, reference, k_hat, zeta_hat, seed: int = 0, coil_sets=
                              coil_sets=coil_sets)
 
 
-def run_calibration(setup: Setup, reference, seed: int = 0, progress=None) -> tuple[CalibrationResult, list]:
-    """Algorithm 1 from the set-up's initial ``k0``, ``ζ0``; returns the result and the last data sets."""
+def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first=None) -> tuple[CalibrationResult, list]:
+    """Algorithm 1 from the set-up's initial ``k0``, ``ζ0``; returns the result and the last data sets.
+
+    ``first``: data sets already generated at ``k0``, ``ζ0`` (used for the first pass).
+    """
     cc = setup.config.calibration
-    last = {}
+    last = {"calls": 0}
 
     def gen(k, zeta):
-        last["data"] = generate(setup, reference, k, zeta, seed=seed + 1000 * len(last.get("calls", [])))
-        last.setdefault("calls", []).append(1)
+        if last["calls"] == 0 and first is not None:
+            last["data"] = first
+        else:
+            last["data"] = generate(setup, reference, k, zeta, seed=seed + 1000 * last["calls"])
+        last["calls"] += 1
         return last["data"]
 
     def report(it, k, zeta):
@@ -82,23 +88,23 @@ def tune_feedforward(setup: Setup, laws: list, reference, seed: int = 0) -> list
 
 
 def run_laws(setup: Setup, laws: list, reference, feedforwards: list, seeds) -> list[SimResult]:
-    """Simulate each law with its feedforward; laws sharing a pytree structure run batched."""
+    """Simulate each law with its feedforward; laws sharing a pytree structure run batched.
+
+    ``reference`` is one reference for all laws or a list with one per law.
+    """
     import jax
 
+    refs = list(reference) if isinstance(reference, (list, tuple)) else [reference] * len(laws)
     groups: dict = {}
     for j, law in enumerate(laws):
         groups.setdefault(jax.tree_util.tree_structure(law), []).append(j)
     out: list = [None] * len(laws)
     kw = dict(drive=setup.motor, pid=setup.pid, mechanics=setup.config.mechanics, sensors=setup.config.sensors)
     for idx in groups.values():
-        if len(idx) == 1:
-            j = idx[0]
-            out[j] = simulate(setup.plant, laws[j], reference, feedforward=feedforwards[j], seed=seeds[j], **kw)
-        else:
-            res = simulate_many(setup.plant, [laws[j] for j in idx], reference,
-                                feedforwards=[feedforwards[j] for j in idx], seeds=[seeds[j] for j in idx], **kw)
-            for j, r in zip(idx, res):
-                out[j] = r
+        res = simulate_many(setup.plant, [laws[j] for j in idx], [refs[j] for j in idx],
+                            feedforwards=[feedforwards[j] for j in idx], seeds=[seeds[j] for j in idx], **kw)
+        for j, r in zip(idx, res):
+            out[j] = r
     return out
 
 

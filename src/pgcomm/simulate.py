@@ -135,58 +135,72 @@ def simulate(plant, law, reference, *, drive: Motor, pid: PID | None = None,
 def simulate_many(plant, laws, reference, *, drive: Motor, pid: PID | None = None, feedforwards=None,
                   mechanics: Mechanics = Mechanics(), sensors: Sensors = Sensors(), seeds=None,
                   y0: float | None = None) -> list[SimResult]:
-    """Run several closed loops that differ only in the law's values, feedforward and noise seed, batched.
+    """Run several closed loops that differ in the law's values, feedforward, noise seed and reference, batched.
 
     ``laws`` must share one pytree structure (same law class and static fields, e.g.
     the ``2L`` data-set experiments of :class:`pgcomm.commutation.DriveInputLaw`); they
     are stacked and simulated together with ``jax.vmap`` over one compiled scan.
 
     Args:
-        laws: list of ``B`` laws; feedforwards: list of ``B`` :class:`Feedforward` (default none);
+        laws: list of ``B`` laws.
+        reference: one :class:`~pgcomm.trajectory.Reference` for all, or a list of ``B``
+            (of any lengths: shorter ones are padded by holding their last sample, and the
+            results are cut back to each reference's length).
+        feedforwards: list of ``B`` :class:`Feedforward` (default none);
         seeds: list of ``B`` noise seeds (default ``0..B-1``). Other arguments as :func:`simulate`.
 
     Returns:
         list of ``B`` :class:`SimResult`.
     """
     ts = float(drive.sample_time)
-    if abs(reference.sample_time - ts) > 1e-12 * ts:
-        raise DataError(f"reference sample time {reference.sample_time} s differs from the motor's {ts} s")
+    b = len(laws)
+    refs = list(reference) if isinstance(reference, (list, tuple)) else [reference] * b
+    for ref in refs:
+        if abs(ref.sample_time - ts) > 1e-12 * ts:
+            raise DataError(f"reference sample time {ref.sample_time} s differs from the motor's {ts} s")
     mech_mod.check_stable(mechanics, ts)
     pid = pid or PID.tuned(mechanics.mass)
-    b = len(laws)
     feedforwards = feedforwards or [Feedforward()] * b
     seeds = list(range(b)) if seeds is None else list(seeds)
-    r = np.asarray(reference.r, float)
-    u_ff = np.stack([feedforward_signal(ff, np.asarray(reference.v), np.asarray(reference.a))
-                     for ff in feedforwards])
-    y0 = float(r[0] if y0 is None else y0)
+    lengths = [len(ref.r) for ref in refs]
+    n_max = max(lengths)
+    r = np.stack([_pad(np.asarray(ref.r, float), n_max) for ref in refs])
+    u_ff = np.stack([_pad(feedforward_signal(ff, np.asarray(ref.v), np.asarray(ref.a)), n_max)
+                     for ff, ref in zip(feedforwards, refs)])
+    y0s = np.array([float(rr[0] if y0 is None else y0) for rr in r])
     kw = dict(pid=pid, mech=mechanics, sample_time=ts, resolution=float(sensors.encoder_resolution),
               current_limit=drive.current_limit)
     if b == 1:
-        outs = [_run(plant, laws[0], jnp.asarray(r), jnp.asarray(u_ff[0]), jnp.asarray(y0), **kw)]
-        outs = [tuple(np.asarray(o) for o in outs[0])]
+        outs = [tuple(np.asarray(o) for o in _run(plant, laws[0], jnp.asarray(r[0]), jnp.asarray(u_ff[0]),
+                                                   jnp.asarray(y0s[0]), **kw))]
     else:
         stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *laws)
-        batched = _run_batched(plant, stacked, jnp.asarray(r), jnp.asarray(u_ff), jnp.asarray(y0), **kw)
+        batched = _run_batched(plant, stacked, jnp.asarray(r), jnp.asarray(u_ff), jnp.asarray(y0s), **kw)
         batched = [np.asarray(o) for o in batched]
         outs = [tuple(o[j] for o in batched) for j in range(b)]
-    n = r.shape[0]
     k_hat = jnp.asarray(drive.k)
     zeta_hat = jnp.asarray(drive.zeta)
     results = []
-    for (y, ym, f_star, f_true, cur), seed in zip(outs, seeds):
+    for j, ((y, ym, f_star, f_true, cur), seed) in enumerate(zip(outs, seeds)):
+        n = lengths[j]
+        y, ym, f_star, f_true, cur = y[:n], ym[:n], f_star[:n], f_true[:n], cur[:n]
         _check_range(plant, y)
         noise = np.asarray(force_noise(jax.random.PRNGKey(seed), n, sensors))
         fy, delta = currents_to_drive_inputs(jnp.asarray(ym), jnp.asarray(cur), k_hat, zeta_hat, drive.pole_pitch)
-        results.append(SimResult(t=np.arange(n) * ts, r=r, y=y, y_meas=ym, e=r - y, f_star=f_star,
+        results.append(SimResult(t=np.arange(n) * ts, r=r[j, :n], y=y, y_meas=ym, e=r[j, :n] - y, f_star=f_star,
                                  f_meas=f_true + noise, f_true=f_true, currents=cur, drive_fy=np.asarray(fy),
                                  drive_delta=np.asarray(delta), sample_time=ts, drive=drive))
     return results
 
 
+def _pad(x, n):
+    """Pad ``x`` (N,) to length ``n`` by holding its last value."""
+    return np.concatenate([x, np.full(n - x.shape[0], x[-1])]) if x.shape[0] < n else x
+
+
 @partial(jax.jit, static_argnames=("pid", "mech", "sample_time", "resolution", "current_limit"))
 def _run_batched(plant, laws, r, u_ff, y0, **kw):
-    return jax.vmap(lambda law, uff: _run(plant, law, r, uff, y0, **kw))(laws, u_ff)
+    return jax.vmap(lambda law, rr, uff, y00: _run(plant, law, rr, uff, y00, **kw))(laws, r, u_ff, y0)
 
 
 def _check_range(plant, y):
