@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pgcomm import trajectory
-from pgcomm.calibration import _hat_basis, calibrate, calibrate_from_datasets, fit_coefficients, update
+from pgcomm.calibration import calibrate, calibrate_from_datasets, fit_coefficients, update
 from pgcomm.datasets import generate_datasets
 from pgcomm.errors import DataError
 from pgcomm.sensors import Sensors
@@ -60,7 +60,7 @@ def test_update_rejects_zero_c1():
 # ---------------------------------------------------------------------------
 
 
-def _synthetic_pair(rng, c1, c2, n=3000, offset=None, direction=0.0):
+def _synthetic_pair(rng, c1, c2, n=2000, offset=None, direction=0.0):
     t = np.arange(n) * 1e-3
     y = 0.09 * np.sin(2 * np.pi * 0.7 * t)  # back and forth over the stroke
     fs1 = 60 * np.sin(2 * np.pi * 1.3 * t) + 20 * rng.normal(size=n)
@@ -83,8 +83,8 @@ def test_offset_method_removes_position_offset_and_direction_term(rng):
     knots_lo, knots_hi, n_bins = -0.09, 0.09, 40
     weights = rng.normal(size=n_bins + 1) * 3.0
 
-    def offset(y):
-        return _hat_basis(y, knots_lo, knots_hi, n_bins) @ weights + 2.5
+    def offset(y):  # piecewise linear on the fit's knots: inside the "offset" model class
+        return np.interp(y, np.linspace(knots_lo, knots_hi, n_bins + 1), weights) + 2.5
 
     (f1, s1, y1), (f2, s2, y2) = _synthetic_pair(rng, 0.83, 0.41, offset=offset, direction=1.5)
     c1, c2 = fit_coefficients(f1, s1, y1, f2, s2, y2, method="offset", n_bins=n_bins,
@@ -158,8 +158,7 @@ def test_datasets_follow_ideal_coefficients(datasets0):
             np.testing.assert_allclose(z.result.f_meas[:, 0], c * fs, rtol=0, atol=1e-10 * np.abs(fs).max())
 
 
-@pytest.mark.parametrize("method, pole_pitch", [("paper", None), ("offset", None), ("offset", TWIN0.pole_pitch)],
-                         ids=["paper", "offset", "offset_ripple"])
+@pytest.mark.parametrize("method, pole_pitch", [("paper", None), ("offset", None)], ids=["paper", "offset"])
 def test_algorithm1_recovers_k_zeta_on_noise_free_twin(method, pole_pitch, datasets0):
     k_hat = np.full(3, K0)
     zeta_hat = np.full(3, ZETA0)

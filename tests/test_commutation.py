@@ -35,17 +35,22 @@ def _motor(name, current_limit=None):
     return Motor(pole_pitch=POLE_PITCH, lever_arms=d, k=k, zeta=z, mu=mu, current_limit=current_limit)
 
 
-def _samples(rng, n=16):
+#: one batch size everywhere: the jitted helpers compile once per law structure
+N_SAMPLES = 16
+
+
+def _samples(rng, n=N_SAMPLES):
     y = rng.uniform(-0.1, 0.1, n)
     f = rng.normal(size=(n, 3)) * np.array([100.0, 20.0, 3.0])
     return y, f
 
 
-def _full_phase_matrix(y, motor):
-    """``3 x 3L`` phase gain matrix ``[K^1 ... K^L]`` (eq. 8) at one position, NumPy."""
+def _full_phase_matrices(y, motor):
+    """``(N, 3, 3L)`` phase gain matrices ``[K^1 ... K^L]`` (eq. 8) at positions ``y`` (N,), NumPy."""
+    y = jnp.asarray(y)
     blocks = [np.asarray(ideal_gain_phases(y, motor.k[l], motor.zeta[l], motor.mu, motor.lever_arms[l],
                                            motor.pole_pitch)) for l in range(motor.n_coil_sets)]
-    return np.hstack(blocks)
+    return np.concatenate(blocks, axis=-1)
 
 
 def _reduced_matrix(gain):
@@ -60,6 +65,17 @@ def currents_jit():
     return jax.jit(lambda law, y, f: law.currents(y, f))
 
 
+@jax.jit
+def _gain(law, y):
+    return law.gain(y)
+
+
+@jax.jit
+def _force(law, y, i):
+    """``Σ_l K^l(y) i^l`` with the law's own (ideal) gain."""
+    return total_force(law.gain(y), i)
+
+
 # ---------------------------------------------------------------------------
 # classical law: minimum-energy pseudo-inverse
 # ---------------------------------------------------------------------------
@@ -71,8 +87,9 @@ def test_classical_law_equals_pinv_of_full_phase_matrix(name, rng, currents_jit)
     law = ClassicalLaw.from_motor(motor)
     y, f = _samples(rng)
     got = np.asarray(currents_jit(law, jnp.asarray(y), jnp.asarray(f)))
+    k3s = _full_phase_matrices(y, motor)
     for n in range(len(y)):
-        k3 = _full_phase_matrix(y[n], motor)
+        k3 = k3s[n]
         i3 = (np.linalg.pinv(k3) @ f[n]).reshape(motor.n_coil_sets, 3)
         # the pseudo-inverse solution satisfies the star constraint by itself
         np.testing.assert_allclose(i3.sum(axis=1), 0.0, atol=1e-12 * np.abs(i3).max())
@@ -84,7 +101,7 @@ def test_classical_law_reproduces_desired_force(name, rng, currents_jit):
     law = ClassicalLaw.from_motor(_motor(name))
     y, f = _samples(rng)
     i = currents_jit(law, jnp.asarray(y), jnp.asarray(f))
-    got = np.asarray(total_force(law.gain(y), i))
+    got = np.asarray(_force(law, jnp.asarray(y), i))
     for q in range(3):  # per row: N, N, N*m have different scales
         np.testing.assert_allclose(got[:, q], f[:, q], rtol=0, atol=1e-10 * np.abs(f[:, q]).max())
 
@@ -94,23 +111,27 @@ def test_star_metric_equals_pinv_of_reduced_matrix(name, rng, currents_jit):
     law = ClassicalLaw.from_motor(_motor(name), metric="star")
     y, f = _samples(rng)
     got = np.asarray(currents_jit(law, jnp.asarray(y), jnp.asarray(f)))
-    gains = np.asarray(law.gain(y))
+    gains = np.asarray(_gain(law, jnp.asarray(y)))
     for n in range(len(y)):
         i = np.linalg.pinv(_reduced_matrix(gains[n])) @ f[n]
         np.testing.assert_allclose(got[n].ravel(), i, rtol=0, atol=1e-10 * np.abs(i).max())
 
 
 def _phase_loss(currents):
-    return float(np.sum(np.asarray(star_to_phases(jnp.asarray(currents))) ** 2))
+    """``Σ ia² + ib² + ic²`` over coil sets with ``ic = -ia - ib`` (NumPy, ``(L, 2)``)."""
+    c = np.asarray(currents)
+    return float(np.sum(c**2) + np.sum(c.sum(axis=-1) ** 2))
 
 
 @pytest.mark.parametrize("name", list(MOTORS))
-def test_classical_law_is_minimum_phase_copper_loss(name, rng):
+def test_classical_law_is_minimum_phase_copper_loss(name, rng, currents_jit):
     law = ClassicalLaw.from_motor(_motor(name))
-    y, f = _samples(rng, 6)
+    y, f = _samples(rng)
+    cur = np.asarray(currents_jit(law, jnp.asarray(y), jnp.asarray(f)))
+    gains = np.asarray(_gain(law, jnp.asarray(y)))
     for n in range(len(y)):
-        i = np.asarray(law.currents(y[n], jnp.asarray(f[n])))
-        kred = _reduced_matrix(law.gain(y[n]))
+        i = cur[n]
+        kred = _reduced_matrix(gains[n])
         null = scipy.linalg.null_space(kred)  # (2L, 2L - 3)
         assert null.shape[1] == 2 * law.k.shape[0] - 3
         base = _phase_loss(i)
@@ -130,17 +151,21 @@ def test_classical_law_is_minimum_phase_copper_loss(name, rng):
 # ---------------------------------------------------------------------------
 
 
+@jax.jit
+def _single_direction(y, fy, k, zeta):
+    return classical_single_direction(y, fy, k, zeta, POLE_PITCH)
+
+
 @pytest.mark.parametrize("name", list(MOTORS))
 def test_single_direction_equals_classical_law(name, rng, currents_jit):
     motor = _motor(name)
     law = ClassicalLaw.from_motor(motor)
-    y = rng.uniform(-0.1, 0.1, 32)
-    fy = rng.normal(size=32) * 100.0
+    y = rng.uniform(-0.1, 0.1, N_SAMPLES)
+    fy = rng.normal(size=N_SAMPLES) * 100.0
     f = np.stack([fy, np.zeros_like(fy), np.zeros_like(fy)], -1)
     ref = np.asarray(currents_jit(law, jnp.asarray(y), jnp.asarray(f)))
-    got = np.asarray(classical_single_direction(y, fy, jnp.asarray(motor.k), jnp.asarray(motor.zeta),
-                                                motor.pole_pitch))
-    assert got.shape == (32, motor.n_coil_sets, 2)
+    got = np.asarray(_single_direction(y, fy, jnp.asarray(motor.k), jnp.asarray(motor.zeta)))
+    assert got.shape == (N_SAMPLES, motor.n_coil_sets, 2)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
 
 
@@ -152,10 +177,10 @@ def test_single_direction_force_split_is_k_squared():
     np.testing.assert_allclose(np.asarray(force_split(k)), w_expected, rtol=1e-14)
     # differs from the paper's typo k_l / Σ k_m (the test would catch a k-linear split)
     assert np.max(np.abs(w_expected - k / k.sum())) > 1e-3
-    y = np.linspace(-0.1, 0.1, 7)
-    fy = np.full(7, 80.0)
-    i = classical_single_direction(y, fy, jnp.asarray(k), jnp.asarray(motor.zeta), motor.pole_pitch)
-    gain = np.asarray(ClassicalLaw.from_motor(motor).gain(y))  # (7, L, 3, 2)
+    y = np.linspace(-0.1, 0.1, N_SAMPLES)
+    fy = np.full(N_SAMPLES, 80.0)
+    i = _single_direction(y, fy, jnp.asarray(k), jnp.asarray(motor.zeta))
+    gain = np.asarray(_gain(ClassicalLaw.from_motor(motor), jnp.asarray(y)))  # (N, L, 3, 2)
     per_set = np.einsum("nlqc,nlc->nlq", gain, np.asarray(i))
     np.testing.assert_allclose(per_set[..., 0], fy[:, None] * w_expected, rtol=1e-12)
     np.testing.assert_allclose(per_set[..., 1:], 0.0, atol=1e-12 * 80.0)
@@ -191,14 +216,14 @@ def _damped_reference(gain, f):
 @pytest.mark.parametrize("name", list(RANK_DEFICIENT))
 def test_damped_law_stays_finite_and_reproduces_fy(name, rng, currents_jit):
     law = ClassicalLaw.from_motor(RANK_DEFICIENT[name])
-    y, f = _samples(rng, 32)  # random Fx, Tz: inconsistent with the rank-deficient K
+    y, f = _samples(rng)  # random Fx, Tz: inconsistent with the rank-deficient K
     i = np.asarray(currents_jit(law, jnp.asarray(y), jnp.asarray(f)))
     assert np.isfinite(i).all()
-    got = np.asarray(total_force(law.gain(y), i))
+    got = np.asarray(_force(law, jnp.asarray(y), jnp.asarray(i)))
     np.testing.assert_allclose(got[:, 0], f[:, 0], rtol=2e-6, atol=0)
     # bounded: the least-squares compromise (damping 1e-6 moves it by ~1e-6 relative),
     # not a blow-up along the singular direction
-    gains = np.asarray(law.gain(y))
+    gains = np.asarray(_gain(law, jnp.asarray(y)))
     for n in range(len(y)):
         ref = _damped_reference(gains[n], f[n])
         np.testing.assert_allclose(i[n], ref, rtol=0, atol=1e-5 * np.abs(ref).max())
@@ -213,8 +238,12 @@ def test_damped_law_stays_finite_and_reproduces_fy(name, rng, currents_jit):
 def test_limit_currents_bounds_phases_and_keeps_direction(limit, rng):
     i = rng.normal(size=(50, 3, 2)) * rng.uniform(0.02, 3.0, (50, 1, 1))
     out = np.asarray(limit_currents(jnp.asarray(i), limit))
-    peak_in = np.abs(np.asarray(star_to_phases(jnp.asarray(i)))).max(axis=(-2, -1))
-    peak_out = np.abs(np.asarray(star_to_phases(jnp.asarray(out)))).max(axis=(-2, -1))
+
+    def peak(c):  # max |ia|, |ib|, |ic| per sample, ic = -ia - ib
+        return np.maximum(np.abs(c).max(axis=(-2, -1)), np.abs(c.sum(axis=-1)).max(axis=-1))
+
+    np.testing.assert_array_equal(np.asarray(star_to_phases(jnp.asarray(i)))[..., 2], -i.sum(axis=-1))
+    peak_in, peak_out = peak(i), peak(out)
     assert np.all(peak_out <= limit * (1 + 1e-12))
     # over the limit: scaled onto it; under: unchanged
     over = peak_in > limit
@@ -232,12 +261,14 @@ def test_limit_currents_none_is_identity(rng):
     assert limit_currents(i, None) is i
 
 
-def test_classical_law_applies_motor_current_limit(rng):
+def test_classical_law_applies_motor_current_limit(rng, currents_jit):
     motor = _motor("L3_paper", current_limit=1.0)
     law = ClassicalLaw.from_motor(motor)
     y, f = _samples(rng)
-    i = np.asarray(law.currents(y, jnp.asarray(f * 10.0)))
-    assert np.abs(np.asarray(star_to_phases(jnp.asarray(i)))).max() <= 1.0 + 1e-12
+    i = np.asarray(currents_jit(law, jnp.asarray(y), jnp.asarray(f * 10.0)))
+    peak = np.abs(np.asarray(star_to_phases(jnp.asarray(i)))).max(axis=(-2, -1))
+    assert np.all(peak <= 1.0 + 1e-12)
+    np.testing.assert_allclose(peak, 1.0, rtol=1e-12)  # every sample of this batch needs more than 1 A
 
 
 # ---------------------------------------------------------------------------
@@ -253,10 +284,11 @@ def twin_plant():
 def test_model_law_on_twin_is_exact_oracle(twin_plant, rng, currents_jit):
     law = ModelLaw(twin_plant)
     lo, hi = twin_plant.y_range
-    y = rng.uniform(lo, hi, 64)
-    f = rng.normal(size=(64, 3)) * np.array([100.0, 20.0, 3.0])
+    y = rng.uniform(lo, hi, N_SAMPLES)
+    f = rng.normal(size=(N_SAMPLES, 3)) * np.array([100.0, 20.0, 3.0])
     i = currents_jit(law, jnp.asarray(y), jnp.asarray(f))
-    got = np.asarray(total_force(twin_plant.gain(y), i) + twin_plant.cogging(y))
+    static_force = jax.jit(lambda p, q, c: total_force(p.gain(q), c) + p.cogging(q))
+    got = np.asarray(static_force(twin_plant, jnp.asarray(y), i))
     for q in range(3):
         np.testing.assert_allclose(got[:, q], f[:, q], rtol=0, atol=1e-10 * np.abs(f[:, q]).max())
 
@@ -278,25 +310,24 @@ def _laws(twin_plant):
 @pytest.mark.parametrize("which", ["classical", "classical_star", "model_twin"])
 def test_laws_jit_and_vectorise(which, twin_plant, rng, currents_jit):
     law = _laws(twin_plant)[which]
-    y = rng.uniform(-0.1, 0.1, (3, 4))
-    f = rng.normal(size=(3, 4, 3)) * np.array([100.0, 20.0, 3.0])
+    y = rng.uniform(-0.1, 0.1, (2, 3))
+    f = rng.normal(size=(2, 3, 3)) * np.array([100.0, 20.0, 3.0])
     batched = np.asarray(currents_jit(law, jnp.asarray(y), jnp.asarray(f)))
-    assert batched.shape == (3, 4, 3, 2)
-    for a in range(3):
-        for b in range(4):
-            single = np.asarray(law.currents(jnp.asarray(y[a, b]), jnp.asarray(f[a, b])))
+    assert batched.shape == (2, 3, 3, 2)
+    for a in range(2):
+        for b in range(3):
+            single = np.asarray(currents_jit(law, jnp.asarray(y[a, b]), jnp.asarray(f[a, b])))
             np.testing.assert_allclose(batched[a, b], single, rtol=0, atol=1e-12 * np.abs(single).max())
 
 
 def test_single_direction_jit_and_vectorise(rng):
     m = _motor("L3_paper")
     k, z = jnp.asarray(m.k), jnp.asarray(m.zeta)
-    fn = jax.jit(lambda y, fy: classical_single_direction(y, fy, k, z, POLE_PITCH))
-    y = rng.uniform(-0.1, 0.1, (2, 5))
-    fy = rng.normal(size=(2, 5)) * 50
-    batched = np.asarray(fn(y, fy))
-    assert batched.shape == (2, 5, 3, 2)
+    y = rng.uniform(-0.1, 0.1, (2, 3))
+    fy = rng.normal(size=(2, 3)) * 50
+    batched = np.asarray(_single_direction(y, fy, k, z))
+    assert batched.shape == (2, 3, 3, 2)
     for a in range(2):
-        for b in range(5):
-            single = np.asarray(classical_single_direction(y[a, b], fy[a, b], k, z, POLE_PITCH))
+        for b in range(3):
+            single = np.asarray(_single_direction(y[a, b], fy[a, b], k, z))
             np.testing.assert_allclose(batched[a, b], single, rtol=0, atol=1e-13 * np.abs(single).max())

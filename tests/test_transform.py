@@ -28,7 +28,7 @@ def _wrap(a):
 
 @pytest.mark.parametrize("k_hat, zeta_hat", [(67.0, -0.52), (1.0, 0.0), (123.4, 3.0)])
 def test_gamma_times_inverse_is_identity(k_hat, zeta_hat, rng):
-    y = rng.uniform(-0.2, 0.2, 200)
+    y = rng.uniform(-0.2, 0.2, 60)
     g = np.asarray(gamma(y, k_hat, zeta_hat, POLE_PITCH))
     gi = np.asarray(gamma_inverse(y, k_hat, zeta_hat, POLE_PITCH))
     eye = np.broadcast_to(np.eye(2), g.shape)
@@ -81,13 +81,13 @@ def test_T_inverse_vectorised_and_zero_force(rng):
 
 
 def test_drive_currents_equal_gamma_times_T(rng):
-    y = rng.uniform(-0.1, 0.1, 40)
-    fy = rng.normal(size=(40, 3)) * 80.0
-    delta = rng.uniform(-np.pi, np.pi, (40, 3))
+    y = rng.uniform(-0.1, 0.1, 60)
+    fy = rng.normal(size=(60, 3)) * 80.0
+    delta = rng.uniform(-np.pi, np.pi, (60, 3))
     got = np.asarray(drive_currents(y, fy, delta, jnp.asarray(K_HAT), jnp.asarray(ZETA_HAT), POLE_PITCH))
-    assert got.shape == (40, 3, 2)
-    g = np.asarray(gamma(y[:, None], jnp.asarray(K_HAT), jnp.asarray(ZETA_HAT), POLE_PITCH))  # (40, 3, 2, 2)
-    t = np.asarray(transform_T(jnp.asarray(fy), jnp.asarray(delta)))                          # (40, 3, 2)
+    assert got.shape == (60, 3, 2)
+    g = np.asarray(gamma(y[:, None], jnp.asarray(K_HAT), jnp.asarray(ZETA_HAT), POLE_PITCH))  # (60, 3, 2, 2)
+    t = np.asarray(transform_T(jnp.asarray(fy), jnp.asarray(delta)))                          # (60, 3, 2)
     np.testing.assert_allclose(got, np.einsum("nlij,nlj->nli", g, t), rtol=0, atol=1e-12 * np.abs(got).max())
 
 
@@ -131,10 +131,22 @@ def test_currents_round_trip_through_drive_inputs(rng):
 
 @pytest.mark.parametrize("l", [0, 1, 2])
 def test_drive_with_zero_delta_is_single_coil_set_classical(l, rng):
-    y = rng.uniform(-0.1, 0.1, 30)
-    fy = rng.normal(size=30) * 100.0
+    y = rng.uniform(-0.1, 0.1, 60)
+    fy = rng.normal(size=60) * 100.0
     k, z = K_HAT[l], ZETA_HAT[l]
-    got = np.asarray(drive_currents(y, fy[:, None], np.zeros((30, 1)), k, z, POLE_PITCH))
+    got = np.asarray(drive_currents(y, fy[:, None], np.zeros((60, 1)), k, z, POLE_PITCH))
     ref = np.asarray(classical_single_direction(y, fy, jnp.asarray([k]), jnp.asarray([z]), POLE_PITCH))
-    assert got.shape == ref.shape == (30, 1, 2)
+    assert got.shape == ref.shape == (60, 1, 2)
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("f12", [(-1.0, -0.0), "T(-5, 0)"], ids=["minus_zero", "negative_fy_zero_delta"])
+def test_T_inverse_range_excludes_minus_pi(f12):
+    """``Δ ∈ (-π, π]`` also when ``F2*`` is a negative zero, e.g. ``T(Fy* < 0, Δ = 0) = (Fy*, -0.0)``."""
+    if f12 == "T(-5, 0)":
+        arr = transform_T(jnp.asarray(-5.0), jnp.asarray(0.0))
+    else:
+        arr = jnp.asarray(f12)
+    fy, d = (float(v) for v in transform_T_inverse(arr))
+    assert fy > 0
+    assert -np.pi < d <= np.pi

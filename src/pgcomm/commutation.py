@@ -214,7 +214,9 @@ def transform_T_inverse(f12):
     Args:
         f12: ``S + (2,)`` (N). Returns ``(fy, delta)`` each of shape ``S``.
     """
-    return jnp.hypot(f12[..., 0], f12[..., 1]), jnp.arctan2(f12[..., 1], f12[..., 0])
+    delta = jnp.arctan2(f12[..., 1], f12[..., 0])
+    # atan2(-0.0, x < 0) is -π; fold it onto π to keep the documented range (-π, π]
+    return jnp.hypot(f12[..., 0], f12[..., 1]), jnp.where(delta <= -jnp.pi, jnp.pi, delta)
 
 
 def drive_currents(y, fy, delta, k_hat, zeta_hat, pole_pitch):

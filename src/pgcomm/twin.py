@@ -209,15 +209,14 @@ class TwinPlant:
         st = s1 * jnp.cos(c) + c1 * jnp.sin(c)
         ct = c1 * jnp.cos(c) - s1 * jnp.sin(c)
         h5, h7, ph5, ph7 = (self.harmonics[i] for i in range(4))
-        # multiple angles from (cos θ + i sin θ)^n: no extra transcendentals
-        z1 = ct + 1j * st
-        z2 = z1 * z1
-        z5 = z2 * z2 * z1
-        z7 = z5 * z2
-        r5 = z5 * jnp.exp(1j * ph5)
-        r7 = z7 * jnp.exp(1j * ph7)
-        wy = st + h5 * r5.imag + h7 * r7.imag
-        wx = ct + h5 * r5.real + h7 * r7.real
+        # multiple angles by angle addition (no extra transcendentals): nθ = (n-2)θ + 2θ
+        c2, s2 = ct * ct - st * st, 2 * st * ct
+        c3, s3 = ct * c2 - st * s2, st * c2 + ct * s2
+        c5, s5 = c3 * c2 - s3 * s2, s3 * c2 + c3 * s2
+        c7, s7 = c5 * c2 - s5 * s2, s5 * c2 + c5 * s2
+        cp5, sp5, cp7, sp7 = jnp.cos(ph5), jnp.sin(ph5), jnp.cos(ph7), jnp.sin(ph7)
+        wy = st + h5 * (s5 * cp5 + c5 * sp5) + h7 * (s7 * cp7 + c7 * sp7)
+        wx = ct + h5 * (c5 * cp5 - s5 * sp5) + h7 * (c7 * cp7 - s7 * sp7)
         amp = (2.0 / 3.0) * self.k[:, None] * (1.0 + self.phase_gain_error) * scale
         fy = amp * wy
         fx = amp * self.mu * wx
