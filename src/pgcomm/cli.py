@@ -291,7 +291,7 @@ def _write_datasets(out: Path, data) -> None:
 
 def _register_all():
     """Import command modules that register themselves (kept lazy so ``--help`` is fast)."""
-    for mod in ("pgcomm.cli_identify", "pgcomm.cli_reproduce", "pgcomm.cli_deploy"):
+    for mod in ("pgcomm.cli_identify", "pgcomm.cli_reproduce", "pgcomm.cli_deploy", "pgcomm.cli_export"):
         try:
             __import__(mod)
         except ModuleNotFoundError as e:

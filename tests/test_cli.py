@@ -1,0 +1,137 @@
+"""End-to-end CLI tests: simulate, calibrate (twin and force map), reproduce --quick, and bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pgcomm.cli import main
+from pgcomm.forcemap import ForceMapPlant, write_forcemap
+from pgcomm.io.config import write_motor
+from pgcomm.twin import DEFAULT_TWIN, true_fundamental
+
+
+def run(argv, capsys):
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    """``pgcomm calibrate`` on the default twin (sensor noise on)."""
+    out = tmp_path_factory.mktemp("cal") / "out"
+    assert main(["calibrate", "--out", str(out), "--quiet"]) == 0
+    return json.loads((out / "results.json").read_text()), out
+
+
+def test_calibrate_recovers_true_fundamental(calibrated):
+    """Issue bar: every coil set's k within 0.5 % and zeta within 5 mrad of the twin's true fundamental."""
+    res, out = calibrated
+    cal = res["calibration"]
+    k_true, z_true = true_fundamental(DEFAULT_TWIN)
+    np.testing.assert_allclose(cal["true"]["k"], k_true, rtol=1e-12)
+    k = np.asarray(cal["calibrated"]["k"])
+    z = np.asarray(cal["calibrated"]["zeta"])
+    assert np.all(np.abs(k / k_true - 1) < 0.005), k / k_true - 1
+    assert np.all(np.abs(z - z_true) < 0.005), z - z_true
+    assert cal["initial"]["k"] == [67.0, 67.0, 67.0]
+    assert (out / "calibration.png").stat().st_size > 10_000
+
+
+def test_calibrate_on_forcemap_plant(tmp_path, capsys):
+    """The same command runs unchanged on a force-map plant (here: the twin tabulated, without the
+    direction-dependent force, which a static map cannot hold)."""
+    tw = DEFAULT_TWIN.without("direction")
+    plant = tw.plant()
+    y = np.linspace(-0.13, 0.13, 2601)
+    fm = ForceMapPlant.from_plant(plant, y)
+    write_forcemap(tmp_path / "map.csv", y, np.asarray(fm.gain_table), np.asarray(fm.cog_table))
+    write_motor(tmp_path / "motor.toml", tw.motor())
+    out = tmp_path / "out"
+    code, stdout, err = run(["calibrate", "--out", str(out), "--plant", str(tmp_path / "map.csv"), "--motor",
+                             str(tmp_path / "motor.toml"), "--quiet"], capsys)
+    assert code == 0, err
+    res = json.loads((out / "results.json").read_text())
+    assert res["calibration"]["true"]["k"] is None
+    k_true, z_true = true_fundamental(tw)
+    # the tabulated map is linearly interpolated at 0.1 mm: same truth to well within the bar
+    np.testing.assert_allclose(res["calibration"]["calibrated"]["k"], k_true, rtol=0.005)
+    np.testing.assert_allclose(res["calibration"]["calibrated"]["zeta"], z_true, atol=0.005)
+
+
+def test_simulate_writes_log_plot_results(tmp_path, capsys):
+    out = tmp_path / "sim"
+    code, stdout, err = run(["simulate", "--out", str(out), "--law", "true", "--quiet", "--no-feedforward"], capsys)
+    assert code == 0, err
+    res = json.loads((out / "results.json").read_text())
+    mse = res["commutation_mse"]["true"]["y"]
+    assert mse["unfiltered"] > mse["filtered"] > 0
+    header = (out / "log.csv").read_text().splitlines()[0].split(",")
+    for col in ("t", "y", "Fy", "Fx", "Tz", "ia_1", "ib_1", "Fy_ref_3", "delta_3", "r"):
+        assert col in header
+    assert (out / "run.png").exists()
+
+
+def _expect_error(argv, capsys, match, out=None):
+    code, stdout, err = run(argv, capsys)
+    assert code == 2
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("pgcomm: error:"), err
+    assert match in lines[0], lines[0]
+    assert "Traceback" not in err
+    if out is not None:
+        assert not out.exists() or not any(out.iterdir())
+
+
+def test_bad_config_key(tmp_path, capsys):
+    cfg = tmp_path / "exp.toml"
+    cfg.write_text("[controler]\nbandwidth_hz = 5.0\n")
+    out = tmp_path / "o"
+    _expect_error(["calibrate", "--out", str(out), "--config", str(cfg)], capsys, "controller", out)
+
+
+def test_bad_motor_units(tmp_path, capsys):
+    write_forcemap(tmp_path / "map.csv", np.linspace(-0.2, 0.2, 5), np.ones((5, 1, 3, 3)))
+    (tmp_path / "motor.toml").write_text("pole_pitch = 30\nsample_time = 0.001\n[nominal]\nk = 67.0\nzeta = -0.52\n"
+                                         "[[coil_set]]\nlever_arm = 0.0\n")
+    out = tmp_path / "o"
+    _expect_error(["calibrate", "--out", str(out), "--plant", str(tmp_path / "map.csv"), "--motor",
+                   str(tmp_path / "motor.toml")], capsys, "pole_pitch", out)
+
+
+def test_forcemap_missing_phase(tmp_path, capsys):
+    write_forcemap(tmp_path / "map.csv", np.linspace(-0.2, 0.2, 5), np.ones((5, 1, 3, 3)))
+    text = (tmp_path / "map.csv").read_text().splitlines()
+    cols = text[0].split(",")
+    drop = cols.index("Fy_1c")
+    bad = [",".join(c for j, c in enumerate(line.split(",")) if j != drop) for line in text]
+    (tmp_path / "bad.csv").write_text("\n".join(bad) + "\n")
+    write_motor(tmp_path / "motor.toml", DEFAULT_TWIN.motor().with_nominal(k=67.0, zeta=-0.52))
+    out = tmp_path / "o"
+    _expect_error(["calibrate", "--out", str(out), "--plant", str(tmp_path / "bad.csv"), "--motor",
+                   str(tmp_path / "motor.toml")], capsys, "Fy_1c", out)
+
+
+def test_forcemap_too_short_for_stroke(tmp_path, capsys):
+    """A map that does not cover the reference's stroke is refused before simulating."""
+    y = np.linspace(-0.05, 0.05, 11)
+    write_forcemap(tmp_path / "map.csv", y, np.ones((11, 3, 3, 3)))
+    write_motor(tmp_path / "motor.toml", DEFAULT_TWIN.motor())
+    out = tmp_path / "o"
+    _expect_error(["calibrate", "--out", str(out), "--plant", str(tmp_path / "map.csv"), "--motor",
+                   str(tmp_path / "motor.toml")], capsys, "stroke", out)
+
+
+def test_plant_without_motor(tmp_path, capsys):
+    write_forcemap(tmp_path / "map.csv", np.linspace(-0.2, 0.2, 5), np.ones((5, 1, 3, 3)))
+    _expect_error(["simulate", "--out", str(tmp_path / "o"), "--plant", str(tmp_path / "map.csv")], capsys,
+                  "--motor")
+
+
+def test_reference_file_missing_column(tmp_path, capsys):
+    (tmp_path / "ref.csv").write_text("t,x\n0,0\n0.001,0\n")
+    _expect_error(["simulate", "--out", str(tmp_path / "o"), "--reference", str(tmp_path / "ref.csv")], capsys,
+                  "ref.csv")
