@@ -1,0 +1,44 @@
+"""Deployment export of a commutation law: generated C code and lookup tables.
+
+* :mod:`pgcomm.export.c` — :func:`write_c` / :func:`c_source`: the model-based law
+  ``i = K̂(y)^† (F* - F̂_cog(y))`` (eq. Commutation_Model_Currents) and the drive inputs
+  (eq. Current_To_ForceDelta) as self-contained C99, agreeing with
+  :class:`pgcomm.commutation.ModelLaw` to rounding.
+* :mod:`pgcomm.export.lut` — :func:`build_lut` / :func:`write_lut`: the same law as a
+  table of the pseudo-inverse ``P(y)`` and cogging force on a uniform position grid
+  with linear interpolation, its worst-case force error (:func:`lut_error`), and an
+  anti-cogging table for drives that only take a position -> force-offset table
+  (:func:`build_cogging_table`, :func:`cogging_table_error`).
+
+``pgcomm export`` (:mod:`pgcomm.cli_export`) drives both from a model file.
+"""
+
+from pgcomm.export.c import c_source, write_c
+from pgcomm.export.lut import (
+    DEFAULT_RESOLUTION,
+    CoggingTable,
+    CoggingTableError,
+    Lut,
+    LutError,
+    build_cogging_table,
+    build_lut,
+    classical_parameters,
+    cogging_table_error,
+    cogging_table_offset,
+    f_star_set,
+    lut_columns,
+    lut_currents,
+    lut_error,
+    lut_header,
+    read_lut,
+    write_cogging_table,
+    write_lut,
+)
+
+__all__ = [
+    "c_source", "write_c",
+    "DEFAULT_RESOLUTION", "Lut", "LutError", "CoggingTable", "CoggingTableError",
+    "build_lut", "lut_currents", "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns", "f_star_set",
+    "build_cogging_table", "cogging_table_offset", "cogging_table_error", "write_cogging_table",
+    "classical_parameters",
+]

@@ -1,0 +1,658 @@
+"""Lookup-table export of the model-based commutation law, and an anti-cogging table.
+
+Full law as a table
+-------------------
+The law ``i = K̂(y)^† (F* - F̂_cog(y))`` (eq. Commutation_Model_Currents, minimum copper
+loss, damping as :func:`pgcomm.commutation.min_energy_currents`) is linear in the force,
+so at each position it is one ``2L x 3`` matrix ``P(y)`` and one vector ``F̂_cog(y)``::
+
+    i^l = P^l(y) (F* - F̂_cog(y)),      P(y)[:, j] = law currents for F = e_j
+
+:func:`build_lut` tabulates ``P`` (A/N, A/N, A/(N·m)) and ``F̂_cog`` (N, N, N·m) on a
+uniform grid; :func:`lut_currents` (and the generated C function) interpolates both
+linearly, applies the product and then the current limit (one factor for all coil
+sets, as :func:`pgcomm.commutation.limit_currents`). At grid points the table law IS
+the exact law; between them the error is that of linear interpolation, ``O(h²)``.
+
+Accuracy and the default resolution. ``P(y)`` turns with the commutation angle
+``ω y``, ``ω = 2π/d_m``; linear interpolation of a harmonic misses by at most
+``(ω h)²/8`` of its amplitude at mid-cell. The test forces of :func:`lut_error` include
+``Tz = 5 % f_max`` (5 N·m at 100 N), which on a paper-like motor (``μ k d ≈ 0.2 N·m/A``)
+takes currents several times those of ``Fy = f_max``; their interpolation error, seen
+through the large Fy gain, dominates: the measured worst case is about 3.5 (ω h)²/8 of
+``f_max``, in y.
+:data:`DEFAULT_RESOLUTION` = 0.125 mm gives a measured worst case of 0.030 % of ``f_max``
+(y direction; x and z below 2e-5) on paper-like models (``d_m = 0.03 m``, ``k̂ ≈ 61 N/A``,
+``μ = 0.05``, paper lever arms, random PGNN corrections; tests/test_export_lut.py) and
+0.014 % on a PGNN identified from the digital twin — a margin of 3 on the 0.1 % target;
+0.25 mm would give 0.12 % on the former. Over the paper's ±0.1 m stroke the table has
+1601 rows x 21 float32 entries = 134 kB (``--resolution 2.5e-4`` halves that when the
+identified model allows it: check the reported error).
+
+:func:`lut_error` measures this on the model itself: the force ``F̂(y, i_table)`` against
+``F̂(y, i_exact)`` on a grid ``factor`` times finer, for ``F*`` with ``|Fy| = f_max`` and
+``Fx, Tz ∈ {0, ±0.05 f_max}``; worst case per direction (y, x, z).
+
+Anti-cogging table
+------------------
+Many drives accept only a position -> force-offset table on top of their own classical
+commutation. :func:`build_cogging_table` tabulates ``F̂_cog,y(y)`` (N) for them, and
+:func:`cogging_table_error` reports (a) its interpolation error against ``F̂_cog,y`` and
+(b) the force error left when the drive runs classical commutation
+(eq. Commutation_Solution_Ideal_SingleCoilset, ``Δ = 0``, force split ``k̂_l²/Σk̂_m²``) on
+``Fy* - table(y)`` instead of the full law — evaluated on the model. The drive's ``k̂, ζ̂``
+are arguments, or fitted to the Fy rows of the model's physics part
+(:func:`classical_parameters`).
+
+Files (:func:`write_lut`): ``NAME.csv`` with columns ``y``, ``P_{l}{a|b}_{y|x|z}`` (``l``
+1-based: the current ``ia`` or ``ib`` of coil set ``l`` per newton of ``Fy``, ``Fx`` or per
+N·m of ``Tz``), ``Fy_cog, Fx_cog, Tz_cog``; and ``NAME.h``, a header-only C99 table of
+``static const float`` arrays with a ``static inline`` interpolation function.
+"""
+
+from __future__ import annotations
+
+import csv
+import functools
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from pgcomm.commutation import (
+    DEFAULT_DET_MIN,
+    ModelLaw,
+    classical_single_direction,
+    limit_currents,
+    metric_inverse,
+    min_energy_currents,
+)
+from pgcomm.errors import DataError
+
+__all__ = [
+    "DEFAULT_RESOLUTION", "Lut", "LutError", "CoggingTable", "CoggingTableError",
+    "build_lut", "lut_currents", "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns",
+    "build_cogging_table", "cogging_table_offset", "cogging_table_error", "write_cogging_table",
+    "classical_parameters", "f_star_set",
+]
+
+#: Default grid spacing (m): worst case 0.030 % of f_max on paper-like models (d_m = 0.03 m), 134 kB for ±0.1 m.
+DEFAULT_RESOLUTION = 1.25e-4
+
+#: Fx and Tz of the test forces relative to |Fy| = f_max.
+SIDE_FRACTION = 0.05
+
+_DIRS = ("y", "x", "z")
+
+
+# ----------------------------------------------------------------------------------------------
+# full law
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Lut:
+    """Table of the model-based law on a uniform position grid.
+
+    Attributes:
+        y: ``(n,)`` grid positions (m), uniform spacing :attr:`dy`.
+        P: ``(n, L, 2, 3)`` pseudo-inverse entries: ``P[k, l, a, j]`` is current ``a`` (0: ia,
+            1: ib) of coil set ``l`` per unit of force direction ``j`` (Fy, Fx in A/N; Tz in
+            A/(N·m)).
+        cogging: ``(n, 3)`` mean cogging force ``F̂_cog`` (N, N, N·m).
+        current_limit: peak phase current (A) applied after interpolation, or ``None``.
+    """
+
+    y: np.ndarray
+    P: np.ndarray
+    cogging: np.ndarray
+    current_limit: float | None = None
+
+    @property
+    def n(self) -> int:
+        """Number of grid points."""
+        return int(self.y.shape[0])
+
+    @property
+    def n_coil_sets(self) -> int:
+        """``L``."""
+        return int(self.P.shape[1])
+
+    @property
+    def dy(self) -> float:
+        """Grid spacing (m)."""
+        return float((self.y[-1] - self.y[0]) / (self.n - 1))
+
+    @property
+    def entries(self) -> int:
+        """Table entries without the implicit grid: ``n (6L + 3)``."""
+        return int(self.P[0].size + self.cogging[0].size) * self.n
+
+    @property
+    def nbytes(self) -> int:
+        """Size of the C table in bytes (float32 entries)."""
+        return 4 * self.entries
+
+
+def _grid(model, resolution, y_range):
+    """Uniform grid covering ``y_range`` (or the training range) with spacing ``<= resolution``."""
+    if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
+        raise ValueError(f"resolution must be a positive length in m, got {resolution!r}")
+    if y_range is None:
+        y_range = model.training_range
+        if y_range is None:
+            raise ValueError("the model has no training range; pass y_range=(y_min, y_max) in m")
+    y0, y1 = float(y_range[0]), float(y_range[1])
+    if not (math.isfinite(y0) and math.isfinite(y1) and y1 > y0):
+        raise ValueError(f"y_range must be finite with y_max > y_min, got {y_range}")
+    # the last point lands exactly on y_max (no extrapolation of the model); the spacing is the
+    # largest (y1 - y0)/(n - 1) not above the requested resolution (a relative 1e-9 slack keeps
+    # exact divisions, e.g. 0.2 m / 0.25 mm, at the requested spacing)
+    n = int(math.ceil((y1 - y0) / resolution * (1 - 1e-9))) + 1
+    return np.linspace(y0, y1, max(n, 2))
+
+
+@jax.jit
+def _p_and_cog(model, y, det_min):
+    """``P(y)`` ``S + (L, 2, 3)`` and ``F̂_cog(y)`` ``S + (3,)`` with the law's damping."""
+    gain = model.gain(y)
+    winv = metric_inverse(gain.shape[-3], "phase")
+    eye = jnp.eye(3)
+    cols = [min_energy_currents(gain, jnp.broadcast_to(eye[j], y.shape + (3,)), winv, det_min=det_min)
+            for j in range(3)]
+    return jnp.stack(cols, axis=-1), model.cogging(y)
+
+
+def build_lut(model, resolution: float = DEFAULT_RESOLUTION, y_range=None, current_limit: float | None = None,
+              det_min: float = DEFAULT_DET_MIN) -> Lut:
+    """Tabulate ``P(y)`` and ``F̂_cog(y)`` of ``ModelLaw(model, "phase", current_limit, det_min)``.
+
+    Args:
+        model: :class:`~pgcomm.models.CombinedModel` (or any pytree with ``gain``/``cogging``
+            and ``training_range``).
+        resolution: largest grid spacing (m); the grid covers ``y_range`` from end to end,
+            so the actual spacing :attr:`Lut.dy` is ``(y_max - y_min)/(n - 1) <= resolution``.
+            Default :data:`DEFAULT_RESOLUTION` (see the module docstring for its error).
+        y_range: ``(y_min, y_max)`` (m); default the model's training range.
+        current_limit: peak phase current (A) applied after interpolation, or ``None``.
+        det_min: damping threshold of :func:`pgcomm.commutation.min_energy_currents`.
+
+    Returns:
+        :class:`Lut`.
+    """
+    if current_limit is not None and not (math.isfinite(current_limit) and current_limit > 0):
+        raise ValueError(f"current_limit must be a positive number of amperes or None, got {current_limit}")
+    y = _grid(model, resolution, y_range)
+    P, cog = _p_and_cog(model, jnp.asarray(y), det_min)
+    P, cog = np.asarray(P), np.asarray(cog)
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(cog))):
+        raise ValueError("the law is not finite on the grid (model with non-finite parameters?)")
+    return Lut(y, P, cog, None if current_limit is None else float(current_limit))
+
+
+def _interp(table, y0, dy, n, y):
+    """Linear interpolation of ``table`` ``(n, ...)`` at ``y`` ``S``, clamped at the ends.
+
+    ``a (1 - t) + b t`` rather than ``a + t (b - a)``: it returns the table entries exactly
+    at grid points, including the last one (``t = 1``).
+    """
+    u = (y - y0) / dy
+    k = jnp.clip(jnp.floor(u), 0, n - 2).astype(jnp.int32)
+    t = jnp.clip(u - k.astype(u.dtype), 0.0, 1.0)
+    t = t.reshape(t.shape + (1,) * (table.ndim - 1))
+    return table[k] * (1.0 - t) + table[k + 1] * t
+
+
+def lut_currents(lut: Lut, y, f_star):
+    """Star currents of the table law, ``S + (L, 2)`` (A).
+
+    ``i = P̃(y) (F* - F̂̃_cog(y))`` with linearly interpolated entries (clamped to the end
+    rows outside the table), then the current limit.
+
+    Args:
+        y: ``S`` (m); f_star: ``S + (3,)`` desired ``[Fy, Fx, Tz]`` (N, N, N·m).
+    """
+    return _lut_currents(jnp.asarray(lut.P), jnp.asarray(lut.cogging), float(lut.y[0]), lut.dy, lut.current_limit,
+                         jnp.asarray(y, dtype=float), jnp.asarray(f_star, dtype=float))
+
+
+@functools.partial(jax.jit, static_argnums=(4,))
+def _lut_currents(P, cog, y0, dy, current_limit, y, f_star):
+    n = P.shape[0]
+    p = _interp(P, y0, dy, n, y)
+    c = _interp(cog, y0, dy, n, y)
+    i = jnp.sum(p * (f_star - c)[..., None, None, :], axis=-1)
+    return limit_currents(i, current_limit)
+
+
+@dataclass(frozen=True)
+class LutError:
+    """Worst-case force error of a table law against the exact law, evaluated on the model.
+
+    Attributes:
+        abs: ``(3,)`` worst ``|F̂(y, i_table) - F̂(y, i_exact)|`` per direction y, x, z
+            (N, N, N·m).
+        rel: ``(3,)`` the same divided by ``f_max``.
+        y_worst: ``(3,)`` positions (m) where each worst case occurs.
+        f_max: ``|Fy|`` of the test forces (N).
+        points: number of positions evaluated.
+    """
+
+    abs: np.ndarray
+    rel: np.ndarray
+    y_worst: np.ndarray
+    f_max: float
+    points: int
+
+    @property
+    def worst_rel(self) -> float:
+        """Largest of :attr:`rel`."""
+        return float(np.max(self.rel))
+
+    def as_dict(self) -> dict:
+        """``{"y": {"abs": N, "rel": -, "y_worst": m}, "x": ..., "z": ..., "f_max": N, "points": n}``."""
+        d = {q: {"abs": float(self.abs[k]), "rel": float(self.rel[k]), "y_worst": float(self.y_worst[k])}
+             for k, q in enumerate(_DIRS)}
+        d.update(f_max=self.f_max, points=self.points, worst_rel=self.worst_rel)
+        return d
+
+
+def f_star_set(f_max: float) -> np.ndarray:
+    """Test forces ``(18, 3)``: ``Fy = ±f_max``, ``Fx, Tz ∈ {0, ±0.05 f_max}`` (N, N, N·m)."""
+    s = SIDE_FRACTION * f_max
+    return np.array([[fy, fx, tz] for fy in (f_max, -f_max) for fx in (0.0, s, -s) for tz in (0.0, s, -s)])
+
+
+@jax.jit
+def _law_force_diff(model, law, y, f_star, i_other):
+    """``F̂(y, i_other) - F̂(y, i_exact)`` = ``Σ_l K̂^l (i_other - i_exact)``, ``(m, nF, 3)``."""
+    i_exact = law.currents(y[:, None], f_star[None, :, :])
+    gain = model.gain(y)[:, None]
+    return jnp.einsum("mflqj,mflj->mfq", jnp.broadcast_to(gain, i_exact.shape[:2] + gain.shape[2:]),
+                      i_other - i_exact)
+
+
+def _worst(diff, y, f_max) -> LutError:
+    a = np.max(np.abs(diff), axis=1)  # (m, 3)
+    k = np.argmax(a, axis=0)
+    worst = a[k, np.arange(3)]
+    return LutError(worst, worst / f_max, y[k], float(f_max), int(y.shape[0]))
+
+
+def lut_error(lut: Lut, model, f_max: float, factor: int = 10, det_min: float = DEFAULT_DET_MIN) -> LutError:
+    """Worst-case force error of the table law on a grid ``factor`` times finer than the table's.
+
+    The force is evaluated on the model itself: ``|F̂(y, i_table) - F̂(y, i_exact)|`` with
+    ``i_exact`` from ``ModelLaw(model, "phase", lut.current_limit, det_min)``, over every
+    fine-grid position and every ``F*`` of :func:`f_star_set` (``|Fy| = f_max``, ``Fx, Tz`` at
+    0 or ±5 % of it). The fine grid contains the cell midpoints for even ``factor``, where
+    linear interpolation errs most.
+
+    Args:
+        f_max: largest driving force of interest (N); the relative errors are divided by it.
+        factor: refinement of the evaluation grid (>= 2).
+
+    Returns:
+        :class:`LutError` (per direction y, x, z).
+    """
+    if not (f_max > 0 and math.isfinite(f_max)):
+        raise ValueError(f"f_max must be a positive force in N, got {f_max}")
+    if int(factor) < 2:
+        raise ValueError(f"factor must be >= 2, got {factor}")
+    y = np.linspace(lut.y[0], lut.y[-1], (lut.n - 1) * int(factor) + 1)
+    fs = f_star_set(f_max)
+    law = ModelLaw(model, metric="phase", current_limit=lut.current_limit, det_min=det_min)
+    diffs = []
+    for chunk in np.array_split(np.arange(y.size), max(1, y.size // 20000)):  # bound memory
+        yc = jnp.asarray(y[chunk])
+        i_lut = lut_currents(lut, yc[:, None], jnp.asarray(fs)[None])
+        diffs.append(np.asarray(_law_force_diff(model, law, yc, jnp.asarray(fs), i_lut)))
+    return _worst(np.concatenate(diffs), y, f_max)
+
+
+# ----------------------------------------------------------------------------------------------
+# files
+# ----------------------------------------------------------------------------------------------
+
+
+def lut_columns(n_coil_sets: int) -> list[str]:
+    """CSV column names: ``y``, ``P_{l}{a|b}_{y|x|z}`` (l 1-based), ``Fy_cog, Fx_cog, Tz_cog``."""
+    cols = ["y"]
+    for l in range(n_coil_sets):
+        for a in "ab":
+            cols += [f"P_{l + 1}{a}_{q}" for q in _DIRS]
+    return cols + ["Fy_cog", "Fx_cog", "Tz_cog"]
+
+
+def _lut_rows(lut: Lut) -> np.ndarray:
+    return np.concatenate([lut.y[:, None], lut.P.reshape(lut.n, -1), lut.cogging], axis=1)
+
+
+def write_lut(lut: Lut, out_dir, name: str = "pgcomm_lut") -> list[Path]:
+    """Write ``NAME.csv`` (float64, round-trips) and ``NAME.h`` (float32 C table) into ``out_dir``.
+
+    Each file is written atomically (:mod:`pgcomm.io.atomic`). The C table takes
+    :attr:`Lut.nbytes` bytes.
+
+    Returns:
+        ``[csv_path, header_path]``.
+    """
+    from pgcomm.export.c import check_c_name
+    from pgcomm.io.atomic import atomic_write_text
+
+    check_c_name(name)
+    header = lut_header(lut, name)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(lut_columns(lut.n_coil_sets))
+    for row in _lut_rows(lut):
+        w.writerow(["%.17g" % v for v in row])
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [out / f"{name}.csv", out / f"{name}.h"]
+    atomic_write_text(paths[0], buf.getvalue())
+    atomic_write_text(paths[1], header)
+    return paths
+
+
+def _read_table(path: Path, required_first: str):
+    """Header and float rows of a CSV table; DataError naming file, column, row on any problem."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise DataError(f"{path}: not a UTF-8 text file") from None
+    rows = list(csv.reader(io.StringIO(text)))
+    if not rows or not rows[0]:
+        raise DataError(f"{path}: empty file, expected a header starting with '{required_first}'")
+    head = [h.strip() for h in rows[0]]
+    body = [r for r in rows[1:] if r]
+    if len(body) < 2:
+        raise DataError(f"{path}: need at least 2 rows, got {len(body)}")
+    data = np.empty((len(body), len(head)))
+    for i, r in enumerate(body):
+        if len(r) != len(head):
+            raise DataError(f"{path}: row {i + 2} has {len(r)} fields, expected {len(head)}")
+        for j, v in enumerate(r):
+            try:
+                data[i, j] = float(v)
+            except ValueError:
+                raise DataError(f"{path}: row {i + 2}, column '{head[j]}': {v!r} is not a number") from None
+    bad = ~np.isfinite(data)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise DataError(f"{path}: row {i + 2}, column '{head[j]}' is not finite ({data[i, j]})")
+    y = data[:, 0]
+    d = np.diff(y)
+    if np.any(d <= 0):
+        i = int(np.argmax(d <= 0))
+        raise DataError(f"{path}: column 'y' must be strictly increasing; row {i + 3} ({y[i + 1]}) "
+                        f"follows {y[i]}")
+    if np.max(np.abs(d - d.mean())) > 1e-9 * max(abs(y[0]), abs(y[-1]), d.mean()):
+        raise DataError(f"{path}: column 'y' is not uniformly spaced (spacing {d.min():.6g} to {d.max():.6g} m)")
+    return head, data
+
+
+def read_lut(path, current_limit: float | None = None) -> Lut:
+    """Read a table written by :func:`write_lut` (the CSV). ``L`` comes from the column names.
+
+    Args:
+        current_limit: limit (A) to attach (the CSV does not store it), or ``None``.
+
+    Raises:
+        DataError: missing/misnamed columns, non-numbers, NaN/inf, non-uniform ``y``.
+    """
+    path = Path(path)
+    head, data = _read_table(path, "y")
+    n_p = len(head) - 4
+    if n_p <= 0 or n_p % 6:
+        raise DataError(f"{path}: {len(head)} columns do not form y, 6 per coil set, Fy_cog, Fx_cog, Tz_cog")
+    L = n_p // 6
+    expected = lut_columns(L)
+    for j, (got, want) in enumerate(zip(head, expected)):
+        if got != want:
+            raise DataError(f"{path}: column {j + 1} is '{got}', expected '{want}'")
+    n = data.shape[0]
+    return Lut(data[:, 0].copy(), data[:, 1:1 + n_p].reshape(n, L, 2, 3).copy(), data[:, 1 + n_p:].copy(),
+               current_limit)
+
+
+def _c_rows(a: np.ndarray, indent: str) -> str:
+    """Nested C initializer of float32 literals (one innermost row per line)."""
+    from pgcomm.export.c import _SINGLE
+
+    def rec(x, depth):
+        if x.ndim == 1:
+            return "{" + ", ".join(_SINGLE.lit(v) for v in x) + "}"
+        inner = ",\n".join(indent * (depth + 1) + rec(v, depth + 1) for v in x)
+        return "{\n" + inner + "\n" + indent * depth + "}"
+
+    return rec(a, 0)
+
+
+def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
+    """Text of the header-only C99 table (``static const float`` arrays, ``static inline`` lookup).
+
+    The function ``int NAME_currents(float y, const float f_star[3], float currents[L][2])``
+    interpolates like :func:`lut_currents`, clamps outside the table and returns 1 there
+    (0 inside).
+    """
+    from pgcomm import __version__
+    from pgcomm.export.c import _SINGLE, _m, check_c_name
+
+    check_c_name(name)
+    U, L, lit = name.upper(), lut.n_coil_sets, _SINGLE.lit
+    guard = f"{U}_H_INCLUDED"
+    limit = (f"{lut.current_limit:.6g} A peak phase current (one factor for all coil sets)"
+             if lut.current_limit is not None else "none")
+    lines = [
+        f"{name}.h -- lookup table of the model-based commutation law, generated by pgcomm {__version__}.",
+        "Law (eq. Commutation_Model_Currents): i^l = P^l(y) (F* - Fcog(y)), minimum copper loss,",
+        "damped where Khat loses rank; P and Fcog interpolated linearly between grid rows.",
+        f"Grid: {lut.n} rows, y from {lut.y[0]:.9g} to {lut.y[-1]:.9g} m, spacing {lut.dy:.9g} m;",
+        "outside it the end rows are used and the function returns 1.",
+        f"Size: {lut.entries} float32 entries = {lut.nbytes} bytes. Current limit: {limit}.",
+        "Units: y m; F* = [Fy N, Fx N, Tz N m]; P in A/N (Fy, Fx columns) and A/(N m) (Tz);",
+        "currents A (star: ia, ib; ic = -ia - ib).",
+    ]
+    out = ["/*\n", *(f" * {s}\n" for s in lines), " */\n", f"#ifndef {guard}\n#define {guard}\n\n",
+           f"#define {U}_L {L}\n#define {U}_N {lut.n}\n",
+           f"#define {U}_Y0 {_m(lit(lut.y[0]))}\n#define {U}_INV_DY {_m(lit(1.0 / lut.dy))}\n\n",
+           f"/* P[k][l][a][j]: current a (ia, ib) of coil set l per unit force j (Fy, Fx, Tz) at row k */\n",
+           f"static const float {name}_P[{lut.n}][{L}][2][3] = {_c_rows(lut.P, '    ')};\n\n",
+           "/* mean cogging force [Fy, Fx, Tz] (N, N, N m) at row k */\n",
+           f"static const float {name}_cog[{lut.n}][3] = {_c_rows(lut.cogging, '    ')};\n\n",
+           f"static inline int {name}_currents(float y, const float f_star[3], float currents[{U}_L][2])\n{{\n",
+           f"    float u = (y - {U}_Y0) * {U}_INV_DY, t, f[3];\n    int k, l, a, j, ret = 0;\n",
+           "    if (!(u >= 0.0f)) { u = 0.0f; ret = 1; }  /* also NaN */\n",
+           f"    if (u > (float)({U}_N - 1)) {{ u = (float)({U}_N - 1); ret = 1; }}\n",
+           f"    k = (int)u;\n    if (k > {U}_N - 2)\n        k = {U}_N - 2;\n    t = u - (float)k;\n",
+           "    /* a (1 - t) + b t is exact at grid rows, including the last one */\n",
+           f"    for (j = 0; j < 3; ++j)\n        f[j] = f_star[j] - ({name}_cog[k][j] * (1.0f - t) + "
+           f"{name}_cog[k + 1][j] * t);\n",
+           f"    for (l = 0; l < {U}_L; ++l)\n        for (a = 0; a < 2; ++a) {{\n",
+           "            float s = 0.0f;\n            for (j = 0; j < 3; ++j)\n",
+           f"                s += ({name}_P[k][l][a][j] * (1.0f - t) + {name}_P[k + 1][l][a][j] * t) * f[j];\n",
+           "            currents[l][a] = s;\n        }\n"]
+    if lut.current_limit is not None:
+        out += ["    {\n        float peak = 0.0f, sc;\n",
+                f"        for (l = 0; l < {U}_L; ++l) {{\n",
+                "            const float ic = -(currents[l][0] + currents[l][1]);\n",
+                "            if (fabsf(currents[l][0]) > peak) peak = fabsf(currents[l][0]);\n",
+                "            if (fabsf(currents[l][1]) > peak) peak = fabsf(currents[l][1]);\n",
+                "            if (fabsf(ic) > peak) peak = fabsf(ic);\n        }\n",
+                f"        sc = peak > {lit(lut.current_limit)} ? {lit(lut.current_limit)} / peak : 1.0f;\n",
+                f"        for (l = 0; l < {U}_L; ++l) {{\n",
+                "            currents[l][0] *= sc;\n            currents[l][1] *= sc;\n        }\n    }\n"]
+    out += ["    return ret;\n}\n\n", f"#endif /* {guard} */\n"]
+    text = "".join(out)
+    if lut.current_limit is not None:
+        text = text.replace(f"#ifndef {guard}\n#define {guard}\n\n", f"#ifndef {guard}\n#define {guard}\n\n"
+                            "#include <math.h>\n\n", 1)
+    return text
+
+
+# ----------------------------------------------------------------------------------------------
+# anti-cogging table for drives with classical commutation
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CoggingTable:
+    """Position -> driving-force offset table ``F̂_cog,y(y)`` for a drive's anti-cogging input.
+
+    Attributes:
+        y: ``(n,)`` uniform grid (m); fy: ``(n,)`` mean cogging force in y (N).
+    """
+
+    y: np.ndarray
+    fy: np.ndarray
+
+    @property
+    def n(self) -> int:
+        """Number of grid points."""
+        return int(self.y.shape[0])
+
+    @property
+    def dy(self) -> float:
+        """Grid spacing (m)."""
+        return float((self.y[-1] - self.y[0]) / (self.n - 1))
+
+    @property
+    def nbytes(self) -> int:
+        """Size as float32 entries (bytes)."""
+        return 4 * self.n
+
+
+@dataclass(frozen=True)
+class CoggingTableError:
+    """Errors of the anti-cogging table (see :func:`cogging_table_error`).
+
+    Attributes:
+        interpolation: worst ``|table(y) - F̂_cog,y(y)|`` on the fine grid (N).
+        law_abs: ``(3,)`` worst force error (N, N, N·m) of classical commutation + table
+            against the full law, per direction y, x, z, evaluated on the model.
+        law_rel: ``(3,)`` the same divided by ``f_max``.
+        k_hat, zeta_hat: ``(L,)`` the drive's commutation used (N/A, rad).
+        f_max: ``|Fy*|`` of the test forces (N).
+    """
+
+    interpolation: float
+    law_abs: np.ndarray
+    law_rel: np.ndarray
+    k_hat: np.ndarray
+    zeta_hat: np.ndarray
+    f_max: float
+
+    def as_dict(self) -> dict:
+        """Plain dict for results.json."""
+        d = {q: {"abs": float(self.law_abs[k]), "rel": float(self.law_rel[k])} for k, q in enumerate(_DIRS)}
+        return {"interpolation_abs": self.interpolation, "classical_plus_table": d,
+                "k_hat": self.k_hat.tolist(), "zeta_hat": self.zeta_hat.tolist(), "f_max": self.f_max}
+
+
+def classical_parameters(model) -> tuple[np.ndarray, np.ndarray]:
+    """Classical ``k̂^l`` (N/A) and ``ζ̂^l`` (rad) fitted to the Fy rows of the model's physics part.
+
+    The ideal star-reduced Fy row (eq. Electromagnetics_GainMatrix with ``ic = -ia - ib``) is
+    ``(2/√3) k [sin(θ + ζ + π/6), sin(θ + ζ + π/2)]``, ``θ = 2πy/d_m``. Writing each column
+    ``A_j cos θ + B_j sin θ`` as ``R_j sin(θ + ψ_j)``, i.e. ``B_j + i A_j = R_j e^{iψ_j}``, the
+    least-squares fit over both columns is ``w = mean_j (B_j + i A_j) e^{-iφ_j}`` with
+    ``φ = (π/6, π/2)``, ``k̂ = (√3/2)|w|``, ``ζ̂ = arg w``. Exact for an ideal motor
+    (:func:`pgcomm.models.physics_from_ideal`).
+
+    Returns:
+        ``(k_hat, zeta_hat)``, each ``(L,)``.
+    """
+    A = np.asarray(model.A)[:, 0, :]
+    B = np.asarray(model.B)[:, 0, :]
+    phi = np.array([np.pi / 6, np.pi / 2])
+    w = np.mean((B + 1j * A) * np.exp(-1j * phi), axis=-1)
+    return np.sqrt(3.0) / 2.0 * np.abs(w), np.angle(w)
+
+
+@jax.jit
+def _cog_y(model, y):
+    return model.cogging(y)[..., 0]
+
+
+def build_cogging_table(model, resolution: float = DEFAULT_RESOLUTION, y_range=None) -> CoggingTable:
+    """Tabulate the driving component ``F̂_cog,y(y)`` (N) of the model's mean cogging force.
+
+    Grid as :func:`build_lut` (uniform, end to end over ``y_range`` or the training range,
+    spacing ``<= resolution`` m).
+    """
+    y = _grid(model, resolution, y_range)
+    return CoggingTable(y, np.asarray(_cog_y(model, jnp.asarray(y))))
+
+
+def cogging_table_offset(table: CoggingTable, y):
+    """Interpolated offset ``table(y)`` (N), shape of ``y``; clamped outside the table."""
+    return _interp(jnp.asarray(table.fy), float(table.y[0]), table.dy, table.n, jnp.asarray(y, dtype=float))
+
+
+@jax.jit
+def _classical_table_currents(model, y, fy_star, offset, k_hat, zeta_hat):
+    return classical_single_direction(y, fy_star - offset, k_hat, zeta_hat, model.pole_pitch)
+
+
+def cogging_table_error(table: CoggingTable, model, f_max: float, k_hat=None, zeta_hat=None, factor: int = 10,
+                        current_limit: float | None = None) -> CoggingTableError:
+    """Errors of a drive running classical commutation plus the anti-cogging table.
+
+    (a) interpolation: ``max |table(y) - F̂_cog,y(y)|`` on a grid ``factor`` times finer (N).
+    (b) the force error left against the full law, on the model: the drive commutates
+    ``Fy* - table(y)`` classically (eq. Commutation_Solution_Ideal_SingleCoilset with
+    ``k̂, ζ̂``, ``Δ = 0``), giving ``i_tab``; the error is ``|F̂(y, i_tab) - F̂(y, i_exact)|``
+    with ``i_exact`` from ``ModelLaw(model, "phase", current_limit)`` for ``F* = [±f_max, 0, 0]``
+    (a force-offset drive cannot command Fx or Tz). This is mostly the gain mismatch the
+    full law corrects, not the table's resolution.
+
+    Args:
+        k_hat, zeta_hat: the drive's ``(L,)`` (or scalar) commutation parameters (N/A, rad);
+            ``None``: :func:`classical_parameters` of the model's physics part.
+        f_max: ``|Fy*|`` (N).
+
+    Returns:
+        :class:`CoggingTableError`.
+    """
+    if not (f_max > 0 and math.isfinite(f_max)):
+        raise ValueError(f"f_max must be a positive force in N, got {f_max}")
+    L = model.n_coil_sets
+    if k_hat is None or zeta_hat is None:
+        kf, zf = classical_parameters(model)
+        k_hat = kf if k_hat is None else k_hat
+        zeta_hat = zf if zeta_hat is None else zeta_hat
+    k_hat = np.broadcast_to(np.asarray(k_hat, dtype=float), (L,)).copy()
+    zeta_hat = np.broadcast_to(np.asarray(zeta_hat, dtype=float), (L,)).copy()
+    y = np.linspace(table.y[0], table.y[-1], (table.n - 1) * int(factor) + 1)
+    yj = jnp.asarray(y)
+    off = cogging_table_offset(table, yj)
+    interp = float(np.max(np.abs(np.asarray(off) - np.asarray(_cog_y(model, yj)))))
+    fs = np.array([[f_max, 0.0, 0.0], [-f_max, 0.0, 0.0]])
+    law = ModelLaw(model, metric="phase", current_limit=current_limit)
+    i_tab = _classical_table_currents(model, yj[:, None], jnp.asarray(fs[:, 0])[None, :], off[:, None],
+                                      jnp.asarray(k_hat), jnp.asarray(zeta_hat))
+    i_tab = limit_currents(i_tab, current_limit)
+    diff = np.asarray(_law_force_diff(model, law, yj, jnp.asarray(fs), i_tab))
+    e = _worst(diff, y, f_max)
+    return CoggingTableError(interp, e.abs, e.rel, k_hat, zeta_hat, float(f_max))
+
+
+def write_cogging_table(table: CoggingTable, out_dir, name: str = "pgcomm_cogging") -> Path:
+    """Write ``NAME.csv`` with columns ``y`` (m), ``Fy_cog`` (N), atomically. Returns the path."""
+    from pgcomm.io.atomic import atomic_write_text
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["y", "Fy_cog"])
+    for yv, fv in zip(table.y, table.fy):
+        w.writerow(["%.17g" % yv, "%.17g" % fv])
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"{name}.csv"
+    atomic_write_text(path, buf.getvalue())
+    return path
