@@ -41,7 +41,7 @@ class CoggingTable:
         m = self.values.shape[0]
         u = jnp.clip((jnp.asarray(y) - self.y_min) / (self.y_max - self.y_min) * (m - 1), 0.0, m - 1.0)
         j = jnp.clip(jnp.floor(u).astype(jnp.int32), 0, m - 2)
-        w = u - j
+        w = u - j.astype(u.dtype)
         fy = (1 - w) * self.values[j] + w * self.values[j + 1]
         return jnp.stack([fy, jnp.zeros_like(fy), jnp.zeros_like(fy)], axis=-1)
 
@@ -106,7 +106,7 @@ def fit_harmonic_cogging(y, residual, pole_pitch: float, harmonics: int = 10) ->
 
 
 def _harmonic_basis(y, harmonics: int, pole_pitch: float, xp):
-    h = xp.arange(1, harmonics + 1)
+    h = xp.arange(1, harmonics + 1, dtype=float)
     ang = 2 * np.pi * y[..., None] * h / pole_pitch
     cs = xp.stack([xp.cos(ang), xp.sin(ang)], axis=-1).reshape(y.shape + (2 * harmonics,))
     return xp.concatenate([xp.ones(y.shape + (1,)), cs], axis=-1)

@@ -1,170 +1,248 @@
-"""Model files: ``NAME.json`` (structure, scaling, training range, metadata, schema version) + ``NAME.npz`` (arrays).
+"""Model files: a :class:`~pgcomm.models.CombinedModel` as ``NAME.json`` + ``NAME.npz`` (no pickle).
 
-Never pickle: the arrays load with ``allow_pickle=False`` and the JSON is plain data, so
-loading a model cannot execute code. Both files are written atomically (temporary
-file, then rename), arrays first, so a reader never sees a JSON without its arrays.
+``NAME.json`` (human-readable, schema ``"pgcomm-model/1"``)::
 
-Array names in the ``.npz`` (``L`` coil sets; widths ``n_1..n_I``)::
+    {"schema": "pgcomm-model/1", "kind": "CombinedModel", "arrays": "NAME.npz",
+     "n_coil_sets": L, "pole_pitch": d_m, "activation": "tanh",
+     "gain_widths": [2] | null, "cog_widths": [16] | null,
+     "training_range": {"y_min": [...], "y_max": [...]} | null,
+     "array_shapes": {"A": [L, 3, 2], ...},
+     "package_version": "0.1.0", "created": "ISO 8601 (UTC)",
+     "metadata": {... user metadata: costs, seed, ...}}
 
-    A, B                          (L, 3, 2)   N/A
-    y_center, y_scale             (L,)        m
-    gain_W{i}, gain_b{i}          (L, 2, n_{i-1}, n_i), (L, 2, n_i)     i = 1..I, n_0 = 1
-    gain_W_out, gain_b_out        (L, 2, n_I, 3), (L, 2, 3)
-    cog_W{i}, cog_b{i}            (L, n_{i-1}, n_i), (L, n_i)
-    cog_W_out, cog_b_out          (L, n_I, 3), (L, 3)
+``NAME.npz`` holds the float64 arrays (loaded with ``allow_pickle=False``, so loading never
+executes code): ``A``, ``B`` ``(L, 3, 2)``; ``y_center``, ``y_scale`` ``(L,)``; per hidden layer
+``i = 1..I`` of the gain networks ``gain_W{i}`` ``(L, 2, n_{i-1}, n_i)``, ``gain_b{i}``
+``(L, 2, n_i)``, and ``gain_W_out`` ``(L, 2, n_I, 3)``, ``gain_b_out`` ``(L, 2, 3)``; likewise
+``cog_W{i}`` ``(L, n_{i-1}, n_i)``, ``cog_b{i}``, ``cog_W_out`` ``(L, n_I, 3)``, ``cog_b_out``
+``(L, 3)``. Floats in the JSON are written with Python's shortest round-trip ``repr``, so a
+loaded model gives bit-identical outputs.
+
+Both files are written to temporary names in the target directory and renamed into place
+(the ``.json`` last), so an interrupted save never leaves a half-written model.
 """
 
 from __future__ import annotations
 
-import datetime as _dt
-import io
+import datetime
 import json
 import math
+import zipfile
 from pathlib import Path
 
 import jax.numpy as jnp
 import numpy as np
 
+import pgcomm
 from pgcomm.errors import DataError
-from pgcomm.models import MLP, CombinedModel
+from pgcomm.io.atomic import atomic_open, atomic_write_text
+from pgcomm.models import MLP, CombinedModel, activation_fn
 
+#: Schema identifier written to and required in every model file.
 SCHEMA = "pgcomm-model/1"
 
 
-def _base(path) -> Path:
+def model_paths(path) -> tuple[Path, Path]:
+    """``(NAME.json, NAME.npz)`` for ``path`` given with or without either suffix."""
     p = Path(path)
-    return p.with_suffix("") if p.suffix in (".json", ".npz") else p
-
-
-def _net_arrays(prefix: str, net: MLP | None) -> dict:
-    if net is None:
-        return {}
-    out = {}
-    for i, (w, b) in enumerate(net.hidden, start=1):
-        out[f"{prefix}_W{i}"] = np.asarray(w)
-        out[f"{prefix}_b{i}"] = np.asarray(b)
-    out[f"{prefix}_W_out"] = np.asarray(net.W_out)
-    out[f"{prefix}_b_out"] = np.asarray(net.b_out)
-    return out
+    if p.suffix in (".json", ".npz"):
+        p = p.with_suffix("")
+    return p.with_name(p.name + ".json"), p.with_name(p.name + ".npz")
 
 
 def save_model(path, model: CombinedModel, metadata: dict | None = None) -> tuple[Path, Path]:
-    """Write ``model`` to ``PATH.json`` + ``PATH.npz`` (``path`` with or without suffix).
+    """Write ``model`` to ``NAME.json`` + ``NAME.npz`` (see the module docstring).
 
     Args:
-        model: the combined model (PGNN or physics-only).
-        metadata: JSON-able extras (costs, seed, data source, ...), stored under ``metadata``.
+        path: ``NAME``, ``NAME.json`` or ``NAME.npz``; the directory must exist.
+        model: :class:`CombinedModel` (wrap a single coil set with ``CombinedModel.from_coil_sets``).
+        metadata: JSON-serialisable dict (costs, seed, ...) stored under ``"metadata"``; numpy
+            scalars and arrays are converted, non-finite floats become ``null``.
 
     Returns:
         ``(json_path, npz_path)``.
     """
-    from pgcomm import __version__
-    from pgcomm.io.atomic import atomic_write_bytes, atomic_write_text
-    from pgcomm.io.results import to_jsonable
-
-    base = _base(path)
-    arrays = {"A": np.asarray(model.A), "B": np.asarray(model.B), "y_center": np.asarray(model.y_center),
-              "y_scale": np.asarray(model.y_scale)}
-    arrays.update(_net_arrays("gain", model.gain_nets))
-    arrays.update(_net_arrays("cog", model.cog_nets))
-    doc = {
+    if not isinstance(model, CombinedModel):
+        raise TypeError(f"save_model needs a CombinedModel, got {type(model).__name__}")
+    json_path, npz_path = model_paths(path)
+    arrays = _arrays_of(model)
+    document = {
         "schema": SCHEMA,
+        "kind": "CombinedModel",
+        "arrays": npz_path.name,
         "n_coil_sets": model.n_coil_sets,
-        "pole_pitch": model.pole_pitch,
-        "activation": (model.gain_nets or model.cog_nets).activation if (model.gain_nets or model.cog_nets) else None,
-        "gain_widths": list(model.gain_nets.widths) if model.gain_nets is not None else None,
-        "cog_widths": list(model.cog_nets.widths) if model.cog_nets is not None else None,
-        "y_min": list(model.y_min) if model.y_min is not None else None,
-        "y_max": list(model.y_max) if model.y_max is not None else None,
-        "training_range": list(model.training_range) if model.training_range else None,
-        "arrays": base.name + ".npz",
+        "pole_pitch": float(model.pole_pitch),
+        "activation": _activation(model),
+        "gain_widths": None if model.gain_nets is None else list(model.gain_nets.widths),
+        "cog_widths": None if model.cog_nets is None else list(model.cog_nets.widths),
+        "training_range": None if model.y_min is None else {"y_min": list(model.y_min), "y_max": list(model.y_max)},
         "array_shapes": {k: list(v.shape) for k, v in arrays.items()},
-        "package_version": __version__,
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "metadata": to_jsonable(metadata or {}),
+        "package_version": pgcomm.__version__,
+        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "metadata": _jsonable(dict(metadata or {})),
     }
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    npz, js = base.with_suffix(".npz"), base.with_suffix(".json")
-    atomic_write_bytes(npz, buf.getvalue())
-    atomic_write_text(js, json.dumps(doc, indent=2, allow_nan=False) + "\n")
-    return js, npz
+    text = json.dumps(document, indent=2, allow_nan=False) + "\n"
+    # Arrays first, the JSON (which names them) last: a reader never sees a JSON without its arrays.
+    with atomic_open(npz_path, "wb") as f:
+        np.savez(f, **arrays)
+    atomic_write_text(json_path, text)
+    return json_path, npz_path
 
 
-def _expected_shapes(doc: dict) -> dict:
-    L = doc["n_coil_sets"]
-    shapes = {"A": [L, 3, 2], "B": [L, 3, 2], "y_center": [L], "y_scale": [L]}
-    for prefix, lead, widths in (("gain", [L, 2], doc.get("gain_widths")), ("cog", [L], doc.get("cog_widths"))):
+def load_model(path) -> tuple[CombinedModel, dict]:
+    """Read a model written by :func:`save_model`.
+
+    Args:
+        path: ``NAME``, ``NAME.json`` or ``NAME.npz``.
+
+    Returns:
+        ``(model, document)``: the model and the file's JSON document (header fields such as
+        ``schema``, ``package_version``, ``created``, and the user metadata under ``"metadata"``).
+
+    Raises:
+        DataError: one line naming the file and the problem (missing or unreadable file, wrong
+        schema version, missing or extra arrays, wrong shapes or dtypes, NaN or inf).
+    """
+    json_path, _ = model_paths(path)
+    try:
+        document = json.loads(json_path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise DataError(f"{json_path}: model file not found") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise DataError(f"{json_path}: not a valid JSON model file ({' '.join(str(err).split())})") from None
+    if not isinstance(document, dict) or document.get("schema") != SCHEMA:
+        found = document.get("schema") if isinstance(document, dict) else None
+        raise DataError(f"{json_path}: schema {found!r} is not supported (expected {SCHEMA!r})")
+    try:
+        n_l = int(document["n_coil_sets"])
+        pole_pitch = float(document["pole_pitch"])
+        activation = str(document["activation"])
+        gain_widths = _widths(document["gain_widths"])
+        cog_widths = _widths(document["cog_widths"])
+        rng = document["training_range"]
+        npz_name = str(document["arrays"])
+    except (KeyError, TypeError, ValueError) as err:
+        raise DataError(f"{json_path}: missing or invalid header field {err}") from None
+    if n_l < 1 or not pole_pitch > 0:
+        raise DataError(f"{json_path}: n_coil_sets must be >= 1 and pole_pitch > 0, got {n_l} and {pole_pitch}")
+    try:
+        activation_fn(activation)
+    except ValueError as err:
+        raise DataError(f"{json_path}: {err}") from None
+
+    npz_path = json_path.with_name(npz_name)
+    expected = _expected_shapes(n_l, gain_widths, cog_widths)
+    try:
+        # Open the file ourselves so that it is closed even when numpy/zipfile give up half way.
+        with open(npz_path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:
+            names = set(npz.files)
+            for k in expected:
+                if k not in names:
+                    raise DataError(f"{npz_path}: array {k!r} missing")
+            extra = sorted(names - set(expected))
+            if extra:
+                raise DataError(f"{npz_path}: unexpected arrays {extra}")
+            arrays = {k: npz[k] for k in expected}
+    except FileNotFoundError:
+        raise DataError(f"{npz_path}: array file not found") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:  # damaged archive, or an object array
+        raise DataError(f"{npz_path}: cannot read arrays ({' '.join(str(err).split())})") from None
+    for k, shape in expected.items():
+        a = arrays[k]
+        if a.shape != shape:
+            raise DataError(f"{npz_path}: array {k!r} has shape {a.shape}, expected {shape}")
+        if a.dtype != np.float64:
+            raise DataError(f"{npz_path}: array {k!r} has dtype {a.dtype}, expected float64")
+        if not np.isfinite(a).all():
+            raise DataError(f"{npz_path}: array {k!r} holds NaN or inf")
+    if not (arrays["y_scale"] > 0).all():
+        raise DataError(f"{npz_path}: array 'y_scale' must be positive")
+    y_min = y_max = None
+    if rng is not None:
+        try:
+            y_min = tuple(float(v) for v in rng["y_min"])
+            y_max = tuple(float(v) for v in rng["y_max"])
+        except (KeyError, TypeError, ValueError) as err:
+            raise DataError(f"{json_path}: invalid training_range ({err!r})") from None
+        if len(y_min) != n_l or len(y_max) != n_l:
+            raise DataError(f"{json_path}: training_range needs {n_l} values per bound")
+    return _model_of(arrays, pole_pitch, activation, gain_widths, cog_widths, y_min, y_max), document
+
+
+# --------------------------------------------------------------------------------------------
+
+
+def _activation(model: CombinedModel) -> str:
+    nets = [n for n in (model.gain_nets, model.cog_nets) if n is not None]
+    acts = {n.activation for n in nets} or {"tanh"}
+    if len(acts) != 1:
+        raise ValueError(f"all networks must share one activation to be saved, got {sorted(acts)}")
+    return acts.pop()
+
+
+def _widths(v):
+    return None if v is None else tuple(int(n) for n in v)
+
+
+def _net_arrays(prefix: str, net: MLP) -> dict:
+    out = {}
+    for i, (w, b) in enumerate(net.hidden, start=1):
+        out[f"{prefix}_W{i}"] = w
+        out[f"{prefix}_b{i}"] = b
+    out[f"{prefix}_W_out"] = net.W_out
+    out[f"{prefix}_b_out"] = net.b_out
+    return out
+
+
+def _arrays_of(model: CombinedModel) -> dict:
+    arrays = {"A": model.A, "B": model.B, "y_center": model.y_center, "y_scale": model.y_scale}
+    if model.gain_nets is not None:
+        arrays.update(_net_arrays("gain", model.gain_nets))
+    if model.cog_nets is not None:
+        arrays.update(_net_arrays("cog", model.cog_nets))
+    return {k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()}
+
+
+def _expected_shapes(n_l, gain_widths, cog_widths) -> dict:
+    shapes = {"A": (n_l, 3, 2), "B": (n_l, 3, 2), "y_center": (n_l,), "y_scale": (n_l,)}
+    for prefix, lead, widths in (("gain", (n_l, 2), gain_widths), ("cog", (n_l,), cog_widths)):
         if widths is None:
             continue
         n_prev = 1
         for i, n in enumerate(widths, start=1):
-            shapes[f"{prefix}_W{i}"] = lead + [n_prev, n]
-            shapes[f"{prefix}_b{i}"] = lead + [n]
+            shapes[f"{prefix}_W{i}"] = lead + (n_prev, n)
+            shapes[f"{prefix}_b{i}"] = lead + (n,)
             n_prev = n
-        shapes[f"{prefix}_W_out"] = lead + [n_prev, 3]
-        shapes[f"{prefix}_b_out"] = lead + [3]
+        shapes[f"{prefix}_W_out"] = lead + (n_prev, 3)
+        shapes[f"{prefix}_b_out"] = lead + (3,)
     return shapes
 
 
-def _net(arrays: dict, prefix: str, widths, activation: str) -> MLP | None:
-    if widths is None:
+def _model_of(arrays, pole_pitch, activation, gain_widths, cog_widths, y_min, y_max) -> CombinedModel:
+    def net(prefix, widths):
+        if widths is None:
+            return None
+        hidden = tuple((jnp.asarray(arrays[f"{prefix}_W{i}"]), jnp.asarray(arrays[f"{prefix}_b{i}"]))
+                       for i in range(1, len(widths) + 1))
+        return MLP(hidden, jnp.asarray(arrays[f"{prefix}_W_out"]), jnp.asarray(arrays[f"{prefix}_b_out"]), activation)
+
+    return CombinedModel(jnp.asarray(arrays["A"]), jnp.asarray(arrays["B"]), net("gain", gain_widths),
+                         net("cog", cog_widths), jnp.asarray(arrays["y_center"]), jnp.asarray(arrays["y_scale"]),
+                         pole_pitch, y_min, y_max)
+
+
+def _jsonable(obj):
+    """Plain JSON types from numpy scalars/arrays; non-finite floats -> None."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return _jsonable(obj.item())
+    if isinstance(obj, float) and not math.isfinite(obj):
         return None
-    hidden = tuple((jnp.asarray(arrays[f"{prefix}_W{i}"]), jnp.asarray(arrays[f"{prefix}_b{i}"]))
-                   for i in range(1, len(widths) + 1))
-    return MLP(hidden, jnp.asarray(arrays[f"{prefix}_W_out"]), jnp.asarray(arrays[f"{prefix}_b_out"]), activation)
-
-
-def load_model(path) -> tuple[CombinedModel, dict]:
-    """Read a model written by :func:`save_model`; returns ``(model, document)``.
-
-    The document is the JSON (structure and ``metadata``). Refuses, with one
-    :class:`~pgcomm.errors.DataError` line naming the file: a missing file, invalid JSON,
-    a wrong schema version, missing or extra arrays, mismatched shapes, non-finite values.
-    """
-    base = _base(path)
-    js = base.with_suffix(".json")
-    if not js.exists():
-        raise DataError(f"{js}: model file not found")
-    try:
-        doc = json.loads(js.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise DataError(f"{js}: not a valid JSON model file ({e})") from None
-    if not isinstance(doc, dict) or doc.get("schema") != SCHEMA:
-        found = doc.get("schema") if isinstance(doc, dict) else type(doc).__name__
-        raise DataError(f"{js}: schema {found!r} is not supported (expected {SCHEMA!r})")
-    for key in ("n_coil_sets", "pole_pitch", "arrays"):
-        if key not in doc:
-            raise DataError(f"{js}: key '{key}' missing")
-    if not (isinstance(doc["n_coil_sets"], int) and doc["n_coil_sets"] >= 1):
-        raise DataError(f"{js}: n_coil_sets = {doc['n_coil_sets']!r} (expected a positive integer)")
-    pp = doc["pole_pitch"]
-    if not (isinstance(pp, (int, float)) and math.isfinite(pp) and pp > 0):
-        raise DataError(f"{js}: pole_pitch = {pp!r} (expected a positive number in m)")
-    npz = js.with_name(str(doc["arrays"]))
-    if npz.parent != js.parent or not npz.exists():
-        raise DataError(f"{js}: array file {doc['arrays']!r} not found next to it")
-    try:
-        with np.load(npz, allow_pickle=False) as f:
-            arrays = {k: f[k] for k in f.files}
-    except (ValueError, OSError) as e:
-        raise DataError(f"{npz}: cannot read arrays ({' '.join(str(e).split())})") from None
-    expected = _expected_shapes(doc)
-    for name, shape in expected.items():
-        if name not in arrays:
-            raise DataError(f"{npz}: array '{name}' missing (expected shape {tuple(shape)})")
-        if list(arrays[name].shape) != shape:
-            raise DataError(f"{npz}: array '{name}' has shape {arrays[name].shape}, expected {tuple(shape)}")
-        if not np.all(np.isfinite(arrays[name])):
-            raise DataError(f"{npz}: array '{name}' holds NaN or inf")
-    extra = sorted(set(arrays) - set(expected))
-    if extra:
-        raise DataError(f"{npz}: unexpected array(s) {', '.join(extra)} for the structure in {js.name}")
-    activation = doc.get("activation") or "tanh"
-    y_min = tuple(float(v) for v in doc["y_min"]) if doc.get("y_min") else None
-    y_max = tuple(float(v) for v in doc["y_max"]) if doc.get("y_max") else None
-    model = CombinedModel(jnp.asarray(arrays["A"]), jnp.asarray(arrays["B"]),
-                          _net(arrays, "gain", doc.get("gain_widths"), activation),
-                          _net(arrays, "cog", doc.get("cog_widths"), activation),
-                          jnp.asarray(arrays["y_center"]), jnp.asarray(arrays["y_scale"]), float(pp), y_min, y_max)
-    return model, doc
+    if obj is None or isinstance(obj, (str, int, float, bool)):
+        return obj
+    raise TypeError(f"metadata value of type {type(obj).__name__} is not JSON-serialisable")

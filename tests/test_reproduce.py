@@ -1,0 +1,70 @@
+"""``pgcomm reproduce --quick`` end to end on the twin: keys, rows, report, and the paper's bars that hold
+already on the short run."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+from pgcomm.cli import main
+from pgcomm.io.results import get_key
+from pgcomm.reproduce import ROWS
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    out = tmp_path_factory.mktemp("rep") / "out"
+    assert main(["reproduce", "--quick", "--out", str(out), "--quiet"]) == 0
+    return json.loads((out / "results.json").read_text()), out
+
+
+def test_design_keys_present(quick):
+    res, _ = quick
+    for key in ("calibration.initial.k", "calibration.initial.zeta", "calibration.calibrated.k",
+                "calibration.calibrated.zeta", "calibration.true.k", "calibration.true.zeta",
+                "identification.seconds_total", "runtime_s"):
+        get_key(res, key)
+    for row in ROWS:
+        assert get_key(res, f"tracking_mse.{row}") > 0
+        for d in ("y", "x", "z"):
+            for kind in ("filtered", "unfiltered"):
+                assert get_key(res, f"commutation_mse.{row}.{d}.{kind}") > 0
+    for l in range(3):
+        for key in ("cost_physics", "cost_pgnn", "cost_physics_validation", "cost_pgnn_validation", "seconds"):
+            assert np.isfinite(get_key(res, f"identification.coil_sets[{l}].{key}"))
+
+
+def test_pgnn_cost_below_physics(quick):
+    """Proposition 1: the PGNN's cost is strictly below the physics-only cost, train and validation."""
+    res, _ = quick
+    for c in res["identification"]["coil_sets"]:
+        assert c["cost_pgnn"] < c["cost_physics"]
+        assert c["cost_pgnn_validation"] < c["cost_physics_validation"]
+
+
+def test_rows_ordering(quick):
+    """The oracle is at or below classical in every direction; the PGNN improves y by at least 10x."""
+    res, _ = quick
+    cm = res["commutation_mse"]
+    for d in ("y", "x", "z"):
+        assert cm["oracle"][d]["filtered"] < cm["classical"][d]["filtered"]
+    assert cm["classical"]["y"]["filtered"] / cm["pgnn"]["y"]["filtered"] >= 10
+    assert cm["pgnn"]["y"]["filtered"] < cm["cogging_table"]["y"]["filtered"]
+    assert cm["pgnn"]["y"]["filtered"] < cm["harmonic_cogging"]["y"]["filtered"]
+
+
+def test_report_matches_results(quick):
+    """The report embeds every figure and shows the numbers of results.json."""
+    res, out = quick
+    html = (out / "report.html").read_text()
+    pngs = sorted(p.name for p in out.glob("*.png"))
+    assert html.count("data:image/png;base64,") == len(pngs) >= 6
+    for row in ROWS:
+        cm = res["commutation_mse"][row]
+        cell = f"{cm['y']['filtered']:.3g} ({cm['y']['unfiltered']:.3g})"
+        assert re.search(rf"<th>{row}</th>.*?{re.escape(cell)}", html), (row, cell)
+    assert f"{res['tracking_mse']['pgnn']:.3g}" in html
+    assert (out / "model.json").exists() and (out / "model.npz").exists()
