@@ -47,7 +47,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from pgcomm._pytree import pytree_dataclass, static_field
-from pgcomm.motor import PHASE_OFFSETS, Motor, star_reduce
+from pgcomm.motor import PHASE_OFFSETS, Motor
 
 
 @dataclass(frozen=True)
@@ -184,7 +184,18 @@ class TwinPlant:
         return lo, hi
 
     def gain_phases(self, y):
-        """True gain per coil set and phase, ``S + (L, 3, 3)`` (rows Fy, Fx, Tz; columns a, b, c).
+        """True gain per coil set and phase, ``S + (L, 3, 3)`` (rows Fy, Fx, Tz; columns a, b, c)."""
+        return jnp.stack(self._rows(y), axis=-2)
+
+    def gain(self, y):
+        """True star-reduced gain ``S + (L, 3, 2)`` (N/A, N/A, N·m/A)."""
+        # reduce each row to (ia, ib) before stacking rows: one concatenation at the end keeps
+        # XLA from re-evaluating the whole expression for every output element
+        return jnp.stack([jnp.stack([r[..., 0] - r[..., 2], r[..., 1] - r[..., 2]], axis=-1)
+                          for r in self._rows(y)], axis=-2)
+
+    def _rows(self, y):
+        """Rows ``(Fy, Fx, Tz)`` of the phase gain, each ``S + (L, 3)`` (columns phases a, b, c).
 
         Every angle is an affine function of ``y``, so only ``sin/cos`` of three base angles
         and ``exp(±y/λ)`` are evaluated; per-coil-set and per-phase offsets are applied by
@@ -197,15 +208,15 @@ class TwinPlant:
         # slow field scale where the coil set sits, p = y + d (m)
         u = (y + d) / 0.1
         wr = 2 * jnp.pi / self.field_ripple_length
+        w = 2 * jnp.pi / self.pole_pitch + drift / 0.1
         sr, cr = jnp.sin(wr * y), jnp.cos(wr * y)
-        ripple_term = sr * jnp.cos(wr * d + 0.7) + cr * jnp.sin(wr * d + 0.7)
         e_hi, e_lo = jnp.exp(y / self.end_length), jnp.exp(-y / self.end_length)
+        s1, c1 = jnp.sin(w * y), jnp.cos(w * y)
+        ripple_term = sr * jnp.cos(wr * d + 0.7) + cr * jnp.sin(wr * d + 0.7)
         end = e_hi * jnp.exp((d - hi) / self.end_length) + e_lo * jnp.exp((lo - d) / self.end_length)
         scale = 1.0 + slope * u + curv * (u * u - 1.0 / 3.0) + ripple * ripple_term - end_drop * end
         # electrical angle θ_lp = ω y + c_lp, with the phase drift's slope folded into ω
-        w = 2 * jnp.pi / self.pole_pitch + drift / 0.1
         c = (self.zeta[:, None] + drift * d / 0.1 + jnp.asarray(PHASE_OFFSETS) + self.phase_angle_error)
-        s1, c1 = jnp.sin(w * y), jnp.cos(w * y)
         st = s1 * jnp.cos(c) + c1 * jnp.sin(c)
         ct = c1 * jnp.cos(c) - s1 * jnp.sin(c)
         h5, h7, ph5, ph7 = (self.harmonics[i] for i in range(4))
@@ -221,11 +232,7 @@ class TwinPlant:
         fy = amp * wy
         fx = amp * self.mu * wx
         tz = self.lever_arms[:, None] * fx - self.lateral_offsets[:, None] * fy
-        return jnp.stack([fy, fx, tz], axis=-2)
-
-    def gain(self, y):
-        """True star-reduced gain ``S + (L, 3, 2)`` (N/A, N/A, N·m/A)."""
-        return star_reduce(self.gain_phases(y))
+        return fy, fx, tz
 
     def cogging(self, y):
         """Current-independent force ``S + (3,)`` (N, N, N·m): cable slab plus weak periodic cogging."""
