@@ -37,6 +37,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 
 from pgcomm.errors import DataError
 
@@ -116,7 +117,8 @@ def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset
     hats = _hat_basis(y, lo, hi, n_bins)
     nuisance = np.hstack([hats * (v > 0)[:, None], hats * (v < 0)[:, None]])
     x = np.hstack([per_set * first[:, None], per_set * ~first[:, None], nuisance])
-    theta, *_ = np.linalg.lstsq(x, np.concatenate([fy1, fy2])[keep], rcond=None)
+    # pivoted QR: handles empty bins (rank deficiency) and is ~10x faster than SVD here
+    theta = scipy.linalg.lstsq(x, np.concatenate([fy1, fy2])[keep], lapack_driver="gelsy")[0]
     wts = np.full(gain_bins + 1, 1.0 / gain_bins)
     wts[[0, -1]] *= 0.5  # trapezoid mean of a piecewise-linear function over [lo, hi]
     m = per_set.shape[1]
