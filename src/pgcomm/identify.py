@@ -100,7 +100,7 @@ _MIN_SUBSAMPLE = 4096
 #: Singular values below this fraction of the largest are dropped (guards exact rank loss only).
 _SV_CUTOFF = 1e-14
 #: Re-orthogonalisation passes after the first Gram factorisation (1 = CholeskyQR2). One pass
-#: already reproduces numpy.linalg.lstsq (same column scaling and cut-off) to ~1e-10 in cost
+#: already reproduces numpy.linalg.lstsq (same column scaling) to ~1e-10 in cost
 #: at condition numbers of 1e16; a second changed nothing measurable.
 _REORTHOGONALISATIONS = 1
 #: Eigenvalue floor of the Gram factorisations, relative to the largest eigenvalue, per column.
@@ -263,8 +263,7 @@ class _Layout:
         if model.gain_nets is not None and model.gain_nets[1].widths != gw:
             raise ValueError("both gain networks must have the same widths")
         cw = None if model.cog_net is None else model.cog_net.widths
-        nets = ([] if model.gain_nets is None else list(model.gain_nets)) + ([] if model.cog_net is None else [model.cog_net])
-        acts = {net.activation for net in nets} or {"tanh"}
+        acts = {net.activation for net in model.networks} or {"tanh"}
         if len(acts) != 1:
             raise ValueError(f"all networks must share one activation, got {sorted(acts)}")
         return cls(gw, cw, acts.pop(), method)
@@ -335,18 +334,13 @@ class _Layout:
         return np.concatenate(unit), np.concatenate(power), np.concatenate(col)
 
 
-def _hidden_list(model: CoilSetModel) -> list:
-    nets = ([] if model.gain_nets is None else list(model.gain_nets)) + ([] if model.cog_net is None else [model.cog_net])
-    return [net.hidden for net in nets]
-
-
 def hidden_vector(model: CoilSetModel) -> jnp.ndarray:
     """``θ_NL`` of ``model`` as a flat vector.
 
     Order: networks ``f_1, f_2, f_φ`` (those present); per network its hidden layers in
     order; per layer ``W.ravel()`` (row-major ``(n_{i-1}, n_i)``) then ``b``.
     """
-    parts = [jnp.ravel(a) for hidden in _hidden_list(model) for wb in hidden for a in wb]
+    parts = [jnp.ravel(a) for net in model.networks for wb in net.hidden for a in wb]
     return jnp.concatenate(parts) if parts else jnp.zeros(0)
 
 
@@ -384,8 +378,7 @@ def with_hidden_vector(model: CoilSetModel, flat) -> CoilSetModel:
 def theta_L_of(model: CoilSetModel) -> jnp.ndarray:
     """``θ_L`` of ``model`` as a ``(p, 3)`` matrix whose column ``q`` is ``θ_L,q`` (eq. Linear_Parameter_Vector)."""
     rows = [model.A[:, 0], model.A[:, 1], model.B[:, 0], model.B[:, 1]]
-    nets = ([] if model.gain_nets is None else list(model.gain_nets)) + ([] if model.cog_net is None else [model.cog_net])
-    for net in nets:
+    for net in model.networks:
         rows += list(net.W_out) + [net.b_out]
     return jnp.stack(rows)
 
@@ -397,8 +390,7 @@ def with_theta_L(model: CoilSetModel, theta_L) -> CoilSetModel:
     B = jnp.stack([theta_L[2], theta_L[3]], axis=1)
     i = 4
     outs = []
-    nets = ([] if model.gain_nets is None else list(model.gain_nets)) + ([] if model.cog_net is None else [model.cog_net])
-    for net in nets:
+    for net in model.networks:
         n = net.W_out.shape[0]
         outs.append((theta_L[i:i + n], theta_L[i + n]))
         i += n + 1
@@ -919,17 +911,24 @@ def projected_residual(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT
     ``r̃ = [vec(F - M θ_L); √(2N) vec(W ⊙ (θ_L - θ̄)); α vec(B θ_L)]`` with ``θ_L = Prop1(θ_NL)``,
     ``W`` the regularisation weights (``Λ_q`` on the physics entries, ``√ridge`` on output
     weights), ``θ̄`` their targets and ``α B`` the damping (see :func:`proposition1`);
-    ``||r̃||² = 2N·V`` plus the ridge and damping terms. Not differentiable with JAX (use
-    finite differences): it is the reference the analytic Jacobian is checked against.
+    ``||r̃||² = 2N·V`` plus the ridge and damping terms. It is the reference the analytic
+    Jacobian is checked against by finite differences.
     """
-    layout = _Layout.of(theta_nl)
-    k = _consts(layout, data, Lambda, _star_or_fit(data, theta_nl.pole_pitch, theta_phy_star), ridge_output, damping)
-    theta_L = jnp.asarray(proposition1(theta_nl, data, Lambda, theta_phy_star, ridge_output, damping).theta_L)
-    m = regressor(theta_nl, data.y, data.currents)
-    r_data = jnp.asarray(data.force) - m @ theta_L
-    r_reg = jnp.sqrt(k.two_n) * k.reg_w.T * (theta_L - k.theta_bar)
-    r_damp = k.damp_w[:, None] * theta_L
-    return np.concatenate([np.asarray(a).ravel() for a in (r_data, r_reg, r_damp)])
+    layout, chunks, k = _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, damping, None, "auto")
+    return np.asarray(_projected_residual(layout, hidden_vector(theta_nl), chunks, k))
+
+
+@partial(jax.jit, static_argnums=0)
+def _projected_residual(layout: _Layout, flat, chunks: _Chunks, k: _Consts):
+    theta_l = _evaluate(layout, flat[None], chunks, k, False).theta_L[0]
+    hidden = _unflatten(layout, flat[None])
+
+    def data_rows(x0, s, cur, frc, msk):  # padded samples give zero rows
+        return ((frc - theta_l.T @ _rows(layout, hidden, x0, s, cur)[0]) * msk).ravel()
+
+    r_data = jax.vmap(data_rows)(chunks.x0, chunks.s, chunks.currents, chunks.force, chunks.mask)
+    r_reg = jnp.sqrt(k.two_n) * k.reg_w.T * (theta_l - k.theta_bar)
+    return jnp.concatenate([r_data.ravel(), r_reg.ravel(), (k.damp_w[:, None] * theta_l).ravel()])
 
 
 # --------------------------------------------------------------------------------------------
@@ -1027,6 +1026,11 @@ class IdentifyResult:
     * ``cost_pgnn_validation_full``: validation data term + the same Λ term (the full ``V``).
 
     Validation costs are NaN when ``n_validation == 0``.
+
+    ``iterations``: LM iterations of the kept start over both phases; ``start_costs``: the
+    objective of every start at the end of phase 1 (on its subsample; the single phase if
+    there is only one); ``history``: per phase, the best objective (``V`` plus the ridge and
+    damping terms) after each iteration, index 0 being the starting points.
     """
 
     name: str
@@ -1048,7 +1052,7 @@ class IdentifyResult:
     n_validation: int
     seed: int
     n_starts: int
-    start_costs: tuple = ()  # V of every start after phase 1 (on its subsample), or of the single phase
+    start_costs: tuple = ()
     stop_reason: str = ""
     history: tuple = field(default=(), repr=False)
 
@@ -1070,11 +1074,15 @@ def _progress_printer(name):
     return show
 
 
-def _run_lm(layout, flats, chunks, k, n, *, max_iter, tol, lambda0, show, phase, history):
-    """Levenberg–Marquardt on all rows of ``flats`` at once until each start stops; returns the final state."""
+def _run_lm(layout, flats, chunks, k, n, *, max_iter, tol, lambda0, show, phase):
+    """Levenberg–Marquardt on all rows of ``flats`` at once until each start stops.
+
+    Returns the final state and the best objective ``V`` (plus ridge and damping terms) after
+    every iteration (index 0: the starting points).
+    """
     st = _lm_step(layout, _lm_init(layout, flats, lambda0), chunks, k, tol, max_iter)
     # V = ||r̃||² / (2N) = 2 f / n
-    history.append(2.0 * float(jnp.nanmin(st.ev.f)) / n)
+    history = [2.0 * float(jnp.nanmin(st.ev.f)) / n]
     it = 0
     while layout.n_nl > 0 and not bool(jnp.all(st.done)) and it < max_iter:
         st = _lm_step(layout, st, chunks, k, tol, max_iter)
@@ -1085,7 +1093,7 @@ def _run_lm(layout, flats, chunks, k, n, *, max_iter, tol, lambda0, show, phase,
         if show is not None:
             show({"phase": phase, "iteration": it, "best_cost": history[-1], "lambda": float(st.lam[best]),
                   "active": int(np.sum(~np.asarray(st.done))), "starts": int(fs.size)})
-    return st
+    return st, tuple(history)
 
 
 def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_WIDTHS, cog_widths=DEFAULT_COG_WIDTHS,
@@ -1167,7 +1175,7 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     flats = jnp.stack([hidden_vector(mm) for mm in models0])
     show = _progress_printer(name) if progress is True else (progress or None)
     opts = dict(max_iter=max_iter, tol=tol, lambda0=lambda0, show=show)
-    history: list[float] = []
+    history = []
 
     stride = max(1, min(int(subsample), train.n // _MIN_SUBSAMPLE))
     iters0 = np.zeros(n_starts, int)
@@ -1175,13 +1183,15 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     if stride > 1:
         sub = train.take(slice(None, None, stride))
         layout, chunks, k = _prepare(template, sub, lam12, star, ridge_output, damping, chunk_size, method)
-        st1 = _run_lm(layout, flats, chunks, k, sub.n, phase=1, history=history, **opts)
+        st1, hist1 = _run_lm(layout, flats, chunks, k, sub.n, phase=1, **opts)
+        history.append(hist1)
         fs1 = np.where(np.isfinite(np.asarray(st1.ev.f)), np.asarray(st1.ev.f), np.inf)
         start_costs = 2.0 * fs1 / sub.n
         keep = np.argsort(fs1, kind="stable")[:max(1, min(refine_starts, n_starts))]
         flats, iters0 = st1.flat[keep], np.asarray(st1.n_iter)[keep]
     layout, chunks, k = _prepare(template, train, lam12, star, ridge_output, damping, chunk_size, method)
-    st = _run_lm(layout, flats, chunks, k, train.n, phase=2 if stride > 1 else 1, history=history, **opts)
+    st, hist2 = _run_lm(layout, flats, chunks, k, train.n, phase=2 if stride > 1 else 1, **opts)
+    history.append(hist2)
 
     fs = np.asarray(st.ev.f)
     best = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
@@ -1230,31 +1240,36 @@ def check_excitation(data: CoilSetData, pole_pitch: float, n_bins: int = 20, y_r
                      min_angle: float = 0.1, min_spread: float = 0.1) -> list[str]:
     """Problems with persistent excitation (the paper's Remark), per position bin; empty = fine.
 
-    The position range (``y_range`` or the data's own) is cut into ``n_bins`` equal bins.
+    The position range (``y_range`` or the data's own) is cut into ``n_bins`` equal bins. In
+    each bin the model is ``F = K̂ i + F̂_cog`` with ``K̂`` rotating with the commutation angle,
+    so the currents are judged in the rotating frame: ``p = Γ(y)^{-1} i = a [cos ψ, sin ψ]``
+    (``Γ`` with ``k̂ = 1``, ``ζ̂ = 0``; for drive inputs ``ψ = Δ + ζ̂`` and ``a = Fy*/k̂``).
     Each bin must have:
 
-    1. at least ``min_samples`` samples (else: a gap);
-    2. more than one ratio ``ia : ib`` — the current direction relative to the commutation
-       angle, ``ψ = atan2`` of ``Γ(y)^{-1} i`` (with ``k̂ = 1``, ``ζ̂ = 0``; for drive inputs
-       ``ψ = Δ + ζ̂``), taken modulo π (a sign change of the force is not a new ratio);
-       the 5–95 % range of ``ψ`` around its circular mean must exceed ``min_angle`` (rad);
-       samples with a current below 5 % of the median current are ignored here;
-    3. more than one force magnitude — the signed current amplitude ``a`` (sign from ψ's
-       half-turn) must have ``std(a) / mean(|a|) > min_spread``, to separate the Lorentz force
-       from the cogging force.
+    1. at least ``min_samples`` samples, else ``"no data (gap)"``; and some current, else
+       ``"no current"``;
+    2. more than one ratio ``ia : ib``: the directions ``ψ`` modulo π (a sign change of the
+       force is not a new ratio) must spread over more than ``min_angle`` rad (5–95 % range
+       around their circular mean; samples below 5 % of the median current are ignored),
+       else ``"one ratio ia:ib (a single Δ)"``;
+    3. currents that do not lie on one line, so that the two gain columns AND the cogging
+       force are separable (different force magnitudes, or sign changes, per direction):
+       ``sqrt(λ_min(cov p)) / rms|p| > min_spread``, else ``"a single force magnitude"``.
 
     Consecutive bins with the same problem are merged into one range.
 
     Args:
         data: one coil set's samples; pole_pitch: ``d_m`` (m).
+        n_bins, y_range: position bins over ``y_range`` (m) or the data's range.
+        min_samples, min_angle (rad), min_spread (-): the thresholds above.
 
     Returns:
-        list of one-line messages such as ``"y ∈ [0.01, 0.03] m: one ratio ia:ib (single Δ)"``.
+        one-line messages such as ``"y ∈ [0.01, 0.03] m: one ratio ia:ib (a single Δ)"``.
     """
     amp, ang = currents_to_drive_inputs(data.y, data.currents[:, None, :], 1.0, 0.0, pole_pitch)
     amp, ang = np.asarray(amp)[:, 0], np.asarray(ang)[:, 0]
     psi = np.mod(ang, np.pi)
-    signed = np.where(np.mod(ang, 2 * np.pi) < np.pi, amp, -amp)
+    p = np.stack([amp * np.cos(ang), amp * np.sin(ang)], axis=1)
     lo, hi = (float(data.y.min()), float(data.y.max())) if y_range is None else map(float, y_range)
     edges = np.linspace(lo, hi, n_bins + 1)
     which = np.clip(np.searchsorted(edges, data.y, side="right") - 1, 0, n_bins - 1)
@@ -1267,19 +1282,18 @@ def check_excitation(data: CoilSetData, pole_pitch: float, n_bins: int = 20, y_r
             issues.append("no data (gap)")
             continue
         sb = sel & big
-        problem = None
         if sb.sum() < 2:
-            problem = "no current"
-        else:
-            z = np.exp(2j * psi[sb])
-            dev = np.angle(z * np.conj(np.mean(z))) / 2.0
-            if np.percentile(dev, 95) - np.percentile(dev, 5) < min_angle:
-                problem = "one ratio ia:ib (a single Δ)"
-        if problem is None:
-            a = signed[sel]
-            if np.std(a) <= min_spread * max(np.mean(np.abs(a)), 1e-300):
-                problem = "a single force magnitude"
-        issues.append(problem)
+            issues.append("no current")
+            continue
+        z = np.exp(2j * psi[sb])
+        dev = np.angle(z * np.conj(np.mean(z))) / 2.0
+        if np.percentile(dev, 95) - np.percentile(dev, 5) < min_angle:
+            issues.append("one ratio ia:ib (a single Δ)")
+            continue
+        pb = p[sel]
+        lam_min = np.linalg.eigvalsh(np.cov(pb, rowvar=False))[0]
+        rms = np.sqrt(np.mean(np.sum(pb ** 2, axis=1)))
+        issues.append(None if np.sqrt(max(lam_min, 0.0)) > min_spread * rms else "a single force magnitude")
     out, b = [], 0
     while b < n_bins:
         e = b

@@ -93,8 +93,9 @@ class MLP:
     def __call__(self, s):
         """Network output ``S + G + (3,)`` for scaled positions ``s`` of shape ``S + G``."""
         h = self.features(s)
-        # Multiply-and-sum instead of a matmul: the contraction is tiny (n_I) and XLA fuses it.
-        return jnp.sum(h[..., :, None] * self.W_out, axis=-2) + self.b_out
+        # Multiply-and-sum over the MINOR axis: the contraction is tiny (n_I), XLA fuses it, and
+        # on CPU a reduction over the minor axis runs ~10x faster than over a major one.
+        return jnp.sum(h[..., None, :] * jnp.swapaxes(self.W_out, -1, -2), axis=-1) + self.b_out
 
     @classmethod
     def init(cls, key, widths=DEFAULT_GAIN_WIDTHS, activation="tanh", first_scale=2.0) -> "MLP":
@@ -187,6 +188,11 @@ class CoilSetModel:
         cog = None if cog_widths is None else MLP.init(k3, cog_widths, activation)
         return cls(jnp.asarray(A, float), jnp.asarray(B, float), gain, cog, float(pole_pitch),
                    float(y_center), float(y_scale), y_min, y_max)
+
+    @property
+    def networks(self) -> tuple:
+        """The networks present, in the order ``f_1, f_2, f_φ`` (the column order of the LIP rewrite)."""
+        return (() if self.gain_nets is None else tuple(self.gain_nets)) + (() if self.cog_net is None else (self.cog_net,))
 
     def scaled_position(self, y):
         """``s = (y - y_center) / y_scale`` (-), shape of ``y``."""
@@ -384,7 +390,9 @@ class CombinedModel:
         """Mean cogging force of the coil sets, ``S + (3,)`` (N, N, N·m)."""
         if self.cog_nets is None:
             return jnp.zeros(jnp.shape(y) + (3,))
-        return jnp.mean(self.cog_nets(self.scaled_positions(y)), axis=-2)
+        out = self.cog_nets(self.scaled_positions(y))
+        # An explicit sum over the (few) coil sets: a reduction over a non-minor axis is slow on CPU.
+        return sum(out[..., l, :] for l in range(out.shape[-2])) / out.shape[-2]
 
     def force(self, y, currents):
         """``F̂ = Σ_l K̂^l i^l + mean_l F̂^l_cog``; currents ``S + (L, 2)`` (A) -> ``S + (3,)``."""

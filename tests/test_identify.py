@@ -1,0 +1,330 @@
+"""Identification: cost, Proposition 1, the projected Jacobian, variable-projection LM, excitation checks.
+
+Synthetic data (:func:`synthetic_coil_set`, also used by ``bench/bench_identify.py``): the
+ideal gain of one coil set with a smooth position-dependent perturbation, a cogging force of a
+few N and noise; positions from back-and-forth sweeps over [-0.1, 0.1] m at several speeds;
+currents from a fixed-commutation drive with ``Δ = ±π/4`` and force demands of 20–60 N with
+sign changes.
+"""
+
+from __future__ import annotations
+
+import re
+
+import jax
+import numpy as np
+import pytest
+
+from pgcomm import identify as idf
+from pgcomm.commutation import currents_to_drive_inputs, drive_currents
+from pgcomm.errors import DataError, ExcitationError
+from pgcomm.models import CoilSetModel, CombinedModel
+from pgcomm.motor import Motor, ideal_gain
+
+D_M = 0.03
+K_HAT, ZETA_HAT = 67.0, -0.52
+
+
+def sweep(n, speeds, dt=1e-3, stroke=0.1):
+    """``n`` positions (m) of cosine-profile moves between ``±stroke`` at the given peak speeds (m/s), repeated."""
+    ys, pos = [], -stroke
+    while sum(a.size for a in ys) < n:
+        for v in speeds:
+            target = -pos
+            duration = np.pi / 2 * abs(target - pos) / v
+            t = np.arange(0.0, duration, dt)
+            ys.append(pos + (target - pos) * (1 - np.cos(np.pi * t / duration)) / 2)
+            pos = target
+    return np.concatenate(ys)[:n]
+
+
+def true_gain(y, lever_arm=0.005):
+    """``(N, 3, 2)`` star-reduced truth: ideal gain (k = 61.34, ζ = -0.54) x (1 + 5 % ripple) + a bump."""
+    motor = Motor(lever_arms=(lever_arm,), k=K_HAT, zeta=ZETA_HAT)
+    k = np.asarray(ideal_gain(y, motor, k=[61.34], zeta=[-0.54], mu=0.05))[:, 0]
+    k = k * (1 + 0.05 * np.sin(2 * np.pi * y / 0.13 + 0.4))[:, None, None]
+    return k + np.exp(-(y / 0.06) ** 2)[:, None, None] * np.array([[3.0, -2.0], [0.5, 0.3], [0.02, -0.01]])
+
+
+def true_cogging(y):
+    """``(N, 3)`` smooth current-independent force (N, N, N·m)."""
+    return np.stack([2.0 * np.sin(2 * np.pi * y / 0.11) + 1.5 * np.tanh(y / 0.04),
+                     0.5 * np.cos(2 * np.pi * y / 0.09), 0.05 * np.sin(2 * np.pi * y / 0.1)], axis=-1)
+
+
+def synthetic_coil_set(n_per=3000, seed=0, deltas=(np.pi / 4, -np.pi / 4), speeds=(0.25, 0.45, 0.7),
+                       noise=(0.2, 0.05, 0.005), magnitude=(40.0, 20.0), sign_changes=True, name="coil set 1",
+                       lever_arm=0.005):
+    """One coil set's data sets ``Z_i`` (one per entry of ``deltas``) of ``n_per`` samples at 1 ms.
+
+    ``Fy*(t) = (magnitude[0] + magnitude[1] sin(2π t / 1.3 s)) · sign(sin(2π t / 0.7 s))``.
+    """
+    rng = np.random.default_rng(seed)
+    ys, fys, dls, exps = [], [], [], []
+    for e, delta in enumerate(deltas):
+        t = np.arange(n_per) * 1e-3
+        fy = magnitude[0] + magnitude[1] * np.sin(2 * np.pi * t / 1.3 + e)
+        if sign_changes:
+            fy = fy * np.sign(np.sin(2 * np.pi * t / 0.7 + 0.3 + e))
+        ys.append(sweep(n_per, speeds))
+        fys.append(fy)
+        dls.append(np.full(n_per, delta))
+        exps.append(np.full(n_per, e))
+    y, fy, delta, exp = (np.concatenate(a) for a in (ys, fys, dls, exps))
+    cur = np.asarray(drive_currents(y, fy[:, None], delta[:, None], K_HAT, ZETA_HAT, D_M))[:, 0]
+    force = (np.einsum("nqj,nj->nq", true_gain(y, lever_arm), cur) + true_cogging(y)
+             + rng.normal(size=(y.size, 3)) * np.asarray(noise))
+    return idf.CoilSetData.from_drive_inputs(y, fy, delta, force, K_HAT, ZETA_HAT, D_M, exp, name)
+
+
+@pytest.fixture(scope="module")
+def data():
+    return synthetic_coil_set()
+
+
+def _model(data, seed=0, gain=(2,), cog=(3,)):
+    a, b = idf.fit_physics(data, D_M)
+    return CoilSetModel.init(jax.random.PRNGKey(seed), a, b, D_M, 0.0, 0.1, gain, cog)
+
+
+def _lstsq_theta(model, data, lam12, star, ridge=0.0):
+    """Reference: ``numpy.linalg.lstsq`` on the full augmented problem of every direction q."""
+    m = np.asarray(idf.regressor(model, data.y, data.currents))
+    n, p = m.shape
+    wmask = idf._Layout.of(model).output_weight_mask()
+    out = []
+    for q in range(3):
+        cols = idf._physics_columns(q)
+        w = np.zeros(p)
+        w[:4] = lam12[cols]
+        w[wmask] = np.sqrt(ridge)
+        target = np.zeros(p)
+        target[:4] = star[cols]
+        a = np.vstack([m, np.sqrt(n) * np.diag(w)])
+        b = np.concatenate([data.force[:, q], np.sqrt(n) * w * target])
+        out.append(np.linalg.lstsq(a, b, rcond=None)[0])
+    return np.stack(out, axis=1)
+
+
+# ------------------------------------------------------------------------------------ Proposition 1
+
+
+@pytest.mark.parametrize("ridge", [0.0, 1e-3])
+def test_proposition1_matches_lstsq(data, ridge):
+    model = _model(data)
+    rng = np.random.default_rng(1)
+    lam12 = 0.05 + 0.2 * rng.random(12)  # a non-uniform diagonal Λ
+    star = idf.theta_phy(*idf.fit_physics(data, D_M)) + rng.normal(size=12)
+    ref = _lstsq_theta(model, data, lam12, star, ridge)
+    res = idf.proposition1(model, data, lam12, star, ridge_output=ridge, damping=0.0)
+    np.testing.assert_allclose(res.theta_L, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+    # the reported cost is eq. Identification_CostFunction of the returned model
+    direct = idf.cost(res.model, data, lam12, star)
+    assert res.cost == pytest.approx(direct.total, rel=1e-10)
+    assert res.cost_data == pytest.approx(direct.data, rel=1e-10)
+
+
+def test_proposition1_default_damping_is_negligible_when_well_conditioned(data):
+    model = _model(data)
+    exact = idf.proposition1(model, data, damping=0.0)
+    damped = idf.proposition1(model, data)
+    assert damped.cost == pytest.approx(exact.cost, rel=1e-9)
+    assert 0 < damped.damping_term < 1e-7 * damped.cost
+
+
+def test_proposition1_lowers_the_cost_below_physics(data):
+    """Prop. 1: for ANY hidden weights the PGNN cost is below the physics model's (strictly here)."""
+    a, b = idf.fit_physics(data, D_M)
+    v_phys = idf.cost(CoilSetModel.physics(a, b, D_M), data).total
+    for seed in range(3):
+        model = CoilSetModel.init(jax.random.PRNGKey(seed), a, b, D_M, 0.0, 0.1)  # paper widths 2 / 16
+        v = idf.proposition1(model, data).cost
+        assert v < 0.5 * v_phys, (seed, v, v_phys)
+
+
+def test_regressor_reproduces_model_force(data):
+    model = idf.proposition1(_model(data), data).model
+    m = np.asarray(idf.regressor(model, data.y, data.currents))
+    f_lip = m @ np.asarray(idf.theta_L_of(model))
+    np.testing.assert_allclose(f_lip, np.asarray(model.force(data.y, data.currents)), rtol=0, atol=1e-10)
+    assert m.shape == (data.n, 4 + 3 + 3 + 4)
+
+
+# ------------------------------------------------------------------------------- projected Jacobian
+
+
+def _fd_normal_equations(model, data, star, h=1e-6):
+    """Central differences of :func:`idf.projected_residual` (its jitted core, called 2n times)."""
+    flat = np.asarray(idf.hidden_vector(model))
+    r0 = idf.projected_residual(model, data, theta_phy_star=star)
+    layout, chunks, k = idf._prepare(model, data, idf.DEFAULT_LAMBDA, star, 0.0, idf.DEFAULT_DAMPING, None, "auto")
+    jac = np.empty((r0.size, flat.size))
+    for i in range(flat.size):
+        e = np.zeros_like(flat)
+        e[i] = h * max(1.0, abs(flat[i]))
+        rp, rm = (np.asarray(idf._projected_residual(layout, flat + sign * e, chunks, k)) for sign in (1, -1))
+        jac[:, i] = (rp - rm) / (2 * e[i])
+    return 0.5 * r0 @ r0, jac.T @ jac, jac.T @ r0
+
+
+@pytest.mark.parametrize("gain,cog,method", [((2,), (3,), "structured"), ((2, 2), (3, 2), "generic")])
+def test_jacobian_matches_finite_differences(data, gain, cog, method):
+    sub = data.take(slice(None, None, 3))
+    model = _model(sub, seed=4, gain=gain, cog=cog)
+    star = idf.theta_phy(*idf.fit_physics(sub, D_M))
+    f, jtj, jtr, _ = idf.projected_normal_equations(model, sub, theta_phy_star=star, method=method)
+    f_fd, jtj_fd, jtr_fd = _fd_normal_equations(model, sub, star)
+    assert f == pytest.approx(f_fd, rel=1e-10)
+    np.testing.assert_allclose(jtj, jtj_fd, rtol=0, atol=1e-5 * np.abs(jtj_fd).max())
+    np.testing.assert_allclose(jtr, jtr_fd, rtol=0, atol=1e-5 * np.abs(jtr_fd).max())
+
+
+def test_chunk_size_and_method_do_not_change_the_result(data):
+    sub = data.take(slice(None, None, 3))
+    model = _model(sub, seed=4)
+    star = idf.theta_phy(*idf.fit_physics(sub, D_M))
+    f0, jtj0, jtr0, th0 = idf.projected_normal_equations(model, sub, theta_phy_star=star)
+    for chunk, method in ((777, "structured"), (333, "generic")):
+        f, jtj, jtr, th = idf.projected_normal_equations(model, sub, theta_phy_star=star, chunk_size=chunk,
+                                                         method=method)
+        assert f == pytest.approx(f0, rel=1e-10)
+        np.testing.assert_allclose(th, th0, rtol=0, atol=1e-10 * np.abs(th0).max())
+        # JᵀJ and Jᵀr̃ depend on θ_L to first order (cond·u, see the module docstring)
+        np.testing.assert_allclose(jtj, jtj0, rtol=0, atol=1e-8 * np.abs(jtj0).max())
+        np.testing.assert_allclose(jtr, jtr0, rtol=0, atol=1e-8 * np.abs(jtr0).max())
+
+
+# -------------------------------------------------------------------------------------- training
+
+
+@pytest.fixture(scope="module")
+def trained(data):
+    return idf.identify(data, D_M, n_starts=4, max_iter=25, seed=3, subsample=1)
+
+
+def test_training_beats_physics_and_decreases_monotonically(trained):
+    r = trained
+    assert r.cost_pgnn < 0.2 * r.cost_physics
+    assert r.cost_pgnn_validation < 0.5 * r.cost_physics_validation
+    (hist,) = r.history  # one phase (subsample=1)
+    assert len(hist) == r.iterations + 1
+    assert all(b <= a for a, b in zip(hist, hist[1:]))
+    assert hist[-1] < hist[0]
+    # the history's last value is the reported objective (V + damping term)
+    assert hist[-1] == pytest.approx(r.cost_pgnn + r.damping_term, rel=1e-8)
+    assert r.n_train + r.n_validation == 6000 and r.n_validation == 1000
+    d = r.to_dict()
+    assert d["cost_pgnn"] == r.cost_pgnn and d["n_starts"] == 4 and len(d["start_costs"]) == 4
+
+
+def test_same_seed_same_parameters(data, trained):
+    again = idf.identify(data, D_M, n_starts=4, max_iter=25, seed=3, subsample=1)
+    for a, b in zip(jax.tree_util.tree_leaves(trained.model), jax.tree_util.tree_leaves(again.model)):
+        assert np.array_equal(np.asarray(a), np.asarray(b))
+    other = idf.identify(data, D_M, n_starts=4, max_iter=2, seed=4, subsample=1)
+    assert not np.array_equal(np.asarray(other.model.A), np.asarray(trained.model.A))
+
+
+def test_two_phases_and_identify_all(monkeypatch):
+    monkeypatch.setattr(idf, "_MIN_SUBSAMPLE", 1000)  # let small data use the subsampled first phase
+    # same sizes as the `trained` fixture, so phase 2 reuses its compiled step
+    sets = [synthetic_coil_set(seed=l, name=f"coil set {l + 1}", lever_arm=0.07 * (l - 1)) for l in range(2)]
+    model, results = idf.identify_all(sets, D_M, n_starts=4, max_iter=6, subsample=2, refine_starts=4)
+    assert isinstance(model, CombinedModel) and model.n_coil_sets == 2
+    assert [r.name for r in results] == ["coil set 1", "coil set 2"]
+    for r in results:
+        assert len(r.history) == 2 and len(r.start_costs) == 4  # phase 1 (all starts) and phase 2
+        assert r.cost_pgnn < r.cost_physics
+        assert r.history[1][-1] <= r.history[1][0]
+    np.testing.assert_array_equal(np.asarray(model.coil_set(1).A), np.asarray(results[1].model.A))
+
+
+# ---------------------------------------------------------------------------------- data handling
+
+
+def test_split_is_deterministic_blocks():
+    tr, va = idf.split_indices(5000, 0.2, 500)
+    assert va.size == 1000 and tr.size == 4000
+    assert np.array_equal(va[:500], np.arange(2000, 2500))  # every 5th block of 500
+    tr0, va0 = idf.split_indices(100, 0.0)
+    assert tr0.size == 100 and va0.size == 0
+    with pytest.raises(ValueError, match="validation_fraction"):
+        idf.split_indices(100, 0.7)
+
+
+def test_cost_is_the_paper_formula(data):
+    a, b = idf.fit_physics(data, D_M)
+    model = CoilSetModel.physics(a + 0.5, b, D_M)
+    lam = np.linspace(0.1, 1.2, 12)
+    star = idf.theta_phy(a, b)
+    c = idf.cost(model, data, lam, star)
+    f_hat = np.einsum("nqj,nj->nq", np.asarray(model.gain(data.y)), data.currents)
+    assert c.data == pytest.approx(np.sum((data.force - f_hat) ** 2) / data.n, rel=1e-12)
+    assert c.regularisation == pytest.approx(np.sum((lam * (idf.theta_phy(a + 0.5, b) - star)) ** 2), rel=1e-12)
+    np.testing.assert_array_equal(idf.theta_phy_to_AB(idf.theta_phy(a, b))[0], a)
+
+
+def test_drive_input_front_end(data):
+    y = data.y[:50]
+    cur = data.currents[:50]
+    fy, delta = (np.asarray(v)[:, 0] for v in currents_to_drive_inputs(y, cur[:, None], K_HAT, ZETA_HAT, D_M))
+    d2 = idf.CoilSetData.from_drive_inputs(y, fy, delta, data.force[:50], K_HAT, ZETA_HAT, D_M)
+    np.testing.assert_allclose(d2.currents, cur, rtol=0, atol=1e-12)
+
+
+def test_bad_data_is_refused_with_the_row():
+    y = np.zeros(20)
+    f = np.zeros((20, 3))
+    f[7, 1] = np.nan
+    with pytest.raises(DataError, match=r"coil set 2: force is not finite in row 7"):
+        idf.CoilSetData(y, np.zeros((20, 2)), f, name="coil set 2")
+    with pytest.raises(DataError, match=r"currents must have shape \(20, 2\)"):
+        idf.CoilSetData(y, np.zeros((20, 3)), np.zeros((20, 3)))
+
+
+# ------------------------------------------------------------------------------------- excitation
+
+
+def _ranges(message):
+    return [(float(a), float(b)) for a, b in re.findall(r"y ∈ \[([-0-9.e]+), ([-0-9.e]+)\] m", message)]
+
+
+def test_good_data_passes_the_excitation_check(data):
+    assert idf.check_excitation(data, D_M) == []
+
+
+def test_single_delta_is_refused():
+    d = synthetic_coil_set(2000, deltas=(np.pi / 4, np.pi / 4), name="coil set 3")
+    problems = idf.check_excitation(d, D_M)
+    assert problems and all("one ratio ia:ib" in p for p in problems)
+    with pytest.raises(ExcitationError) as err:
+        idf.identify(d, D_M)
+    msg = str(err.value)
+    assert "\n" not in msg and msg.startswith("coil set 3: ") and "one ratio ia:ib" in msg
+    assert _ranges(msg) == [(-0.1, 0.1)]
+
+
+def test_single_force_magnitude_is_refused():
+    d = synthetic_coil_set(2000, magnitude=(40.0, 0.0), sign_changes=False)
+    problems = idf.check_excitation(d, D_M)
+    assert problems and all("single force magnitude" in p for p in problems)
+
+
+def test_position_gap_is_named():
+    d = synthetic_coil_set(3000)
+    keep = (d.y < 0.02) | (d.y > 0.05)
+    problems = idf.check_excitation(d.take(keep), D_M)
+    assert len(problems) == 1 and "no data (gap)" in problems[0]
+    (lo, hi), = _ranges(problems[0])
+    assert lo == pytest.approx(0.02, abs=0.011) and hi == pytest.approx(0.05, abs=0.011)
+    assert lo <= 0.03 and hi >= 0.04
+
+
+def test_warning_outside_training_range(trained):
+    model = trained.model
+    assert idf.warn_outside_training_range(model, np.linspace(-0.1, 0.1, 11)) is None
+    msg = idf.warn_outside_training_range(model, np.array([-0.12, 0.0, 0.05, 0.2]))
+    assert msg.startswith("2 of 4 positions (50.0%) lie outside the training range [-0.1, 0.1] m")
+    combined = CombinedModel.from_coil_sets([model, model.with_range(-0.05, 0.1)])
+    assert "[-0.05, 0.1] m" in idf.warn_outside_training_range(combined, np.array([-0.07]))
+    assert idf.warn_outside_training_range(model.with_range(None, None), np.array([5.0])) is None
