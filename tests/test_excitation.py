@@ -153,8 +153,8 @@ def test_single_force_magnitude_is_flagged():
                                "y in [-0.100, 0.100] m; move at several velocities and in both directions "
                                "(different Fy*)",)
         assert np.all(cs.bins.magnitude_spread < 1e-6)
-        # stricter than identify.check_excitation, whose signed-amplitude spread accepts these data
-        assert cs.identify_check == ()
+        # identify.check_excitation refuses these data too (identification would fail on them)
+        assert cs.identify_check == ("y ∈ [-0.1, 0.1] m: a single force magnitude",)
     # the same data with the force sign alternating excite the model: 4 points, not on one line
     fy = np.where(np.arange(6001) % 3 == 0, -25.0, 25.0)
     rep = excitation_report([synthetic_log(l, d, fy=fy) for l in range(3) for d in (-np.pi / 4, np.pi / 4)], MOTOR)
