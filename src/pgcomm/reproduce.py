@@ -50,7 +50,7 @@ def quick_config(config: ExperimentConfig) -> ExperimentConfig:
     """A shorter experiment for a first look and for tests: two velocities, short dwells,
     fewer random starts and iterations, two feedforward passes."""
     ref = replace(config.reference, velocities=(0.075, 0.15), dwell=0.2)
-    ident = replace(config.identification, starts=4, max_iterations=40)
+    ident = replace(config.identification, starts=2, max_iterations=25)
     ctrl = replace(config.controller, ff_iterations=2)
     return replace(config, reference=ref, identification=ident, controller=ctrl)
 
