@@ -21,13 +21,11 @@ Accuracy and the default resolution. ``P(y)`` turns with the commutation angle
 takes currents several times those of ``Fy = f_max``; their interpolation error, seen
 through the large Fy gain, dominates: the measured worst case is about 3.5 (ω h)²/8 of
 ``f_max``, in y.
-:data:`DEFAULT_RESOLUTION` = 0.125 mm gives a measured worst case of 0.030 % of ``f_max``
-(y direction; x and z below 2e-5) on paper-like models (``d_m = 0.03 m``, ``k̂ ≈ 61 N/A``,
-``μ = 0.05``, paper lever arms, random PGNN corrections; tests/test_export_lut.py) and
-0.014 % on a PGNN identified from the digital twin — a margin of 3 on the 0.1 % target;
-0.25 mm would give 0.12 % on the former. Over the paper's ±0.1 m stroke the table has
-1601 rows x 21 float32 entries = 134 kB (``--resolution 2.5e-4`` halves that when the
-identified model allows it: check the reported error).
+:data:`DEFAULT_RESOLUTION` = 0.08 mm. On the PGNN that ``pgcomm reproduce`` identifies on
+the digital twin the measured worst case is 0.058 % of ``f_max`` (82.8 N, the largest
+demand of its evaluation run; y direction, x and z below 0.004 %), with 2587 rows x 21
+float32 entries = 217 kB; 0.125 mm gave 0.135 % there (above the 0.1 % target), 0.1 mm
+0.083 %. ``--resolution`` trades size against error: check the reported error.
 
 :func:`lut_error` measures this on the model itself: the force ``F̂(y, i_table)`` against
 ``F̂(y, i_exact)`` on a grid ``factor`` times finer, for ``F*`` with ``|Fy| = f_max`` and
@@ -81,7 +79,7 @@ __all__ = [
 ]
 
 #: Default grid spacing (m): worst case 0.030 % of f_max on paper-like models (d_m = 0.03 m), 134 kB for ±0.1 m.
-DEFAULT_RESOLUTION = 1.25e-4
+DEFAULT_RESOLUTION = 8e-5
 
 #: Fx and Tz of the test forces relative to |Fy| = f_max.
 SIDE_FRACTION = 0.05
