@@ -100,7 +100,8 @@ def main(argv=None):
         t_mec = best_time(mec, k, f, repeat=args.repeat)
         del k
         print(f"  N = {n:.0e}: ModelLaw {n / t_law / 1e6:6.2f} M samples/s (metric 'star': {n / t_star / 1e6:.2f}); "
-              f"parts: model (gain + cogging) {n / t_model / 1e6:.2f} M/s, min_energy_currents {n / t_mec / 1e6:.2f} M/s",
+              f"parts: model (gain + cogging) {n / t_model / 1e6:.2f} M/s, "
+              f"min_energy_currents {n / t_mec / 1e6:.2f} M/s",
               flush=True)
     nb = int(args.baseline_size)
     y = rng.uniform(-0.1, 0.1, nb)

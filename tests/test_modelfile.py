@@ -86,7 +86,8 @@ def _object_array(arrays):
     (lambda d: d.update(activation="swish"), None, r"m\.json: unknown activation 'swish'"),
     (None, lambda a: a.pop("cog_b_out"), r"m\.npz: array 'cog_b_out' missing"),
     (None, lambda a: a.update(extra=np.zeros(1)), r"m\.npz: unexpected arrays \['extra'\]"),
-    (lambda d: d.update(gain_widths=[3]), None, r"m\.npz: array 'gain_W1' has shape \(3, 2, 1, 2\), expected \(3, 2, 1, 3\)"),
+    (lambda d: d.update(gain_widths=[3]), None,
+     r"m\.npz: array 'gain_W1' has shape \(3, 2, 1, 2\), expected \(3, 2, 1, 3\)"),
     (None, lambda a: a["B"].__setitem__((1, 2, 0), np.nan), r"m\.npz: array 'B' holds NaN or inf"),
     (None, lambda a: a.update(y_scale=-a["y_scale"]), r"m\.npz: array 'y_scale' must be positive"),
     (None, _object_array, r"m\.npz: cannot read arrays"),  # pickled objects are refused, never loaded

@@ -192,7 +192,8 @@ class CoilSetModel:
     @property
     def networks(self) -> tuple:
         """The networks present, in the order ``f_1, f_2, f_φ`` (the column order of the LIP rewrite)."""
-        return (() if self.gain_nets is None else tuple(self.gain_nets)) + (() if self.cog_net is None else (self.cog_net,))
+        gain = () if self.gain_nets is None else tuple(self.gain_nets)
+        return gain + (() if self.cog_net is None else (self.cog_net,))
 
     def scaled_position(self, y):
         """``s = (y - y_center) / y_scale`` (-), shape of ``y``."""
