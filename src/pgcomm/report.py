@@ -23,10 +23,10 @@ _DESCRIPTION = {
 }
 
 
-def _fmt(x) -> str:
+def _fmt(x, digits: int = 3) -> str:
     if x is None:
         return "–"
-    return f"{x:.3g}"
+    return f"{x:.{digits}g}"
 
 
 def _img(path: Path, caption: str) -> str:
@@ -110,9 +110,9 @@ def write_report(path: Path, results: dict, figures: dict) -> None:
         pk = PAPER["calibrated"]["k"][l] if l < 3 else None
         pz = PAPER["calibrated"]["zeta"][l] if l < 3 else None
         cal_rows.append(f"<tr><th>{l + 1}</th><td>{_fmt(cal['initial']['k'][l])}</td>"
-                        f"<td>{cal['calibrated']['k'][l]:.4g}</td><td>{_fmt(tk)}</td><td>{_fmt(pk)}</td>"
+                        f"<td>{cal['calibrated']['k'][l]:.4g}</td><td>{_fmt(tk, 4)}</td><td>{_fmt(pk, 4)}</td>"
                         f"<td>{_fmt(cal['initial']['zeta'][l])}</td><td>{cal['calibrated']['zeta'][l]:.4f}</td>"
-                        f"<td>{_fmt(tz)}</td><td>{_fmt(pz)}</td></tr>")
+                        f"<td>{_fmt(tz, 4)}</td><td>{_fmt(pz)}</td></tr>")
     ident = results["identification"]
     id_rows = "".join(
         f"<tr><th>{c['name']}</th><td>{_fmt(c['cost_physics'])}</td><td>{_fmt(c['cost_pgnn'])}</td>"
