@@ -60,16 +60,18 @@ def plot_comparison(runs: dict, lowpass_hz: float = 50.0, title: str = ""):
     """Paper Figs. CommutationError_Ref1/2: reference, filtered commutation error y, x, z and
     tracking error, every row of ``runs`` (name -> SimResult) overlaid."""
     first = next(iter(runs.values()))
-    t = first.t
+    # filter at full rate, draw at most ~5000 points per line (the figure cannot show more)
+    k = max(1, first.t.shape[0] // 5000)
+    t = first.t[::k]
     fig, ax = plt.subplots(5, 1, figsize=(10, 10), sharex=True)
-    ax[0].plot(t, first.r * 1e3, color="k")
+    ax[0].plot(t, first.r[::k] * 1e3, color="k")
     ax[0].set_ylabel("$y^*$ [mm]")
     for name, res in runs.items():
         c = ROW_COLORS.get(name)
-        err = lowpass(res.commutation_error, res.sample_time, lowpass_hz)
+        err = lowpass(res.commutation_error, res.sample_time, lowpass_hz)[::k]
         for q in range(3):
             ax[q + 1].plot(t, err[:, q], lw=0.7, color=c, label=name)
-        ax[4].plot(t, res.e * 1e6, lw=0.8, color=c, label=name)
+        ax[4].plot(t, res.e[::k] * 1e6, lw=0.8, color=c, label=name)
     for q in range(3):
         ax[q + 1].set_ylabel(_DIR_LABEL[q])
     ax[4].set_ylabel("$y^* - y$ [µm]")
