@@ -135,3 +135,22 @@ def test_reference_file_missing_column(tmp_path, capsys):
     (tmp_path / "ref.csv").write_text("t,x\n0,0\n0.001,0\n")
     _expect_error(["simulate", "--out", str(tmp_path / "o"), "--reference", str(tmp_path / "ref.csv")], capsys,
                   "ref.csv")
+
+
+def test_identify_writes_model_and_costs(tmp_path, capsys):
+    """``pgcomm identify`` on the twin: model file, identification keys, PGNN cost below physics (Prop. 1)."""
+    cfg = tmp_path / "exp.toml"
+    cfg.write_text("[reference]\nvelocities = [0.075, 0.15]\ndwell = 0.2\n"
+                   "[identification]\nstarts = 2\nmax_iterations = 10\n")
+    out = tmp_path / "id"
+    code, stdout, err = run(["identify", "--out", str(out), "--config", str(cfg), "--quiet"], capsys)
+    assert code == 0, err
+    res = json.loads((out / "results.json").read_text())
+    sets = res["identification"]["coil_sets"]
+    assert len(sets) == 3 and res["identification"]["seconds_total"] > 0
+    for c in sets:
+        assert c["cost_pgnn"] < c["cost_physics"] and c["cost_pgnn_validation"] < c["cost_physics_validation"]
+    from pgcomm.modelfile import load_model
+
+    model, doc = load_model(out / "model.json")
+    assert model.n_coil_sets == 3 and doc["metadata"]["fy_abs_max"] > 0

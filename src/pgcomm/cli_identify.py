@@ -66,19 +66,8 @@ def cmd_identify(args, out: Path, progress):
         progress.info(f"warning: {msg}")
     with progress.stage("identification (Algorithm 2) per coil set"):
         t_id = time.perf_counter()
-        if args.force:
-            # the check already ran (and warned); keep identify from refusing
-            from pgcomm import identify as _id
-
-            ic = setup.config.identification
-            pgnn, res = _id.identify_all(data, setup.motor.pole_pitch, seed=args.seed, check_data=False,
-                                         gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
-                                         activation=ic.activation, Lambda=ic.regularisation,
-                                         ridge_output=ic.ridge_output, n_starts=ic.starts,
-                                         max_iter=ic.max_iterations, tol=ic.tol,
-                                         validation_fraction=ic.validation_fraction)
-        else:
-            pgnn, _, res = reproduce.identify_models(setup, data, args.seed, progress)
+        # the check above already ran (and, with --force, only warned)
+        pgnn, _, res = reproduce.identify_models(setup, data, args.seed, progress, check_data=False)
         t_id = time.perf_counter() - t_id
     results = {"command": "identify", "plant": setup.plant_name, "data": source, "version": __version__,
                "seed": args.seed, "identification": reproduce.identification_results(res, t_id)}

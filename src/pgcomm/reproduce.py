@@ -86,8 +86,11 @@ def coil_set_data(datasets) -> list[CoilSetData]:
     return out
 
 
-def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=None):
-    """Algorithm 2 for every coil set; returns ``(pgnn, physics, [IdentifyResult])``."""
+def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=None, check_data: bool = True):
+    """Algorithm 2 for every coil set; returns ``(pgnn, physics, [IdentifyResult])``.
+
+    ``check_data=False`` skips the excitation check (the caller ran it and chose to go on).
+    """
     ic: IdentificationConfig = setup.config.identification
     show = None
     if progress is not None and progress.enabled:
@@ -99,7 +102,7 @@ def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=N
                              gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
                              activation=ic.activation, Lambda=ic.regularisation, ridge_output=ic.ridge_output,
                              n_starts=ic.starts, max_iter=ic.max_iterations, tol=ic.tol,
-                             validation_fraction=ic.validation_fraction)
+                             validation_fraction=ic.validation_fraction, check_data=check_data)
     physics = CombinedModel.from_coil_sets([r.physics_model for r in res])
     return pgnn, physics, res
 
