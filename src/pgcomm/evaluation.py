@@ -174,7 +174,6 @@ def evaluation_results(evaluations, lowpass_hz: float = 50.0, model: str | None 
 
 # ------------------------------------------------------------------------------------------ figures
 
-_DIR_LABEL = ("$F_y - F_y^*$ [N]", "$F_x - F_x^*$ [N]", "$T_z - T_z^*$ [N m]")
 _MODEL_LABEL = ("$F_y - \\hat F_y$ [N]", "$F_x - \\hat F_x$ [N]", "$T_z - \\hat T_z$ [N m]")
 
 
@@ -192,7 +191,7 @@ def plot_logs(evaluations, title: str = ""):
     the first panel shows ``r`` where logged, else the logged position ``y`` (dashed).
     Returns a Matplotlib figure.
     """
-    from pgcomm import plots  # noqa: F401  (selects the Agg backend)
+    from pgcomm import plots  # selects the Agg backend
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(5, 1, figsize=(10, 10), sharex=True)
@@ -202,26 +201,15 @@ def plot_logs(evaluations, title: str = ""):
         else:
             ax[0].plot(ev.t, ev.y * 1e3, "--", lw=0.9, color=c, label=f"{ev.label} (y)")
         err = lowpass(ev.commutation_error, ev.sample_time, ev.lowpass_hz)
-        for q in range(3):
-            ax[q + 1].plot(ev.t, err[:, q], lw=0.7, color=c, label=ev.label)
-        if ev.e is not None:
-            ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
+        plots.draw_error_lines(ax, ev.t, err, ev.e, c, ev.label)
     ax[0].set_ylabel("$y^*$ [mm]")
-    for q in range(3):
-        ax[q + 1].set_ylabel(_DIR_LABEL[q])
-    ax[4].set_ylabel("$y^* - y$ [µm]")
     if not any(ev.e is not None for ev in evaluations):
         ax[4].text(0.5, 0.5, "no reference r logged: tracking error not available", transform=ax[4].transAxes,
                    ha="center", va="center")
-    ax[4].set_xlabel("time [s]")
     ax[0].legend(loc="upper right", ncol=min(4, len(evaluations)), fontsize=8)
     lp = evaluations[0].lowpass_hz if evaluations else 50.0
     ax[1].set_title(f"commutation error, {lp:g} Hz low-pass", fontsize=10)
-    if title:
-        ax[0].set_title(title)
-    for a in ax:
-        a.grid(alpha=0.3)
-    fig.tight_layout()
+    plots.finish_error_axes(fig, ax, title)
     return fig
 
 

@@ -67,22 +67,33 @@ def plot_comparison(runs: dict, lowpass_hz: float = 50.0, title: str = ""):
     ax[0].plot(t, first.r[::k] * 1e3, color="k")
     ax[0].set_ylabel("$y^*$ [mm]")
     for name, res in runs.items():
-        c = ROW_COLORS.get(name)
         err = lowpass(res.commutation_error, res.sample_time, lowpass_hz)[::k]
-        for q in range(3):
-            ax[q + 1].plot(t, err[:, q], lw=0.7, color=c, label=name)
-        ax[4].plot(t, res.e[::k] * 1e6, lw=0.8, color=c, label=name)
+        draw_error_lines(ax, t, err, res.e[::k], ROW_COLORS.get(name), name)
+    ax[1].legend(loc="upper right", ncol=min(4, len(runs)), fontsize=8)
+    finish_error_axes(fig, ax, title)
+    return fig
+
+
+def draw_error_lines(ax, t, err_filtered, e, color, label) -> None:
+    """One run on the 5-panel comparison axes: filtered ``F - F*`` (N, 3) in panels 1-3 and
+    the tracking error ``e`` (N,) in m (or ``None``) in panel 4, in µm."""
+    for q in range(3):
+        ax[q + 1].plot(t, err_filtered[:, q], lw=0.7, color=color, label=label)
+    if e is not None:
+        ax[4].plot(t, e * 1e6, lw=0.8, color=color, label=label)
+
+
+def finish_error_axes(fig, ax, title: str = "") -> None:
+    """Labels, grid and layout of the 5-panel comparison axes."""
     for q in range(3):
         ax[q + 1].set_ylabel(_DIR_LABEL[q])
     ax[4].set_ylabel("$y^* - y$ [µm]")
     ax[4].set_xlabel("time [s]")
-    ax[1].legend(loc="upper right", ncol=min(4, len(runs)), fontsize=8)
     if title:
         ax[0].set_title(title)
     for a in ax:
         a.grid(alpha=0.3)
     fig.tight_layout()
-    return fig
 
 
 def plot_reference(reference, title: str = "data-generation reference"):

@@ -27,7 +27,7 @@ import numpy as np
 from pgcomm import pipeline
 from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw
 from pgcomm.compensation import fit_cogging_table, fit_harmonic_cogging
-from pgcomm.experiment import ExperimentConfig, IdentificationConfig, ReferenceConfig, Setup
+from pgcomm.experiment import ExperimentConfig, IdentificationConfig, Setup
 from pgcomm.identify import CoilSetData, identify_all
 from pgcomm.metrics import DIRECTIONS, reducible_share
 from pgcomm.models import CombinedModel
@@ -212,4 +212,4 @@ def _results(setup, cal, id_res, t_id, runs, ffs, tables, lowpass_hz) -> dict:
     return out
 
 
-__all__ = ["ROWS", "PAPER", "run", "quick_config", "coil_set_data", "identify_models", "ReferenceConfig"]
+__all__ = ["ROWS", "PAPER", "run", "quick_config", "coil_set_data", "identify_models"]
