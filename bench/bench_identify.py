@@ -37,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_identify import D_M, synthetic_coil_set  # noqa: E402  (the tests' data generator)
 
 from pgcomm import identify as idf  # noqa: E402
+from pgcomm.data import train_validation_split  # noqa: E402
 from pgcomm.models import CoilSetModel  # noqa: E402
 from pgcomm.motor import Motor  # noqa: E402
 
@@ -130,7 +131,7 @@ def main(argv=None):
           f"{jax.device_count()} JAX CPU device(s)")
 
     data = paper_size_data(0)
-    train, _ = idf.train_validation_split(data)
+    train, _ = train_validation_split(data)
 
     print("(a) variable-projection LM (ours), one coil set, 8 starts:")
     t0 = time.perf_counter()

@@ -9,7 +9,7 @@ import pytest
 
 from pgcomm import trajectory
 from pgcomm.calibration import calibrate, calibrate_from_datasets, fit_coefficients, update
-from pgcomm.datasets import generate_datasets
+from pgcomm.data import generate_datasets
 from pgcomm.errors import DataError
 from pgcomm.sensors import Sensors
 from pgcomm.twin import DEFAULT_TWIN

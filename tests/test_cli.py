@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from pgcomm.cli import main
-from pgcomm.forcemap import ForceMapPlant, write_forcemap
+from pgcomm.forcemap import ForceMapPlant
+from pgcomm.io.forcemap import write_forcemap
 from pgcomm.io.config import write_motor
 from pgcomm.twin import DEFAULT_TWIN, true_fundamental
 
@@ -150,7 +151,7 @@ def test_identify_writes_model_and_costs(tmp_path, capsys):
     assert len(sets) == 3 and res["identification"]["seconds_total"] > 0
     for c in sets:
         assert c["cost_pgnn"] < c["cost_physics"] and c["cost_pgnn_validation"] < c["cost_physics_validation"]
-    from pgcomm.modelfile import load_model
+    from pgcomm.io.model import load_model
 
     model, doc = load_model(out / "model.json")
     assert model.n_coil_sets == 3 and doc["metadata"]["fy_abs_max"] > 0

@@ -181,7 +181,7 @@ def test_evaluate_bad_input(tmp_path, capsys):
 @pytest.fixture
 def model_file(tmp_path):
     """The truth model (physics only, training range [-0.1, 0.1] m) saved with identify-like metadata."""
-    from pgcomm.modelfile import save_model
+    from pgcomm.io.model import save_model
 
     meta = {"seed": 7, "plant": "twin", "data": "logs",
             "identification": {"coil_sets": [{"name": f"coil set {l + 1}", "cost_physics": 2.5 + l,
@@ -194,7 +194,7 @@ def model_file(tmp_path):
 
 def test_evaluate_with_model_reports_model_error_and_range(tmp_path, capsys, model_file):
     from pgcomm.models import CombinedModel
-    from pgcomm.modelfile import save_model
+    from pgcomm.io.model import save_model
 
     logs = [synthetic_log(0, -np.pi / 4, force_offset=(0.5, 0.0, 0.0)), synthetic_log(2, np.pi / 4)]
     pattern = write_logs(tmp_path / "logs", logs)
@@ -245,7 +245,7 @@ def test_inspect_counts_pgnn_parameters(tmp_path, capsys):
     import jax
 
     from pgcomm.models import CoilSetModel, CombinedModel
-    from pgcomm.modelfile import save_model
+    from pgcomm.io.model import save_model
 
     m = truth_model()
     keys = jax.random.split(jax.random.PRNGKey(0), 3)

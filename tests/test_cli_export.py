@@ -1,4 +1,4 @@
-"""Tests of ``pgcomm export`` (pgcomm.cli_export) through :func:`pgcomm.cli.main`."""
+"""Tests of ``pgcomm export`` (pgcomm.cli.export) through :func:`pgcomm.cli.main`."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from pgcomm.cli import main
-from pgcomm.cli_export import f_max_from_metadata
+from pgcomm.cli.export import f_max_from_metadata
 from pgcomm.models import MLP, CoilSetModel, CombinedModel, physics_from_ideal
 
-from pgcomm import modelfile
+from pgcomm.io import model as modelfile
 
 
 def _model(L=3, seed=0):

@@ -17,7 +17,8 @@ import pytest
 
 from pgcomm.errors import DataError
 from pgcomm.excitation import excitation_report, group_logs, plot_coverage
-from pgcomm.identify import CoilSetData, check_excitation
+from pgcomm.data import CoilSetData
+from pgcomm.excitation import check_excitation
 from pgcomm.io.logs import Log
 from pgcomm.models import physics_from_ideal
 from pgcomm.twin import TwinParams

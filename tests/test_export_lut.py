@@ -18,7 +18,6 @@ from pgcomm.export.lut import (
     build_lut,
     classical_parameters,
     cogging_table_error,
-    cogging_table_offset,
     f_star_set,
     lut_currents,
     lut_error,
@@ -172,7 +171,7 @@ def test_read_lut_refuses_bad_files(tmp_path, model):
         read_lut(bad)
     rows[3][0], rows[2][5] = lines[4].split(",")[0], "nan"
     bad.write_text("\n".join([lines[0], *(",".join(r) for r in rows)]))
-    with pytest.raises(DataError, match="row 4, column 'P_1b_x' is not finite"):
+    with pytest.raises(DataError, match="row 3, column 'P_1b_x' is not finite"):
         read_lut(bad)
 
 
@@ -244,8 +243,8 @@ def test_cogging_table_interpolation_and_law_error(tmp_path):
     path = write_cogging_table(table, tmp_path, "cog")
     data = np.loadtxt(path, delimiter=",", skiprows=1)
     assert path.read_text().startswith("y,Fy_cog\n")
-    assert np.array_equal(data[:, 0], table.y) and np.array_equal(data[:, 1], table.fy)
-    assert np.allclose(np.asarray(cogging_table_offset(table, table.y)), table.fy, rtol=0, atol=1e-12)
+    assert np.array_equal(data[:, 0], table.y) and np.array_equal(data[:, 1], np.asarray(table.values))
+    assert np.allclose(np.asarray(table.offset(table.y)), np.asarray(table.values), rtol=0, atol=1e-12)
 
 
 def test_cogging_table_on_a_pgnn_model_shows_what_the_full_law_corrects(model):

@@ -7,7 +7,8 @@ import pytest
 
 import pgcomm  # noqa: F401  (enables float64)
 from pgcomm.errors import DataError
-from pgcomm.forcemap import ForceMapPlant, check_in_range, forcemap_columns, load_forcemap, write_forcemap
+from pgcomm.forcemap import ForceMapPlant, check_in_range
+from pgcomm.io.forcemap import forcemap_columns, load_forcemap, write_forcemap
 from pgcomm.motor import Motor, ideal_gain_phases, star_reduce
 from pgcomm.plant import plant_force
 

@@ -15,7 +15,13 @@ import jax
 import numpy as np
 import pytest
 
+from pgcomm import data as pdata
 from pgcomm import identify as idf
+from pgcomm.identify import lm as idf_lm
+from pgcomm.excitation import check_excitation
+from pgcomm.identify.layout import _Layout, _physics_columns
+from pgcomm.identify.projection import _prepare, _projected_residual
+from pgcomm.models import warn_outside_training_range
 from pgcomm.commutation import currents_to_drive_inputs, drive_currents
 from pgcomm.errors import DataError, ExcitationError
 from pgcomm.models import CoilSetModel, CombinedModel
@@ -74,7 +80,7 @@ def synthetic_coil_set(n_per=3000, seed=0, deltas=(np.pi / 4, -np.pi / 4), speed
     cur = np.asarray(drive_currents(y, fy[:, None], delta[:, None], K_HAT, ZETA_HAT, D_M))[:, 0]
     force = (np.einsum("nqj,nj->nq", true_gain(y, lever_arm), cur) + true_cogging(y)
              + rng.normal(size=(y.size, 3)) * np.asarray(noise))
-    return idf.CoilSetData.from_drive_inputs(y, fy, delta, force, K_HAT, ZETA_HAT, D_M, exp, name)
+    return pdata.CoilSetData.from_drive_inputs(y, fy, delta, force, K_HAT, ZETA_HAT, D_M, exp, name)
 
 
 @pytest.fixture(scope="module")
@@ -91,10 +97,10 @@ def _lstsq_theta(model, data, lam12, star, ridge=0.0):
     """Reference: ``numpy.linalg.lstsq`` on the full augmented problem of every direction q."""
     m = np.asarray(idf.regressor(model, data.y, data.currents))
     n, p = m.shape
-    wmask = idf._Layout.of(model).output_weight_mask()
+    wmask = _Layout.of(model).output_weight_mask()
     out = []
     for q in range(3):
-        cols = idf._physics_columns(q)
+        cols = _physics_columns(q)
         w = np.zeros(p)
         w[:4] = lam12[cols]
         w[wmask] = np.sqrt(ridge)
@@ -156,12 +162,12 @@ def _fd_normal_equations(model, data, star, h=1e-6):
     """Central differences of :func:`idf.projected_residual` (its jitted core, called 2n times)."""
     flat = np.asarray(idf.hidden_vector(model))
     r0 = idf.projected_residual(model, data, theta_phy_star=star)
-    layout, chunks, k = idf._prepare(model, data, idf.DEFAULT_LAMBDA, star, 0.0, idf.DEFAULT_DAMPING, None, "auto")
+    layout, chunks, k = _prepare(model, data, idf.DEFAULT_LAMBDA, star, 0.0, idf.DEFAULT_DAMPING, None, "auto")
     jac = np.empty((r0.size, flat.size))
     for i in range(flat.size):
         e = np.zeros_like(flat)
         e[i] = h * max(1.0, abs(flat[i]))
-        rp, rm = (np.asarray(idf._projected_residual(layout, flat + sign * e, chunks, k)) for sign in (1, -1))
+        rp, rm = (np.asarray(_projected_residual(layout, flat + sign * e, chunks, k)) for sign in (1, -1))
         jac[:, i] = (rp - rm) / (2 * e[i])
     return 0.5 * r0 @ r0, jac.T @ jac, jac.T @ r0
 
@@ -225,7 +231,7 @@ def test_same_seed_same_parameters(data, trained):
 
 
 def test_two_phases_and_identify_all(monkeypatch):
-    monkeypatch.setattr(idf, "_MIN_SUBSAMPLE", 1000)  # let small data use the subsampled first phase
+    monkeypatch.setattr(idf_lm, "_MIN_SUBSAMPLE", 1000)  # let small data use the subsampled first phase
     # same sizes as the `trained` fixture, so phase 2 reuses its compiled step
     sets = [synthetic_coil_set(seed=l, name=f"coil set {l + 1}", lever_arm=0.07 * (l - 1)) for l in range(2)]
     model, results = idf.identify_all(sets, D_M, n_starts=4, max_iter=6, subsample=2, refine_starts=4)
@@ -242,13 +248,13 @@ def test_two_phases_and_identify_all(monkeypatch):
 
 
 def test_split_is_deterministic_blocks():
-    tr, va = idf.split_indices(5000, 0.2, 500)
+    tr, va = pdata.split_indices(5000, 0.2, 500)
     assert va.size == 1000 and tr.size == 4000
     assert np.array_equal(va[:500], np.arange(2000, 2500))  # every 5th block of 500
-    tr0, va0 = idf.split_indices(100, 0.0)
+    tr0, va0 = pdata.split_indices(100, 0.0)
     assert tr0.size == 100 and va0.size == 0
     with pytest.raises(ValueError, match="validation_fraction"):
-        idf.split_indices(100, 0.7)
+        pdata.split_indices(100, 0.7)
 
 
 def test_cost_is_the_paper_formula(data):
@@ -267,7 +273,7 @@ def test_drive_input_front_end(data):
     y = data.y[:50]
     cur = data.currents[:50]
     fy, delta = (np.asarray(v)[:, 0] for v in currents_to_drive_inputs(y, cur[:, None], K_HAT, ZETA_HAT, D_M))
-    d2 = idf.CoilSetData.from_drive_inputs(y, fy, delta, data.force[:50], K_HAT, ZETA_HAT, D_M)
+    d2 = pdata.CoilSetData.from_drive_inputs(y, fy, delta, data.force[:50], K_HAT, ZETA_HAT, D_M)
     np.testing.assert_allclose(d2.currents, cur, rtol=0, atol=1e-12)
 
 
@@ -276,9 +282,9 @@ def test_bad_data_is_refused_with_the_row():
     f = np.zeros((20, 3))
     f[7, 1] = np.nan
     with pytest.raises(DataError, match=r"coil set 2: force is not finite in row 7"):
-        idf.CoilSetData(y, np.zeros((20, 2)), f, name="coil set 2")
+        pdata.CoilSetData(y, np.zeros((20, 2)), f, name="coil set 2")
     with pytest.raises(DataError, match=r"currents must have shape \(20, 2\)"):
-        idf.CoilSetData(y, np.zeros((20, 3)), np.zeros((20, 3)))
+        pdata.CoilSetData(y, np.zeros((20, 3)), np.zeros((20, 3)))
 
 
 # ------------------------------------------------------------------------------------- excitation
@@ -289,12 +295,12 @@ def _ranges(message):
 
 
 def test_good_data_passes_the_excitation_check(data):
-    assert idf.check_excitation(data, D_M) == []
+    assert check_excitation(data, D_M) == []
 
 
 def test_single_delta_is_refused():
     d = synthetic_coil_set(2000, deltas=(np.pi / 4, np.pi / 4), name="coil set 3")
-    problems = idf.check_excitation(d, D_M)
+    problems = check_excitation(d, D_M)
     assert problems and all("one ratio ia:ib" in p for p in problems)
     with pytest.raises(ExcitationError) as err:
         idf.identify(d, D_M)
@@ -305,14 +311,14 @@ def test_single_delta_is_refused():
 
 def test_single_force_magnitude_is_refused():
     d = synthetic_coil_set(2000, magnitude=(40.0, 0.0), sign_changes=False)
-    problems = idf.check_excitation(d, D_M)
+    problems = check_excitation(d, D_M)
     assert problems and all("single force magnitude" in p for p in problems)
 
 
 def test_position_gap_is_named():
     d = synthetic_coil_set(3000)
     keep = (d.y < 0.02) | (d.y > 0.05)
-    problems = idf.check_excitation(d.take(keep), D_M)
+    problems = check_excitation(d.take(keep), D_M)
     assert len(problems) == 1 and "no data (gap)" in problems[0]
     (lo, hi), = _ranges(problems[0])
     assert lo == pytest.approx(0.02, abs=0.011) and hi == pytest.approx(0.05, abs=0.011)
@@ -321,9 +327,9 @@ def test_position_gap_is_named():
 
 def test_warning_outside_training_range(trained):
     model = trained.model
-    assert idf.warn_outside_training_range(model, np.linspace(-0.1, 0.1, 11)) is None
-    msg = idf.warn_outside_training_range(model, np.array([-0.12, 0.0, 0.05, 0.2]))
+    assert warn_outside_training_range(model, np.linspace(-0.1, 0.1, 11)) is None
+    msg = warn_outside_training_range(model, np.array([-0.12, 0.0, 0.05, 0.2]))
     assert msg.startswith("2 of 4 positions (50.0%) lie outside the training range [-0.1, 0.1] m")
     combined = CombinedModel.from_coil_sets([model, model.with_range(-0.05, 0.1)])
-    assert "[-0.05, 0.1] m" in idf.warn_outside_training_range(combined, np.array([-0.07]))
-    assert idf.warn_outside_training_range(model.with_range(None, None), np.array([5.0])) is None
+    assert "[-0.05, 0.1] m" in warn_outside_training_range(combined, np.array([-0.07]))
+    assert warn_outside_training_range(model.with_range(None, None), np.array([5.0])) is None

@@ -6,7 +6,7 @@ out, one slow move back: two force magnitudes, both directions), written with th
 ``pgcomm simulate`` writes (:meth:`pgcomm.simulate.SimResult.columns`) in each format — CSV
 and Parquet by :func:`pgcomm.io.logs.write_log`, .mat by :func:`scipy.io.savemat` and HDF5 by
 h5py, one variable / dataset per column — read back with :func:`pgcomm.io.logs.read_logs`,
-converted with :func:`pgcomm.logdata.coil_set_data_from_logs` and identified with
+converted with :func:`pgcomm.data.coil_set_data_from_logs` and identified with
 :func:`pgcomm.identify.identify_all` (few starts and iterations: the point is equality).
 """
 
@@ -17,12 +17,12 @@ import numpy as np
 import pytest
 import scipy.io as sio
 
-from pgcomm import pipeline, trajectory
+from pgcomm import experiment, trajectory
 from pgcomm.excitation import excitation_report
 from pgcomm.experiment import ExperimentConfig, build_setup
 from pgcomm.identify import identify_all
 from pgcomm.io.logs import Log, read_logs, write_log
-from pgcomm.logdata import coil_set_data_from_logs
+from pgcomm.data import coil_set_data_from_logs
 
 FORMATS = (".csv", ".parquet", ".mat", ".h5")
 
@@ -45,7 +45,7 @@ def written(tmp_path_factory):
     ts = setup.motor.sample_time
     ref = trajectory.sequence([(0.1, 0.15, 1.0, 1000.0), (-0.1, 0.05, 1.0, 1000.0)], ts, dwell=0.1, start=-0.1,
                               initial_dwell=0.1)
-    datasets = pipeline.generate(setup, ref, setup.motor.k, setup.motor.zeta, seed=3)
+    datasets = experiment.generate(setup, ref, setup.motor.k, setup.motor.zeta, seed=3)
     root = tmp_path_factory.mktemp("logs")
     dirs = {}
     for suffix in FORMATS:

@@ -21,34 +21,49 @@ import jax.numpy as jnp
 import numpy as np
 
 from pgcomm._pytree import pytree_dataclass, static_field
+from pgcomm.interp import interp_linear
 
 
 @pytree_dataclass
 class CoggingTable:
-    """Anti-cogging table: ``F_off,y(y)`` linearly interpolated on a uniform grid (clamped at the ends).
+    """Anti-cogging table: a driving-force offset ``F_off,y(y)`` on a uniform position grid, linearly
+    interpolated (:func:`pgcomm.interp.interp_linear`, clamped at the ends) as a drive's table is.
+
+    The one table type of the package: fitted from a classical residual here
+    (:func:`fit_cogging_table`) or tabulated from a model for a drive
+    (:func:`pgcomm.export.lut.build_cogging_table`).
 
     Attributes:
-        values: ``(M,)`` offsets (N) at ``y_min + j (y_max - y_min)/(M - 1)``.
-        y_min, y_max: grid ends (m).
+        y: ``(M,)`` uniform grid (m), ``M >= 2``.
+        values: ``(M,)`` offsets ``F_off,y`` (N) at the grid points.
     """
 
+    y: jnp.ndarray
     values: jnp.ndarray
-    y_min: float = static_field()
-    y_max: float = static_field()
+
+    def offset(self, y):
+        """Interpolated ``F_off,y`` (N) at positions ``y`` (m), shape of ``y``."""
+        return interp_linear(self.y, self.values, y)
 
     def __call__(self, y):
         """Offset force ``S + (3,)`` (N, N, N·m): only the ``y`` component is non-zero."""
-        m = self.values.shape[0]
-        u = jnp.clip((jnp.asarray(y) - self.y_min) / (self.y_max - self.y_min) * (m - 1), 0.0, m - 1.0)
-        j = jnp.clip(jnp.floor(u).astype(jnp.int32), 0, m - 2)
-        w = u - j.astype(u.dtype)
-        fy = (1 - w) * self.values[j] + w * self.values[j + 1]
+        fy = self.offset(y)
         return jnp.stack([fy, jnp.zeros_like(fy), jnp.zeros_like(fy)], axis=-1)
+
+    @property
+    def n(self) -> int:
+        """Number of grid points ``M``."""
+        return int(self.y.shape[0])
+
+    @property
+    def dy(self) -> float:
+        """Grid spacing (m)."""
+        return float((self.y[-1] - self.y[0]) / (self.n - 1))
 
     @property
     def nbytes(self) -> int:
         """Size of the table in bytes as a drive stores it (float32 entries)."""
-        return 4 * int(self.values.shape[0])
+        return 4 * self.n
 
 
 @pytree_dataclass
@@ -95,7 +110,7 @@ def fit_cogging_table(y, residual, entries: int = 2000, y_range=None, smooth: fl
     d2 = diags([1.0, -2.0, 1.0], [0, 1, 2], shape=(m - 2, m)) * np.sqrt(smooth * n / m)
     sol = lsqr(vstack([a, d2]).tocsr(), np.concatenate([np.asarray(residual, float), np.zeros(m - 2)]),
                atol=1e-12, btol=1e-12, iter_lim=20 * m)[0]
-    return CoggingTable(jnp.asarray(sol), lo, hi)
+    return CoggingTable(jnp.asarray(np.linspace(lo, hi, m)), jnp.asarray(sol))
 
 
 def fit_harmonic_cogging(y, residual, pole_pitch: float, harmonics: int = 10) -> HarmonicCogging:

@@ -133,8 +133,8 @@ def _model_fit(log, model, motor, lowpass_hz) -> dict:
     """``model_error``, ``model_mse``, ``currents``, ``range_warning`` of one log."""
     import jax.numpy as jnp
 
-    from pgcomm.identify import warn_outside_training_range
-    from pgcomm.logdata import log_currents
+    from pgcomm.data import log_currents
+    from pgcomm.models import warn_outside_training_range
 
     cur = log.currents()
     source = "logged"

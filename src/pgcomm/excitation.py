@@ -7,9 +7,10 @@ The paper's Remark asks, for every position ``y`` of the stroke,
 2. different ratios ``ia^l : ib^l`` (to separate the two columns of ``K̂^l(y)``); the paper
    gets them by repeating the experiment with ``Δ^l = ∓Δ``.
 
-:func:`pgcomm.identify.check_excitation` decides this per position bin (identification
-refuses data it flags). This module reports the same criteria *per bin with numbers*, over
-the whole stroke, for a user who wants to know what to measure next:
+This module holds the one criterion, judged per position bin (:func:`coil_set_excitation`
+gives the numbers, :func:`check_excitation` the verdict that identification acts on:
+:func:`pgcomm.identify.identify` refuses data it flags). For a user who wants to know what
+to measure next the report gives, over the whole stroke:
 
 * samples per bin, split by the sign of the phase offset ``Δ`` of the current relative to
   the drive's commutation angle (``Δ < 0``, ``Δ ≈ 0``, ``Δ > 0``) and samples without current;
@@ -18,19 +19,12 @@ the whole stroke, for a user who wants to know what to measure next:
 * one readable message per range of bins with the same problem, e.g.
   ``coil set 2: no samples for y in [0.020, 0.040] m``.
 
-The thresholds are those of :func:`~pgcomm.identify.check_excitation` (read from its
-signature, so both stay in step), and the report also runs that function on each coil
-set's own position range, exactly as ``pgcomm identify`` will: a report that is ``ok`` means
-identification will accept the data.
-
-One criterion is stricter than ``check_excitation``'s: the force-magnitude test. Within a
-bin (``y`` about constant) the model is ``F = K̂ i + F̂_cog``, linear in ``(i, 1)``, so the
-gain columns and the cogging force are separable only if the current vectors do not lie
-on one line (their affine span must be the plane). ``check_excitation`` asks for spread in
-the signed amplitude ``std(a) / mean(|a|)``; two data sets ``Δ = ∓Δ0`` with ONE magnitude
-each pass that test (their signed amplitudes differ in sign) although two points span only
-a line. Here the spread is ``sqrt(λ_min(cov p)) / rms|p|`` of the currents
-``p = Γ(y)^{-1} i`` (``k̂ = 1``, ``ζ̂ = 0``), which is 0 exactly when the points are collinear.
+The force-magnitude test: within a bin (``y`` about constant) the model is
+``F = K̂ i + F̂_cog``, linear in ``(i, 1)``, so the gain columns and the cogging force are
+separable only if the current vectors do not lie on one line (their affine span must be the
+plane). The spread is ``sqrt(λ_min(cov p)) / rms|p|`` of the currents ``p = Γ(y)^{-1} i``
+(``k̂ = 1``, ``ζ̂ = 0``) with the population covariance (``ddof = 0``), which is 0 exactly when
+the points are collinear (two data sets ``Δ = ∓Δ0`` with ONE magnitude each span only a line).
 
 Conventions: positions in m, angles in rad, currents in A; ``Δ`` is folded onto
 ``(-π/2, π/2]`` because a negative force with ``Δ`` is the same current direction as a
@@ -39,7 +33,6 @@ positive force with ``Δ ± π`` (the magnitude spread, not ``Δ``, sees the for
 
 from __future__ import annotations
 
-import inspect
 from dataclasses import dataclass, field
 
 import jax
@@ -47,25 +40,26 @@ import numpy as np
 
 from pgcomm.commutation import currents_to_drive_inputs
 from pgcomm.errors import DataError
-from pgcomm.identify import CoilSetData, check_excitation
-from pgcomm.logdata import active_coil_set, log_currents
+from pgcomm.data import CoilSetData, active_coil_set, log_currents
 from pgcomm.motor import Motor
 
 __all__ = ["BinStats", "CoilSetExcitation", "ExcitationReport", "excitation_report", "coil_set_excitation",
-           "group_logs", "plot_coverage", "DEFAULT_BINS", "DELTA_ZERO", "PROBLEMS"]
+           "group_logs", "plot_coverage", "check_excitation", "DEFAULT_BINS", "MIN_SAMPLES", "MIN_ANGLE",
+           "MIN_SPREAD", "DELTA_ZERO", "PROBLEMS"]
 
-_CHECK_DEFAULTS = {k: p.default for k, p in inspect.signature(check_excitation).parameters.items()
-                   if p.default is not inspect.Parameter.empty and k != "y_range"}
-#: Default number of position bins and per-bin thresholds (those of ``identify.check_excitation``).
-DEFAULT_BINS = _CHECK_DEFAULTS["n_bins"]
-MIN_SAMPLES = _CHECK_DEFAULTS["min_samples"]
-MIN_ANGLE = _CHECK_DEFAULTS["min_angle"]
-MIN_SPREAD = _CHECK_DEFAULTS["min_spread"]
+#: Default number of position bins over the stroke.
+DEFAULT_BINS = 20
+#: Fewest samples per bin (else a gap).
+MIN_SAMPLES = 20
+#: Smallest 5–95 % spread (rad) of the current direction ψ (mod π) per bin (else a single Δ).
+MIN_ANGLE = 0.1
+#: Smallest ``sqrt(λ_min(cov p)) / rms|p|`` per bin (else a single force magnitude).
+MIN_SPREAD = 0.1
 
 #: |Δ| (rad) below which a sample counts as ``Δ ≈ 0`` (plain commutation) in the report.
 DELTA_ZERO = 0.05
 #: Samples whose current amplitude is below this share of the median are "no current"
-#: (the same share ``check_excitation`` ignores when judging current directions).
+#: (they are ignored when judging current directions).
 _CURRENT_SHARE = 0.05
 
 # jitted once per data length: eager jnp dispatch costs about 1 s per new array shape
@@ -122,7 +116,7 @@ class CoilSetExcitation:
         samples: total samples; y_min, y_max: their position range (m), NaN without samples.
         bins: :class:`BinStats` over the report's position range, or ``None`` without data.
         problems: readable one-line messages (empty = fine).
-        identify_check: what :func:`~pgcomm.identify.check_excitation` says on this coil
+        identify_check: what :func:`check_excitation` (the verdict identification acts on) says on this coil
             set's own range (what ``pgcomm identify`` would refuse); empty = accepted.
     """
 
@@ -181,7 +175,7 @@ class ExcitationReport:
 def group_logs(logs, motor: Motor) -> dict[int, list]:
     """Logs grouped by their active coil set: ``{l (0-based): [(log, currents (N, 2) A), ...]}``.
 
-    Drive-input logs are converted with ``motor``'s ``k̂``, ``ζ̂`` (:func:`pgcomm.logdata.log_currents`).
+    Drive-input logs are converted with ``motor``'s ``k̂``, ``ζ̂`` (:func:`pgcomm.data.log_currents`).
     Coil sets without a log are absent from the dict (a finding for the report, not an error).
 
     Raises:
@@ -246,7 +240,7 @@ def excitation_report(logs, motor: Motor, n_bins: int = DEFAULT_BINS, y_range=No
 def coil_set_excitation(data: CoilSetData, coil_set: int, motor: Motor, n_bins: int = DEFAULT_BINS, y_range=None,
                         min_samples: int = MIN_SAMPLES, min_angle: float = MIN_ANGLE, min_spread: float = MIN_SPREAD,
                         files=()) -> CoilSetExcitation:
-    """Per-bin excitation of one coil set (criteria of :func:`~pgcomm.identify.check_excitation`).
+    """Per-bin excitation of one coil set: the criterion of this module, with its numbers.
 
     A bin's problem is the first that applies:
 
@@ -258,8 +252,7 @@ def coil_set_excitation(data: CoilSetData, coil_set: int, motor: Motor, n_bins: 
       of the bin lie (nearly) on one line: ``sqrt(λ_min) / rms|p| <= min_spread`` with
       ``λ_min`` the smaller eigenvalue of their 2×2 covariance. Then ``F = K̂ i + F̂_cog`` cannot
       separate the gain columns from the cogging force there (a single magnitude per
-      direction: the paper's Remark, point 1). Stricter than ``check_excitation``'s test;
-      see the module docstring.
+      direction: the paper's Remark, point 1); see the module docstring.
 
     Args:
         data: the coil set's samples (positions ``(N,)`` m, currents ``(N, 2)`` A).
@@ -269,14 +262,30 @@ def coil_set_excitation(data: CoilSetData, coil_set: int, motor: Motor, n_bins: 
     """
     y = data.y
     lo, hi = (float(y.min()), float(y.max())) if y_range is None else map(float, y_range)
-    edges = np.linspace(lo, hi, int(n_bins) + 1)
-    # Current direction ψ relative to the electrical angle (k̂ = 1, ζ̂ = 0), as check_excitation.
-    amp, ang = _drive_inputs(y, data.currents[:, None, :], 1.0, 0.0, float(motor.pole_pitch))
+    bins = _bin_stats(data, float(motor.pole_pitch), float(motor.zeta[coil_set]), np.linspace(lo, hi, int(n_bins) + 1),
+                      min_samples, min_angle, min_spread)
+    problems = _messages(coil_set, bins, min_samples)
+    # What identification itself will say (its own range and bins): the report must not pass data it refuses.
+    ident = tuple(check_excitation(data, motor.pole_pitch, n_bins=n_bins, min_samples=min_samples,
+                                   min_angle=min_angle, min_spread=min_spread))
+    if ident and not problems:
+        problems = tuple(f"coil set {coil_set + 1}: pgcomm identify would refuse: {m}" for m in ident)
+    return CoilSetExcitation(coil_set, tuple(files), data.n, float(y.min()), float(y.max()), bins, problems, ident)
+
+
+def _bin_stats(data: CoilSetData, pole_pitch: float, zeta: float, edges, min_samples: int, min_angle: float,
+               min_spread: float) -> BinStats:
+    """The criterion per position bin (``edges`` ``(n_bins + 1,)`` m); ``Δ`` measured against ``zeta`` (rad)."""
+    y = data.y
+    n_bins = edges.shape[0] - 1
+    lo, hi = float(edges[0]), float(edges[-1])
+    # Current direction ψ relative to the electrical angle (k̂ = 1, ζ̂ = 0).
+    amp, ang = _drive_inputs(y, data.currents[:, None, :], 1.0, 0.0, pole_pitch)
     amp, ang = np.asarray(amp)[:, 0], np.asarray(ang)[:, 0]
     psi = np.mod(ang, np.pi)
     p = np.stack([amp * np.cos(ang), amp * np.sin(ang)], axis=-1)  # Γ0^{-1} i: (F1*, F2*) per ampere
     # Δ relative to the drive's commutation angle, folded onto (-π/2, π/2].
-    delta = np.pi / 2 - np.mod(np.pi / 2 - (ang - motor.zeta[coil_set]), np.pi)
+    delta = np.pi / 2 - np.mod(np.pi / 2 - (ang - zeta), np.pi)
     which = np.clip(np.searchsorted(edges, y, side="right") - 1, 0, n_bins - 1)
     inside = (y >= lo) & (y <= hi)
     big = amp > _CURRENT_SHARE * max(float(np.median(amp)), 1e-300)
@@ -313,15 +322,8 @@ def coil_set_excitation(data: CoilSetData, coil_set: int, motor: Motor, n_bins: 
             problem.append("single magnitude")
         else:
             problem.append(None)
-    bins = BinStats(edges, samples, neg, zero, pos, samples - neg - zero - pos, angle_spread, mag_spread, delta_med,
+    return BinStats(edges, samples, neg, zero, pos, samples - neg - zero - pos, angle_spread, mag_spread, delta_med,
                     tuple(problem))
-    problems = _messages(coil_set, bins, min_samples)
-    # What identification itself will say (its own range and bins): the report must not pass data it refuses.
-    ident = tuple(check_excitation(data, motor.pole_pitch, n_bins=n_bins, min_samples=min_samples,
-                                   min_angle=min_angle, min_spread=min_spread))
-    if ident and not problems:
-        problems = tuple(f"coil set {coil_set + 1}: pgcomm identify would refuse: {m}" for m in ident)
-    return CoilSetExcitation(coil_set, tuple(files), data.n, float(y.min()), float(y.max()), bins, problems, ident)
 
 
 def _runs(problem) -> list[tuple[int, int, str]]:
@@ -364,6 +366,35 @@ def _messages(coil_set: int, bins: BinStats, min_samples: int) -> tuple:
             out.append(f"{head} a single force magnitude per current direction for {where}; move at several "
                        "velocities and in both directions (different Fy*)")
     return tuple(out)
+
+
+#: Words of :func:`check_excitation` for each problem kind.
+_CHECK_WORDS = {"gap": "no data (gap)", "no current": "no current", "single direction": "one ratio ia:ib (a single Δ)",
+                "single magnitude": "a single force magnitude"}
+
+
+def check_excitation(data: CoilSetData, pole_pitch: float, n_bins: int = DEFAULT_BINS, y_range=None,
+                     min_samples: int = MIN_SAMPLES, min_angle: float = MIN_ANGLE,
+                     min_spread: float = MIN_SPREAD) -> list[str]:
+    """Problems with persistent excitation (the paper's Remark), per position bin; empty = fine.
+
+    The position range (``y_range`` or the data's own, m) is cut into ``n_bins`` equal bins,
+    each judged by the criterion of :func:`coil_set_excitation` (gap, no current, a single
+    ratio ``ia : ib``, a single force magnitude). Consecutive bins with the same problem are
+    merged into one range. :func:`pgcomm.identify.identify` runs this check first.
+
+    Args:
+        data: one coil set's samples; pole_pitch: ``d_m`` (m).
+        n_bins, y_range: position bins over ``y_range`` (m) or the data's range.
+        min_samples, min_angle (rad), min_spread (-): the thresholds.
+
+    Returns:
+        one-line messages such as ``"y ∈ [0.01, 0.03] m: one ratio ia:ib (a single Δ)"``.
+    """
+    lo, hi = (float(data.y.min()), float(data.y.max())) if y_range is None else map(float, y_range)
+    edges = np.linspace(lo, hi, int(n_bins) + 1)
+    bins = _bin_stats(data, float(pole_pitch), 0.0, edges, min_samples, min_angle, min_spread)
+    return [f"y ∈ [{edges[b]:.4g}, {edges[e + 1]:.4g}] m: {_CHECK_WORDS[kind]}" for b, e, kind in _runs(bins.problem)]
 
 
 # ------------------------------------------------------------------------------------------- figure

@@ -1,6 +1,7 @@
-"""Experiment settings (TOML -> frozen dataclasses) and the plant/motor set-up they describe.
+"""The paper's experiment: settings (frozen dataclasses), the resolved :class:`Setup`, and its steps.
 
-An experiment config is a TOML file whose tables map onto :class:`ExperimentConfig`::
+Settings: an experiment config is a TOML file (read by :func:`pgcomm.io.config.load_experiment`)
+whose tables map onto :class:`ExperimentConfig`::
 
     sample_time = 0.001        # s
     current_limit = 10.0       # A
@@ -16,7 +17,15 @@ An experiment config is a TOML file whose tables map onto :class:`ExperimentConf
 
 Unknown keys are refused with the closest valid name. The plant is the twin unless
 a force map (with its motor TOML) is given, which replaces the twin's
-electromagnetics; mechanics and sensors stay.
+electromagnetics; mechanics and sensors stay (:func:`build_setup`).
+
+Steps, each taking a :class:`Setup` and returning plain results (nothing here prints
+except through an optional :class:`pgcomm.progress.Progress`): the paper's references
+(:func:`data_generation_reference`, :func:`single_velocity_reference`), data sets ``Z_i^l``
+(:func:`generate`), Algorithm 1 (:func:`run_calibration`, :func:`calibration_results`),
+Algorithm 2 for every coil set (:func:`identify_models`, :func:`identification_results`),
+feedforward per law (:func:`tune_feedforward`), closed-loop runs (:func:`run_laws`) and
+their metrics (:func:`run_metrics`). The CLI commands and :mod:`pgcomm.reproduce` use them.
 """
 
 from __future__ import annotations
@@ -26,11 +35,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pgcomm.control import PID
+from pgcomm import trajectory
+from pgcomm.calibration import CalibrationResult, calibrate
+from pgcomm.control import PID, Feedforward, identify_feedforward
+from pgcomm.data import CoilSetData, generate_datasets
 from pgcomm.errors import ConfigError
+from pgcomm.identify import identify_all
 from pgcomm.mechanics import Mechanics
+from pgcomm.metrics import commutation_mse, tracking_mse
+from pgcomm.models import CombinedModel
 from pgcomm.motor import Motor
 from pgcomm.sensors import Sensors
+from pgcomm.simulate import SimResult, simulate_many
 from pgcomm.twin import TwinParams, true_fundamental
 
 
@@ -121,13 +137,6 @@ class ExperimentConfig:
             raise ValueError(f"sample_time = {self.sample_time} s is implausible (expected 1e-6 to 0.1 s)")
 
 
-def load_experiment(path) -> ExperimentConfig:
-    """Read an experiment TOML into :class:`ExperimentConfig` (unknown keys refused)."""
-    from pgcomm.io.config import load_dataclass, load_toml
-
-    return load_dataclass(ExperimentConfig, load_toml(path), str(path))
-
-
 @dataclass(frozen=True)
 class Setup:
     """A resolved experiment: the plant, the nominal motor (drive) and what is known of the truth.
@@ -176,8 +185,8 @@ def build_setup(config: ExperimentConfig, forcemap_path=None, motor_path=None) -
     if motor_path is None:
         raise ConfigError(f"--plant {forcemap_path}: a force map needs --motor MOTOR.toml "
                           "(pole pitch, lever arms, nominal k and zeta)")
-    from pgcomm.forcemap import load_forcemap
     from pgcomm.io.config import load_motor
+    from pgcomm.io.forcemap import load_forcemap
 
     plant = load_forcemap(forcemap_path)
     motor = load_motor(motor_path)
@@ -194,3 +203,137 @@ def build_setup(config: ExperimentConfig, forcemap_path=None, motor_path=None) -
     config = replace(config, sample_time=motor.sample_time,
                      current_limit=motor.current_limit if motor.current_limit else config.current_limit)
     return Setup(plant, motor, config, None, None, str(forcemap_path))
+
+
+# --------------------------------------------------------------------------------------------
+# steps of the experiment
+# --------------------------------------------------------------------------------------------
+
+
+def data_generation_reference(setup: Setup) -> trajectory.Reference:
+    """The paper's data-generation reference (Fig. Data_Generation) for this set-up."""
+    rc = setup.config.reference
+    return trajectory.data_generation_reference(setup.motor.sample_time, rc.stroke, rc.velocities, rc.a_max,
+                                                rc.j_max, rc.dwell)
+
+
+def single_velocity_reference(setup: Setup, v_max: float) -> trajectory.Reference:
+    """One back-and-forth over the stroke at ``v_max`` (m/s): the paper's slow/fast references."""
+    rc = setup.config.reference
+    return trajectory.single_velocity_reference(v_max, setup.motor.sample_time, rc.stroke, rc.a_max, rc.j_max,
+                                                rc.dwell)
+
+
+def generate(setup: Setup, reference, k_hat, zeta_hat, seed: int = 0, coil_sets=None):
+    """Data sets ``Z_{1,2}^l`` with the drive at ``k̂`` (L,) N/A and ``ζ̂`` (L,) rad (no feedforward)."""
+    drive = setup.motor.with_nominal(k=tuple(np.asarray(k_hat, float)), zeta=tuple(np.asarray(zeta_hat, float)))
+    return generate_datasets(setup.plant, drive, reference, delta=setup.config.calibration.delta, pid=setup.pid,
+                             mechanics=setup.config.mechanics, sensors=setup.config.sensors, seed=seed,
+                             coil_sets=coil_sets)
+
+
+def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first=None) -> tuple[CalibrationResult, list]:
+    """Algorithm 1 from the set-up's initial ``k0``, ``ζ0``; returns the result and the last data sets.
+
+    ``first``: data sets already generated at ``k0``, ``ζ0`` (used for the first pass).
+    """
+    cc = setup.config.calibration
+    last = {"calls": 0}
+
+    def gen(k, zeta):
+        if last["calls"] == 0 and first is not None:
+            last["data"] = first
+        else:
+            last["data"] = generate(setup, reference, k, zeta, seed=seed + 1000 * last["calls"])
+        last["calls"] += 1
+        return last["data"]
+
+    def report(it, k, zeta):
+        if progress:
+            progress.info(f"pass {it}: k = {np.array2string(k, precision=3)} N/A, "
+                          f"zeta = {np.array2string(zeta, precision=4)} rad")
+
+    cal = calibrate(gen, np.asarray(setup.motor.k), np.asarray(setup.motor.zeta), delta=cc.delta,
+                    iterations=cc.iterations, tol=cc.tol, method=cc.method, n_bins=cc.n_bins, progress=report,
+                    pole_pitch=setup.motor.pole_pitch)
+    return cal, last["data"]
+
+
+def tune_feedforward(setup: Setup, laws: list, reference, seed: int = 0) -> list[Feedforward]:
+    """Feedforward ``m, f_v, f_c`` per law, identified from closed-loop data with that law.
+
+    Iterated ``controller.ff_iterations`` times: each pass runs the loop with the previous
+    estimate (the first with none) and refits :func:`pgcomm.control.identify_feedforward`
+    on the demanded force; with the feedforward in the loop the feedback lag no longer
+    biases the mass estimate. Laws of the same type are simulated batched.
+    """
+    ffs = [Feedforward()] * len(laws)
+    for it in range(setup.config.controller.ff_iterations):
+        runs = run_laws(setup, laws, reference, ffs, seeds=[seed + 7919 * it + j for j in range(len(laws))])
+        ffs = [identify_feedforward(reference.v, reference.a, r.f_star[:, 0]) for r in runs]
+    return ffs
+
+
+def run_laws(setup: Setup, laws: list, reference, feedforwards: list, seeds) -> list[SimResult]:
+    """Simulate each law with its feedforward; laws sharing a pytree structure run batched.
+
+    ``reference`` is one reference for all laws or a list with one per law.
+    """
+    import jax
+
+    refs = list(reference) if isinstance(reference, (list, tuple)) else [reference] * len(laws)
+    groups: dict = {}
+    for j, law in enumerate(laws):
+        groups.setdefault(jax.tree_util.tree_structure(law), []).append(j)
+    out: list = [None] * len(laws)
+    kw = dict(drive=setup.motor, pid=setup.pid, mechanics=setup.config.mechanics, sensors=setup.config.sensors)
+    for idx in groups.values():
+        res = simulate_many(setup.plant, [laws[j] for j in idx], [refs[j] for j in idx],
+                            feedforwards=[feedforwards[j] for j in idx], seeds=[seeds[j] for j in idx], **kw)
+        for j, r in zip(idx, res):
+            out[j] = r
+    return out
+
+
+def run_metrics(result: SimResult, lowpass_hz: float = 50.0) -> dict:
+    """``{"commutation_mse": {dir: {filtered, unfiltered}}, "tracking_mse": m²}`` of one run."""
+    return {"commutation_mse": commutation_mse(result.f_meas, result.f_star, result.sample_time, lowpass_hz),
+            "tracking_mse": tracking_mse(result.e)}
+
+
+def calibration_results(setup: Setup, cal: CalibrationResult) -> dict:
+    """The ``calibration.*`` keys of results.json: initial, calibrated and (twin only) true ``k`` (N/A), ``ζ`` (rad)."""
+    true = setup.true_k is not None
+    return {"initial": {"k": cal.k_initial, "zeta": cal.zeta_initial},
+            "calibrated": {"k": cal.k, "zeta": cal.zeta},
+            "true": {"k": setup.true_k if true else None, "zeta": setup.true_zeta if true else None},
+            "error": ({"k_relative": cal.k / setup.true_k - 1.0, "zeta_rad": cal.zeta - setup.true_zeta}
+                      if true else None),
+            "iterations": cal.iterations, "method": setup.config.calibration.method,
+            "delta": setup.config.calibration.delta}
+
+
+def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=None, check_data: bool = True):
+    """Algorithm 2 for every coil set; returns ``(pgnn, physics, [IdentifyResult])``.
+
+    ``check_data=False`` skips the excitation check (the caller ran it and chose to go on).
+    """
+    ic = setup.config.identification
+    show = None
+    if progress is not None and progress.enabled:
+        def show(info):
+            if info["iteration"] % 10 == 0:
+                progress.info(f"iteration {info['iteration']:3d}: best V = {info['best_cost']:.5g}, "
+                              f"{info['active']}/{info['starts']} starts active")
+    pgnn, res = identify_all(data, setup.motor.pole_pitch, seed=seed, progress=show,
+                             gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
+                             activation=ic.activation, Lambda=ic.regularisation, ridge_output=ic.ridge_output,
+                             n_starts=ic.starts, max_iter=ic.max_iterations, tol=ic.tol,
+                             validation_fraction=ic.validation_fraction, check_data=check_data)
+    physics = CombinedModel.from_coil_sets([r.physics_model for r in res])
+    return pgnn, physics, res
+
+
+def identification_results(res, seconds_total: float) -> dict:
+    """The ``identification.*`` keys of results.json from ``[IdentifyResult]`` and the total time (s)."""
+    return {"coil_sets": [r.to_dict() for r in res], "seconds_total": seconds_total}

@@ -1,6 +1,6 @@
 """A plant given as a table: the force map (e.g. from FEM or a measurement).
 
-File format (DESIGN, "Formats"): CSV with a header line.
+The file format (CSV; reader and writer in :mod:`pgcomm.io.forcemap`):
 
 * ``y`` (m): positions, strictly increasing, at least 2 rows;
 * for each coil set ``l = 1..L`` and phase ``p ∈ {a, b, c}``: ``Fy_{l}{p}``,
@@ -23,48 +23,22 @@ bounds.
 
 from __future__ import annotations
 
-import re
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from pgcomm._pytree import pytree_dataclass, static_field
 from pgcomm.errors import DataError
-from pgcomm.io.atomic import atomic_open
-from pgcomm.io.config import closest_hint
-from pgcomm.io.logs import read_csv_columns, read_csv_header
+from pgcomm.interp import interp_linear
 from pgcomm.motor import star_reduce
 from pgcomm.plant import plant_force, zeros3
 
-__all__ = ["ForceMapPlant", "load_forcemap", "write_forcemap", "check_in_range", "forcemap_columns"]
+__all__ = ["ForceMapPlant", "check_in_range"]
 
-_QUANTITIES = ("Fy", "Fx", "Tz")
-_PHASES = ("a", "b", "c")
-_COG = ("Fy_cog", "Fx_cog", "Tz_cog")
-_GAIN_RE = re.compile(r"^(Fy|Fx|Tz)_([0-9]+)([abc])$")
 
 #: Relative deviation of grid points from an exactly uniform grid below which the
 #: index-arithmetic fast path is used (weights always come from the real grid).
 _UNIFORM_TOL = 1e-9
-
-
-def forcemap_columns(n_coil_sets: int, cogging: bool = True) -> list[str]:
-    """Column names of a force map with ``n_coil_sets`` coil sets, in file order."""
-    names = ["y"]
-    for l in range(1, n_coil_sets + 1):
-        names += [f"{q}_{l}{p}" for q in _QUANTITIES for p in _PHASES]
-    return names + (list(_COG) if cogging else [])
-
-
-def _interp(table, i, w):
-    """Linear interpolation of ``table`` rows ``i``, ``i+1`` with weight ``w`` on row ``i+1``.
-
-    ``(1 - w) t0 + w t1`` (rather than ``t0 + w (t1 - t0)``) so that the result is
-    exactly a table row at ``w = 0`` and at ``w = 1``.
-    """
-    w = w.reshape(w.shape + (1,) * (table.ndim - 1))
-    return (1.0 - w) * table[i] + w * table[i + 1]
 
 
 @pytree_dataclass
@@ -80,7 +54,7 @@ class ForceMapPlant:
             index-arithmetic lookup instead of a binary search.
         source: static; name for messages (file name).
 
-    Build with :meth:`from_arrays` (validates) or :func:`load_forcemap`.
+    Build with :meth:`from_arrays` (validates) or :func:`pgcomm.io.forcemap.load_forcemap`.
     """
 
     y_grid: jax.Array
@@ -135,8 +109,7 @@ class ForceMapPlant:
     def from_plant(cls, plant, y, source: str = "sampled plant") -> "ForceMapPlant":
         """Sample another plant's ``gain_phases`` and ``cogging`` at positions ``y`` (m, ``(M,)``)."""
         y = np.asarray(y, dtype=np.float64)
-        # one compiled call instead of op-by-op dispatch (plants are pytrees)
-        gain, cog = jax.jit(lambda p, q: (p.gain_phases(q), p.cogging(q)))(plant, jnp.asarray(y))
+        gain, cog = _sample_plant(plant, jnp.asarray(y))
         return cls.from_arrays(y, np.asarray(gain), np.asarray(cog), source)
 
     # ------------------------------------------------------------------ properties
@@ -155,30 +128,11 @@ class ForceMapPlant:
         except (jax.errors.ConcretizationTypeError, jax.errors.TracerArrayConversionError):
             return g[0], g[-1]  # inside jit: traced values
 
-    # ------------------------------------------------------------------ lookup
-
-    def _locate(self, y):
-        """Cell index ``i`` and weight ``w`` of row ``i + 1`` for positions ``y`` (shape ``S``)."""
-        g = self.y_grid
-        m = g.shape[0]
-        # Clamp: out-of-range positions read the end rows (see in_range / check_in_range).
-        y = jnp.clip(jnp.asarray(y, dtype=g.dtype), g[0], g[-1])
-        if self.uniform:
-            # O(1) index arithmetic; called in every step of the simulation loop.
-            h = (g[-1] - g[0]) / (m - 1)
-            i = jnp.floor((y - g[0]) / h).astype(jnp.int32)
-        else:
-            i = jnp.searchsorted(g, y, side="right") - 1
-        i = jnp.clip(i, 0, m - 2)
-        g0 = g[i]
-        # Weights from the real grid: exact at grid points even if the index guess is off by rounding.
-        w = jnp.clip((y - g0) / (g[i + 1] - g0), 0.0, 1.0)
-        return i, w
+    # ------------------------------------------------------------------ lookup (pgcomm.interp.interp_linear)
 
     def gain_phases(self, y):
         """Per-phase gains ``S + (L, 3, 3)`` (N/A, N·m/A) at positions ``y`` (m, shape ``S``)."""
-        i, w = self._locate(y)
-        return _interp(self.gain_table, i, w)
+        return interp_linear(self.y_grid, self.gain_table, y, self.uniform)
 
     def gain(self, y):
         """Star-reduced gains ``S + (L, 3, 2)`` for currents ``(ia, ib)``, ``ic = -ia - ib``."""
@@ -186,8 +140,7 @@ class ForceMapPlant:
 
     def cogging(self, y):
         """Current-independent force ``S + (3,)`` (N, N, N·m) at positions ``y`` (m)."""
-        i, w = self._locate(y)
-        return _interp(self.cog_table, i, w)
+        return interp_linear(self.y_grid, self.cog_table, y, self.uniform)
 
     def direction_force(self, y, v):
         """Direction-dependent force: a force map has none, ``S + (3,)`` zeros."""
@@ -231,111 +184,7 @@ def check_in_range(plant, y, where: str) -> None:
     )
 
 
-def _validate_names(header: list[str], src: str) -> int:
-    """Check the column names of a force map; return ``L``."""
-    sets: dict[int, set] = {}
-    unknown = []
-    for n in header:
-        if n == "y" or n in _COG:
-            continue
-        m = _GAIN_RE.match(n)
-        if m is not None and int(m.group(2)) >= 1:
-            sets.setdefault(int(m.group(2)), set()).add((m.group(1), m.group(3)))
-        else:
-            unknown.append(n)
-    n_sets = max(sets, default=0)
-    expected = forcemap_columns(max(n_sets, 1))
-    missing = [e for e in expected if e not in header and e not in _COG]
-    if unknown:
-        u = unknown[0]
-        hint = closest_hint(u, missing or expected)
-        why = " (coil sets are numbered from 1)" if _GAIN_RE.match(u) else ""
-        if not hint and "y" not in header:
-            hint = f" (and there is no column 'y': is '{u}' the position in m?)"
-        raise DataError(
-            f"{src}: column '{u}' unknown{why}{hint}; expected y, Fy_<l><p>, Fx_<l><p>, Tz_<l><p> "
-            "(l = 1..L, p = a, b, c) and optionally Fy_cog, Fx_cog, Tz_cog"
-        )
-    if "y" not in header:
-        raise DataError(f"{src}: column 'y' (position in m) missing; found {', '.join(header[:8])}")
-    if n_sets == 0:
-        raise DataError(f"{src}: no coil-set columns (expected Fy_1a, Fy_1b, Fy_1c, Fx_1a, ..., Tz_1c for coil set 1)")
-    for l in range(1, n_sets + 1):
-        have = sets.get(l, set())
-        if not have:
-            raise DataError(
-                f"{src}: no columns for coil set {l} but coil set {n_sets} has some "
-                "(coil sets must be numbered 1..L without holes)"
-            )
-        for q in _QUANTITIES:
-            for p in _PHASES:
-                if (q, p) in have:
-                    continue
-                same = [f"{q}_{l}{pp}" for pp in _PHASES if (q, pp) in have]
-                if same:
-                    why = f"coil set {l} has {', '.join(same)} but no phase {p}"
-                else:
-                    why = f"coil set {l} has no {q} columns; each coil set needs Fy, Fx and Tz for phases a, b, c"
-                raise DataError(f"{src}: column '{q}_{l}{p}' missing ({why})")
-    return n_sets
-
-
-def load_forcemap(path) -> ForceMapPlant:
-    """Read and validate a force-map CSV (format in the module docstring).
-
-    Args:
-        path: CSV file.
-
-    Returns:
-        :class:`ForceMapPlant` with ``L`` coil sets read from the column names.
-
-    Raises:
-        DataError: missing, misnamed or unknown columns; incomplete or
-            non-consecutive coil sets; non-numeric or empty cells; NaN/inf
-            (row and column); ``y`` not strictly increasing (row); fewer than 2 rows.
-    """
-    src = str(path)
-    header = read_csv_header(path, src)  # names first: a misnamed column is the likelier mistake
-    n_sets = _validate_names(header, src)
-    data = read_csv_columns(path, src)
-    m = len(data["y"])
-    if m < 2:
-        raise DataError(f"{src}: {m} data rows, a force map needs at least 2")
-    for name in header:  # NaN/inf: name row and column
-        a = data[name]
-        if not np.isfinite(a).all():
-            i = int(np.flatnonzero(~np.isfinite(a))[0])
-            raise DataError(f"{src} row {i + 1} column '{name}': {a[i]} is not a finite number")
-    gain = np.empty((m, n_sets, 3, 3))
-    for l in range(n_sets):
-        for r, q in enumerate(_QUANTITIES):
-            for c, p in enumerate(_PHASES):
-                gain[:, l, r, c] = data[f"{q}_{l + 1}{p}"]
-    cog = np.stack([data[n] if n in data else np.zeros(m) for n in _COG], axis=-1)
-    return ForceMapPlant.from_arrays(data["y"], gain, cog, source=src)
-
-
-def write_forcemap(path, y, gain_phases, cogging=None) -> None:
-    """Write a force-map CSV (atomically) that :func:`load_forcemap` reads back bit-identically.
-
-    Args:
-        path: target ``.csv`` file.
-        y: ``(M,)`` positions (m), strictly increasing.
-        gain_phases: ``(M, L, 3, 3)``: rows ``[Fy, Fx, Tz]`` (N/A, N·m/A), columns phases a, b, c.
-        cogging: ``(M, 3)`` (N, N, N·m), or ``None`` to leave the cogging columns out (= zero).
-
-    Raises:
-        DataError: the arrays do not form a valid force map (shapes, NaN, ordering).
-    """
-    plant = ForceMapPlant.from_arrays(y, gain_phases, cogging, source=str(path))
-    y = np.asarray(plant.y_grid)
-    g = np.asarray(plant.gain_table)
-    m, n_sets = g.shape[:2]
-    blocks = [y[:, None], g.reshape(m, n_sets * 9)]  # (l, q, p) order = forcemap_columns
-    if cogging is not None:
-        blocks.append(np.asarray(plant.cog_table))
-    table = np.concatenate(blocks, axis=1)
-    names = forcemap_columns(n_sets, cogging is not None)
-    with atomic_open(path, "w", newline="") as f:
-        # %.17g: every float64 reads back to the identical value.
-        np.savetxt(f, table, fmt="%.17g", delimiter=",", header=",".join(names), comments="")
+@jax.jit
+def _sample_plant(plant, y):
+    """``(gain_phases(y), cogging(y))`` of any plant in one compiled call (plants are pytrees)."""
+    return plant.gain_phases(y), plant.cogging(y)

@@ -403,3 +403,24 @@ class CombinedModel:
         """The same ``A, B`` without networks (the physics-only combined model)."""
         return CombinedModel(self.A, self.B, None, None, self.y_center, self.y_scale, self.pole_pitch,
                              self.y_min, self.y_max)
+
+
+def warn_outside_training_range(model, y) -> str | None:
+    """A warning if positions ``y`` (m) leave the model's training range, else ``None``.
+
+    Works for :class:`CoilSetModel` (``y_min, y_max``) and :class:`CombinedModel` (the range
+    covered by every coil set). Models without a stored range give ``None``.
+    """
+    if isinstance(model, CombinedModel):
+        rng = model.training_range
+    else:
+        rng = None if model.y_min is None or model.y_max is None else (model.y_min, model.y_max)
+    if rng is None:
+        return None
+    y = np.asarray(y, dtype=float).ravel()
+    out = (y < rng[0]) | (y > rng[1])
+    if not out.any():
+        return None
+    return (f"{int(out.sum())} of {y.size} positions ({out.mean():.1%}) lie outside the training range "
+            f"[{rng[0]:.4g}, {rng[1]:.4g}] m (data span [{y.min():.4g}, {y.max():.4g}] m); "
+            "the model extrapolates there")

@@ -1,7 +1,9 @@
 """Self-contained HTML report of ``pgcomm reproduce``: our numbers beside the paper's, with the figures.
 
-Every number in the report is read from the same ``results`` dict that is written to
-``results.json``; figures are embedded as base64 PNG so the file opens anywhere.
+Every number and every fact of the set-up in the report is read from the typed
+:class:`~pgcomm.reproduce.ReproduceResult` (its ``to_dict()`` is what ``results.json`` holds,
+its ``setup.config`` the settings it ran with); figures are embedded as base64 PNG so the
+file opens anywhere.
 """
 
 from __future__ import annotations
@@ -10,17 +12,22 @@ import base64
 import html
 from pathlib import Path
 
-from pgcomm.reproduce import PAPER, ROWS
+from pgcomm.reproduce import PAPER, ROWS, ReproduceResult
 
-_DESCRIPTION = {
-    "original": "classical commutation with the uncalibrated k̂ = 67 N/A, ζ̂ = −0.52 rad",
-    "classical": "classical commutation, calibrated by Algorithm 1",
-    "physics": "physics-only model A cos + B sin, inverted the same way as the PGNN",
-    "pgnn": "PGNN commutation (eq. Commutation_Model_Currents)",
-    "cogging_table": "classical + drive anti-cogging table (force offset vs position)",
-    "harmonic_cogging": "classical + offset of up to 10 pole-pitch harmonics",
-    "oracle": "exact static inverse of the plant (floor of static commutation)",
-}
+def row_descriptions(result: ReproduceResult) -> dict:
+    """One line per row of the table, with the set-up's own values (initial ``k̂``, ``ζ̂``, harmonics)."""
+    cfg = result.setup.config
+    k0 = ", ".join(f"{k:.4g}" for k in result.calibration.k_initial)
+    z0 = ", ".join(f"{z:.4g}" for z in result.calibration.zeta_initial)
+    return {
+        "original": f"classical commutation with the uncalibrated k̂ = {k0} N/A, ζ̂ = {z0} rad",
+        "classical": "classical commutation, calibrated by Algorithm 1",
+        "physics": "physics-only model A cos + B sin, inverted the same way as the PGNN",
+        "pgnn": "PGNN commutation (eq. Commutation_Model_Currents)",
+        "cogging_table": "classical + drive anti-cogging table (force offset vs position)",
+        "harmonic_cogging": f"classical + offset of up to {cfg.evaluation.harmonics} pole-pitch harmonics",
+        "oracle": "exact static inverse of the plant (floor of static commutation)",
+    }
 
 
 def _fmt(x, digits: int = 3) -> str:
@@ -35,9 +42,12 @@ def _img(path: Path, caption: str) -> str:
             f"<figcaption>{html.escape(caption)}</figcaption></figure>")
 
 
-def comparison_sentences(results: dict) -> list[str]:
-    """One sentence per difference between our rows and the paper's (numbers from ``results``)."""
-    cm, tm = results["commutation_mse"], results["tracking_mse"]
+def comparison_sentences(result: ReproduceResult) -> list[str]:
+    """One sentence per difference between our rows and the paper's (numbers and set-up from ``result``)."""
+    cm, tm = result.commutation_mse, result.tracking_mse
+    cfg = result.setup.config
+    mech, cal = cfg.mechanics, result.calibration
+    k_excess = 100.0 * (float(sum(cal.k_initial)) / float(sum(cal.k)) - 1.0)
     p = PAPER["commutation_mse"]
     s = []
     r_cy, p_cy = cm["classical"]["y"]["filtered"], p["classical"]["y"][0]
@@ -45,9 +55,10 @@ def comparison_sentences(results: dict) -> list[str]:
              "cable-slab force, winding imbalance and field variation were set to give a classical error of the "
              "paper's size, so this row is matched by construction, not an outcome.")
     r_oy, p_oy = cm["original"]["y"]["filtered"], p["original"]["y"][0]
-    s.append(f"Original, y: {r_oy:.3g} N² against {p_oy:.3g} N²; the uncalibrated k̂ = 67 N/A is about 9 % too high, "
-             "so this error grows with the squared driving force, which depends on the friction and mass of the "
-             "translator (ours: 30 kg, 40 N Coulomb, 80 N s/m).")
+    s.append(f"Original, y: {r_oy:.3g} N² against {p_oy:.3g} N²; the uncalibrated k̂ = {cfg.calibration.k0:g} N/A is "
+             f"about {k_excess:.0f} % above the calibrated values, so this error grows with the squared driving force, "
+             "which depends on the friction and mass of the translator (ours: "
+             f"{mech.mass:g} kg, {mech.coulomb:g} N Coulomb, {mech.viscous:g} N s/m).")
     r_py, p_py = cm["pgnn"]["y"]["filtered"], p["pgnn"]["y"][0]
     s.append(f"PGNN, y: {r_py:.3g} N² against {p_py:.3g} N², an improvement over classical of "
              f"{r_cy / r_py:.1f}x against the paper's {p_cy / p_py:.1f}x. The twin's parasitic effects are mostly "
@@ -66,8 +77,8 @@ def comparison_sentences(results: dict) -> list[str]:
     r_ct, p_ct = tm["classical"], PAPER["tracking_mse"]["classical"]
     r_pt, p_pt = tm["pgnn"], PAPER["tracking_mse"]["pgnn"]
     s.append(f"Tracking error: classical {r_ct:.3g} m² (paper {p_ct:.3g}), PGNN {r_pt:.3g} m² (paper {p_pt:.3g}); "
-             f"improvement {r_ct / r_pt:.1f}x against the paper's {p_ct / p_pt:.1f}x. The default 6 Hz position loop "
-             "was chosen so the classical row matches the paper; with the commutation error nearly removed, the "
+             f"improvement {r_ct / r_pt:.1f}x against the paper's {p_ct / p_pt:.1f}x. The {cfg.controller.bandwidth_hz:g} Hz "
+             "position loop (default 6 Hz) was chosen so the classical row matches the paper; with the commutation error nearly removed, the "
              "PGNN's tracking error is left to feedforward mismatch and the direction-dependent force.")
     tab = cm["cogging_table"]["y"]["filtered"]
     s.append(f"Drive-style rows: the anti-cogging table reaches {tab:.3g} N² in y (it cannot follow errors that "
@@ -77,18 +88,22 @@ def comparison_sentences(results: dict) -> list[str]:
     return s
 
 
-def write_report(path: Path, results: dict, figures: dict) -> None:
+def write_report(path: Path, result: ReproduceResult, figures: dict, *, version: str = "",
+                 runtime_s: float = float("nan")) -> None:
     """Write ``report.html``.
 
     Args:
         path: output file.
-        results: the results dict of ``pgcomm reproduce`` (as written to results.json).
+        result: the experiment's :class:`~pgcomm.reproduce.ReproduceResult`.
         figures: caption -> PNG path, in display order.
+        version: package version for the header; runtime_s: wall time of the command (s).
     """
     from pgcomm.io.atomic import atomic_write_text
 
-    cm, tm = results["commutation_mse"], results["tracking_mse"]
-    share = results.get("reducible_share", {})
+    results = result.to_dict()
+    cm, tm = result.commutation_mse, result.tracking_mse
+    share = result.reducible_share()
+    descriptions = row_descriptions(result)
     rows_html = []
     for row in ROWS:
         if row not in cm:
@@ -96,7 +111,7 @@ def write_report(path: Path, results: dict, figures: dict) -> None:
         cells = "".join(f"<td>{_fmt(cm[row][d]['filtered'])} ({_fmt(cm[row][d]['unfiltered'])})</td>"
                         for d in ("y", "x", "z"))
         sh = share.get(row, {}).get("y")
-        rows_html.append(f"<tr><th>{row}</th><td class='desc'>{html.escape(_DESCRIPTION[row])}</td>{cells}"
+        rows_html.append(f"<tr><th>{row}</th><td class='desc'>{html.escape(descriptions[row])}</td>{cells}"
                          f"<td>{_fmt(tm[row])}</td><td>{_fmt(sh)}</td></tr>")
     paper_rows = []
     for row, vals in PAPER["commutation_mse"].items():
@@ -118,7 +133,7 @@ def write_report(path: Path, results: dict, figures: dict) -> None:
         f"<tr><th>{c['name']}</th><td>{_fmt(c['cost_physics'])}</td><td>{_fmt(c['cost_pgnn'])}</td>"
         f"<td>{_fmt(c['cost_physics_validation'])}</td><td>{_fmt(c['cost_pgnn_validation'])}</td>"
         f"<td>{c['seconds']:.1f}</td></tr>" for c in ident["coil_sets"])
-    sentences = "".join(f"<li>{html.escape(t)}</li>" for t in comparison_sentences(results))
+    sentences = "".join(f"<li>{html.escape(t)}</li>" for t in comparison_sentences(result))
     figs = "".join(_img(Path(p), cap) for cap, p in figures.items())
     doc = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>pgcomm reproduce — {html.escape(str(results.get('plant')))}</title>
@@ -131,10 +146,10 @@ figure {{ margin: 1.5em 0; }} img {{ max-width: 100%; }}
 figcaption {{ font-size: 90%; color: #555; }}
 </style></head><body>
 <h1>Physics-guided commutation: the paper's experiment on {html.escape(str(results.get('plant')))}</h1>
-<p>Generated by <code>pgcomm reproduce</code> (version {html.escape(str(results.get('version', '')))}) in
-{results.get('runtime_s', float('nan')):.0f} s. All numbers below are those of <code>results.json</code>.</p>
+<p>Generated by <code>pgcomm reproduce</code> (version {html.escape(str(version))}) in
+{runtime_s:.0f} s. All numbers below are those of <code>results.json</code>.</p>
 <h2>Commutation-error MSE on the long reference (Table Commutation_Performance)</h2>
-<p>50 Hz-filtered (unfiltered) MSE of F − F*; tracking-error MSE of y* − y; share of the reducible y error
+<p>{result.setup.config.evaluation.lowpass_hz:g} Hz-filtered (unfiltered) MSE of F − F*; tracking-error MSE of y* − y; share of the reducible y error
 removed, (classical − row)/(classical − oracle).</p>
 <table><tr><th>row</th><th>law</th><th>y [N²]</th><th>x [N²]</th><th>z [N²m²]</th><th>tracking [m²]</th>
 <th>share (y)</th></tr>{''.join(rows_html)}</table>

@@ -22,13 +22,13 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, replace
 
-import numpy as np
-
-from pgcomm import pipeline
+from pgcomm import experiment
+from pgcomm.calibration import CalibrationResult
 from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw
 from pgcomm.compensation import fit_cogging_table, fit_harmonic_cogging
-from pgcomm.experiment import ExperimentConfig, IdentificationConfig, Setup
-from pgcomm.identify import CoilSetData, identify_all
+from pgcomm.data import coil_set_data_from_runs
+from pgcomm.experiment import ExperimentConfig, Setup
+from pgcomm.identify import IdentifyResult
 from pgcomm.metrics import DIRECTIONS, reducible_share
 from pgcomm.models import CombinedModel
 
@@ -55,87 +55,125 @@ def quick_config(config: ExperimentConfig) -> ExperimentConfig:
     return replace(config, reference=ref, identification=ident, controller=ctrl)
 
 
-@dataclass
-class ReproduceOutput:
-    """Everything the experiment produced: results (JSON-ready), runs per reference and row, models."""
+def paper_improvement(row: str) -> dict:
+    """The paper's improvement of ``row`` over classical: filtered MSE ratio per direction and of the tracking MSE."""
+    cm, tm = PAPER["commutation_mse"], PAPER["tracking_mse"]
+    return {**{d: cm["classical"][d][0] / cm[row][d][0] for d in DIRECTIONS},
+            "tracking": tm["classical"] / tm[row]}
 
-    results: dict
-    runs: dict            # reference name -> {row: SimResult}
-    references: dict      # reference name -> Reference
+
+@dataclass(frozen=True)
+class ReproduceResult:
+    """Everything the paper's experiment produced on one set-up.
+
+    Attributes:
+        setup: the resolved experiment it ran on (its ``config`` holds every setting).
+        calibration: Algorithm 1's result (``k``, ``zeta`` per coil set, N/A and rad).
+        identification: one :class:`~pgcomm.identify.IdentifyResult` per coil set.
+        identification_seconds: wall time of Algorithm 2 for all coil sets (s).
+        pgnn, physics: the identified combined models.
+        references: reference name (``long``, ``slow``, ``fast``, optional ``user``) -> Reference.
+        runs: reference name -> row -> :class:`~pgcomm.simulate.SimResult`.
+        feedforward: row -> :class:`~pgcomm.control.Feedforward` (``m`` kg, ``f_v`` N s/m, ``f_c`` N).
+        tables: ``"cogging_table"`` / ``"harmonic_cogging"`` -> the drive-style offset.
+        metrics: reference name -> row -> ``{"commutation_mse": {dir: {filtered, unfiltered}}, "tracking_mse": m²}``.
+    """
+
+    setup: Setup
+    calibration: CalibrationResult
+    identification: tuple[IdentifyResult, ...]
+    identification_seconds: float
     pgnn: CombinedModel
     physics: CombinedModel
-    calibration: object
-    identification: list
-    tables: dict          # "cogging_table" / "harmonic_cogging" -> offset pytree
+    references: dict
+    runs: dict
+    feedforward: dict
+    tables: dict
+    metrics: dict
+
+    @property
+    def commutation_mse(self) -> dict:
+        """Row -> direction -> ``{filtered, unfiltered}`` (N², N², N²m²) on the long reference (the paper's table)."""
+        return {row: m["commutation_mse"] for row, m in self.metrics["long"].items()}
+
+    @property
+    def tracking_mse(self) -> dict:
+        """Row -> tracking-error MSE (m²) on the long reference."""
+        return {row: m["tracking_mse"] for row, m in self.metrics["long"].items()}
+
+    def reducible_share(self) -> dict:
+        """Row -> direction (and ``tracking``) -> ``(classical - row) / (classical - oracle)`` of the filtered MSE."""
+        cm, tm = self.commutation_mse, self.tracking_mse
+        share = {}
+        for row in ROWS:
+            share[row] = {d: reducible_share(cm[row][d]["filtered"], cm["classical"][d]["filtered"],
+                                             cm["oracle"][d]["filtered"]) for d in DIRECTIONS}
+            share[row]["tracking"] = reducible_share(tm[row], tm["classical"], tm["oracle"])
+        return share
+
+    def improvement_over_classical(self) -> dict:
+        """Row -> direction (and ``tracking``) -> classical MSE / row MSE (filtered)."""
+        cm, tm = self.commutation_mse, self.tracking_mse
+        return {row: {**{d: cm["classical"][d]["filtered"] / cm[row][d]["filtered"] for d in DIRECTIONS},
+                      "tracking": tm["classical"] / tm[row]} for row in ROWS}
+
+    def to_dict(self) -> dict:
+        """The JSON-ready ``results.json`` dict (keys in the README; the CLI adds ``command``, ``version``,
+        ``quick``, ``seed`` and ``runtime_s``)."""
+        out: dict = {"plant": self.setup.plant_name,
+                     "calibration": experiment.calibration_results(self.setup, self.calibration),
+                     "identification": experiment.identification_results(self.identification,
+                                                                         self.identification_seconds)}
+        per_ref = {rname: {"commutation_mse": {row: v["commutation_mse"] for row, v in m.items()},
+                           "tracking_mse": {row: v["tracking_mse"] for row, v in m.items()}}
+                   for rname, m in self.metrics.items()}
+        # the paper's table is on the long (data-generation) reference
+        out["commutation_mse"] = per_ref["long"]["commutation_mse"]
+        out["tracking_mse"] = per_ref["long"]["tracking_mse"]
+        out["references"] = per_ref
+        out["reducible_share"] = self.reducible_share()
+        out["improvement_over_classical"] = self.improvement_over_classical()
+        out["feedforward"] = {row: {"mass": ff.mass, "viscous": ff.viscous, "coulomb": ff.coulomb}
+                              for row, ff in self.feedforward.items()}
+        out["tables"] = {"cogging_table": {"entries": int(self.tables["cogging_table"].values.shape[0]),
+                                           "bytes": self.tables["cogging_table"].nbytes},
+                         "harmonic_cogging": {"harmonics": (int(self.tables["harmonic_cogging"].coef.shape[0]) - 1)
+                                              // 2}}
+        out["paper"] = PAPER
+        return out
 
 
-def coil_set_data(datasets) -> list[CoilSetData]:
-    """:class:`~pgcomm.identify.CoilSetData` per coil set from ``Z_{1,2}^l`` runs (measured positions, currents, forces)."""
-    out = []
-    for pair in datasets:
-        l = pair[0].coil_set
-        ys, cs, fs, ex = [], [], [], []
-        for i, ds in enumerate(pair):
-            r = ds.result
-            ys.append(r.y_meas)
-            cs.append(r.currents[:, l, :])
-            fs.append(r.f_meas)
-            ex.append(np.full(r.t.shape[0], i))
-        out.append(CoilSetData(np.concatenate(ys), np.concatenate(cs), np.concatenate(fs), np.concatenate(ex),
-                               name=f"coil set {l + 1}"))
-    return out
+def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> ReproduceResult:
+    """The whole experiment (module docstring) on ``setup``; returns a :class:`ReproduceResult`.
 
-
-def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=None, check_data: bool = True):
-    """Algorithm 2 for every coil set; returns ``(pgnn, physics, [IdentifyResult])``.
-
-    ``check_data=False`` skips the excitation check (the caller ran it and chose to go on).
+    Args:
+        setup: the resolved experiment (plant, nominal motor, settings).
+        seed: base seed of noise, data generation and random starts.
+        extra_reference: an optional :class:`~pgcomm.trajectory.Reference` evaluated as ``"user"``.
+        progress: a :class:`pgcomm.progress.Progress` (default: silent).
     """
-    ic: IdentificationConfig = setup.config.identification
-    show = None
-    if progress is not None and progress.enabled:
-        def show(info):
-            if info["iteration"] % 10 == 0:
-                progress.info(f"iteration {info['iteration']:3d}: best V = {info['best_cost']:.5g}, "
-                              f"{info['active']}/{info['starts']} starts active")
-    pgnn, res = identify_all(data, setup.motor.pole_pitch, seed=seed, progress=show,
-                             gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
-                             activation=ic.activation, Lambda=ic.regularisation, ridge_output=ic.ridge_output,
-                             n_starts=ic.starts, max_iter=ic.max_iterations, tol=ic.tol,
-                             validation_fraction=ic.validation_fraction, check_data=check_data)
-    physics = CombinedModel.from_coil_sets([r.physics_model for r in res])
-    return pgnn, physics, res
-
-
-def identification_results(res, seconds_total: float) -> dict:
-    """The ``identification.*`` keys of results.json."""
-    return {"coil_sets": [r.to_dict() for r in res], "seconds_total": seconds_total}
-
-
-def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> ReproduceOutput:
-    """The whole experiment; see the module docstring. ``progress``: a :class:`pgcomm.progress.Progress`."""
     from pgcomm.progress import Progress
 
     progress = progress or Progress(enabled=False)
     cfg = setup.config
     motor = setup.motor
-    refs = {"long": pipeline.data_generation_reference(setup),
-            "slow": pipeline.single_velocity_reference(setup, min(cfg.reference.velocities)),
-            "fast": pipeline.single_velocity_reference(setup, max(cfg.reference.velocities))}
+    refs = {"long": experiment.data_generation_reference(setup),
+            "slow": experiment.single_velocity_reference(setup, min(cfg.reference.velocities)),
+            "fast": experiment.single_velocity_reference(setup, max(cfg.reference.velocities))}
     if extra_reference is not None:
         refs["user"] = extra_reference
     long_ref = refs["long"]
 
     with progress.stage(f"data generation: {motor.n_coil_sets} coil sets x 2 data sets (Delta = -/+"
                         f"{cfg.calibration.delta:.4f} rad), {len(long_ref.r)} samples each"):
-        data0 = pipeline.generate(setup, long_ref, motor.k, motor.zeta, seed=seed)
+        data0 = experiment.generate(setup, long_ref, motor.k, motor.zeta, seed=seed)
 
     with progress.stage("calibration (Algorithm 1)"):
-        cal, _ = pipeline.run_calibration(setup, long_ref, seed=seed, progress=progress, first=data0)
+        cal, _ = experiment.run_calibration(setup, long_ref, seed=seed, progress=progress, first=data0)
 
     with progress.stage("identification (Algorithm 2): PGNN and physics-only model per coil set"):
         t_id = time.perf_counter()
-        pgnn, physics, id_res = identify_models(setup, coil_set_data(data0), seed, progress)
+        pgnn, physics, id_res = experiment.identify_models(setup, coil_set_data_from_runs(data0), seed, progress)
         t_id = time.perf_counter() - t_id
         for r in id_res:
             progress.info(f"{r.name}: V physics {r.cost_physics:.4g} -> PGNN {r.cost_pgnn:.4g} (train), "
@@ -151,10 +189,10 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
 
     with progress.stage(f"feedforward identification per law ({cfg.controller.ff_iterations} closed-loop passes)"):
         names = list(laws)
-        ffs = dict(zip(names, pipeline.tune_feedforward(setup, [laws[n] for n in names], long_ref, seed=seed + 50)))
+        ffs = dict(zip(names, experiment.tune_feedforward(setup, [laws[n] for n in names], long_ref, seed=seed + 50)))
 
     with progress.stage("drive-style rows: anti-cogging table and harmonic fit from the classical residual"):
-        run_c = pipeline.run_laws(setup, [laws["classical"]], long_ref, [ffs["classical"]], seeds=[seed + 60])[0]
+        run_c = experiment.run_laws(setup, [laws["classical"]], long_ref, [ffs["classical"]], seeds=[seed + 60])[0]
         residual = run_c.f_meas[:, 0] - run_c.f_star[:, 0]
         stroke = (-cfg.reference.stroke, cfg.reference.stroke)
         tables = {"cogging_table": fit_cogging_table(run_c.y_meas, residual, cfg.evaluation.cogging_table_entries,
@@ -164,52 +202,21 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         for name, tab in tables.items():
             laws[name] = OffsetLaw(laws["classical"], tab)
         extra = ["cogging_table", "harmonic_cogging"]
-        ffs.update(zip(extra, pipeline.tune_feedforward(setup, [laws[n] for n in extra], long_ref, seed=seed + 70)))
+        ffs.update(zip(extra, experiment.tune_feedforward(setup, [laws[n] for n in extra], long_ref, seed=seed + 70)))
 
     runs: dict = {k: {} for k in refs}
     with progress.stage(f"closed-loop evaluation: {len(ROWS)} laws x {len(refs)} references"):
         jobs = [(row, rname) for row in ROWS for rname in refs]
-        out = pipeline.run_laws(setup, [laws[row] for row, _ in jobs], [refs[rn] for _, rn in jobs],
+        out = experiment.run_laws(setup, [laws[row] for row, _ in jobs], [refs[rn] for _, rn in jobs],
                                 [ffs[row] for row, _ in jobs], seeds=[seed + 100 + j for j in range(len(jobs))])
         for (row, rname), res in zip(jobs, out):
             runs[rname][row] = res
 
-    lp = cfg.evaluation.lowpass_hz
-    results = _results(setup, cal, id_res, t_id, runs, ffs, tables, lp)
-    return ReproduceOutput(results, runs, refs, pgnn, physics, cal, id_res, tables)
+    metrics = {rname: {row: experiment.run_metrics(res, cfg.evaluation.lowpass_hz) for row, res in rows.items()}
+               for rname, rows in runs.items()}
+    return ReproduceResult(setup=setup, calibration=cal, identification=tuple(id_res), identification_seconds=t_id,
+                           pgnn=pgnn, physics=physics, references=refs, runs=runs, feedforward=ffs, tables=tables,
+                           metrics=metrics)
 
 
-def _results(setup, cal, id_res, t_id, runs, ffs, tables, lowpass_hz) -> dict:
-    from pgcomm.cli import calibration_results
-
-    out: dict = {"plant": setup.plant_name, "calibration": calibration_results(setup, cal),
-                 "identification": identification_results(id_res, t_id)}
-    per_ref = {}
-    for rname, rows in runs.items():
-        m = {row: pipeline.run_metrics(res, lowpass_hz) for row, res in rows.items()}
-        per_ref[rname] = {"commutation_mse": {row: v["commutation_mse"] for row, v in m.items()},
-                          "tracking_mse": {row: v["tracking_mse"] for row, v in m.items()}}
-    # the paper's table is on the long (data-generation) reference
-    out["commutation_mse"] = per_ref["long"]["commutation_mse"]
-    out["tracking_mse"] = per_ref["long"]["tracking_mse"]
-    out["references"] = per_ref
-    cm, tm = out["commutation_mse"], out["tracking_mse"]
-    share = {}
-    for row in ROWS:
-        share[row] = {d: reducible_share(cm[row][d]["filtered"], cm["classical"][d]["filtered"],
-                                         cm["oracle"][d]["filtered"]) for d in DIRECTIONS}
-        share[row]["tracking"] = reducible_share(tm[row], tm["classical"], tm["oracle"])
-    out["reducible_share"] = share
-    out["improvement_over_classical"] = {
-        row: {**{d: cm["classical"][d]["filtered"] / cm[row][d]["filtered"] for d in DIRECTIONS},
-              "tracking": tm["classical"] / tm[row]} for row in ROWS}
-    out["feedforward"] = {row: {"mass": ff.mass, "viscous": ff.viscous, "coulomb": ff.coulomb}
-                          for row, ff in ffs.items()}
-    out["tables"] = {"cogging_table": {"entries": int(tables["cogging_table"].values.shape[0]),
-                                       "bytes": tables["cogging_table"].nbytes},
-                     "harmonic_cogging": {"harmonics": (int(tables["harmonic_cogging"].coef.shape[0]) - 1) // 2}}
-    out["paper"] = PAPER
-    return out
-
-
-__all__ = ["ROWS", "PAPER", "run", "quick_config", "coil_set_data", "identify_models"]
+__all__ = ["ROWS", "PAPER", "ReproduceResult", "run", "quick_config", "paper_improvement"]

@@ -11,8 +11,8 @@ Fig. Data_Generation). This module builds such references:
 * :func:`sequence` - several moves with dwell times in between;
 * :func:`data_generation_reference`, :func:`single_velocity_reference` - the
   paper's references;
-* :func:`read_reference` - a user's own reference from CSV, MATLAB ``.mat``
-  (v5 and v7.3) or HDF5.
+* :func:`reference_from_positions` - a reference from sampled positions (a user's
+  own file is read by :func:`pgcomm.io.references.read_reference`).
 
 All quantities are SI: time s, position m, velocity m/s, acceleration m/s^2,
 jerk m/s^3. A :class:`Reference` holds equally spaced samples of all five.
@@ -25,9 +25,7 @@ zero velocity and acceleration instead of accumulating rounding errors.
 
 from __future__ import annotations
 
-import csv
 import math
-import os
 from dataclasses import dataclass
 import numpy as np
 
@@ -42,7 +40,6 @@ __all__ = [
     "sequence",
     "data_generation_reference",
     "single_velocity_reference",
-    "read_reference",
 ]
 
 #: Rest time (s) at the start position before the first move of the paper's
@@ -527,205 +524,18 @@ def single_velocity_reference(v_max, sample_time=1e-3, stroke=0.1, a_max=1.0, j_
     return data_generation_reference(sample_time, stroke, (v_max,), a_max, j_max, dwell)
 
 
-# ---------------------------------------------------------------------------
-# References from files
-# ---------------------------------------------------------------------------
+def reference_from_positions(r, sample_time: float, t=None) -> Reference:
+    """A :class:`Reference` from sampled positions ``r`` ``(N,)`` (m) at ``sample_time`` (s).
 
-_CSV_EXT = (".csv", ".txt")
-_MAT_EXT = (".mat",)
-_H5_EXT = (".h5", ".hdf5")
-
-
-def read_reference(path, sample_time=None, variable="r") -> Reference:
-    """Read a position reference from a file.
-
-    Formats (chosen by extension):
-
-    * CSV (``.csv``/``.txt``), comma-separated, with a header: column
-      ``variable`` (default ``r``, m) is required; an optional column ``t`` (s)
-      gives the sample time, which must be uniform within 1e-6 relative;
-    * MATLAB ``.mat`` v5 (scipy) or v7.3 (HDF5, via h5py): a vector named
-      ``variable``; optionally a vector ``t`` (s) or a scalar ``Ts`` (s);
-    * HDF5 (``.h5``/``.hdf5``): datasets laid out as in a v7.3 ``.mat``.
-
-    Velocity, acceleration and jerk are central finite differences of ``r``
-    (one-sided at the ends), so they are second-order accurate in the
-    interior; a noisy file gives a noisy jerk.
-
-    Args:
-        path: file path.
-        sample_time: sample period (s); required when the file has no ``t``
-            (or ``Ts``); if both are present they must agree within 1e-6.
-        variable: name of the position column/variable.
-
-    Returns:
-        :class:`Reference` with ``N >= 2`` samples; ``t`` from the file if it has
-        one, else ``k * sample_time``.
-
-    Raises:
-        DataError: missing/unreadable file, missing column or variable,
-            non-numeric or non-finite values, non-uniform time, no sample time.
-        ConfigError: ``sample_time`` given but not finite and > 0.
+    Velocity, acceleration and jerk are central finite differences of ``r`` (one-sided at
+    the ends), second-order accurate in the interior; noisy positions give a noisy jerk.
+    ``t`` ``(N,)`` (s) defaults to ``k * sample_time``.
     """
-    p = os.fspath(path)
-    ts_arg = None if sample_time is None else _as_positive("sample_time", sample_time, "s")
-    if not os.path.isfile(p):
-        raise DataError(f"{p}: reference file not found")
-    ext = os.path.splitext(p)[1].lower()
-    if ext in _CSV_EXT:
-        r, t, ts_file = _read_csv(p, variable)
-    elif ext in _MAT_EXT or ext in _H5_EXT:
-        r, t, ts_file = _read_mat_or_h5(p, variable)
-    else:
-        raise DataError(f"{p}: unsupported reference file type '{ext}'; expected .csv, .txt, .mat, .h5 or .hdf5")
-
-    if r.shape[0] < 2:
-        raise DataError(f"{p}: '{variable}' has {r.shape[0]} sample(s); a reference needs at least 2")
-    if t is not None:
-        if t.shape != r.shape:
-            raise DataError(f"{p}: 't' has {t.shape[0]} samples but '{variable}' has {r.shape[0]}")
-        ts_file = _uniform_step(p, t)
-    if ts_file is not None:
-        if ts_arg is not None and not math.isclose(ts_file, ts_arg, rel_tol=_UNIFORM_RTOL, abs_tol=0.0):
-            raise DataError(f"{p}: the file's sample time {ts_file!r} s disagrees with sample_time={ts_arg!r} s")
-        ts = ts_file
-    elif ts_arg is not None:
-        ts = ts_arg
-    else:
-        raise DataError(f"{p}: no 't' column or 'Ts' variable in the file; pass sample_time (s)")
-    if t is None:
-        t = np.arange(r.shape[0]) * ts
+    r = np.asarray(r, dtype=np.float64)
+    ts = float(sample_time)
+    t = np.arange(r.shape[0]) * ts if t is None else np.asarray(t, dtype=np.float64)
     v, a, j = _finite_differences(r, ts)
     return Reference(t=t, r=r, v=v, a=a, j=j, sample_time=ts)
-
-
-def _read_csv(p: str, variable: str):
-    """``(r, t or None, None)`` from a CSV file with a header row."""
-    try:
-        with open(p, newline="", encoding="utf-8-sig") as fh:
-            reader = csv.reader(fh)
-            header = None
-            for row in reader:
-                if any(c.strip() for c in row):
-                    header = [c.strip() for c in row]
-                    break
-            if header is None:
-                raise DataError(f"{p}: empty file; expected a header row with column '{variable}'")
-            if variable not in header:
-                raise DataError(f"{p}: no column '{variable}' (position, m); columns found: {', '.join(header) or '(none)'}")
-            i_r = header.index(variable)
-            i_t = header.index("t") if "t" in header and variable != "t" else None
-            r_vals, t_vals = [], []
-            n = 0
-            for row in reader:
-                if not any(c.strip() for c in row):
-                    continue
-                n += 1
-                where = f"{p}: row {n} (line {reader.line_num})"
-                if len(row) != len(header):
-                    raise DataError(f"{where}: {len(row)} cells, header has {len(header)}")
-                r_vals.append(_csv_number(where, variable, row[i_r]))
-                if i_t is not None:
-                    t_vals.append(_csv_number(where, "t", row[i_t]))
-    except OSError as err:
-        raise DataError(f"{p}: cannot read file: {err.strerror or err}") from None
-    except (UnicodeDecodeError, csv.Error) as err:
-        raise DataError(f"{p}: not a readable CSV text file ({err})") from None
-    r = np.array(r_vals, dtype=np.float64)
-    t = np.array(t_vals, dtype=np.float64) if i_t is not None else None
-    return r, t, None
-
-
-def _csv_number(where: str, column: str, cell: str) -> float:
-    try:
-        x = float(cell)
-    except ValueError:
-        raise DataError(f"{where}: column '{column}' holds {cell.strip()!r}, expected a number") from None
-    if not math.isfinite(x):
-        raise DataError(f"{where}: column '{column}' holds {cell.strip()!r}, expected a finite number")
-    return x
-
-
-def _read_mat_or_h5(p: str, variable: str):
-    """``(r, t or None, Ts or None)`` from a .mat (v5 or v7.3) or HDF5 file."""
-    import h5py
-
-    if h5py.is_hdf5(p):
-        try:
-            with h5py.File(p, "r") as f:
-                names = sorted(f.keys())
-                if variable not in f or not isinstance(f[variable], h5py.Dataset):
-                    raise DataError(f"{p}: no dataset '{variable}' (position, m); datasets found: {', '.join(names) or '(none)'}")
-                r = _vector(p, variable, f[variable][()])
-                t = _vector(p, "t", f["t"][()]) if "t" in f and isinstance(f["t"], h5py.Dataset) else None
-                ts = _scalar(p, "Ts", f["Ts"][()]) if "Ts" in f and isinstance(f["Ts"], h5py.Dataset) else None
-        except OSError as err:
-            raise DataError(f"{p}: cannot read HDF5 file: {err}") from None
-        return r, t, ts
-
-    if os.path.splitext(p)[1].lower() in _H5_EXT:
-        raise DataError(f"{p}: not an HDF5 file")
-    import scipy.io
-
-    try:
-        m = scipy.io.loadmat(p)
-    except Exception as err:  # scipy raises several unrelated types for bad files
-        raise DataError(f"{p}: cannot read MATLAB file: {err}") from None
-    names = sorted(k for k in m if not k.startswith("__"))
-    if variable not in m:
-        raise DataError(f"{p}: no variable '{variable}' (position, m); variables found: {', '.join(names) or '(none)'}")
-    r = _vector(p, variable, m[variable])
-    t = _vector(p, "t", m["t"]) if "t" in m else None
-    ts = _scalar(p, "Ts", m["Ts"]) if "Ts" in m else None
-    return r, t, ts
-
-
-def _numeric(p: str, name: str, x) -> np.ndarray:
-    x = np.asarray(x)
-    if x.dtype.kind not in "iuf":
-        raise DataError(f"{p}: '{name}' has type {x.dtype}, expected real numbers")
-    return x.astype(np.float64)
-
-
-def _vector(p: str, name: str, x) -> np.ndarray:
-    """1-D float64 vector; MATLAB stores vectors as (1, N) or (N, 1)."""
-    x = _numeric(p, name, x)
-    if x.ndim > 1:
-        x = x.squeeze()
-    x = np.atleast_1d(x)
-    if x.ndim != 1:
-        raise DataError(f"{p}: '{name}' has shape {x.shape}, expected a vector")
-    bad = np.flatnonzero(~np.isfinite(x))
-    if bad.size:
-        k = int(bad[0])
-        raise DataError(f"{p}: '{name}' holds {float(x[k])!r} at row {k + 1}, expected finite numbers")
-    return x
-
-
-def _scalar(p: str, name: str, x) -> float:
-    x = _numeric(p, name, x)
-    if x.size != 1:
-        raise DataError(f"{p}: '{name}' has shape {x.shape}, expected a scalar sample time (s)")
-    val = float(x.reshape(()))
-    if not (math.isfinite(val) and val > 0.0):
-        raise DataError(f"{p}: '{name}' is {val!r}, expected a sample time > 0 (s)")
-    return val
-
-
-def _uniform_step(p: str, t: np.ndarray) -> float:
-    """Sample time of a uniform time vector, or DataError at the first irregular step."""
-    dt = np.diff(t)
-    dt0 = dt[0]
-    if not dt0 > 0.0:
-        raise DataError(f"{p}: 't' does not increase from row 1 to row 2 ({float(t[0])!r} -> {float(t[1])!r} s)")
-    off = np.flatnonzero(np.abs(dt - dt0) > _UNIFORM_RTOL * dt0)
-    if off.size:
-        k = int(off[0])  # step from row k+1 to row k+2 (1-based)
-        raise DataError(
-            f"{p}: 't' is not uniformly sampled: the step changes at row {k + 2} "
-            f"({float(dt[k])!r} s instead of {float(dt0)!r} s)"
-        )
-    return float((t[-1] - t[0]) / (t.shape[0] - 1))
 
 
 def _finite_differences(r: np.ndarray, ts: float):

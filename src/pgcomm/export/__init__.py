@@ -10,7 +10,7 @@
   anti-cogging table for drives that only take a position -> force-offset table
   (:func:`build_cogging_table`, :func:`cogging_table_error`).
 
-``pgcomm export`` (:mod:`pgcomm.cli_export`) drives both from a model file.
+``pgcomm export`` (:mod:`pgcomm.cli.export`) drives both from a model file.
 """
 
 from pgcomm.export.c import c_source, write_c
@@ -24,7 +24,6 @@ from pgcomm.export.lut import (
     build_lut,
     classical_parameters,
     cogging_table_error,
-    cogging_table_offset,
     f_star_set,
     lut_columns,
     lut_currents,
@@ -39,6 +38,6 @@ __all__ = [
     "c_source", "write_c",
     "DEFAULT_RESOLUTION", "Lut", "LutError", "CoggingTable", "CoggingTableError",
     "build_lut", "lut_currents", "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns", "f_star_set",
-    "build_cogging_table", "cogging_table_offset", "cogging_table_error", "write_cogging_table",
+    "build_cogging_table", "cogging_table_error", "write_cogging_table",
     "classical_parameters",
 ]

@@ -69,12 +69,14 @@ from pgcomm.commutation import (
     metric_inverse,
     min_energy_currents,
 )
+from pgcomm.compensation import CoggingTable
 from pgcomm.errors import DataError
+from pgcomm.interp import interp_linear
 
 __all__ = [
     "DEFAULT_RESOLUTION", "Lut", "LutError", "CoggingTable", "CoggingTableError",
     "build_lut", "lut_currents", "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns",
-    "build_cogging_table", "cogging_table_offset", "cogging_table_error", "write_cogging_table",
+    "build_cogging_table", "cogging_table_error", "write_cogging_table",
     "classical_parameters", "f_star_set",
 ]
 
@@ -192,19 +194,6 @@ def build_lut(model, resolution: float = DEFAULT_RESOLUTION, y_range=None, curre
     return Lut(y, P, cog, None if current_limit is None else float(current_limit))
 
 
-def _interp(table, y0, dy, n, y):
-    """Linear interpolation of ``table`` ``(n, ...)`` at ``y`` ``S``, clamped at the ends.
-
-    ``a (1 - t) + b t`` rather than ``a + t (b - a)``: it returns the table entries exactly
-    at grid points, including the last one (``t = 1``).
-    """
-    u = (y - y0) / dy
-    k = jnp.clip(jnp.floor(u), 0, n - 2).astype(jnp.int32)
-    t = jnp.clip(u - k.astype(u.dtype), 0.0, 1.0)
-    t = t.reshape(t.shape + (1,) * (table.ndim - 1))
-    return table[k] * (1.0 - t) + table[k + 1] * t
-
-
 def lut_currents(lut: Lut, y, f_star):
     """Star currents of the table law, ``S + (L, 2)`` (A).
 
@@ -214,15 +203,14 @@ def lut_currents(lut: Lut, y, f_star):
     Args:
         y: ``S`` (m); f_star: ``S + (3,)`` desired ``[Fy, Fx, Tz]`` (N, N, N·m).
     """
-    return _lut_currents(jnp.asarray(lut.P), jnp.asarray(lut.cogging), float(lut.y[0]), lut.dy, lut.current_limit,
+    return _lut_currents(jnp.asarray(lut.y), jnp.asarray(lut.P), jnp.asarray(lut.cogging), lut.current_limit,
                          jnp.asarray(y, dtype=float), jnp.asarray(f_star, dtype=float))
 
 
-@functools.partial(jax.jit, static_argnums=(4,))
-def _lut_currents(P, cog, y0, dy, current_limit, y, f_star):
-    n = P.shape[0]
-    p = _interp(P, y0, dy, n, y)
-    c = _interp(cog, y0, dy, n, y)
+@functools.partial(jax.jit, static_argnums=(3,))
+def _lut_currents(grid, P, cog, current_limit, y, f_star):
+    p = interp_linear(grid, P, y)
+    c = interp_linear(grid, cog, y)
     i = jnp.sum(p * (f_star - c)[..., None, None, :], axis=-1)
     return limit_currents(i, current_limit)
 
@@ -357,41 +345,15 @@ def write_lut(lut: Lut, out_dir, name: str = "pgcomm_lut") -> list[Path]:
     return paths
 
 
-def _read_table(path: Path, required_first: str):
-    """Header and float rows of a CSV table; DataError naming file, column, row on any problem."""
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise DataError(f"{path}: not a UTF-8 text file") from None
-    rows = list(csv.reader(io.StringIO(text)))
-    if not rows or not rows[0]:
-        raise DataError(f"{path}: empty file, expected a header starting with '{required_first}'")
-    head = [h.strip() for h in rows[0]]
-    body = [r for r in rows[1:] if r]
-    if len(body) < 2:
-        raise DataError(f"{path}: need at least 2 rows, got {len(body)}")
-    data = np.empty((len(body), len(head)))
-    for i, r in enumerate(body):
-        if len(r) != len(head):
-            raise DataError(f"{path}: row {i + 2} has {len(r)} fields, expected {len(head)}")
-        for j, v in enumerate(r):
-            try:
-                data[i, j] = float(v)
-            except ValueError:
-                raise DataError(f"{path}: row {i + 2}, column '{head[j]}': {v!r} is not a number") from None
-    bad = ~np.isfinite(data)
-    if bad.any():
-        i, j = np.argwhere(bad)[0]
-        raise DataError(f"{path}: row {i + 2}, column '{head[j]}' is not finite ({data[i, j]})")
-    y = data[:, 0]
+def _check_grid(path, y) -> None:
+    """``y`` (m) strictly increasing and uniform, else DataError naming the file and row."""
     d = np.diff(y)
     if np.any(d <= 0):
         i = int(np.argmax(d <= 0))
-        raise DataError(f"{path}: column 'y' must be strictly increasing; row {i + 3} ({y[i + 1]}) "
+        raise DataError(f"{path}: column 'y' must be strictly increasing; row {i + 2} ({y[i + 1]}) "
                         f"follows {y[i]}")
     if np.max(np.abs(d - d.mean())) > 1e-9 * max(abs(y[0]), abs(y[-1]), d.mean()):
         raise DataError(f"{path}: column 'y' is not uniformly spaced (spacing {d.min():.6g} to {d.max():.6g} m)")
-    return head, data
 
 
 def read_lut(path, current_limit: float | None = None) -> Lut:
@@ -403,8 +365,10 @@ def read_lut(path, current_limit: float | None = None) -> Lut:
     Raises:
         DataError: missing/misnamed columns, non-numbers, NaN/inf, non-uniform ``y``.
     """
+    from pgcomm.io.tables import read_csv_columns, read_csv_header
+
     path = Path(path)
-    head, data = _read_table(path, "y")
+    head = read_csv_header(path)
     n_p = len(head) - 4
     if n_p <= 0 or n_p % 6:
         raise DataError(f"{path}: {len(head)} columns do not form y, 6 per coil set, Fy_cog, Fx_cog, Tz_cog")
@@ -413,6 +377,15 @@ def read_lut(path, current_limit: float | None = None) -> Lut:
     for j, (got, want) in enumerate(zip(head, expected)):
         if got != want:
             raise DataError(f"{path}: column {j + 1} is '{got}', expected '{want}'")
+    cols = read_csv_columns(path)
+    data = np.column_stack([cols[h] for h in head])
+    if data.shape[0] < 2:
+        raise DataError(f"{path}: need at least 2 rows, got {data.shape[0]}")
+    bad = ~np.isfinite(data)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise DataError(f"{path}: row {i + 1}, column '{head[j]}' is not finite ({data[i, j]})")
+    _check_grid(path, data[:, 0])
     n = data.shape[0]
     return Lut(data[:, 0].copy(), data[:, 1:1 + n_p].reshape(n, L, 2, 3).copy(), data[:, 1 + n_p:].copy(),
                current_limit)
@@ -499,33 +472,6 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
 
 
 @dataclass(frozen=True)
-class CoggingTable:
-    """Position -> driving-force offset table ``F̂_cog,y(y)`` for a drive's anti-cogging input.
-
-    Attributes:
-        y: ``(n,)`` uniform grid (m); fy: ``(n,)`` mean cogging force in y (N).
-    """
-
-    y: np.ndarray
-    fy: np.ndarray
-
-    @property
-    def n(self) -> int:
-        """Number of grid points."""
-        return int(self.y.shape[0])
-
-    @property
-    def dy(self) -> float:
-        """Grid spacing (m)."""
-        return float((self.y[-1] - self.y[0]) / (self.n - 1))
-
-    @property
-    def nbytes(self) -> int:
-        """Size as float32 entries (bytes)."""
-        return 4 * self.n
-
-
-@dataclass(frozen=True)
 class CoggingTableError:
     """Errors of the anti-cogging table (see :func:`cogging_table_error`).
 
@@ -583,13 +529,8 @@ def build_cogging_table(model, resolution: float = DEFAULT_RESOLUTION, y_range=N
     Grid as :func:`build_lut` (uniform, end to end over ``y_range`` or the training range,
     spacing ``<= resolution`` m).
     """
-    y = _grid(model, resolution, y_range)
-    return CoggingTable(y, np.asarray(_cog_y(model, jnp.asarray(y))))
-
-
-def cogging_table_offset(table: CoggingTable, y):
-    """Interpolated offset ``table(y)`` (N), shape of ``y``; clamped outside the table."""
-    return _interp(jnp.asarray(table.fy), float(table.y[0]), table.dy, table.n, jnp.asarray(y, dtype=float))
+    y = jnp.asarray(_grid(model, resolution, y_range))
+    return CoggingTable(y, _cog_y(model, y))
 
 
 @jax.jit
@@ -626,9 +567,9 @@ def cogging_table_error(table: CoggingTable, model, f_max: float, k_hat=None, ze
         zeta_hat = zf if zeta_hat is None else zeta_hat
     k_hat = np.broadcast_to(np.asarray(k_hat, dtype=float), (L,)).copy()
     zeta_hat = np.broadcast_to(np.asarray(zeta_hat, dtype=float), (L,)).copy()
-    y = np.linspace(table.y[0], table.y[-1], (table.n - 1) * int(factor) + 1)
+    y = np.linspace(float(table.y[0]), float(table.y[-1]), (table.n - 1) * int(factor) + 1)
     yj = jnp.asarray(y)
-    off = cogging_table_offset(table, yj)
+    off = table.offset(yj)
     interp = float(np.max(np.abs(np.asarray(off) - np.asarray(_cog_y(model, yj)))))
     fs = np.array([[f_max, 0.0, 0.0], [-f_max, 0.0, 0.0]])
     law = ModelLaw(model, metric="phase", current_limit=current_limit)
@@ -647,7 +588,7 @@ def write_cogging_table(table: CoggingTable, out_dir, name: str = "pgcomm_coggin
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["y", "Fy_cog"])
-    for yv, fv in zip(table.y, table.fy):
+    for yv, fv in zip(np.asarray(table.y), np.asarray(table.values)):
         w.writerow(["%.17g" % yv, "%.17g" % fv])
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

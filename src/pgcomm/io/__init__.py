@@ -1,4 +1,4 @@
-"""Input/output: logs, force maps' CSV machinery, motor/experiment configs, results.json.
+"""Input/output: every file format of the package, each with one reader and one writer.
 
 Every reader validates what it reads and raises :class:`pgcomm.errors.DataError`
 (data files) or :class:`pgcomm.errors.ConfigError` (TOML/settings) with one line
@@ -7,12 +7,14 @@ naming the file and the column/row/key/value; every writer goes through
 
 Modules:
 
-* :mod:`pgcomm.io.atomic`: write-to-temporary-then-rename helpers;
-* :mod:`pgcomm.io.config`: TOML loading, generic dataclass loader, motor configs;
+* :mod:`pgcomm.io.tables`: the one reader of CSV, Parquet, MATLAB .mat and HDF5 columns;
 * :mod:`pgcomm.io.logs`: the :class:`~pgcomm.io.logs.Log` type and its readers/writers;
-* :mod:`pgcomm.io.results`: results.json with dotted keys.
-
-Force maps live in :mod:`pgcomm.forcemap` (they are a plant).
+* :mod:`pgcomm.io.references`: position references from files;
+* :mod:`pgcomm.io.forcemap`: force-map CSV files of a :class:`~pgcomm.forcemap.ForceMapPlant`;
+* :mod:`pgcomm.io.config`: TOML loading, generic dataclass loader, motor and experiment configs;
+* :mod:`pgcomm.io.model`: model files (JSON + npz), the one validated loader;
+* :mod:`pgcomm.io.results`: results.json with dotted keys;
+* :mod:`pgcomm.io.atomic`: write-to-temporary-then-rename helpers.
 """
 
 from pgcomm.io.atomic import atomic_open, atomic_path, atomic_write_bytes, atomic_write_text

@@ -11,7 +11,7 @@ import pytest
 import pgcomm
 from pgcomm.commutation import ModelLaw
 from pgcomm.errors import DataError
-from pgcomm.modelfile import SCHEMA, load_model, model_paths, save_model
+from pgcomm.io.model import SCHEMA, load_model, model_paths, save_model
 from pgcomm.models import CoilSetModel, CombinedModel, physics_from_ideal
 
 D_M = 0.03

@@ -5,7 +5,7 @@
 ``NAME_cogging.csv`` (:mod:`pgcomm.export.lut`) and measures their worst-case force error
 on the model. Both write ``results.json``. A model file that fails validation is refused
 by the loader (one line, exit code 2, nothing written: the output is staged by
-:func:`pgcomm.cli.staged_output`).
+:func:`pgcomm.cli._common.staged_output`).
 """
 
 from __future__ import annotations
@@ -14,14 +14,17 @@ import math
 import time
 from pathlib import Path
 
-from pgcomm.cli import _write_results, command
+from pgcomm.cli._common import add_common_options
 from pgcomm.errors import ConfigError
+
+HELP = "Export a model's commutation law as C code or a lookup table, verified against the model."
 
 #: ``--f-max`` when the model's metadata has no training force (N).
 DEFAULT_F_MAX = 100.0
 
 
-def _configure(p):
+def configure(p) -> None:
+    """Options of ``pgcomm export``."""
     from pgcomm.export.lut import DEFAULT_RESOLUTION
 
     p.add_argument("--model", required=True, type=Path, metavar="MODEL.json", help="model file (pgcomm identify)")
@@ -39,13 +42,13 @@ def _configure(p):
     p.add_argument("--f-max", type=float, metavar="N",
                    help="driving force for the table error (default: the largest |Fy| of the model's "
                         f"training data if its metadata has it, else {DEFAULT_F_MAX:g} N)")
-    p.add_argument("--quiet", action="store_true", help="no progress output or summary")
+    add_common_options(p, out=False, plant=False)  # --quiet
 
 
 def f_max_from_metadata(metadata) -> float | None:
     """Largest ``|Fy|`` (N) of the training data recorded in a model file's metadata, or ``None``.
 
-    ``metadata`` is the model document of :func:`pgcomm.modelfile.load_model` (user metadata
+    ``metadata`` is the model document of :func:`pgcomm.io.model.load_model` (user metadata
     under its ``metadata`` key) or the user metadata itself. Looks for a positive number under
     ``fy_abs_max``, ``f_max``, ``fy_max``, ``max_abs_fy`` or ``training_fy_max``, at the top
     level or inside ``metadata``, ``training``, ``data`` or ``identification`` (one level each).
@@ -66,9 +69,10 @@ def f_max_from_metadata(metadata) -> float | None:
     return None
 
 
-@command("export", "Export a model's commutation law as C code or a lookup table, verified against the model.")
-def cmd_export(args, out: Path, progress):
-    from pgcomm.modelfile import load_model
+def run(args, out: Path, progress) -> None:
+    """Export ``--model`` as C (``NAME.h/.c``) or lookup tables; write ``results.json``."""
+    from pgcomm.io.model import load_model
+    from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
     if args.current_limit is not None and not (math.isfinite(args.current_limit) and args.current_limit > 0):
@@ -96,10 +100,8 @@ def cmd_export(args, out: Path, progress):
     else:
         _export_lut(args, out, progress, model, metadata, name, results)
     results["runtime_s"] = time.perf_counter() - t0
-    _write_results(out / "results.json", results)
+    write_results(out / "results.json", results)
 
-
-cmd_export.configure = _configure
 
 
 def _export_c(args, out, progress, model, metadata, name, results):

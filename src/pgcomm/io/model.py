@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import pgcomm
-from pgcomm.errors import DataError
+from pgcomm.errors import DataError, PgcommError
 from pgcomm.io.atomic import atomic_open, atomic_write_text
 from pgcomm.models import MLP, CombinedModel, activation_fn
 
@@ -90,7 +90,7 @@ def save_model(path, model: CombinedModel, metadata: dict | None = None) -> tupl
 
 
 def load_model(path) -> tuple[CombinedModel, dict]:
-    """Read a model written by :func:`save_model`.
+    """Read a model written by :func:`save_model`: the one loader of model files, used by every command.
 
     Args:
         path: ``NAME``, ``NAME.json`` or ``NAME.npz``.
@@ -101,8 +101,21 @@ def load_model(path) -> tuple[CombinedModel, dict]:
 
     Raises:
         DataError: one line naming the file and the problem (missing or unreadable file, wrong
-        schema version, missing or extra arrays, wrong shapes or dtypes, NaN or inf).
+        schema version, missing or extra arrays, wrong shapes or dtypes, NaN or inf); any other
+        failure on a damaged file (numpy, zipfile, JAX giving up in another way) is turned into
+        such a line too, so that a command prints one line and exits with code 2.
     """
+    try:
+        return _load_model(path)
+    except (PgcommError, FileNotFoundError):
+        raise
+    except Exception as e:  # noqa: BLE001  (any failure of a damaged file is a user error here)
+        raise DataError(f"{path}: not a readable pgcomm model file ({type(e).__name__}: "
+                        f"{' '.join(str(e).split())})") from None
+
+
+def _load_model(path) -> tuple[CombinedModel, dict]:
+    """:func:`load_model` without the last-resort guard."""
     json_path, _ = model_paths(path)
     try:
         document = json.loads(json_path.read_text(encoding="utf-8"))

@@ -5,45 +5,33 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import numpy as np
+from pgcomm.cli._common import add_common_options, add_data_options, read_data_logs, setup_from_args
 
-from pgcomm.cli import _common, _setup, _write_results, command
-
-
-def add_data_options(p) -> None:
-    """``--data`` / ``--columns`` / ``--sample-time`` for commands reading logs."""
-    p.add_argument("--data", nargs="+", metavar="LOG", help="log files or globs (CSV, Parquet, .mat, HDF5)")
-    p.add_argument("--columns", type=Path, metavar="MAP.toml", help="column-mapping TOML (names and units)")
-    p.add_argument("--sample-time", type=float, help="sample time (s) for logs without a t column")
+HELP = ("Algorithm 2: identify the PGNN (and the physics-only model) of every coil set; "
+        "writes model.json/.npz, results.json and figures.")
 
 
-def read_data_logs(args):
-    """Logs named by ``--data`` (with ``--columns`` and ``--sample-time``)."""
-    from pgcomm.io.logs import load_column_mapping, read_logs
-
-    mapping = load_column_mapping(args.columns) if args.columns else None
-    return read_logs(args.data, sample_time=args.sample_time, columns=mapping)
-
-
-def _configure(p):
-    _common(p)
+def configure(p) -> None:
+    """Options of ``pgcomm identify``."""
+    add_common_options(p)
     add_data_options(p)
     p.add_argument("--force", action="store_true", help="identify even if the excitation check fails (warn only)")
 
 
-@command("identify", "Algorithm 2: identify the PGNN (and the physics-only model) of every coil set; "
-                     "writes model.json/.npz, results.json and figures.")
-def cmd_identify(args, out: Path, progress):
+def run(args, out: Path, progress) -> None:
+    """Identify; write ``model.json/.npz``, ``results.json``, ``cogging.png`` and ``gain_coilset{l}.png``."""
     import jax.numpy as jnp
+    import numpy as np
 
-    from pgcomm import __version__, pipeline, plots, reproduce
+    from pgcomm import __version__, experiment, plots
+    from pgcomm.data import coil_set_data_from_logs, coil_set_data_from_runs
     from pgcomm.errors import ExcitationError
-    from pgcomm.identify import check_excitation
-    from pgcomm.logdata import coil_set_data_from_logs
-    from pgcomm.modelfile import save_model
+    from pgcomm.excitation import check_excitation
+    from pgcomm.io.model import save_model
+    from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
-    setup = _setup(args)
+    setup = setup_from_args(args)
     if args.data:
         with progress.stage(f"read {len(args.data)} log pattern(s)"):
             logs = read_data_logs(args)
@@ -51,11 +39,11 @@ def cmd_identify(args, out: Path, progress):
             progress.info(f"{len(logs)} log(s), {sum(d.n for d in data)} samples")
         source = "logs"
     else:
-        ref = pipeline.data_generation_reference(setup)
+        ref = experiment.data_generation_reference(setup)
         with progress.stage(f"data generation on {setup.plant_name}: {setup.motor.n_coil_sets} coil sets x 2 data "
                             f"sets, {len(ref.r)} samples each"):
-            data = reproduce.coil_set_data(pipeline.generate(setup, ref, setup.motor.k, setup.motor.zeta,
-                                                             seed=args.seed))
+            data = coil_set_data_from_runs(experiment.generate(setup, ref, setup.motor.k, setup.motor.zeta,
+                                                               seed=args.seed))
         source = setup.plant_name
     problems = {d.name: check_excitation(d, setup.motor.pole_pitch) for d in data}
     bad = {k: v for k, v in problems.items() if v}
@@ -67,10 +55,10 @@ def cmd_identify(args, out: Path, progress):
     with progress.stage("identification (Algorithm 2) per coil set"):
         t_id = time.perf_counter()
         # the check above already ran (and, with --force, only warned)
-        pgnn, _, res = reproduce.identify_models(setup, data, args.seed, progress, check_data=False)
+        pgnn, _, res = experiment.identify_models(setup, data, args.seed, progress, check_data=False)
         t_id = time.perf_counter() - t_id
     results = {"command": "identify", "plant": setup.plant_name, "data": source, "version": __version__,
-               "seed": args.seed, "identification": reproduce.identification_results(res, t_id)}
+               "seed": args.seed, "identification": experiment.identification_results(res, t_id)}
     save_model(out / "model", pgnn, {"seed": args.seed, "plant": setup.plant_name, "data": source,
                                      "fy_abs_max": max(float(np.max(np.abs(d.force[:, 0]))) for d in data),
                                      "identification": results["identification"]})
@@ -84,13 +72,10 @@ def cmd_identify(args, out: Path, progress):
         plots.save(plots.plot_gain_columns(y, gm[:, l], None if gt is None else gt[:, l], l),
                    out / f"gain_coilset{l + 1}.png")
     results["runtime_s"] = time.perf_counter() - t0
-    _write_results(out / "results.json", results)
+    write_results(out / "results.json", results)
     if not args.quiet:
         print(f"{'coil set':24s} {'V physics':>10s} {'V PGNN':>10s} {'V phys val':>10s} {'V PGNN val':>10s} {'s':>6s}")
         for r in res:
             print(f"{r.name[:24]:24s} {r.cost_physics:10.4g} {r.cost_pgnn:10.4g} {r.cost_physics_validation:10.4g} "
                   f"{r.cost_pgnn_validation:10.4g} {r.seconds:6.1f}")
         print(f"wrote {args.out}/model.json, model.npz, results.json, cogging.png, gain_coilset*.png")
-
-
-cmd_identify.configure = _configure

@@ -6,38 +6,40 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+from pgcomm.cli._common import add_common_options, add_reference_options, print_calibration, print_mse, \
+    reference_from_args, setup_from_args
 
-from pgcomm.cli import _common, _print_mse, _setup, _write_results, command, print_calibration
+HELP = ("The paper's experiment on the twin (or a force-map plant): calibration, PGNN "
+        "identification, all commutation laws in closed loop; report.html, results.json, figures.")
 
 
-def _configure(p):
-    _common(p)
+def configure(p) -> None:
+    """Options of ``pgcomm reproduce``."""
+    add_common_options(p)
     p.add_argument("--quick", action="store_true",
                    help="shorter run for a first look (two velocities, fewer starts); under 30 s")
-    p.add_argument("--reference", type=Path, help="extra evaluation reference (CSV with r[,t], or .mat with r)")
-    p.add_argument("--reference-sample-time", type=float, help="sample time (s) of --reference if it has no t")
+    add_reference_options(p, "extra evaluation reference (CSV with r[,t], or .mat with r)")
 
 
-@command("reproduce", "The paper's experiment on the twin (or a force-map plant): calibration, PGNN "
-                      "identification, all commutation laws in closed loop; report.html, results.json, figures.")
-def cmd_reproduce(args, out: Path, progress):
+def run(args, out: Path, progress) -> None:
+    """Run the experiment; write ``report.html``, ``results.json``, ``model.json/.npz`` and the figures."""
     from dataclasses import replace
 
     import jax.numpy as jnp
+    import numpy as np
 
     from pgcomm import __version__, plots, reproduce
-    from pgcomm.cli import _reference
-    from pgcomm.modelfile import save_model
+    from pgcomm.io.model import save_model
+    from pgcomm.io.results import write_results
     from pgcomm.report import write_report
 
     t0 = time.perf_counter()
-    setup = _setup(args)
+    setup = setup_from_args(args)
     if args.quick:
         setup = replace(setup, config=reproduce.quick_config(setup.config))
-    extra = _reference(args, setup) if args.reference else None
+    extra = reference_from_args(args, setup) if args.reference else None
     o = reproduce.run(setup, seed=args.seed, extra_reference=extra, progress=progress)
-    results = o.results
+    results = o.to_dict()
     results.update(command="reproduce", version=__version__, quick=bool(args.quick), seed=args.seed)
 
     with progress.stage("figures, model file and report"):
@@ -50,10 +52,13 @@ def cmd_reproduce(args, out: Path, progress):
 
         fig("reference.png", plots.plot_reference(o.references["long"]),
             "Fig. Data_Generation: the reference used for the data sets and the long evaluation.")
-        fig("mse.png", plots.plot_mse_bars({r: {d: results["commutation_mse"][r][d]["filtered"] for d in "yxz"}
+        fig("mse.png", plots.plot_mse_bars({r: {d: o.commutation_mse[r][d]["filtered"] for d in "yxz"}
                                             for r in reproduce.ROWS}),
             "Filtered commutation-error MSE per row and direction (log scale).")
-        for rname, label in (("slow", "slow (0.025 m/s)"), ("fast", "fast (0.15 m/s)"), ("user", "user reference")):
+        velocities = setup.config.reference.velocities
+        labels = {"slow": f"slow ({min(velocities):g} m/s)", "fast": f"fast ({max(velocities):g} m/s)",
+                  "user": "user reference"}
+        for rname, label in labels.items():
             if rname in o.runs:
                 fig(f"compare_{rname}.png", plots.plot_comparison(o.runs[rname], lp, title=f"{label} reference"),
                     f"Figs. CommutationError_Ref1/2: {label} reference — filtered commutation error in y, x, z "
@@ -74,19 +79,18 @@ def cmd_reproduce(args, out: Path, progress):
         save_model(out / "model", o.pgnn, {"seed": args.seed, "plant": setup.plant_name, "fy_abs_max": fy_max,
                                            "identification": results["identification"]})
         results["runtime_s"] = time.perf_counter() - t0
-        _write_results(out / "results.json", results)
-        write_report(out / "report.html", results, figs)
+        write_results(out / "results.json", results)
+        write_report(out / "report.html", o, figs, version=__version__, runtime_s=results["runtime_s"])
     if not args.quiet:
         print_calibration(results["calibration"])
-        _print_mse(results, reproduce.ROWS)
+        print_mse(results, reproduce.ROWS)
         imp = results["improvement_over_classical"]["pgnn"]
+        paper = reproduce.paper_improvement("pgnn")
         print(f"classical -> pgnn: y {imp['y']:.1f}x, x {imp['x']:.1f}x, z {imp['z']:.1f}x, "
-              f"tracking {imp['tracking']:.1f}x  (paper: 11.2x, 2.5x, 2.4x, 4.6x)")
+              f"tracking {imp['tracking']:.1f}x  (paper: {paper['y']:.1f}x, {paper['x']:.1f}x, {paper['z']:.1f}x, "
+              f"{paper['tracking']:.1f}x)")
         print(f"wrote {args.out}/report.html, results.json, model.json/.npz and figures "
               f"({results['runtime_s']:.0f} s)", file=sys.stdout)
-
-
-cmd_reproduce.configure = _configure
 
 
 def _train_range(model, setup):

@@ -1,0 +1,150 @@
+"""``pgcomm inspect``: what a model file holds (structure, training range, costs, provenance)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from pgcomm.cli._common import add_common_options
+
+HELP = ("What a model file holds: structure (L, widths, activation, parameters), pole pitch, "
+        "training range, costs per coil set, seed, version, date, file sizes.")
+
+
+def configure(p) -> None:
+    """Options of ``pgcomm inspect``."""
+    p.add_argument("--model", required=True, type=Path, metavar="M", help="model file written by pgcomm identify")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_common_options(p, out=False, plant=False)  # --quiet, which cli.main expects of every command
+
+
+def run(args, out, progress) -> None:
+    """Print the summary of ``--model`` (text, or JSON with ``--json``)."""
+    from pgcomm.io.model import load_model
+
+    model, document = load_model(args.model)
+    info = model_summary(model, document, args.model)
+    if args.json:
+        from pgcomm.io.results import to_jsonable
+
+        print(json.dumps(to_jsonable(info), indent=2, ensure_ascii=False))
+    else:
+        print(format_summary(info))
+
+
+
+def _n_params(tree) -> int:
+    import jax
+
+    return int(sum(np.size(x) for x in jax.tree_util.tree_leaves(tree)))
+
+
+def _widths(net) -> list[int] | None:
+    """Hidden widths of a stacked :class:`~pgcomm.models.MLP` (leading coil-set dims ignored)."""
+    return None if net is None else [int(b.shape[-1]) for _, b in net.hidden]
+
+
+def model_summary(model, document: dict, path) -> dict:
+    """JSON-ready description of a combined model and its file's document (:func:`pgcomm.io.model.load_model`).
+
+    Keys: ``file``, ``files`` (name -> bytes: the JSON and its ``.npz``), ``structure``
+    (``coil_sets``, ``gain_widths``, ``cog_widths``, ``activation``, ``parameters_per_coil_set``
+    split into ``physics`` (``A, B``: 12), ``gain_networks``, ``cogging_network`` and ``total``;
+    ``parameters_total``), ``pole_pitch`` (m), ``training_range`` (m, covered by every coil
+    set) and ``training_range_per_coil_set``, ``costs`` (per coil set, from the metadata's
+    ``identification``), ``seed``, ``version`` (package that wrote the file), ``date``,
+    ``schema`` and the remaining ``metadata``.
+    """
+    L = model.n_coil_sets
+    per_gain = _n_params(model.gain_nets) // L if model.gain_nets is not None else 0
+    per_cog = _n_params(model.cog_nets) // L if model.cog_nets is not None else 0
+    n_phy = int(np.size(model.A) + np.size(model.B)) // L
+    net = model.gain_nets if model.gain_nets is not None else model.cog_nets
+    per_cs = {"physics": n_phy, "gain_networks": per_gain, "cogging_network": per_cog,
+              "total": n_phy + per_gain + per_cog}
+    ranges = None
+    if model.y_min is not None and model.y_max is not None:
+        ranges = [[float(a), float(b)] for a, b in zip(model.y_min, model.y_max)]
+    meta = document.get("metadata") or {}
+    ident = meta.get("identification") or {}
+    keys = ("cost_physics", "cost_pgnn", "cost_physics_validation", "cost_pgnn_validation", "iterations", "seconds",
+            "n_train", "n_validation", "stop_reason")
+    costs = [{"coil_set": l + 1, **{k: c[k] for k in keys if k in c}}
+             for l, c in enumerate(ident.get("coil_sets") or []) if isinstance(c, dict)]
+    return {
+        "file": str(path),
+        "files": _file_sizes(path, document.get("arrays")),
+        "schema": document.get("schema"),
+        "structure": {"coil_sets": L, "gain_widths": _widths(model.gain_nets), "cog_widths": _widths(model.cog_nets),
+                      "activation": None if net is None else net.activation,
+                      "parameters_per_coil_set": per_cs, "parameters_total": L * per_cs["total"]},
+        "pole_pitch": float(model.pole_pitch),
+        "training_range": None if model.training_range is None else list(model.training_range),
+        "training_range_per_coil_set": ranges,
+        "costs": costs,
+        "seed": meta.get("seed"),
+        "version": document.get("package_version"),
+        "date": document.get("created"),
+        "metadata": {k: v for k, v in meta.items() if k not in ("identification", "seed")},
+    }
+
+
+def _file_sizes(path, arrays_name) -> dict:
+    """Bytes of the model's JSON and of the array file it names (name -> bytes)."""
+    from pgcomm.io.model import model_paths
+
+    js, npz = model_paths(path)
+    files = [js, js.with_name(str(arrays_name)) if arrays_name else npz]
+    return {f.name: f.stat().st_size for f in files if f.is_file()}
+
+
+def format_summary(info: dict) -> str:
+    """Readable text of :func:`model_summary`."""
+    s = info["structure"]
+    pc = s["parameters_per_coil_set"]
+    lines = [f"model {info['file']}",
+             f"  files:          {', '.join(f'{k} ({_bytes(v)})' for k, v in info['files'].items()) or '-'}",
+             f"  schema:         {_or_dash(info['schema'])}",
+             f"  coil sets L:    {s['coil_sets']}",
+             f"  gain networks:  {_fmt_widths(s['gain_widths'])}   cogging network: {_fmt_widths(s['cog_widths'])}"
+             f"   activation: {s['activation'] or '-'}",
+             f"  parameters:     {pc['total']} per coil set (A, B {pc['physics']}, gain networks "
+             f"{pc['gain_networks']}, cogging {pc['cogging_network']}); {s['parameters_total']} in total",
+             f"  pole pitch:     {info['pole_pitch']:.6g} m"]
+    tr = info["training_range"]
+    lines.append("  training range: " + ("unknown" if tr is None else f"[{tr[0]:.4g}, {tr[1]:.4g}] m (all coil sets)"))
+    for l, r in enumerate(info["training_range_per_coil_set"] or []):
+        lines.append(f"                  coil set {l + 1}: [{r[0]:.4g}, {r[1]:.4g}] m")
+    if info["costs"]:
+        lines.append(f"  {'coil set':>8s} {'V physics':>11s} {'V PGNN':>11s} {'V phys val':>11s} {'V PGNN val':>11s}")
+        for c in info["costs"]:
+            cells = [_num(c.get(k)) for k in ("cost_physics", "cost_pgnn", "cost_physics_validation",
+                                              "cost_pgnn_validation")]
+            lines.append(f"  {c['coil_set']:8d} {cells[0]:>11s} {cells[1]:>11s} {cells[2]:>11s} {cells[3]:>11s}")
+    else:
+        lines.append("  costs:          not recorded")
+    lines += [f"  seed:           {_or_dash(info['seed'])}",
+              f"  version:        {_or_dash(info['version'])}",
+              f"  date:           {_or_dash(info['date'])}"]
+    for k, v in info["metadata"].items():
+        if isinstance(v, (str, int, float, bool)) or v is None:
+            lines.append(f"  {k + ':':15s} {v}")
+    return "\n".join(lines)
+
+
+def _fmt_widths(w) -> str:
+    return "none" if w is None else "x".join(map(str, w))
+
+
+def _num(v) -> str:
+    return "-" if v is None else f"{v:.5g}"
+
+
+def _or_dash(v) -> str:
+    return "-" if v is None else str(v)
+
+
+def _bytes(n: int) -> str:
+    return f"{n} B" if n < 1024 else f"{n / 1024:.1f} KiB" if n < 1024**2 else f"{n / 1024**2:.1f} MiB"

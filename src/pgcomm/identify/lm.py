@@ -1,0 +1,279 @@
+"""Algorithm 2 by variable projection: Levenberg–Marquardt over ``θ_NL`` with ``θ_L = Prop1(θ_NL)``,
+several random starts at once, two phases (subsample, then all samples); :func:`identify`
+for one coil set and :func:`identify_all` for a motor.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from pgcomm._pytree import pytree_dataclass
+from pgcomm.data import CoilSetData, train_validation_split
+from pgcomm.errors import DataError, ExcitationError
+from pgcomm.excitation import check_excitation
+from pgcomm.identify.layout import (
+    DEFAULT_LAMBDA,
+    _Layout,
+    hidden_vector,
+    lambda_diagonal,
+    with_hidden_vector,
+    with_theta_L,
+)
+from pgcomm.identify.projection import (
+    DEFAULT_DAMPING,
+    CostTerms,
+    _Eval,
+    _evaluate,
+    _prepare,
+    _star_or_fit,
+    cost,
+    fit_physics,
+)
+from pgcomm.identify.result import STOP_REASONS, IdentifyResult
+from pgcomm.models import DEFAULT_COG_WIDTHS, DEFAULT_GAIN_WIDTHS, CoilSetModel, CombinedModel
+
+#: Fewest samples the first (subsampled) training phase uses.
+_MIN_SUBSAMPLE = 4096
+
+
+@pytree_dataclass
+class _LMState:
+    flat: jnp.ndarray
+    ev: _Eval
+    lam: jnp.ndarray
+    nu: jnp.ndarray
+    done: jnp.ndarray
+    reason: jnp.ndarray
+    n_iter: jnp.ndarray
+
+
+def _lm_init(layout: _Layout, flats, lam0):
+    """State before the first step: ``f = inf`` and a zero step, so the first :func:`_lm_step`
+    evaluates the starting points (one compiled function serves both)."""
+    n_s, n = flats.shape
+    # Explicit dtypes (not weakly typed) so that this state and the stepped ones share one compilation.
+    ev = _Eval(jnp.full(n_s, np.inf, float), *(jnp.zeros(n_s) for _ in range(4)), jnp.zeros((n_s, layout.p, 3)),
+               jnp.broadcast_to(jnp.eye(n), (n_s, n, n)), jnp.zeros((n_s, n)))
+    return _LMState(flats, ev, jnp.full(n_s, lam0, float), jnp.full(n_s, 2.0, float), jnp.zeros(n_s, bool),
+                    jnp.zeros(n_s, jnp.int32), jnp.full(n_s, -1, jnp.int32))
+
+
+#: Largest damping before a start is declared converged (steps are then ~1e-10 of Gauss–Newton's).
+_LAMBDA_MAX = 1e10
+
+
+def _lm_delta(ev_jtj, ev_jtr, lam):
+    """Solve ``(JᵀJ + λ D) δ = -Jᵀr̃`` with ``D = diag(max(diag(JᵀJ), 1e-12·max diag JᵀJ))``."""
+    diag = jnp.diagonal(ev_jtj)
+    dd = jnp.maximum(diag, 1e-12 * jnp.max(diag) + 1e-300)
+    delta = jnp.linalg.solve(ev_jtj + lam * jnp.diag(dd), -ev_jtr)
+    return jnp.where(jnp.all(jnp.isfinite(delta)), delta, 0.0)
+
+
+def _lm_accept(st: _LMState, delta, new: _Eval, tol, max_iter):
+    """Accept or reject one start's step; update ``λ`` by Nielsen's rule; test for convergence.
+
+    ``ρ = (f - f_new) / (-δᵀJᵀr̃ - ½ δᵀJᵀJ δ)``; accepted (``f_new < f``): ``λ <- λ·max(1/3,
+    1 - (2ρ - 1)³)``, else ``λ <- λ·ν``, ``ν <- 2ν``. Stops on an accepted relative decrease
+    below ``tol``, ``||δ|| <= tol (||θ_NL|| + tol)``, ``λ > 1e10`` or ``max_iter``.
+    """
+    ev = st.ev
+    first = ~jnp.isfinite(ev.f)  # the evaluation of the starting point (see _lm_init)
+    pred = -(delta @ ev.jtr + 0.5 * delta @ ev.jtj @ delta)
+    actual = ev.f - new.f
+    accept = jnp.isfinite(new.f) & (first | (new.f < ev.f)) & ~st.done
+    rho = actual / jnp.where(pred > 0, pred, jnp.inf)
+    lam = jnp.where(accept, st.lam * jnp.maximum(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3), st.lam * st.nu)
+    lam = jnp.where(first, st.lam, lam)
+    nu = jnp.where(accept | first, 2.0, 2.0 * st.nu)
+    n_iter = st.n_iter + jnp.where(st.done, 0, 1)
+    small_f = accept & (actual <= tol * jnp.abs(new.f))
+    small_x = jnp.linalg.norm(delta) <= tol * (jnp.linalg.norm(st.flat) + tol)
+    reason = jnp.select([first & ~jnp.isfinite(new.f), first, small_f, small_x, lam > _LAMBDA_MAX, n_iter >= max_iter],
+                        [5, 0, 1, 2, 3, 4], 0)
+    reason = jnp.where(st.done, st.reason, reason)
+    keep = lambda a, b: jnp.where(accept, a, b)  # noqa: E731
+    return _LMState(keep(st.flat + delta, st.flat), jax.tree_util.tree_map(keep, new, ev),
+                    jnp.where(st.done, st.lam, lam), jnp.where(st.done, st.nu, nu), st.done | (reason > 0), reason,
+                    n_iter)
+
+
+def _lm_step(layout, st: _LMState, chunks, k, tol, max_iter):
+    """One Levenberg–Marquardt iteration of all starts (see :func:`_lm_delta`, :func:`_lm_accept`)."""
+    delta = jax.vmap(_lm_delta)(st.ev.jtj, st.ev.jtr, st.lam)
+    new = _evaluate(layout, st.flat + delta, chunks, k, True)
+    return jax.vmap(_lm_accept, in_axes=(0, 0, 0, None, None))(st, delta, new, tol, max_iter)
+
+
+_lm_step = jax.jit(_lm_step, static_argnums=(0,))
+
+
+def _progress_printer(name):
+    def show(info):
+        print(f"pgcomm: {name}: phase {info['phase']} iteration {info['iteration']:3d}  "
+              f"best V = {info['best_cost']:.6g}  "
+              f"lambda = {info['lambda']:.2e}  active starts {info['active']}/{info['starts']}",
+              file=sys.stderr, flush=True)
+    return show
+
+
+def _run_lm(layout, flats, chunks, k, n, *, max_iter, tol, lambda0, show, phase):
+    """Levenberg–Marquardt on all rows of ``flats`` at once until each start stops.
+
+    Returns the final state and the best objective ``V`` (plus ridge and damping terms) after
+    every iteration (index 0: the starting points).
+    """
+    st = _lm_step(layout, _lm_init(layout, flats, lambda0), chunks, k, tol, max_iter)
+    # V = ||r̃||² / (2N) = 2 f / n
+    history = [2.0 * float(jnp.nanmin(st.ev.f)) / n]
+    it = 0
+    while layout.n_nl > 0 and not bool(jnp.all(st.done)) and it < max_iter:
+        st = _lm_step(layout, st, chunks, k, tol, max_iter)
+        it += 1
+        fs = np.asarray(st.ev.f)
+        best = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
+        history.append(2.0 * float(fs[best]) / n)
+        if show is not None:
+            show({"phase": phase, "iteration": it, "best_cost": history[-1], "lambda": float(st.lam[best]),
+                  "active": int(np.sum(~np.asarray(st.done))), "starts": int(fs.size)})
+    return st, tuple(history)
+
+
+def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_WIDTHS, cog_widths=DEFAULT_COG_WIDTHS,
+             activation: str = "tanh", Lambda=DEFAULT_LAMBDA, theta_phy_star=None, ridge_output: float = 0.0,
+             n_starts: int = 8, seed: int = 0, max_iter: int = 100, tol: float = 1e-6,
+             subsample: int = 8, refine_starts: int = 2,
+             validation_fraction: float = 0.2, block_size: int = 500, chunk_size: int | None = None,
+             damping: float = DEFAULT_DAMPING, lambda0: float = 1e-3, method: str = "auto",
+             check_data: bool = True, progress=None) -> IdentifyResult:
+    """Identify the PGNN of one coil set (Algorithm 2) by variable-projection Levenberg–Marquardt.
+
+    Steps: split the data (:func:`train_validation_split`); check excitation
+    (:func:`check_excitation`, raises :class:`~pgcomm.errors.ExcitationError`); fit the
+    physics-only model (``θ_phy*`` unless given); draw ``n_starts`` random hidden layers from
+    ``jax.random.PRNGKey(seed)``; iterate, for several starts at once (one batched
+    evaluation)::
+
+        θ_L = Prop1(θ_NL)                                   (eq. Optimal_Initialization)
+        (JᵀJ + λ D) δ = -Jᵀr̃,   θ_NL <- θ_NL + δ  if V decreases   (see _lm_delta, _lm_accept)
+
+    where ``r̃`` is the projected residual (data rows and ``√(2N) Λ`` rows) and ``J`` its exact
+    Jacobian in ``θ_NL`` (see ``_evaluate``). Two phases, because consecutive samples at
+    1 kHz carry nearly the same information:
+
+    1. all ``n_starts`` starts on every ``subsample``-th training sample (at least 4096
+       samples; skipped when the data are too few for that);
+    2. the ``refine_starts`` best of them on all training samples.
+
+    The start with the lowest training cost is kept. ``subsample=1`` runs all starts on all
+    samples in one phase. The result is deterministic for a given ``seed``.
+
+    Args:
+        data: samples of both data sets ``Z_1, Z_2`` of this coil set.
+        pole_pitch: ``d_m`` (m).
+        gain_widths, cog_widths: hidden widths of the gain-column and cogging networks
+            (``None`` leaves the network out); paper: ``(2,)`` and ``(16,)``.
+        Lambda: ``Λ`` (default ``0.1 I``); theta_phy_star: ``θ_phy*`` or ``None`` (physics fit).
+        ridge_output: explicit ridge on the networks' output weights (0 = the paper's cost).
+        n_starts, seed: random starts; seed of ``jax.random.PRNGKey``.
+        max_iter, tol: LM limits per phase (iterations; relative cost decrease of an accepted
+            step and relative step size).
+        subsample, refine_starts: the two phases above.
+        validation_fraction, block_size: see :func:`split_indices`.
+        chunk_size: samples per accumulated chunk (memory bound; results independent of it).
+        damping: numerical damping of Proposition 1's least squares (see :func:`proposition1`).
+        lambda0: initial LM damping (relative to ``diag JᵀJ``).
+        method: Jacobian sums, ``"auto"``, ``"structured"`` or ``"generic"``.
+        check_data: run :func:`check_excitation` first.
+        progress: ``None`` (silent), ``True`` (one line per iteration to stderr) or a callable
+            receiving a dict ``{phase, iteration, best_cost, lambda, active, starts}``.
+
+    Returns:
+        :class:`IdentifyResult`.
+    """
+    t0 = time.perf_counter()
+    name = data.name
+    if data.n < 10:
+        raise DataError(f"{name}: too few samples ({data.n}) to identify a model")
+    if gain_widths is None and cog_widths is None:
+        raise ValueError("identify needs at least one network; use fit_physics for the physics-only model")
+    if check_data:
+        problems = check_excitation(data, pole_pitch)
+        if problems:
+            raise ExcitationError(f"{name}: data do not persistently excite the model: " + "; ".join(problems))
+    train, val = train_validation_split(data, validation_fraction, block_size)
+    y_lo, y_hi = float(data.y.min()), float(data.y.max())
+    y_center = 0.5 * (float(train.y.min()) + float(train.y.max()))
+    y_scale = max(0.5 * (float(train.y.max()) - float(train.y.min())), 1e-9)
+
+    a_phy, b_phy = fit_physics(train, pole_pitch)
+    physics = CoilSetModel.physics(a_phy, b_phy, pole_pitch, y_center, y_scale, y_lo, y_hi)
+    star = _star_or_fit(train, pole_pitch, theta_phy_star)
+    lam12 = lambda_diagonal(Lambda)
+
+    keys = jax.random.split(jax.random.PRNGKey(seed), n_starts)
+    models0 = [CoilSetModel.init(kk, a_phy, b_phy, pole_pitch, y_center, y_scale, gain_widths, cog_widths, activation,
+                                 y_lo, y_hi) for kk in keys]
+    template = models0[0]
+    flats = jnp.stack([hidden_vector(mm) for mm in models0])
+    show = _progress_printer(name) if progress is True else (progress or None)
+    opts = dict(max_iter=max_iter, tol=tol, lambda0=lambda0, show=show)
+    history = []
+
+    stride = max(1, min(int(subsample), train.n // _MIN_SUBSAMPLE))
+    iters0 = np.zeros(n_starts, int)
+    start_costs = None
+    if stride > 1:
+        sub = train.take(slice(None, None, stride))
+        layout, chunks, k = _prepare(template, sub, lam12, star, ridge_output, damping, chunk_size, method)
+        st1, hist1 = _run_lm(layout, flats, chunks, k, sub.n, phase=1, **opts)
+        history.append(hist1)
+        fs1 = np.where(np.isfinite(np.asarray(st1.ev.f)), np.asarray(st1.ev.f), np.inf)
+        start_costs = 2.0 * fs1 / sub.n
+        keep = np.argsort(fs1, kind="stable")[:max(1, min(refine_starts, n_starts))]
+        flats, iters0 = st1.flat[keep], np.asarray(st1.n_iter)[keep]
+    layout, chunks, k = _prepare(template, train, lam12, star, ridge_output, damping, chunk_size, method)
+    st, hist2 = _run_lm(layout, flats, chunks, k, train.n, phase=2 if stride > 1 else 1, **opts)
+    history.append(hist2)
+
+    fs = np.asarray(st.ev.f)
+    best = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
+    if start_costs is None:
+        start_costs = 2.0 * fs / train.n
+    model = with_theta_L(with_hidden_vector(template, st.flat[best]), st.ev.theta_L[best])
+    c_pgnn = cost(model, train, lam12, star)
+    c_phys = cost(physics, train)
+    nan = float("nan")
+    c_pgnn_val = cost(model, val, lam12, star) if val.n else CostTerms(nan, nan)
+    c_phys_val = cost(physics, val) if val.n else CostTerms(nan, 0.0)
+    return IdentifyResult(
+        name=name, model=model, physics_model=physics, cost_physics=c_phys.data, cost_pgnn=c_pgnn.total,
+        cost_pgnn_data=c_pgnn.data, cost_physics_validation=c_phys_val.data, cost_pgnn_validation=c_pgnn_val.data,
+        cost_pgnn_validation_full=c_pgnn_val.total, iterations=int(iters0[best] + np.asarray(st.n_iter)[best]),
+        seconds=time.perf_counter() - t0, ridge=float(ridge_output), ridge_term=float(st.ev.ridge2[best]) / train.n,
+        damping=float(damping), damping_term=float(st.ev.damp2[best]) / train.n,
+        n_train=train.n, n_validation=val.n, seed=int(seed), n_starts=int(n_starts),
+        start_costs=tuple(float(x) for x in start_costs),
+        stop_reason=STOP_REASONS[int(np.asarray(st.reason)[best])], history=tuple(history))
+
+
+def identify_all(datasets, pole_pitch: float, *, seed: int = 0, progress=None, **kwargs):
+    """Identify every coil set independently (Algorithm 2's loop) and combine them (eq. PGNN_Electromagnetics).
+
+    Args:
+        datasets: list of :class:`CoilSetData`, one per coil set (in coil-set order).
+        pole_pitch: ``d_m`` (m). seed: coil set ``l`` (0-based) uses ``seed + l``.
+        kwargs: passed to :func:`identify`.
+
+    Returns:
+        ``(CombinedModel, [IdentifyResult, ...])``.
+    """
+    results = []
+    for l, data in enumerate(datasets):
+        results.append(identify(data, pole_pitch, seed=seed + l, progress=progress, **kwargs))
+    return CombinedModel.from_coil_sets([r.model for r in results]), results

@@ -1,0 +1,71 @@
+"""The result of identifying one coil set (Algorithm 2): models, costs, iterations, stop reason."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pgcomm.models import CoilSetModel
+
+#: Why the Levenberg–Marquardt loop of a start stopped (codes of :mod:`pgcomm.identify.lm`).
+STOP_REASONS = {0: "running", 1: "relative cost change below tol", 2: "step below tol",
+                3: "damping above 1e10 (no further decrease)", 4: "maximum iterations", 5: "non-finite cost"}
+
+
+@dataclass(frozen=True)
+class IdentifyResult:
+    """Identification of one coil set (Algorithm 2).
+
+    Costs follow eq. Identification_CostFunction with ``2N`` the number of samples of the set
+    they are evaluated on:
+
+    * ``cost_physics``: physics-only model on the training data (data term; its Λ term is 0
+      because ``θ_phy = θ_phy*``);
+    * ``cost_pgnn``: the paper's ``V`` of the PGNN on the training data (data + Λ term; the
+      optional ``ridge`` and numerical ``damping`` terms, minimised with it, are NOT included,
+      see ``ridge_term`` and ``damping_term``);
+    * ``cost_pgnn_data``: data term only of ``cost_pgnn``;
+    * ``cost_physics_validation``, ``cost_pgnn_validation``: DATA TERM ONLY on the validation
+      data (a prediction error; comparable between models);
+    * ``cost_pgnn_validation_full``: validation data term + the same Λ term (the full ``V``).
+
+    Validation costs are NaN when ``n_validation == 0``.
+
+    ``iterations``: LM iterations of the kept start over both phases; ``start_costs``: the
+    objective of every start at the end of phase 1 (on its subsample; the single phase if
+    there is only one); ``history``: per phase, the best objective (``V`` plus the ridge and
+    damping terms) after each iteration, index 0 being the starting points.
+    """
+
+    name: str
+    model: CoilSetModel
+    physics_model: CoilSetModel
+    cost_physics: float
+    cost_pgnn: float
+    cost_pgnn_data: float
+    cost_physics_validation: float
+    cost_pgnn_validation: float
+    cost_pgnn_validation_full: float
+    iterations: int
+    seconds: float
+    ridge: float
+    ridge_term: float
+    damping: float
+    damping_term: float
+    n_train: int
+    n_validation: int
+    seed: int
+    n_starts: int
+    start_costs: tuple = ()
+    stop_reason: str = ""
+    history: tuple = field(default=(), repr=False)
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (keys of ``results.json`` ``identification.coil_sets[l]``)."""
+        keys = ("name", "cost_physics", "cost_pgnn", "cost_pgnn_data", "cost_physics_validation",
+                "cost_pgnn_validation", "cost_pgnn_validation_full", "iterations", "seconds", "ridge",
+                "ridge_term", "damping", "damping_term", "n_train", "n_validation", "seed", "n_starts", "stop_reason")
+        out = {key: getattr(self, key) for key in keys}
+        out["start_costs"] = list(self.start_costs)
+        return {key: (None if isinstance(v, float) and not np.isfinite(v) else v) for key, v in out.items()}

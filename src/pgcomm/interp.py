@@ -1,0 +1,46 @@
+"""Linear interpolation of tabulated rows on a position grid: the one interpolator of the package.
+
+Force maps (:class:`pgcomm.forcemap.ForceMapPlant`), the drive-style anti-cogging table
+(:class:`pgcomm.compensation.CoggingTable`) and the exported lookup tables
+(:mod:`pgcomm.export.lut`) all read their tables through :func:`interp_linear`.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+__all__ = ["interp_linear"]
+
+
+def interp_linear(grid, table, y, uniform: bool = True):
+    """Rows of ``table`` linearly interpolated at positions ``y``, clamped to the grid's ends.
+
+    ``f(y) = (1 - w) table[i] + w table[i + 1]`` with ``grid[i] <= y <= grid[i + 1]`` and
+    ``w = (y - grid[i]) / (grid[i + 1] - grid[i])``. Written as ``(1 - w) t0 + w t1`` (rather
+    than ``t0 + w (t1 - t0)``) so that the result is exactly a table row at ``w = 0`` and
+    ``w = 1``; the weight comes from the real grid, so grid points are hit exactly even when
+    the index guess is off by rounding. Positions outside ``[grid[0], grid[-1]]`` read the end
+    rows (callers that must refuse them check the range themselves). Jittable.
+
+    Args:
+        grid: ``(M,)`` positions (m), strictly increasing, ``M >= 2``.
+        table: ``(M, ...)`` rows (any units).
+        y: positions (m), any shape ``S``.
+        uniform: ``grid`` is uniform: O(1) index arithmetic instead of a binary search.
+
+    Returns:
+        ``S + table.shape[1:]``.
+    """
+    g = grid
+    m = g.shape[0]
+    y = jnp.clip(jnp.asarray(y, dtype=g.dtype), g[0], g[-1])
+    if uniform:
+        h = (g[-1] - g[0]) / (m - 1)
+        i = jnp.floor((y - g[0]) / h).astype(jnp.int32)
+    else:
+        i = jnp.searchsorted(g, y, side="right") - 1
+    i = jnp.clip(i, 0, m - 2)
+    g0 = g[i]
+    w = jnp.clip((y - g0) / (g[i + 1] - g0), 0.0, 1.0)
+    w = w.reshape(w.shape + (1,) * (table.ndim - 1))
+    return (1.0 - w) * table[i] + w * table[i + 1]
