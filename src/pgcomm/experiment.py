@@ -1,6 +1,6 @@
 """The paper's experiment: settings (frozen dataclasses), the resolved :class:`Setup`, and its steps.
 
-Settings: an experiment config is a TOML file (read by :func:`pgcomm.io.config.load_experiment`)
+Settings: an experiment config is a TOML file (read by :func:`load_experiment`)
 whose tables map onto :class:`ExperimentConfig`::
 
     sample_time = 0.001        # s
@@ -135,6 +135,14 @@ class ExperimentConfig:
     def __post_init__(self):
         if not 1e-6 <= self.sample_time <= 0.1:
             raise ValueError(f"sample_time = {self.sample_time} s is implausible (expected 1e-6 to 0.1 s)")
+
+
+def load_experiment(path) -> ExperimentConfig:
+    """Read an experiment TOML into :class:`ExperimentConfig` (unknown keys refused, by
+    :func:`pgcomm.io.config.load_dataclass`)."""
+    from pgcomm.io.config import load_dataclass, load_toml
+
+    return load_dataclass(ExperimentConfig, load_toml(path), str(path))
 
 
 @dataclass(frozen=True)

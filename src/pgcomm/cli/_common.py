@@ -77,8 +77,7 @@ def motor_from_args(args):
 
 def setup_from_args(args):
     """The :class:`pgcomm.experiment.Setup` of ``--config``, ``--plant`` and ``--motor``."""
-    from pgcomm.experiment import ExperimentConfig, build_setup
-    from pgcomm.io.config import load_experiment
+    from pgcomm.experiment import ExperimentConfig, build_setup, load_experiment
 
     config = load_experiment(args.config) if args.config else ExperimentConfig()
     return build_setup(config, forcemap_path=args.plant, motor_path=args.motor)

@@ -528,10 +528,3 @@ def motor_to_toml(motor: Motor) -> str:
 def write_motor(path, motor: Motor) -> None:
     """Write ``motor`` as TOML to ``path`` (atomically)."""
     atomic_write_text(path, motor_to_toml(motor))
-
-
-def load_experiment(path):
-    """Read an experiment TOML into :class:`pgcomm.experiment.ExperimentConfig` (unknown keys refused)."""
-    from pgcomm.experiment import ExperimentConfig
-
-    return load_dataclass(ExperimentConfig, load_toml(path), str(path))
