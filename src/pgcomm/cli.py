@@ -163,7 +163,7 @@ def _simulate_configure(p):
 @command("simulate", "Closed-loop run on the twin (or a force-map plant): log, plot, results.json.")
 def cmd_simulate(args, out: Path, progress):
     from pgcomm import pipeline, plots
-    from pgcomm.commutation import ClassicalLaw, ModelLaw
+    from pgcomm.commutation import ClassicalLaw, ModelLaw, oracle_law
     from pgcomm.control import Feedforward
     from pgcomm.errors import ConfigError
     from pgcomm.io.logs import Log, write_log
@@ -183,7 +183,7 @@ def cmd_simulate(args, out: Path, progress):
             raise ConfigError("--law true needs the twin (a force map has no known fundamental)")
         law, name = ClassicalLaw.from_motor(setup.motor, k=setup.true_k, zeta=setup.true_zeta), "true"
     else:
-        law, name = ModelLaw(setup.plant, current_limit=setup.motor.current_limit), "oracle"
+        law, name = oracle_law(setup.plant, current_limit=setup.motor.current_limit), "oracle"
     ff = Feedforward()
     if not args.no_feedforward:
         with progress.stage(f"identify feedforward with the {name} law ({setup.config.controller.ff_iterations} passes)"):

@@ -9,9 +9,12 @@
   (eq. Commutation_Solution_With_PhaseOffset) and currents -> ``(Fy^l*, Δ^l)``
   (eq. Current_To_ForceDelta).
 
-Every law is a pytree with a method ``currents(y, F_star)`` taking positions of
-shape ``S`` (m) and desired forces ``S + (3,)`` (``[Fy, Fx, Tz]`` in N, N, N·m) and
-returning star currents ``S + (L, 2)`` (A). All are vectorised and jittable.
+Every law is a pytree with a method ``currents(y, F_star, v=None)`` taking positions of
+shape ``S`` (m), desired forces ``S + (3,)`` (``[Fy, Fx, Tz]`` in N, N, N·m) and the
+velocity ``S`` (m/s) the law may use, returning star currents ``S + (L, 2)`` (A). All are
+vectorised and jittable. Static laws ignore ``v``. A law with ``true_state = True`` (the
+oracle) is fed the plant's true position and velocity by the simulation; every other law
+gets what a controller has: the encoder position and the reference velocity.
 
 Energy metric. Copper loss is proportional to ``ia^2 + ib^2 + ic^2`` with
 ``ic = -ia - ib``, i.e. ``i^T Q i`` per coil set with ``Q = [[2, 1], [1, 2]]``.
@@ -147,8 +150,8 @@ class ClassicalLaw:
                                self.pole_pitch)
         return star_reduce(g3)
 
-    def currents(self, y, f_star):
-        """Star currents ``(..., L, 2)`` (A) for positions ``y`` (m) and desired ``F*`` ``(..., 3)``."""
+    def currents(self, y, f_star, v=None):
+        """Star currents ``(..., L, 2)`` (A) for positions ``y`` (m) and desired ``F*`` ``(..., 3)``; ``v`` unused."""
         winv = metric_inverse(self.k.shape[0], self.metric)
         i = min_energy_currents(self.gain(y), f_star, winv)
         return limit_currents(i, self.current_limit)
@@ -274,8 +277,8 @@ class DriveInputLaw:
         return cls(jnp.asarray(motor.k[coil_set]), jnp.asarray(motor.zeta[coil_set]), jnp.asarray(float(delta)),
                    jnp.asarray(active), float(motor.pole_pitch))
 
-    def currents(self, y, f_star):
-        """Star currents ``(..., L, 2)``: only the active coil set carries current."""
+    def currents(self, y, f_star, v=None):
+        """Star currents ``(..., L, 2)``: only the active coil set carries current (``v`` unused)."""
         y = jnp.asarray(y)
         eta = commutation_phase(y, self.zeta_hat, self.pole_pitch) + self.delta
         amp = f_star[..., 0] / self.k_hat
@@ -285,25 +288,45 @@ class DriveInputLaw:
 
 @pytree_dataclass
 class ModelLaw:
-    """Model-based minimum-energy commutation ``i = K̂(y)^† (F* - F̂_cog(y))`` (eq. Commutation_Model_Currents).
+    """Model-based minimum-energy commutation ``i = K̂(y)^† (F* - F̂_cog(y) - F̂_dir(y, v))`` (eq. Commutation_Model_Currents).
 
     ``model`` is any pytree with ``gain(y) -> (..., L, 3, 2)`` and ``cogging(y) -> (..., 3)``:
-    a PGNN, the physics-only model, or the twin's exact truth (the oracle).
+    a PGNN, the physics-only model, or a plant's exact truth (the oracle). A model that
+    also has ``direction_force(y, v) -> (..., 3)`` (a plant, a PGNN with a direction term)
+    has that force subtracted too when the law is given a velocity ``v``.
     Damped where ``K̂`` is ill-conditioned (see :func:`min_energy_currents`) and scaled
     to respect ``current_limit`` (A).
+
+    ``true_state``: the simulation feeds this law the plant's true position and velocity
+    instead of the encoder position and the reference velocity (the oracle, which no
+    commutation can beat except by noise; see :func:`oracle_law`).
     """
 
     model: object
     metric: str = static_field(default="phase")
     current_limit: float | None = static_field(default=None)
     det_min: float = static_field(default=DEFAULT_DET_MIN)
+    true_state: bool = static_field(default=False)
 
-    def currents(self, y, f_star):
-        """Star currents ``(..., L, 2)`` (A) for ``y`` (m) and ``F*`` ``(..., 3)``."""
+    def currents(self, y, f_star, v=None):
+        """Star currents ``(..., L, 2)`` (A) for ``y`` (m), ``F*`` ``(..., 3)`` and velocity ``v`` (m/s, or ``None``)."""
         gain = self.model.gain(y)
         winv = metric_inverse(gain.shape[-3], self.metric)
-        i = min_energy_currents(gain, f_star - self.model.cogging(y), winv, det_min=self.det_min)
+        target = f_star - self.model.cogging(y)
+        if v is not None and hasattr(self.model, "direction_force"):
+            target = target - self.model.direction_force(y, v)
+        i = min_energy_currents(gain, target, winv, det_min=self.det_min)
         return limit_currents(i, self.current_limit)
+
+
+def oracle_law(plant, current_limit: float | None = None) -> ModelLaw:
+    """The oracle: the exact inverse of everything the plant knows, fed its true state.
+
+    ``i = K(y)^† (F* - F_cog(y) - F_dir(y, v))`` with the plant's true gain, cogging and
+    velocity-dependent force at the true position ``y`` and velocity ``v`` of each sample
+    (DESIGN.md: the floor that no commutation beats except by noise).
+    """
+    return ModelLaw(plant, current_limit=current_limit, true_state=True)
 
 
 @pytree_dataclass
@@ -316,7 +339,7 @@ class OffsetLaw:
     base: ClassicalLaw
     offset: object
 
-    def currents(self, y, f_star):
-        """Star currents ``(..., L, 2)`` (A)."""
+    def currents(self, y, f_star, v=None):
+        """Star currents ``(..., L, 2)`` (A); ``v`` unused."""
         return self.base.currents(y, f_star - self.offset(y))
 

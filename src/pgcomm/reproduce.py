@@ -20,16 +20,17 @@ Steps (each a stage of the progress display):
 from __future__ import annotations
 
 import time
+import zlib
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from pgcomm import pipeline
-from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw
+from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw, oracle_law
 from pgcomm.compensation import fit_cogging_table, fit_harmonic_cogging
 from pgcomm.experiment import ExperimentConfig, IdentificationConfig, Setup
 from pgcomm.identify import CoilSetData, identify_all
-from pgcomm.metrics import DIRECTIONS, reducible_share
+from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se, reducible_share
 from pgcomm.models import CombinedModel
 
 ROWS = ("original", "classical", "physics", "pgnn", "cogging_table", "harmonic_cogging", "oracle")
@@ -112,6 +113,15 @@ def identification_results(res, seconds_total: float) -> dict:
     return {"coil_sets": [r.to_dict() for r in res], "seconds_total": seconds_total}
 
 
+def reference_seed(seed: int, reference_name: str) -> int:
+    """Sensor-noise seed of an evaluation run: by reference, never by row (DESIGN.md, Noise).
+
+    Every law sees the same noise on the same reference, so rows compare without noise
+    spread, and adding a reference leaves the other references' numbers unchanged.
+    """
+    return seed + 100 + zlib.crc32(reference_name.encode()) % 100_000
+
+
 def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> ReproduceOutput:
     """The whole experiment; see the module docstring. ``progress``: a :class:`pgcomm.progress.Progress`."""
     from pgcomm.progress import Progress
@@ -147,7 +157,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
             "classical": ClassicalLaw.from_motor(motor, k=cal.k, zeta=cal.zeta),
             "physics": ModelLaw(physics, current_limit=limit),
             "pgnn": ModelLaw(pgnn, current_limit=limit),
-            "oracle": ModelLaw(setup.plant, current_limit=limit)}
+            "oracle": oracle_law(setup.plant, current_limit=limit)}
 
     with progress.stage(f"feedforward identification per law ({cfg.controller.ff_iterations} closed-loop passes)"):
         names = list(laws)
@@ -170,13 +180,25 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     with progress.stage(f"closed-loop evaluation: {len(ROWS)} laws x {len(refs)} references"):
         jobs = [(row, rname) for row in ROWS for rname in refs]
         out = pipeline.run_laws(setup, [laws[row] for row, _ in jobs], [refs[rn] for _, rn in jobs],
-                                [ffs[row] for row, _ in jobs], seeds=[seed + 100 + j for j in range(len(jobs))])
+                                [ffs[row] for row, _ in jobs], seeds=[reference_seed(seed, rn) for _, rn in jobs])
         for (row, rname), res in zip(jobs, out):
             runs[rname][row] = res
 
     lp = cfg.evaluation.lowpass_hz
     results = _results(setup, cal, id_res, t_id, runs, ffs, tables, lp)
     return ReproduceOutput(results, runs, refs, pgnn, physics, cal, id_res, tables)
+
+
+def _reducible_se(classical, oracle, lowpass_hz: float) -> dict:
+    """Standard errors of ``classical - oracle`` per direction (filtered) and for tracking."""
+    ts = classical.sample_time
+    # blocks of ~20 filter time constants (at least 0.1 s): block means nearly independent
+    block = max(int(round(20.0 / (2 * np.pi * lowpass_hz * ts))), int(round(0.1 / ts)))
+    fc = lowpass(classical.f_meas - classical.f_star, ts, lowpass_hz)
+    fo = lowpass(oracle.f_meas - oracle.f_star, ts, lowpass_hz)
+    se = {d: mse_difference_se(fc[:, q], fo[:, q], block) for q, d in enumerate(DIRECTIONS)}
+    se["tracking"] = mse_difference_se(classical.e, oracle.e, block)
+    return se
 
 
 def _results(setup, cal, id_res, t_id, runs, ffs, tables, lowpass_hz) -> dict:
@@ -194,11 +216,12 @@ def _results(setup, cal, id_res, t_id, runs, ffs, tables, lowpass_hz) -> dict:
     out["tracking_mse"] = per_ref["long"]["tracking_mse"]
     out["references"] = per_ref
     cm, tm = out["commutation_mse"], out["tracking_mse"]
+    se = _reducible_se(runs["long"]["classical"], runs["long"]["oracle"], lowpass_hz)
     share = {}
     for row in ROWS:
         share[row] = {d: reducible_share(cm[row][d]["filtered"], cm["classical"][d]["filtered"],
-                                         cm["oracle"][d]["filtered"]) for d in DIRECTIONS}
-        share[row]["tracking"] = reducible_share(tm[row], tm["classical"], tm["oracle"])
+                                         cm["oracle"][d]["filtered"], se[d]) for d in DIRECTIONS}
+        share[row]["tracking"] = reducible_share(tm[row], tm["classical"], tm["oracle"], se["tracking"])
     out["reducible_share"] = share
     out["improvement_over_classical"] = {
         row: {**{d: cm["classical"][d]["filtered"] / cm[row][d]["filtered"] for d in DIRECTIONS},
