@@ -47,7 +47,7 @@ def comparison_sentences(results: dict) -> list[str]:
     r_oy, p_oy = cm["original"]["y"]["filtered"], p["original"]["y"][0]
     s.append(f"Original, y: {r_oy:.3g} N² against {p_oy:.3g} N²; the uncalibrated k̂ = 67 N/A is about 9 % too high, "
              "so this error grows with the squared driving force, which depends on the friction and mass of the "
-             "translator (ours: 30 kg, 40 N Coulomb, 80 N s/m).")
+             "translator (ours: 30 kg, 12 N Coulomb, 80 N s/m).")
     r_py, p_py = cm["pgnn"]["y"]["filtered"], p["pgnn"]["y"][0]
     s.append(f"PGNN, y: {r_py:.3g} N² against {p_py:.3g} N², an improvement over classical of "
              f"{r_cy / r_py:.1f}x against the paper's {p_cy / p_py:.1f}x. The twin's parasitic effects are mostly "

@@ -91,7 +91,7 @@ class TwinParams:
     cog_periodic: tuple[float, float, float] = (0.5, 0.05, 0.05)
     cog_period: float = 0.0235
     # 7. direction-dependent force
-    direction_force: tuple[float, float, float] = (1.0, 0.05, 0.1)
+    direction_force: tuple[float, float, float] = (3.0, 0.1, 0.2)
     direction_velocity: float = 0.002    # m/s
 
     @property
