@@ -84,6 +84,7 @@ __all__ = [
     "ForceTerm",
     "ZooMotor",
     "ZooPlant",
+    "config_toml",
     "draw_motor",
     "reference_span",
     "write_motor",
