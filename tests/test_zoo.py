@@ -250,3 +250,8 @@ def test_twin_type_plant_adds_direction_force(draws):
     np.testing.assert_allclose(diff, expected, rtol=1e-12, atol=1e-12 * max(m.direction_force))
     assert plant.y_range == m.y_range
     assert bool(plant.in_range(jnp.asarray(0.0))) and not bool(plant.in_range(jnp.asarray(m.stroke)))
+
+
+def test_write_motor_leaves_exactly_the_four_files(tmp_path):
+    folder = write_motor(draw_motor(2, 3), tmp_path / "a" / "m")
+    assert sorted(p.name for p in folder.iterdir()) == sorted(FILES)  # no temporary files left behind
