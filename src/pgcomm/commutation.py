@@ -83,6 +83,12 @@ def min_energy_currents(gain, force, winv, det_min=DEFAULT_DET_MIN, damping=DEFA
     law stays bounded where ``K`` loses rank (e.g. one coil set, or a lever arm of
     zero) and approaches the least-squares compromise there.
 
+    One coil set (``L = 1``) has two currents for three force rows: no current vector
+    meets ``F*`` in general, and a least-squares compromise over rows in N and N·m would
+    give up driving force. The paper's commutation serves ``Fy`` first, so with ``L = 1``
+    the ``Fy`` and ``Fx`` rows are met exactly (``Tz`` follows from them: for one coil set
+    it is ``d·Fx - x·Fy``), by the same row-normalised, damped solve on the ``2 x 2`` system.
+
     Args:
         gain: ``(..., L, 3, 2)`` gain matrices (N/A).
         force: ``(..., 3)`` desired force ``[Fy, Fx, Tz]``.
@@ -91,6 +97,8 @@ def min_energy_currents(gain, force, winv, det_min=DEFAULT_DET_MIN, damping=DEFA
     Returns:
         ``(..., L, 2)`` star currents (A).
     """
+    if gain.shape[-3] == 1:
+        return _single_coil_set_currents(gain, force, det_min, damping)
     # broadcast-and-sum rather than einsum: tiny dots are slow inside XLA loops (scan bodies)
     kw = jnp.sum(gain[..., :, :, :, None] * winv[:, None, :, :], axis=-2)  # K^l W^{-1}: (..., L, 3, 2)
     a = jnp.sum(kw[..., :, :, None, :] * gain[..., :, None, :, :], axis=(-4, -1))  # Σ_l K^l W^{-1} K^lT
@@ -103,6 +111,25 @@ def min_energy_currents(gain, force, winv, det_min=DEFAULT_DET_MIN, damping=DEFA
     inv, _ = _inv3_sym(an + eps2[..., None, None] * jnp.eye(3))
     z = jnp.sum(inv * (force * dinv)[..., None, :], axis=-1) * dinv
     return jnp.sum(kw * z[..., None, :, None], axis=-2)
+
+
+def _single_coil_set_currents(gain, force, det_min, damping):
+    """``L = 1``: currents meeting the ``Fy`` and ``Fx`` rows, ``(..., 1, 2)`` (see :func:`min_energy_currents`)."""
+    k = gain[..., 0, :2, :]                                    # (..., 2, 2): rows Fy, Fx
+    rn = 1.0 / jnp.sqrt(jnp.maximum(jnp.sum(k * k, axis=-1), 1e-300))  # row norms (A/N)
+    kn = k * rn[..., :, None]
+    f = force[..., :2] * rn
+    a, b, c, d = kn[..., 0, 0], kn[..., 0, 1], kn[..., 1, 0], kn[..., 1, 1]
+    det = a * d - b * c                                        # |det| <= 1 after row normalisation
+    # Tikhonov on the normalised system where the rows become parallel (e.g. mu = 0)
+    eps2 = damping * jnp.clip(1.0 - det * det / det_min, 0.0, 1.0) ** 2
+    # i = Kn^T (Kn Kn^T + eps2 I)^{-1} f: the damped least-squares solution, exact when eps2 = 0
+    g00, g01, g11 = a * a + b * b + eps2, a * c + b * d, c * c + d * d + eps2
+    gdet = g00 * g11 - g01 * g01
+    z0 = (g11 * f[..., 0] - g01 * f[..., 1]) / gdet
+    z1 = (g00 * f[..., 1] - g01 * f[..., 0]) / gdet
+    i = jnp.stack([a * z0 + c * z1, b * z0 + d * z1], axis=-1)
+    return i[..., None, :]
 
 
 def limit_currents(currents, current_limit):
