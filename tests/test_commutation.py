@@ -347,5 +347,5 @@ def test_single_coil_set_meets_fy_and_fx_exactly(rng):
     scale = np.abs(gain).max() * np.abs(np.asarray(i)).max()  # force scale of K i
     np.testing.assert_allclose(f[:, :2], f_star[:, :2], rtol=0, atol=1e-10 * scale)
     # the same as solving the 2 x 2 system directly
-    direct = np.linalg.solve(gain[:, 0, :2, :], f_star[:, :2])
+    direct = np.linalg.solve(gain[:, 0, :2, :], f_star[:, :2, None])[..., 0]
     np.testing.assert_allclose(np.asarray(i)[:, 0, :], direct, rtol=0, atol=1e-10 * np.abs(direct).max())

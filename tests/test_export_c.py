@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from pgcomm.commutation import ModelLaw, currents_to_drive_inputs, metric_inverse
+from pgcomm.commutation import ModelLaw, currents_to_drive_inputs
 from pgcomm.export.c import c_source, write_c
 from pgcomm.models import MLP, CoilSetModel, CombinedModel, physics_from_ideal
 
