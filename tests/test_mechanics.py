@@ -115,7 +115,7 @@ def test_step_vectorised_over_batch():
 
 @pytest.mark.parametrize("mech, dt", [
     (Mechanics(substeps=1), 1e-2),
-    (Mechanics(coulomb_velocity=1e-4, substeps=2), 1e-3),
+    (Mechanics(coulomb=40.0, coulomb_velocity=1e-4, substeps=2), 1e-3),
     (Mechanics(mass=0.5, viscous=0.0, coulomb=10.0, coulomb_velocity=1e-3, substeps=4), 1e-3),
 ])
 def test_check_stable_raises_for_too_few_substeps(mech, dt):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.signal import cont2discrete, lfilter
 
-from pgcomm.metrics import commutation_mse, lowpass, reducible_share, tracking_mse
+from pgcomm.metrics import commutation_mse, lowpass, mse_difference_se, reducible_share, tracking_mse
 
 
 @pytest.mark.parametrize("sample_time, cutoff_hz", [(1e-3, 50.0), (1e-3, 10.0), (2e-4, 50.0), (5e-3, 20.0)])
@@ -66,4 +66,21 @@ def test_commutation_mse_of_white_noise_matches_filter_variance_gain(rng):
 def test_tracking_mse_and_reducible_share():
     assert tracking_mse(np.array([1e-4, -1e-4, 2e-4, 0.0])) == pytest.approx(1.5e-8, rel=1e-14)
     assert reducible_share(row=3.0, classical=10.0, oracle=2.0) == pytest.approx(7.0 / 8.0, rel=1e-15)
-    assert np.isnan(reducible_share(1.0, 2.0, 2.0))
+    assert reducible_share(1.0, 2.0, 2.0) is None  # nothing to reduce
+    # reported only where classical - oracle >= max(5 se, 0.2 oracle)
+    assert reducible_share(row=3.0, classical=10.0, oracle=2.0, se=1.6) == pytest.approx(7.0 / 8.0, rel=1e-15)
+    assert reducible_share(row=3.0, classical=10.0, oracle=2.0, se=1.61) is None
+    assert reducible_share(row=3.0, classical=11.9, oracle=10.0) is None
+
+
+def test_mse_difference_se_matches_independent_blocks():
+    # two runs whose squared-error difference is white with known variance: SE = sd / sqrt(N)
+    rng = np.random.default_rng(3)
+    n, block = 200_000, 100
+    a = rng.normal(0.0, 2.0, n)
+    b = rng.normal(0.0, 1.0, n)
+    d_var = np.var(a**2) + np.var(b**2)  # 2·σ_a⁴ + 2·σ_b⁴ = 32 + 2 for independent Gaussians
+    se = mse_difference_se(a, b, block)
+    assert se == pytest.approx(np.sqrt(34.0 / n), rel=0.1)
+    assert np.sqrt(d_var / n) == pytest.approx(np.sqrt(34.0 / n), rel=0.1)
+    assert mse_difference_se(a[:150], b[:150], block) == np.inf

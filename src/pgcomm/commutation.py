@@ -9,9 +9,12 @@
   (eq. Commutation_Solution_With_PhaseOffset) and currents -> ``(Fy^l*, Δ^l)``
   (eq. Current_To_ForceDelta).
 
-Every law is a pytree with a method ``currents(y, F_star)`` taking positions of
-shape ``S`` (m) and desired forces ``S + (3,)`` (``[Fy, Fx, Tz]`` in N, N, N·m) and
-returning star currents ``S + (L, 2)`` (A). All are vectorised and jittable.
+Every law is a pytree with a method ``currents(y, F_star, v=None)`` taking positions of
+shape ``S`` (m), desired forces ``S + (3,)`` (``[Fy, Fx, Tz]`` in N, N, N·m) and the
+velocity ``S`` (m/s) the law may use, returning star currents ``S + (L, 2)`` (A). All are
+vectorised and jittable. Static laws ignore ``v``. A law with ``true_state = True`` (the
+oracle) is fed the plant's true position and velocity by the simulation; every other law
+gets what a controller has: the encoder position and the reference velocity.
 
 Energy metric. Copper loss is proportional to ``ia^2 + ib^2 + ic^2`` with
 ``ic = -ia - ib``, i.e. ``i^T Q i`` per coil set with ``Q = [[2, 1], [1, 2]]``.
@@ -80,6 +83,12 @@ def min_energy_currents(gain, force, winv, det_min=DEFAULT_DET_MIN, damping=DEFA
     law stays bounded where ``K`` loses rank (e.g. one coil set, or a lever arm of
     zero) and approaches the least-squares compromise there.
 
+    One coil set (``L = 1``) has two currents for three force rows: no current vector
+    meets ``F*`` in general, and a least-squares compromise over rows in N and N·m would
+    give up driving force. The paper's commutation serves ``Fy`` first, so with ``L = 1``
+    the ``Fy`` and ``Fx`` rows are met exactly (``Tz`` follows from them: for one coil set
+    it is ``d·Fx - x·Fy``), by the same row-normalised, damped solve on the ``2 x 2`` system.
+
     Args:
         gain: ``(..., L, 3, 2)`` gain matrices (N/A).
         force: ``(..., 3)`` desired force ``[Fy, Fx, Tz]``.
@@ -88,6 +97,8 @@ def min_energy_currents(gain, force, winv, det_min=DEFAULT_DET_MIN, damping=DEFA
     Returns:
         ``(..., L, 2)`` star currents (A).
     """
+    if gain.shape[-3] == 1:
+        return _single_coil_set_currents(gain, force, det_min, damping)
     # broadcast-and-sum rather than einsum: tiny dots are slow inside XLA loops (scan bodies)
     kw = jnp.sum(gain[..., :, :, :, None] * winv[:, None, :, :], axis=-2)  # K^l W^{-1}: (..., L, 3, 2)
     a = jnp.sum(kw[..., :, :, None, :] * gain[..., :, None, :, :], axis=(-4, -1))  # Σ_l K^l W^{-1} K^lT
@@ -100,6 +111,25 @@ def min_energy_currents(gain, force, winv, det_min=DEFAULT_DET_MIN, damping=DEFA
     inv, _ = _inv3_sym(an + eps2[..., None, None] * jnp.eye(3))
     z = jnp.sum(inv * (force * dinv)[..., None, :], axis=-1) * dinv
     return jnp.sum(kw * z[..., None, :, None], axis=-2)
+
+
+def _single_coil_set_currents(gain, force, det_min, damping):
+    """``L = 1``: currents meeting the ``Fy`` and ``Fx`` rows, ``(..., 1, 2)`` (see :func:`min_energy_currents`)."""
+    k = gain[..., 0, :2, :]                                    # (..., 2, 2): rows Fy, Fx
+    rn = 1.0 / jnp.sqrt(jnp.maximum(jnp.sum(k * k, axis=-1), 1e-300))  # row norms (A/N)
+    kn = k * rn[..., :, None]
+    f = force[..., :2] * rn
+    a, b, c, d = kn[..., 0, 0], kn[..., 0, 1], kn[..., 1, 0], kn[..., 1, 1]
+    det = a * d - b * c                                        # |det| <= 1 after row normalisation
+    # Tikhonov on the normalised system where the rows become parallel (e.g. mu = 0)
+    eps2 = damping * jnp.clip(1.0 - det * det / det_min, 0.0, 1.0) ** 2
+    # i = Kn^T (Kn Kn^T + eps2 I)^{-1} f: the damped least-squares solution, exact when eps2 = 0
+    g00, g01, g11 = a * a + b * b + eps2, a * c + b * d, c * c + d * d + eps2
+    gdet = g00 * g11 - g01 * g01
+    z0 = (g11 * f[..., 0] - g01 * f[..., 1]) / gdet
+    z1 = (g00 * f[..., 1] - g01 * f[..., 0]) / gdet
+    i = jnp.stack([a * z0 + c * z1, b * z0 + d * z1], axis=-1)
+    return i[..., None, :]
 
 
 def limit_currents(currents, current_limit):
@@ -147,8 +177,8 @@ class ClassicalLaw:
                                self.pole_pitch)
         return star_reduce(g3)
 
-    def currents(self, y, f_star):
-        """Star currents ``(..., L, 2)`` (A) for positions ``y`` (m) and desired ``F*`` ``(..., 3)``."""
+    def currents(self, y, f_star, v=None):
+        """Star currents ``(..., L, 2)`` (A) for positions ``y`` (m) and desired ``F*`` ``(..., 3)``; ``v`` unused."""
         winv = metric_inverse(self.k.shape[0], self.metric)
         i = min_energy_currents(self.gain(y), f_star, winv)
         return limit_currents(i, self.current_limit)
@@ -274,8 +304,8 @@ class DriveInputLaw:
         return cls(jnp.asarray(motor.k[coil_set]), jnp.asarray(motor.zeta[coil_set]), jnp.asarray(float(delta)),
                    jnp.asarray(active), float(motor.pole_pitch))
 
-    def currents(self, y, f_star):
-        """Star currents ``(..., L, 2)``: only the active coil set carries current."""
+    def currents(self, y, f_star, v=None):
+        """Star currents ``(..., L, 2)``: only the active coil set carries current (``v`` unused)."""
         y = jnp.asarray(y)
         eta = commutation_phase(y, self.zeta_hat, self.pole_pitch) + self.delta
         amp = f_star[..., 0] / self.k_hat
@@ -285,25 +315,45 @@ class DriveInputLaw:
 
 @pytree_dataclass
 class ModelLaw:
-    """Model-based minimum-energy commutation ``i = K̂(y)^† (F* - F̂_cog(y))`` (eq. Commutation_Model_Currents).
+    """Model-based minimum-energy commutation ``i = K̂(y)^† (F* - F̂_cog(y) - F̂_dir(y, v))`` (eq. Commutation_Model_Currents).
 
     ``model`` is any pytree with ``gain(y) -> (..., L, 3, 2)`` and ``cogging(y) -> (..., 3)``:
-    a PGNN, the physics-only model, or the twin's exact truth (the oracle).
+    a PGNN, the physics-only model, or a plant's exact truth (the oracle). A model that
+    also has ``direction_force(y, v) -> (..., 3)`` (a plant, a PGNN with a direction term)
+    has that force subtracted too when the law is given a velocity ``v``.
     Damped where ``K̂`` is ill-conditioned (see :func:`min_energy_currents`) and scaled
     to respect ``current_limit`` (A).
+
+    ``true_state``: the simulation feeds this law the plant's true position and velocity
+    instead of the encoder position and the reference velocity (the oracle, which no
+    commutation can beat except by noise; see :func:`oracle_law`).
     """
 
     model: object
     metric: str = static_field(default="phase")
     current_limit: float | None = static_field(default=None)
     det_min: float = static_field(default=DEFAULT_DET_MIN)
+    true_state: bool = static_field(default=False)
 
-    def currents(self, y, f_star):
-        """Star currents ``(..., L, 2)`` (A) for ``y`` (m) and ``F*`` ``(..., 3)``."""
+    def currents(self, y, f_star, v=None):
+        """Star currents ``(..., L, 2)`` (A) for ``y`` (m), ``F*`` ``(..., 3)`` and velocity ``v`` (m/s, or ``None``)."""
         gain = self.model.gain(y)
         winv = metric_inverse(gain.shape[-3], self.metric)
-        i = min_energy_currents(gain, f_star - self.model.cogging(y), winv, det_min=self.det_min)
+        target = f_star - self.model.cogging(y)
+        if v is not None and hasattr(self.model, "direction_force"):
+            target = target - self.model.direction_force(y, v)
+        i = min_energy_currents(gain, target, winv, det_min=self.det_min)
         return limit_currents(i, self.current_limit)
+
+
+def oracle_law(plant, current_limit: float | None = None) -> ModelLaw:
+    """The oracle: the exact inverse of everything the plant knows, fed its true state.
+
+    ``i = K(y)^† (F* - F_cog(y) - F_dir(y, v))`` with the plant's true gain, cogging and
+    velocity-dependent force at the true position ``y`` and velocity ``v`` of each sample
+    (DESIGN.md: the floor that no commutation beats except by noise).
+    """
+    return ModelLaw(plant, current_limit=current_limit, true_state=True)
 
 
 @pytree_dataclass
@@ -316,7 +366,7 @@ class OffsetLaw:
     base: ClassicalLaw
     offset: object
 
-    def currents(self, y, f_star):
-        """Star currents ``(..., L, 2)`` (A)."""
+    def currents(self, y, f_star, v=None):
+        """Star currents ``(..., L, 2)`` (A); ``v`` unused."""
         return self.base.currents(y, f_star - self.offset(y))
 

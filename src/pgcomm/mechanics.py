@@ -30,7 +30,7 @@ class Mechanics:
 
     mass: float = 30.0
     viscous: float = 80.0
-    coulomb: float = 40.0
+    coulomb: float = 12.0
     coulomb_velocity: float = 1e-3
     substeps: int = 4
 

@@ -38,7 +38,33 @@ def tracking_mse(e) -> float:
     return float(np.mean(np.asarray(e, float) ** 2))
 
 
-def reducible_share(row: float, classical: float, oracle: float) -> float:
-    """Share of the reducible error a row removes: ``(classical - row) / (classical - oracle)``."""
+def mse_difference_se(err_a, err_b, block: int) -> float:
+    """Standard error of ``mean(err_a²) - mean(err_b²)`` from the means of blocks of ``block`` samples.
+
+    Args:
+        err_a, err_b: ``(N,)`` error signals of two runs on the same reference (same units).
+        block: samples per block; long enough that block means are nearly independent
+            (several correlation times of the errors).
+
+    Returns:
+        the standard error (units²); ``inf`` with fewer than two blocks.
+    """
+    d = np.asarray(err_a, float) ** 2 - np.asarray(err_b, float) ** 2
+    n_blocks = d.shape[0] // max(int(block), 1)
+    if n_blocks < 2:
+        return float("inf")
+    means = d[: n_blocks * block].reshape(n_blocks, block).mean(axis=1)
+    return float(np.std(means, ddof=1) / np.sqrt(n_blocks))
+
+
+def reducible_share(row: float, classical: float, oracle: float, se: float = 0.0) -> float | None:
+    """Share of the reducible error a row removes: ``(classical - row) / (classical - oracle)``.
+
+    Reported only where the reducible error is real: ``classical - oracle >= max(5 se, 0.2 oracle)``
+    with ``se`` the standard error of ``classical - oracle`` (:func:`mse_difference_se`);
+    elsewhere ``None`` (the share of a difference lost in noise means nothing).
+    """
     den = classical - oracle
-    return float((classical - row) / den) if den != 0 else float("nan")
+    if den <= 0 or den < max(5.0 * se, 0.2 * oracle):
+        return None
+    return float((classical - row) / den)

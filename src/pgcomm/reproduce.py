@@ -11,7 +11,7 @@ Steps (each a stage of the progress display):
    (0.15 m/s) references (and an optional user reference);
 5. rows: original (uncalibrated), classical (calibrated), pgnn, physics, cogging_table and
    harmonic_cogging (classical plus a drive-style force offset learned from the classical
-   residual), oracle (the plant's exact static inverse);
+   residual), oracle (the plant's exact inverse with its true state, direction force included);
 6. metrics: 50 Hz-filtered and unfiltered commutation-error MSE per direction, tracking-
    error MSE, and each row's share of the reducible error
    ``(classical - row) / (classical - oracle)``.
@@ -20,16 +20,19 @@ Steps (each a stage of the progress display):
 from __future__ import annotations
 
 import time
+import zlib
 from dataclasses import dataclass, replace
+
+import numpy as np
 
 from pgcomm import experiment
 from pgcomm.calibration import CalibrationResult
-from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw
+from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw, oracle_law
 from pgcomm.compensation import fit_cogging_table, fit_harmonic_cogging
 from pgcomm.data import coil_set_data_from_runs
 from pgcomm.experiment import ExperimentConfig, Setup
 from pgcomm.identify import IdentifyResult
-from pgcomm.metrics import DIRECTIONS, reducible_share
+from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se, reducible_share
 from pgcomm.models import CombinedModel
 
 ROWS = ("original", "classical", "physics", "pgnn", "cogging_table", "harmonic_cogging", "oracle")
@@ -44,6 +47,15 @@ PAPER = {
     "tracking_mse": {"classical": 2.75e-8, "pgnn": 5.94e-9},
     "calibrated": {"k": (61.34, 61.62, 60.07), "zeta": (-0.54, -0.55, -0.55)},
 }
+
+
+def reference_seed(seed: int, reference_name: str) -> int:
+    """Sensor-noise seed of an evaluation run: by reference, never by row (DESIGN.md, Noise).
+
+    Every law sees the same noise on the same reference, so rows compare without noise
+    spread, and adding a reference leaves the other references' numbers unchanged.
+    """
+    return seed + 100 + zlib.crc32(reference_name.encode()) % 100_000
 
 
 def quick_config(config: ExperimentConfig) -> ExperimentConfig:
@@ -102,14 +114,32 @@ class ReproduceResult:
         return {row: m["tracking_mse"] for row, m in self.metrics["long"].items()}
 
     def reducible_share(self) -> dict:
-        """Row -> direction (and ``tracking``) -> ``(classical - row) / (classical - oracle)`` of the filtered MSE."""
+        """Row -> direction (and ``tracking``) -> ``(classical - row) / (classical - oracle)`` of the filtered MSE.
+
+        ``None`` where ``classical - oracle`` is below ``max(5 × its standard error, 0.2 × oracle)``
+        (:func:`pgcomm.metrics.reducible_share`): a share of a difference lost in noise means nothing.
+        """
         cm, tm = self.commutation_mse, self.tracking_mse
+        se = self.reducible_standard_errors()
         share = {}
         for row in ROWS:
             share[row] = {d: reducible_share(cm[row][d]["filtered"], cm["classical"][d]["filtered"],
-                                             cm["oracle"][d]["filtered"]) for d in DIRECTIONS}
-            share[row]["tracking"] = reducible_share(tm[row], tm["classical"], tm["oracle"])
+                                             cm["oracle"][d]["filtered"], se[d]) for d in DIRECTIONS}
+            share[row]["tracking"] = reducible_share(tm[row], tm["classical"], tm["oracle"], se["tracking"])
         return share
+
+    def reducible_standard_errors(self) -> dict:
+        """Standard errors of ``classical - oracle`` on the long reference: per direction (filtered, N² or
+        N²m²) and ``tracking`` (m²), from block means (:func:`pgcomm.metrics.mse_difference_se`)."""
+        c, o = self.runs["long"]["classical"], self.runs["long"]["oracle"]
+        ts, lp = c.sample_time, self.setup.config.evaluation.lowpass_hz
+        # blocks of ~20 filter time constants (at least 0.1 s): block means nearly independent
+        block = max(int(round(20.0 / (2 * np.pi * lp * ts))), int(round(0.1 / ts)))
+        fc = lowpass(c.f_meas - c.f_star, ts, lp)
+        fo = lowpass(o.f_meas - o.f_star, ts, lp)
+        se = {d: mse_difference_se(fc[:, q], fo[:, q], block) for q, d in enumerate(DIRECTIONS)}
+        se["tracking"] = mse_difference_se(c.e, o.e, block)
+        return se
 
     def improvement_over_classical(self) -> dict:
         """Row -> direction (and ``tracking``) -> classical MSE / row MSE (filtered)."""
@@ -185,7 +215,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
             "classical": ClassicalLaw.from_motor(motor, k=cal.k, zeta=cal.zeta),
             "physics": ModelLaw(physics, current_limit=limit),
             "pgnn": ModelLaw(pgnn, current_limit=limit),
-            "oracle": ModelLaw(setup.plant, current_limit=limit)}
+            "oracle": oracle_law(setup.plant, current_limit=limit)}
 
     with progress.stage(f"feedforward identification per law ({cfg.controller.ff_iterations} closed-loop passes)"):
         names = list(laws)
@@ -208,7 +238,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     with progress.stage(f"closed-loop evaluation: {len(ROWS)} laws x {len(refs)} references"):
         jobs = [(row, rname) for row in ROWS for rname in refs]
         out = experiment.run_laws(setup, [laws[row] for row, _ in jobs], [refs[rn] for _, rn in jobs],
-                                [ffs[row] for row, _ in jobs], seeds=[seed + 100 + j for j in range(len(jobs))])
+                                [ffs[row] for row, _ in jobs], seeds=[reference_seed(seed, rn) for _, rn in jobs])
         for (row, rname), res in zip(jobs, out):
             runs[rname][row] = res
 

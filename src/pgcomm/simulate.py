@@ -4,7 +4,9 @@ One ``jax.lax.scan`` step per controller sample ``k``:
 
 1. the encoder reads ``y_m[k] = Q(y(t_k))``; ``e[k] = r[k] - y_m[k]``;
 2. feedback + feedforward give ``F*[k] = [u_ff[k] + u_fb[k], 0, 0]``;
-3. the commutation law maps ``(y_m[k], F*[k])`` to star currents, the drive limits
+3. the commutation law maps ``(y_m[k], F*[k], v_r[k])`` (encoder position, desired
+   force, reference velocity: what a controller has) to star currents — the oracle
+   (``law.true_state``) gets the true ``(y(t_k), v(t_k))`` instead — the drive limits
    them and holds them over ``[t_k, t_k+1)`` (zero-order hold);
 4. the plant produces ``F[k] = F(y(t_k), v(t_k), i[k])``; the mechanics integrate
    ``F_y[k]`` over the sample in RK4 sub-steps.
@@ -80,28 +82,30 @@ class SimResult:
 
 
 @partial(jax.jit, static_argnames=("pid", "mech", "sample_time", "resolution", "current_limit"))
-def _run(plant, law, r, u_ff, y0, *, pid: PID, mech: Mechanics, sample_time: float, resolution: float,
+def _run(plant, law, r, v_ref, u_ff, y0, *, pid: PID, mech: Mechanics, sample_time: float, resolution: float,
          current_limit):
     ts = sample_time
     alpha = pid.alpha(ts)
+    true_state = getattr(law, "true_state", False)
 
     def body(carry, x):
         y, v, integ, e_prev, u_fb = carry
-        r_k, uff_k = x
+        r_k, vr_k, uff_k = x
         ym = quantise(y, resolution)
         e = r_k - ym
         integ = integ + e * ts
         u_pid = pid.kp * e + pid.ki * integ + pid.kd * (e - e_prev) / ts
         u_fb = u_fb + alpha * (u_pid - u_fb)
         f_star = jnp.stack([uff_k + u_fb, 0.0, 0.0])
-        i = limit_currents(law.currents(ym, f_star), current_limit)
+        i = limit_currents(law.currents(y, f_star, v) if true_state else law.currents(ym, f_star, vr_k),
+                           current_limit)
         f = plant_force(plant, y, v, i)
         y_next, v_next = mech_mod.step(mech, y, v, f[0], ts)
         return (y_next, v_next, integ, e, u_fb), (y, ym, f_star, f, i)
 
     e0 = r[0] - quantise(y0, resolution)
     carry0 = (y0, jnp.zeros_like(y0), jnp.zeros_like(y0), e0, jnp.zeros_like(y0))
-    _, out = jax.lax.scan(body, carry0, (r, u_ff))
+    _, out = jax.lax.scan(body, carry0, (r, v_ref, u_ff))
     return out
 
 
@@ -165,17 +169,19 @@ def simulate_many(plant, laws, reference, *, drive: Motor, pid: PID | None = Non
     lengths = [len(ref.r) for ref in refs]
     n_max = max(lengths)
     r = np.stack([_pad(np.asarray(ref.r, float), n_max) for ref in refs])
+    v_ref = np.stack([_pad(np.asarray(ref.v, float), n_max) for ref in refs])
     u_ff = np.stack([_pad(feedforward_signal(ff, np.asarray(ref.v), np.asarray(ref.a)), n_max)
                      for ff, ref in zip(feedforwards, refs)])
     y0s = np.array([float(rr[0] if y0 is None else y0) for rr in r])
     kw = dict(pid=pid, mech=mechanics, sample_time=ts, resolution=float(sensors.encoder_resolution),
               current_limit=drive.current_limit)
     if b == 1:
-        outs = [tuple(np.asarray(o) for o in _run(plant, laws[0], jnp.asarray(r[0]), jnp.asarray(u_ff[0]),
-                                                   jnp.asarray(y0s[0]), **kw))]
+        outs = [tuple(np.asarray(o) for o in _run(plant, laws[0], jnp.asarray(r[0]), jnp.asarray(v_ref[0]),
+                                                   jnp.asarray(u_ff[0]), jnp.asarray(y0s[0]), **kw))]
     else:
         stacked = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *laws)
-        batched = _run_batched(plant, stacked, jnp.asarray(r), jnp.asarray(u_ff), jnp.asarray(y0s), **kw)
+        batched = _run_batched(plant, stacked, jnp.asarray(r), jnp.asarray(v_ref), jnp.asarray(u_ff),
+                               jnp.asarray(y0s), **kw)
         batched = [np.asarray(o) for o in batched]
         outs = [tuple(o[j] for o in batched) for j in range(b)]
     k_hat = jnp.asarray(drive.k)
@@ -199,8 +205,8 @@ def _pad(x, n):
 
 
 @partial(jax.jit, static_argnames=("pid", "mech", "sample_time", "resolution", "current_limit"))
-def _run_batched(plant, laws, r, u_ff, y0, **kw):
-    return jax.vmap(lambda law, rr, uff, y00: _run(plant, law, rr, uff, y00, **kw))(laws, r, u_ff, y0)
+def _run_batched(plant, laws, r, v_ref, u_ff, y0, **kw):
+    return jax.vmap(lambda law, rr, vv, uff, y00: _run(plant, law, rr, vv, uff, y00, **kw))(laws, r, v_ref, u_ff, y0)
 
 
 def _check_range(plant, y):

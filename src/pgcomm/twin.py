@@ -91,7 +91,7 @@ class TwinParams:
     cog_periodic: tuple[float, float, float] = (0.5, 0.05, 0.05)
     cog_period: float = 0.0235
     # 7. direction-dependent force
-    direction_force: tuple[float, float, float] = (1.0, 0.05, 0.1)
+    direction_force: tuple[float, float, float] = (3.0, 0.1, 0.2)
     direction_velocity: float = 0.002    # m/s
 
     @property
@@ -257,24 +257,16 @@ class TwinPlant:
 def true_fundamental(params: TwinParams, stroke=(-0.1, 0.1), n: int = 20001):
     """The twin's true fundamental ``(k^l, ζ^l)`` per coil set (N/A, rad): what calibration should recover.
 
-    The parasitic effects (field drift, phase drift, imbalance) shift the fundamental a
-    balanced sinusoidal commutation sees, so the reference values are the least-squares
-    fit of ``(2/3) k sin(2π y/d_m + ζ + φ_p)`` to the true ``Fy`` row of every phase
-    ``p`` over the ``stroke`` (m), uniformly weighted in ``y``.
+    :func:`pgcomm.plant.fundamental` of the twin's plant over ``stroke`` (m): the
+    least-squares fit of ``(2/3) k sin(2π y/d_m + ζ + φ_p)`` to the true ``Fy`` row of
+    every phase ``p``, uniformly weighted in ``y``.
 
     Returns:
         ``(k (L,), zeta (L,))``.
     """
-    y = np.linspace(stroke[0], stroke[1], n)
-    g = np.asarray(params.plant().gain_phases(y))  # (n, L, 3, 3)
-    w = 2 * np.pi * y / params.pole_pitch
-    x = np.concatenate([np.stack([np.sin(w + f), np.cos(w + f)], -1) * (2.0 / 3.0) for f in PHASE_OFFSETS])
-    k, zeta = [], []
-    for l in range(params.n_coil_sets):
-        (kc, ks), *_ = np.linalg.lstsq(x, np.concatenate([g[:, l, 0, p] for p in range(3)]), rcond=None)
-        k.append(np.hypot(kc, ks))
-        zeta.append(np.arctan2(ks, kc))
-    return np.asarray(k), np.asarray(zeta)
+    from pgcomm.plant import fundamental
+
+    return fundamental(params.plant(), params.pole_pitch, stroke, n)
 
 
 __all__ = ["TwinParams", "TwinPlant", "DEFAULT_TWIN", "true_fundamental"]

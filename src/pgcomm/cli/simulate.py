@@ -28,7 +28,7 @@ def configure(p) -> None:
 def run(args, out: Path, progress) -> None:
     """Simulate, write ``log.csv|parquet``, ``run.png`` and ``results.json`` into ``out``."""
     from pgcomm import experiment, plots
-    from pgcomm.commutation import ClassicalLaw, ModelLaw
+    from pgcomm.commutation import ClassicalLaw, ModelLaw, oracle_law
     from pgcomm.control import Feedforward
     from pgcomm.errors import ConfigError
     from pgcomm.io.logs import Log, write_log
@@ -49,7 +49,7 @@ def run(args, out: Path, progress) -> None:
             raise ConfigError("--law true needs the twin (a force map has no known fundamental)")
         law, name = ClassicalLaw.from_motor(setup.motor, k=setup.true_k, zeta=setup.true_zeta), "true"
     else:
-        law, name = ModelLaw(setup.plant, current_limit=setup.motor.current_limit), "oracle"
+        law, name = oracle_law(setup.plant, current_limit=setup.motor.current_limit), "oracle"
     ff = Feedforward()
     if not args.no_feedforward:
         with progress.stage(f"identify feedforward with the {name} law ({setup.config.controller.ff_iterations} passes)"):

@@ -333,6 +333,43 @@ class _Gen:
 
     # --- source ----------------------------------------------------------------------------
 
+    def _solve_single_coil_set(self, solve: list, cast: str, dl) -> list:
+        """``L = 1``: meet the ``Fy`` and ``Fx`` rows exactly (pgcomm.commutation._single_coil_set_currents).
+
+        Replaces the ``3 x 3`` normalised solve of ``solve`` (the generic law's lines) by the
+        row-normalised, damped ``2 x 2`` solve; the rest (range flag, limit, outputs) is kept.
+        """
+        U = self.P.upper()
+        start = next(j for j, line in enumerate(solve) if line.startswith("    /* kw = K^l"))
+        stop = next(j for j, line in enumerate(solve) if "i[l][j] = kw[l][0][j]" in line) + 1
+        decl = next(j for j, line in enumerate(solve) if line.startswith("    double kw["))
+        body = [
+            "    /* L = 1: two currents for three rows; meet Fy and Fx exactly (Tz = d Fx - x Fy follows).\n"
+            "       Rows normalised; Tikhonov eps2 where they become parallel (e.g. mu = 0). */\n",
+            f"    ka = {cast}gain[0][0][0];\n    kb = {cast}gain[0][0][1];\n",
+            f"    kc = {cast}gain[0][1][0];\n    kd = {cast}gain[0][1][1];\n",
+            "    t = ka * ka + kb * kb;\n",
+            f"    r0 = 1.0 / sqrt(t > {dl(1e-300)} ? t : {dl(1e-300)});\n",
+            "    t = kc * kc + kd * kd;\n",
+            f"    r1 = 1.0 / sqrt(t > {dl(1e-300)} ? t : {dl(1e-300)});\n",
+            "    ka *= r0;\n    kb *= r0;\n    kc *= r1;\n    kd *= r1;\n",
+            f"    f0 = ({cast}f_star[0] - {cast}cog[0]) * r0;\n",
+            f"    f1 = ({cast}f_star[1] - {cast}cog[1]) * r1;\n",
+            "    det = ka * kd - kb * kc;\n",
+            f"    t = 1.0 - det * det / {U}_DET_MIN;\n",
+            "    t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);\n",
+            f"    eps2 = {U}_DAMPING * (t * t);\n",
+            "    g00 = ka * ka + kb * kb + eps2;\n    g01 = ka * kc + kb * kd;\n    g11 = kc * kc + kd * kd + eps2;\n",
+            "    det = g00 * g11 - g01 * g01;\n",
+            "    z0 = (g11 * f0 - g01 * f1) / det;\n    z1 = (g00 * f1 - g01 * f0) / det;\n",
+            "    i[0][0] = ka * z0 + kc * z1;\n    i[0][1] = kb * z0 + kd * z1;\n\n",
+        ]
+        out = list(solve)
+        out[start:stop] = body
+        out[decl:decl + 3] = ["    double i[1][2], ka, kb, kc, kd, r0, r1, f0, f1, det, t, eps2, g00, g01, g11, z0, z1;\n"]
+        ints = "    int l, q, j, ret;\n\n" if self.limit is not None else "    int l, j, ret;\n\n"
+        return [ints if line == "    int l, q, r, j, ret;\n\n" else line for line in out]
+
     def _act(self, which: str, activation: str) -> str:
         """``static T P_act_which(T x)`` for one activation of :data:`pgcomm.models.ACTIVATIONS`."""
         T, f, lit = self.T, self.f, self.lit
@@ -546,6 +583,9 @@ class _Gen:
             f"            currents[l][j] = {'(float)' if self.num.single else ''}i[l][j];\n",
             "    return ret;\n}\n\n",
         ]
+
+        if self.L == 1:
+            solve = self._solve_single_coil_set(solve, cast, dl)
 
         # ---- drive inputs ----
         drive_fn = [
