@@ -117,13 +117,28 @@ def test_forcemap_missing_phase(tmp_path, capsys):
 
 
 def test_forcemap_too_short_for_stroke(tmp_path, capsys):
-    """A map that does not cover the reference's stroke is refused before simulating."""
+    """A map that does not cover the configured reference's stroke is refused before simulating."""
     y = np.linspace(-0.05, 0.05, 11)
     write_forcemap(tmp_path / "map.csv", y, np.ones((11, 3, 3, 3)))
     write_motor(tmp_path / "motor.toml", DEFAULT_TWIN.motor())
+    (tmp_path / "cfg.toml").write_text("[reference]\nstroke = 0.1\n")
     out = tmp_path / "o"
     _expect_error(["calibrate", "--out", str(out), "--plant", str(tmp_path / "map.csv"), "--motor",
-                   str(tmp_path / "motor.toml")], capsys, "stroke", out)
+                   str(tmp_path / "motor.toml"), "--config", str(tmp_path / "cfg.toml")], capsys, "stroke", out)
+
+
+def test_default_reference_spans_the_map(tmp_path):
+    """Without [reference] stroke, the reference covers the map's range less the margin (any centre)."""
+    from pgcomm.experiment import ExperimentConfig, build_setup, data_generation_reference, reference_span
+
+    y = np.linspace(0.2, 0.5, 31)  # a map not centred on 0
+    write_forcemap(tmp_path / "map.csv", y, np.ones((31, 3, 3, 3)))
+    write_motor(tmp_path / "motor.toml", DEFAULT_TWIN.motor())
+    setup = build_setup(ExperimentConfig(), tmp_path / "map.csv", tmp_path / "motor.toml")
+    lo, hi = reference_span(0.2, 0.5)
+    assert setup.config.reference.span == pytest.approx((lo, hi), rel=0, abs=1e-12)
+    r = data_generation_reference(setup).r
+    assert r.min() == pytest.approx(lo, rel=0, abs=1e-12) and r.max() == pytest.approx(hi, rel=0, abs=1e-12)
 
 
 def test_plant_without_motor(tmp_path, capsys):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -216,7 +217,7 @@ def test_training_beats_physics_and_decreases_monotonically(trained):
     assert all(b <= a for a, b in zip(hist, hist[1:]))
     assert hist[-1] < hist[0]
     # the history's last value is the reported objective (V + damping term)
-    assert hist[-1] == pytest.approx(r.cost_pgnn + r.damping_term, rel=1e-8)
+    assert hist[-1] == pytest.approx(r.cost_pgnn + r.damping_term + r.slope_term, rel=1e-8)
     assert r.n_train + r.n_validation == 6000 and r.n_validation == 1000
     d = r.to_dict()
     assert d["cost_pgnn"] == r.cost_pgnn and d["n_starts"] == 4 and len(d["start_costs"]) == 4
@@ -333,3 +334,46 @@ def test_warning_outside_training_range(trained):
     combined = CombinedModel.from_coil_sets([model, model.with_range(-0.05, 0.1)])
     assert "[-0.05, 0.1] m" in warn_outside_training_range(combined, np.array([-0.07]))
     assert warn_outside_training_range(model.with_range(None, None), np.array([5.0])) is None
+
+
+# ------------------------------------------------------------------------- first-layer slope bound
+
+
+def test_slope_penalty_jacobian_matches_finite_differences():
+    from pgcomm.identify.lm import _with_slope_penalty
+    from pgcomm.identify.projection import _Eval
+
+    rng = np.random.default_rng(5)
+    flats = jnp.asarray(rng.normal(0.0, 3.0, (2, 7)))
+    mask = jnp.asarray([True, True, False, True, False, True, True])
+    w_max, scale = 2.0, 3.5
+    n = flats.shape[1]
+    zero = _Eval(jnp.zeros(2), *(jnp.zeros(2) for _ in range(4)), jnp.zeros((2, 1, 3)), jnp.zeros((2, n, n)),
+                 jnp.zeros((2, n)))
+    ev = _with_slope_penalty(zero, flats, mask, w_max, scale)
+    # f = ½ Σ r², r = scale·max(|w| - w_max, 0) on the mask: Jᵀr = ∇f (finite differences)
+    f = lambda x: float(_with_slope_penalty(zero, x[None], mask, w_max, scale).f[0])  # noqa: E731
+    h = 1e-6
+    for s in range(2):
+        x = np.asarray(flats[s])
+        grad = [(f(jnp.asarray(x + h * e)) - f(jnp.asarray(x - h * e))) / (2 * h) for e in np.eye(n)]
+        np.testing.assert_allclose(np.asarray(ev.jtr[s]), grad, rtol=0, atol=1e-6 * scale**2 * np.abs(x).max())
+    # Gauss-Newton JᵀJ: diagonal scale² where the bound is active, 0 elsewhere
+    active = np.asarray(mask) & (np.abs(np.asarray(flats)) > w_max)
+    np.testing.assert_allclose(np.asarray(jnp.diagonal(ev.jtj, axis1=1, axis2=2)), scale**2 * active, rtol=1e-15)
+
+
+def test_slope_bound_keeps_first_layer_within_the_supported_width(data):
+    # a bound of 2 pole pitches (10-90 % width) is far below what an unbounded fit uses here
+    r = idf.identify(data, D_M, gain_widths=(2,), cog_widths=(8,), n_starts=2, max_iter=20, seed=1,
+                     subsample=1, min_feature_width=2.0, check_data=False)
+    free = idf.identify(data, D_M, gain_widths=(2,), cog_widths=(8,), n_starts=2, max_iter=20, seed=1,
+                        subsample=1, min_feature_width=0.0, check_data=False)
+    mask = _Layout.of(r.model).first_layer_weight_mask()
+    w = np.abs(np.asarray(idf.hidden_vector(r.model)))[mask]
+    w_free = np.abs(np.asarray(idf.hidden_vector(free.model)))[mask]
+    assert r.slope_bound == pytest.approx(2 * np.arctanh(0.8) * 0.1 / (2.0 * D_M), rel=0.05)
+    assert w_free.max() > 1.5 * r.slope_bound  # the bound is active on these data
+    # the penalty makes each unit of excess cost the whole signal power: what remains is tiny
+    assert w.max() <= 1.05 * r.slope_bound
+    assert r.slope_term < 1e-3 * r.cost_pgnn

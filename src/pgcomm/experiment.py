@@ -31,7 +31,8 @@ their metrics (:func:`run_metrics`). The CLI commands and :mod:`pgcomm.reproduce
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -65,13 +66,24 @@ class ControllerConfig:
 
 @dataclass(frozen=True)
 class ReferenceConfig:
-    """The paper's data-generation reference: moves between ``±stroke`` (m) at each ``v_max`` (m/s)."""
+    """The paper's data-generation reference: moves between ``center ± stroke`` (m) at each ``v_max`` (m/s).
 
-    stroke: float = 0.1
+    ``stroke`` and ``center`` default (``None``) to the plant's: ``0.1`` m about ``0`` on the twin,
+    and on a force map its range less a margin for the following error (:func:`reference_span`).
+    :func:`build_setup` resolves them, so a :class:`Setup`'s config always holds numbers.
+    """
+
+    stroke: float | None = None
+    center: float | None = None
     velocities: tuple[float, ...] = (0.025, 0.075, 0.15)
     a_max: float = 1.0
     j_max: float = 1000.0
     dwell: float = 0.5
+
+    @property
+    def span(self) -> tuple[float, float]:
+        """``(center - stroke, center + stroke)`` (m): the positions the reference covers (resolved configs)."""
+        return (self.center - self.stroke, self.center + self.stroke)
 
 
 @dataclass(frozen=True)
@@ -170,13 +182,15 @@ class Setup:
         return self.config.controller.pid()
 
 
-def build_setup(config: ExperimentConfig, forcemap_path=None, motor_path=None) -> Setup:
-    """Resolve the plant and the nominal motor.
+def build_setup(config: ExperimentConfig, forcemap_path=None, motor_path=None, truth_path=None) -> Setup:
+    """Resolve the plant, the nominal motor and the reference's range.
 
     Args:
         config: experiment settings.
         forcemap_path: force-map CSV replacing the twin's electromagnetics (needs ``motor_path``).
         motor_path: motor TOML (pole pitch, lever arms, nominal values, sample time, limit).
+        truth_path: the plant's known fundamental (:func:`load_truth`); default ``truth.json``
+            beside the force map when it exists (the motor zoo writes one).
 
     Raises:
         ConfigError: a force map without a motor file, or inconsistent coil-set counts.
@@ -188,8 +202,12 @@ def build_setup(config: ExperimentConfig, forcemap_path=None, motor_path=None) -
         tw = config.twin
         motor = tw.motor(k_hat=cal.k0, zeta_hat=cal.zeta0, sample_time=config.sample_time,
                          current_limit=config.current_limit)
-        k, zeta = true_fundamental(tw, (-config.reference.stroke, config.reference.stroke))
-        return Setup(tw.plant(), motor, config, k, zeta, "twin")
+        rc = config.reference
+        rc = replace(rc, stroke=0.1 if rc.stroke is None else rc.stroke, center=rc.center or 0.0)
+        plant = tw.plant()
+        config = replace(config, reference=_resolve_reference(rc, *plant.y_range, "the twin"))
+        k, zeta = true_fundamental(tw, config.reference.span)
+        return Setup(plant, motor, config, k, zeta, "twin")
     if motor_path is None:
         raise ConfigError(f"--plant {forcemap_path}: a force map needs --motor MOTOR.toml "
                           "(pole pitch, lever arms, nominal k and zeta)")
@@ -201,16 +219,97 @@ def build_setup(config: ExperimentConfig, forcemap_path=None, motor_path=None) -
     if plant.n_coil_sets != motor.n_coil_sets:
         raise ConfigError(f"{forcemap_path}: {plant.n_coil_sets} coil sets, but {motor_path} describes "
                           f"{motor.n_coil_sets}")
-    lo, hi = plant.y_range
-    s = config.reference.stroke
-    if -s < lo or s > hi:
-        raise ConfigError(f"{forcemap_path}: covers y in [{lo:.6g}, {hi:.6g}] m but the reference strokes over "
-                          f"[{-s:.6g}, {s:.6g}] m; set [reference] stroke in --config")
-    from dataclasses import replace
-
     config = replace(config, sample_time=motor.sample_time,
-                     current_limit=motor.current_limit if motor.current_limit else config.current_limit)
-    return Setup(plant, motor, config, None, None, str(forcemap_path))
+                     current_limit=motor.current_limit if motor.current_limit else config.current_limit,
+                     reference=_resolve_reference(config.reference, *plant.y_range, str(forcemap_path)))
+    if truth_path is None and (Path(forcemap_path).parent / "truth.json").is_file():
+        truth_path = Path(forcemap_path).parent / "truth.json"
+    if truth_path is None:
+        return Setup(plant, motor, config, None, None, str(forcemap_path))
+    truth = load_truth(truth_path, plant.n_coil_sets)
+    if truth["y_range"] is not None and not np.allclose(truth["y_range"], config.reference.span,
+                                                        rtol=0, atol=1e-9 * (abs(plant.y_range[1]) + 1e-3)):
+        # the fundamental depends on the range it is fitted over: the truth must be of this reference
+        raise ConfigError(f"{truth_path}: fitted over y in {list(truth['y_range'])} m, but the reference spans "
+                          f"{list(config.reference.span)} m; leave [reference] stroke/center at the map's default")
+    return Setup(plant, motor, config, truth["k"], truth["zeta"], str(forcemap_path))
+
+
+def reference_span(y_lo: float, y_hi: float) -> tuple[float, float]:
+    """The positions a default reference may cover on a force map spanning ``[y_lo, y_hi]`` (m).
+
+    The map's range minus a margin at each end for the following error of the loop (the true
+    position overshoots the reference at reversals): ``margin = clip(0.025 (y_hi − y_lo),
+    2 mm, 10 mm)``, and never more than a quarter of the span. On a map centred on 0 the
+    data-generation reference's ``stroke`` (half stroke, m) is the returned ``hi``.
+
+    Args:
+        y_lo, y_hi: ends of the map (m), ``y_hi > y_lo``.
+
+    Returns:
+        ``(lo, hi)`` (m) with ``y_lo < lo < hi < y_hi``.
+    """
+    y_lo, y_hi = float(y_lo), float(y_hi)
+    span = y_hi - y_lo
+    if not (math.isfinite(span) and span > 0):
+        raise ValueError(f"reference_span: need y_hi > y_lo (m), got {y_lo}, {y_hi}")
+    margin = min(max(0.025 * span, 2e-3), 1e-2, 0.25 * span)
+    return y_lo + margin, y_hi - margin
+
+
+def _resolve_reference(rc: ReferenceConfig, y_lo: float, y_hi: float, where: str) -> ReferenceConfig:
+    """``rc`` with ``stroke``/``center`` filled in for a plant defined on ``[y_lo, y_hi]`` (m), checked to fit."""
+    lo, hi = reference_span(y_lo, y_hi)
+    center = rc.center if rc.center is not None else (0.0 if rc.stroke is not None else 0.5 * (lo + hi))
+    stroke = rc.stroke if rc.stroke is not None else 0.5 * (hi - lo)
+    if center - stroke < y_lo or center + stroke > y_hi:
+        raise ConfigError(f"{where}: covers y in [{y_lo:.6g}, {y_hi:.6g}] m but the reference spans "
+                          f"[{center - stroke:.6g}, {center + stroke:.6g}] m; set [reference] stroke (and center) "
+                          "in --config, or leave them out to span the plant's range")
+    return replace(rc, stroke=float(stroke), center=float(center))
+
+
+def load_truth(path, n_coil_sets: int) -> dict:
+    """A plant's known fundamental, ``truth.json`` as :mod:`pgcomm.zoo` writes it.
+
+    Returns:
+        ``{"k": (L,) N/A, "zeta": (L,) rad, "y_range": (lo, hi) m or None}``.
+
+    Raises:
+        ConfigError: unreadable file, missing keys, or a coil-set count other than ``n_coil_sets``.
+    """
+    import json
+
+    try:
+        data = json.loads(Path(path).read_text())
+        k = np.asarray(data["k"], dtype=float)
+        zeta = np.asarray(data["zeta"], dtype=float)
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise ConfigError(f"{path}: not a truth file with lists 'k' (N/A) and 'zeta' (rad): {err}") from None
+    if k.shape != (n_coil_sets,) or zeta.shape != (n_coil_sets,) or not np.isfinite([*k, *zeta]).all():
+        raise ConfigError(f"{path}: 'k' and 'zeta' need {n_coil_sets} finite values (one per coil set), "
+                          f"got {k.tolist()} and {zeta.tolist()}")
+    y_range = data.get("y_range")
+    return {"k": k, "zeta": zeta, "y_range": tuple(float(v) for v in y_range) if y_range else None}
+
+
+def check_reference(setup: "Setup", reference, where: str) -> None:
+    """Fail before any work if a reference leaves the plant's range (checked to the sample).
+
+    Args:
+        reference: a :class:`~pgcomm.trajectory.Reference`; where: its source for the message.
+
+    Raises:
+        ConfigError: naming ``where``, the first sample outside and the plant's range.
+    """
+    lo, hi = setup.plant.y_range
+    r = np.asarray(reference.r)
+    bad = (r < lo) | (r > hi)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ConfigError(f"{where}: sample {k} (t = {k * reference.sample_time:.6g} s) has r = {r[k]:.6g} m, "
+                          f"outside the plant's range [{lo:.6g}, {hi:.6g}] m"
+                          + ("; is it in mm?" if np.abs(r).max() > 100 * max(abs(lo), abs(hi)) else ""))
 
 
 # --------------------------------------------------------------------------------------------
@@ -221,15 +320,17 @@ def build_setup(config: ExperimentConfig, forcemap_path=None, motor_path=None) -
 def data_generation_reference(setup: Setup) -> trajectory.Reference:
     """The paper's data-generation reference (Fig. Data_Generation) for this set-up."""
     rc = setup.config.reference
-    return trajectory.data_generation_reference(setup.motor.sample_time, rc.stroke, rc.velocities, rc.a_max,
-                                                rc.j_max, rc.dwell)
+    ref = trajectory.data_generation_reference(setup.motor.sample_time, rc.stroke, rc.velocities, rc.a_max,
+                                               rc.j_max, rc.dwell)
+    return replace(ref, r=ref.r + rc.center) if rc.center else ref
 
 
 def single_velocity_reference(setup: Setup, v_max: float) -> trajectory.Reference:
     """One back-and-forth over the stroke at ``v_max`` (m/s): the paper's slow/fast references."""
     rc = setup.config.reference
-    return trajectory.single_velocity_reference(v_max, setup.motor.sample_time, rc.stroke, rc.a_max, rc.j_max,
-                                                rc.dwell)
+    ref = trajectory.single_velocity_reference(v_max, setup.motor.sample_time, rc.stroke, rc.a_max, rc.j_max,
+                                               rc.dwell)
+    return replace(ref, r=ref.r + rc.center) if rc.center else ref
 
 
 def generate(setup: Setup, reference, k_hat, zeta_hat, seed: int = 0, coil_sets=None):

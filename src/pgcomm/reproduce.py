@@ -49,6 +49,34 @@ PAPER = {
 }
 
 
+def model_error(model, plant, y_range, n: int = 2001) -> dict:
+    """RMS error of a model's gain and cogging against the plant's truth over ``y_range`` (m).
+
+    Args:
+        model: a combined model with ``gain(y) -> (n, L, 3, 2)`` and ``cogging(y) -> (n, 3)``.
+        plant: the simulated plant (its ``gain`` / ``cogging`` are the truth).
+        y_range: ``(lo, hi)`` positions, uniformly sampled with ``n`` points.
+
+    Returns:
+        ``{"gain_rms": {y, x, z}, "cogging_rms": {y, x, z}, "gain_rms_relative": {y, x, z}}``: RMS over
+        positions, coil sets and both current columns (N/A; N·m/A for z), RMS of the cogging (N; N·m),
+        and the gain RMS relative to the RMS of the true gain row.
+    """
+    import jax.numpy as jnp
+
+    y = jnp.linspace(y_range[0], y_range[1], n)
+    g_hat, g = np.asarray(model.gain(y)), np.asarray(plant.gain(y))
+    c_hat, c = np.asarray(model.cogging(y)), np.asarray(plant.cogging(y))
+    out = {"gain_rms": {}, "cogging_rms": {}, "gain_rms_relative": {}}
+    for q, d in enumerate(DIRECTIONS):
+        err = float(np.sqrt(np.mean((g_hat[:, :, q, :] - g[:, :, q, :]) ** 2)))
+        ref = float(np.sqrt(np.mean(g[:, :, q, :] ** 2)))
+        out["gain_rms"][d] = err
+        out["gain_rms_relative"][d] = err / ref if ref > 0 else None
+        out["cogging_rms"][d] = float(np.sqrt(np.mean((c_hat[:, q] - c[:, q]) ** 2)))
+    return out
+
+
 def reference_seed(seed: int, reference_name: str) -> int:
     """Sensor-noise seed of an evaluation run: by reference, never by row (DESIGN.md, Noise).
 
@@ -59,9 +87,10 @@ def reference_seed(seed: int, reference_name: str) -> int:
 
 
 def quick_config(config: ExperimentConfig) -> ExperimentConfig:
-    """A shorter experiment for a first look and for tests: two velocities, short dwells,
-    fewer random starts and iterations, two feedforward passes."""
-    ref = replace(config.reference, velocities=(0.075, 0.15), dwell=0.2)
+    """A shorter experiment for a first look and for tests: the two fastest of the configured
+    velocities, short dwells, fewer random starts and iterations, two feedforward passes."""
+    ref = replace(config.reference, velocities=tuple(sorted(config.reference.velocities)[-2:]),
+                  dwell=min(config.reference.dwell, 0.2))
     ident = replace(config.identification, starts=2, max_iterations=25)
     ctrl = replace(config.controller, ff_iterations=2)
     return replace(config, reference=ref, identification=ident, controller=ctrl)
@@ -162,6 +191,7 @@ class ReproduceResult:
         out["tracking_mse"] = per_ref["long"]["tracking_mse"]
         out["references"] = per_ref
         out["reducible_share"] = self.reducible_share()
+        out["reducible_standard_error"] = self.reducible_standard_errors()
         out["improvement_over_classical"] = self.improvement_over_classical()
         out["feedforward"] = {row: {"mass": ff.mass, "viscous": ff.viscous, "coulomb": ff.coulomb}
                               for row, ff in self.feedforward.items()}
@@ -169,6 +199,8 @@ class ReproduceResult:
                                            "bytes": self.tables["cogging_table"].nbytes},
                          "harmonic_cogging": {"harmonics": (int(self.tables["harmonic_cogging"].coef.shape[0]) - 1)
                                               // 2}}
+        out["model_error"] = {name: model_error(model, self.setup.plant, self.setup.config.reference.span)
+                              for name, model in (("pgnn", self.pgnn), ("physics", self.physics))}
         out["paper"] = PAPER
         return out
 
@@ -192,6 +224,8 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
             "fast": experiment.single_velocity_reference(setup, max(cfg.reference.velocities))}
     if extra_reference is not None:
         refs["user"] = extra_reference
+    for name, ref in refs.items():  # before any work: a reference off the plant fails now, not after minutes
+        experiment.check_reference(setup, ref, f"the {name} reference")
     long_ref = refs["long"]
 
     with progress.stage(f"data generation: {motor.n_coil_sets} coil sets x 2 data sets (Delta = -/+"
@@ -224,9 +258,8 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     with progress.stage("drive-style rows: anti-cogging table and harmonic fit from the classical residual"):
         run_c = experiment.run_laws(setup, [laws["classical"]], long_ref, [ffs["classical"]], seeds=[seed + 60])[0]
         residual = run_c.f_meas[:, 0] - run_c.f_star[:, 0]
-        stroke = (-cfg.reference.stroke, cfg.reference.stroke)
         tables = {"cogging_table": fit_cogging_table(run_c.y_meas, residual, cfg.evaluation.cogging_table_entries,
-                                                     stroke),
+                                                     cfg.reference.span),
                   "harmonic_cogging": fit_harmonic_cogging(run_c.y_meas, residual, motor.pole_pitch,
                                                            cfg.evaluation.harmonics)}
         for name, tab in tables.items():

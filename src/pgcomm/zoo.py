@@ -76,6 +76,7 @@ import numpy as np
 
 from pgcomm._pytree import pytree_dataclass, static_field
 from pgcomm.motor import PHASE_OFFSETS, Motor, star_reduce
+from pgcomm.experiment import reference_span
 from pgcomm.plant import plant_force
 
 __all__ = [
@@ -108,28 +109,6 @@ FORCE_BUDGET = 0.3
 #: Ratio of the drive's peak current limit to the continuous current (for the continuous force
 #: capacity ``L · k · I_max / PEAK_TO_CONTINUOUS`` that scales the cable force).
 PEAK_TO_CONTINUOUS = 3.0
-
-
-def reference_span(y_lo: float, y_hi: float) -> tuple[float, float]:
-    """The positions a default reference may cover on a force map spanning ``[y_lo, y_hi]`` (m).
-
-    The map's range minus a margin at each end for the following error of the loop (the true
-    position overshoots the reference at reversals): ``margin = clip(0.025 (y_hi − y_lo),
-    2 mm, 10 mm)``, and never more than a quarter of the span. On a map centred on 0 the
-    data-generation reference's ``stroke`` (half stroke, m) is the returned ``hi``.
-
-    Args:
-        y_lo, y_hi: ends of the map (m), ``y_hi > y_lo``.
-
-    Returns:
-        ``(lo, hi)`` (m) with ``y_lo < lo < hi < y_hi``.
-    """
-    y_lo, y_hi = float(y_lo), float(y_hi)
-    span = y_hi - y_lo
-    if not (math.isfinite(span) and span > 0):
-        raise ValueError(f"reference_span: need y_hi > y_lo (m), got {y_lo}, {y_hi}")
-    margin = min(max(0.025 * span, 2e-3), 1e-2, 0.25 * span)
-    return y_lo + margin, y_hi - margin
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,10 @@ def add_common_options(p: argparse.ArgumentParser, out: bool = True, plant: bool
         p.add_argument("--plant", type=Path, metavar="FORCEMAP.csv",
                        help="force map replacing the twin's electromagnetics (needs --motor)")
         p.add_argument("--motor", type=Path, metavar="MOTOR.toml", help="motor description for --plant")
-        p.add_argument("--config", type=Path, metavar="FILE.toml", help="experiment settings (see README)")
+        p.add_argument("--config", type=Path, metavar="FILE.toml",
+                       help="experiment settings (see README); default: config.toml beside --plant, if there")
+        p.add_argument("--truth", type=Path, metavar="TRUTH.json",
+                       help="the plant's known k, zeta (default: truth.json beside --plant, if there)")
         p.add_argument("--seed", type=int, default=0, help="seed for noise and random starts (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
@@ -79,13 +82,20 @@ def setup_from_args(args):
     """The :class:`pgcomm.experiment.Setup` of ``--config``, ``--plant`` and ``--motor``."""
     from pgcomm.experiment import ExperimentConfig, build_setup, load_experiment
 
-    config = load_experiment(args.config) if args.config else ExperimentConfig()
-    return build_setup(config, forcemap_path=args.plant, motor_path=args.motor)
+    config_path = args.config
+    if config_path is None and args.plant is not None and (Path(args.plant).parent / "config.toml").is_file():
+        # a motor folder (the zoo writes one): its machine settings belong to the map
+        config_path = Path(args.plant).parent / "config.toml"
+        if not getattr(args, "quiet", False):
+            print(f"pgcomm: using {config_path} (settings beside --plant; --config overrides)", file=sys.stderr)
+    config = load_experiment(config_path) if config_path else ExperimentConfig()
+    return build_setup(config, forcemap_path=args.plant, motor_path=args.motor,
+                       truth_path=getattr(args, "truth", None))
 
 
 def reference_from_args(args, setup):
     """``--reference`` (checked against the controller's sample time), else the data-generation reference."""
-    from pgcomm.experiment import data_generation_reference
+    from pgcomm.experiment import check_reference, data_generation_reference
     from pgcomm.io.references import read_reference
 
     if getattr(args, "reference", None):
@@ -93,6 +103,7 @@ def reference_from_args(args, setup):
         if abs(ref.sample_time - setup.motor.sample_time) > 1e-9 * setup.motor.sample_time:
             raise PgcommError(f"{args.reference}: sample time {ref.sample_time:g} s differs from the controller's "
                               f"{setup.motor.sample_time:g} s")
+        check_reference(setup, ref, str(args.reference))
         return ref
     return data_generation_reference(setup)
 

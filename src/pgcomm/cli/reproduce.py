@@ -97,5 +97,4 @@ def _train_range(model, setup):
     rng = getattr(model, "training_range", None)
     if rng:
         return rng
-    s = setup.config.reference.stroke
-    return (-s, s)
+    return setup.config.reference.span

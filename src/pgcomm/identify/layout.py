@@ -110,6 +110,20 @@ class _Layout:
             c += w[-1] + 1
         return cols
 
+    def first_layer_weight_mask(self) -> np.ndarray:
+        """``(n_nl,)`` True at the entries of ``θ_NL`` that are first-layer weights (slopes in ``s``).
+
+        Order of ``θ_NL`` (see :func:`hidden_vector`): per network, per hidden layer, the
+        weights then the biases; the first layer's weights are the first ``n_1`` entries.
+        """
+        mask = []
+        for _, widths in self.blocks:
+            n_prev = 1
+            for i, n in enumerate(widths):
+                mask += [i == 0] * (n_prev * n) + [False] * n
+                n_prev = n
+        return np.asarray(mask, bool)
+
     def output_weight_mask(self) -> np.ndarray:
         """``(p,)`` True at the columns of ``M`` whose parameters are network output WEIGHTS."""
         mask = np.zeros(self.p, bool)

@@ -37,6 +37,9 @@ from pgcomm.identify.projection import (
 from pgcomm.identify.result import STOP_REASONS, IdentifyResult
 from pgcomm.models import DEFAULT_COG_WIDTHS, DEFAULT_GAIN_WIDTHS, CoilSetModel, CombinedModel
 
+#: Narrowest 10–90 % width of a hidden unit, in pole pitches (see :func:`identify`).
+MIN_FEATURE_WIDTH = 0.25
+
 #: Fewest samples the first (subsampled) training phase uses.
 _MIN_SUBSAMPLE = 4096
 
@@ -103,10 +106,29 @@ def _lm_accept(st: _LMState, delta, new: _Eval, tol, max_iter):
                     n_iter)
 
 
-def _lm_step(layout, st: _LMState, chunks, k, tol, max_iter):
-    """One Levenberg–Marquardt iteration of all starts (see :func:`_lm_delta`, :func:`_lm_accept`)."""
+def _with_slope_penalty(ev: _Eval, flats, mask, w_max, scale) -> _Eval:
+    """Add the first-layer slope bound to an evaluation: rows ``scale · max(|w| - w_max, 0)``.
+
+    Each first-layer weight ``w`` (``mask``) beyond ``w_max`` (slope in scaled position ``s``)
+    adds a residual row ``r = scale (|w| - w_max)`` with Jacobian ``scale · sign(w)`` (one
+    entry): ``f += ½ r²``, ``Jᵀr += J r``, ``JᵀJ += J²`` on the diagonal. Below the bound the
+    objective is the paper's ``V`` unchanged.
+    """
+    excess = jnp.where(mask, jnp.maximum(jnp.abs(flats) - w_max, 0.0), 0.0)
+    r = scale * excess
+    jd = jnp.where(excess > 0, scale * jnp.sign(flats), 0.0)
+    pen = 0.5 * jnp.sum(r * r, axis=-1)
+    jtj = ev.jtj + jax.vmap(jnp.diag)(jd * jd)
+    return _Eval(ev.f + pen, ev.data2, ev.phys2, ev.ridge2, ev.damp2, ev.theta_L, jtj, ev.jtr + jd * r)
+
+
+def _lm_step(layout, st: _LMState, chunks, k, tol, max_iter, slope):
+    """One Levenberg–Marquardt iteration of all starts (see :func:`_lm_delta`, :func:`_lm_accept`).
+
+    ``slope = (mask, w_max, scale)``: the first-layer slope bound (:func:`_with_slope_penalty`).
+    """
     delta = jax.vmap(_lm_delta)(st.ev.jtj, st.ev.jtr, st.lam)
-    new = _evaluate(layout, st.flat + delta, chunks, k, True)
+    new = _with_slope_penalty(_evaluate(layout, st.flat + delta, chunks, k, True), st.flat + delta, *slope)
     return jax.vmap(_lm_accept, in_axes=(0, 0, 0, None, None))(st, delta, new, tol, max_iter)
 
 
@@ -122,18 +144,18 @@ def _progress_printer(name):
     return show
 
 
-def _run_lm(layout, flats, chunks, k, n, *, max_iter, tol, lambda0, show, phase):
+def _run_lm(layout, flats, chunks, k, n, *, max_iter, tol, lambda0, show, phase, slope):
     """Levenberg–Marquardt on all rows of ``flats`` at once until each start stops.
 
-    Returns the final state and the best objective ``V`` (plus ridge and damping terms) after
-    every iteration (index 0: the starting points).
+    Returns the final state and the best objective ``V`` (plus ridge, damping and slope terms)
+    after every iteration (index 0: the starting points).
     """
-    st = _lm_step(layout, _lm_init(layout, flats, lambda0), chunks, k, tol, max_iter)
+    st = _lm_step(layout, _lm_init(layout, flats, lambda0), chunks, k, tol, max_iter, slope)
     # V = ||r̃||² / (2N) = 2 f / n
     history = [2.0 * float(jnp.nanmin(st.ev.f)) / n]
     it = 0
     while layout.n_nl > 0 and not bool(jnp.all(st.done)) and it < max_iter:
-        st = _lm_step(layout, st, chunks, k, tol, max_iter)
+        st = _lm_step(layout, st, chunks, k, tol, max_iter, slope)
         it += 1
         fs = np.asarray(st.ev.f)
         best = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
@@ -150,7 +172,8 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
              subsample: int = 8, refine_starts: int = 2,
              validation_fraction: float = 0.2, block_size: int = 500, chunk_size: int | None = None,
              damping: float = DEFAULT_DAMPING, lambda0: float = 1e-3, method: str = "auto",
-             check_data: bool = True, progress=None) -> IdentifyResult:
+             min_feature_width: float = MIN_FEATURE_WIDTH, check_data: bool = True,
+             progress=None) -> IdentifyResult:
     """Identify the PGNN of one coil set (Algorithm 2) by variable-projection Levenberg–Marquardt.
 
     Steps: split the data (:func:`train_validation_split`); check excitation
@@ -173,6 +196,14 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     The start with the lowest training cost is kept. ``subsample=1`` runs all starts on all
     samples in one phase. The result is deterministic for a given ``seed``.
 
+    No feature narrower than the motor supports: the field reaches a coil through magnets
+    ``d_m/2`` long, averaged over the coil, so no gain or cogging feature is narrower than a
+    fraction of the pole pitch. A tanh unit ``tanh(w s + b)`` rises from 10 % to 90 % over
+    ``2 atanh(0.8) / |w|`` in ``s``; first-layer slopes beyond the ``w_max`` of a 10–90 % width
+    of ``min_feature_width · d_m`` are penalised (:func:`_with_slope_penalty`; each unit of
+    excess costs as much as the mean square of the measured force), so the optimiser cannot
+    build steps the data cannot support (they fit noise and jump in the law).
+
     Args:
         data: samples of both data sets ``Z_1, Z_2`` of this coil set.
         pole_pitch: ``d_m`` (m).
@@ -189,6 +220,7 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
         damping: numerical damping of Proposition 1's least squares (see :func:`proposition1`).
         lambda0: initial LM damping (relative to ``diag JᵀJ``).
         method: Jacobian sums, ``"auto"``, ``"structured"`` or ``"generic"``.
+        min_feature_width: narrowest 10–90 % width of a hidden unit, in pole pitches (0 = no bound).
         check_data: run :func:`check_excitation` first.
         progress: ``None`` (silent), ``True`` (one line per iteration to stderr) or a callable
             receiving a dict ``{phase, iteration, best_cost, lambda, active, starts}``.
@@ -224,6 +256,13 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     show = _progress_printer(name) if progress is True else (progress or None)
     opts = dict(max_iter=max_iter, tol=tol, lambda0=lambda0, show=show)
     history = []
+    mask = jnp.asarray(_Layout.of(template).first_layer_weight_mask())
+    w_max = (2.0 * np.arctanh(0.8) * y_scale / (min_feature_width * pole_pitch) if min_feature_width > 0
+             else np.inf)
+    force_ms = float(np.mean(train.force ** 2)) + 1e-300
+
+    def slope(n):
+        return (mask, jnp.asarray(w_max), jnp.asarray(np.sqrt(n * force_ms)))
 
     stride = max(1, min(int(subsample), train.n // _MIN_SUBSAMPLE))
     iters0 = np.zeros(n_starts, int)
@@ -231,14 +270,15 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     if stride > 1:
         sub = train.take(slice(None, None, stride))
         layout, chunks, k = _prepare(template, sub, lam12, star, ridge_output, damping, chunk_size, method)
-        st1, hist1 = _run_lm(layout, flats, chunks, k, sub.n, phase=1, **opts)
+        st1, hist1 = _run_lm(layout, flats, chunks, k, sub.n, phase=1, slope=slope(sub.n), **opts)
         history.append(hist1)
         fs1 = np.where(np.isfinite(np.asarray(st1.ev.f)), np.asarray(st1.ev.f), np.inf)
         start_costs = 2.0 * fs1 / sub.n
         keep = np.argsort(fs1, kind="stable")[:max(1, min(refine_starts, n_starts))]
         flats, iters0 = st1.flat[keep], np.asarray(st1.n_iter)[keep]
     layout, chunks, k = _prepare(template, train, lam12, star, ridge_output, damping, chunk_size, method)
-    st, hist2 = _run_lm(layout, flats, chunks, k, train.n, phase=2 if stride > 1 else 1, **opts)
+    st, hist2 = _run_lm(layout, flats, chunks, k, train.n, phase=2 if stride > 1 else 1, slope=slope(train.n),
+                        **opts)
     history.append(hist2)
 
     fs = np.asarray(st.ev.f)
@@ -259,7 +299,10 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
         damping=float(damping), damping_term=float(st.ev.damp2[best]) / train.n,
         n_train=train.n, n_validation=val.n, seed=int(seed), n_starts=int(n_starts),
         start_costs=tuple(float(x) for x in start_costs),
-        stop_reason=STOP_REASONS[int(np.asarray(st.reason)[best])], history=tuple(history))
+        stop_reason=STOP_REASONS[int(np.asarray(st.reason)[best])], history=tuple(history),
+        slope_bound=float(w_max),
+        slope_term=float(force_ms * np.sum(np.where(np.asarray(mask), np.maximum(
+            np.abs(np.asarray(st.flat[best])) - w_max, 0.0), 0.0) ** 2)))
 
 
 def identify_all(datasets, pole_pitch: float, *, seed: int = 0, progress=None, **kwargs):

@@ -59,13 +59,15 @@ class IdentifyResult:
     n_starts: int
     start_costs: tuple = ()
     stop_reason: str = ""
+    slope_bound: float = float("inf")
+    slope_term: float = 0.0
     history: tuple = field(default=(), repr=False)
 
     def to_dict(self) -> dict:
         """JSON-ready summary (keys of ``results.json`` ``identification.coil_sets[l]``)."""
         keys = ("name", "cost_physics", "cost_pgnn", "cost_pgnn_data", "cost_physics_validation",
                 "cost_pgnn_validation", "cost_pgnn_validation_full", "iterations", "seconds", "ridge",
-                "ridge_term", "damping", "damping_term", "n_train", "n_validation", "seed", "n_starts", "stop_reason")
+                "ridge_term", "damping", "damping_term", "n_train", "n_validation", "seed", "n_starts", "stop_reason", "slope_bound", "slope_term")
         out = {key: getattr(self, key) for key in keys}
         out["start_costs"] = list(self.start_costs)
         return {key: (None if isinstance(v, float) and not np.isfinite(v) else v) for key, v in out.items()}
