@@ -377,3 +377,15 @@ def test_slope_bound_keeps_first_layer_within_the_supported_width(data):
     # the penalty makes each unit of excess cost the whole signal power: what remains is tiny
     assert w.max() <= 1.05 * r.slope_bound
     assert r.slope_term < 1e-3 * r.cost_pgnn
+
+
+def test_width_selection_keeps_the_best_validation_cost(data):
+    r = idf_lm.identify_selecting_width(data, D_M, gain_width_candidates=(2, 4), cog_widths=(4,), n_starts=2,
+                                        max_iter=8, seed=2, subsample=1, check_data=False)
+    widths = [w for w, _ in r.width_selection]
+    costs = [c for _, c in r.width_selection]
+    assert widths == [2, 4]
+    assert r.model.gain_nets[0].widths == (widths[int(np.argmin(costs))],)
+    assert r.cost_pgnn_validation == pytest.approx(min(costs), rel=1e-12)
+    d = r.to_dict()
+    assert d["gain_width"] == r.model.gain_nets[0].widths[0] and len(d["width_selection"]) == 2

@@ -122,8 +122,10 @@ def test_combined_model_stacks_coil_sets():
 
 def test_combined_model_refuses_mismatched_coil_sets():
     a, b = _coil_sets(2)
+    # one hidden layer of another width is padded (see the padding test); deeper networks are not
+    two = _coil_sets(1, cog=(8, 4))[0]
     with pytest.raises(ValueError, match="coil set 2: network widths differ"):
-        CombinedModel.from_coil_sets([a, _coil_sets(1, cog=(8,))[0]])
+        CombinedModel.from_coil_sets([two, _coil_sets(1, cog=(8, 6))[0]])
     with pytest.raises(ValueError, match="coil set 2: pole pitch"):
         CombinedModel.from_coil_sets([a, CoilSetModel(b.A, b.B, b.gain_nets, b.cog_net, 0.02)])
 
@@ -158,3 +160,20 @@ def test_init_is_deterministic_and_validated():
         MLP.init(jax.random.PRNGKey(0), (2,), "swish")
     with pytest.raises(ValueError, match="widths must be a non-empty tuple"):
         MLP.init(jax.random.PRNGKey(0), ())
+
+
+def test_padded_network_is_the_same_function_and_stacks():
+    import jax.numpy as jnp
+
+    from pgcomm.models import MLP, CoilSetModel, CombinedModel
+
+    a = CoilSetModel.init(jax.random.PRNGKey(1), np.ones((3, 2)), np.zeros((3, 2)), 0.03, 0.0, 0.1, (2,), (4,))
+    b = CoilSetModel.init(jax.random.PRNGKey(2), np.ones((3, 2)), np.zeros((3, 2)), 0.03, 0.0, 0.1, (8,), (4,))
+    net = MLP.init(jax.random.PRNGKey(3), (2,))
+    net = MLP(net.hidden, jax.random.normal(jax.random.PRNGKey(4), (2, 3)), jnp.ones(3), net.activation)
+    s = jnp.linspace(-1.2, 1.2, 50)
+    np.testing.assert_array_equal(np.asarray(net.padded(8)(s)), np.asarray(net(s)))
+    both = CombinedModel.from_coil_sets([a, b])  # widths 2 and 8: the 2 is padded
+    y = jnp.linspace(-0.1, 0.1, 40)
+    for l, m in enumerate((a, b)):
+        np.testing.assert_allclose(np.asarray(both.coil_set(l).gain(y)), np.asarray(m.gain(y)), rtol=0, atol=1e-15)

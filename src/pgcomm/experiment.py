@@ -111,6 +111,8 @@ class IdentificationConfig:
 
     gain_widths: tuple[int, ...] = (2,)
     cog_widths: tuple[int, ...] = (16,)
+    #: single-layer gain widths chosen from per coil set by validation cost; empty = ``gain_widths``
+    gain_width_candidates: tuple[int, ...] = (2, 4, 8)
     activation: str = "tanh"
     regularisation: float = 0.1
     starts: int = 8
@@ -436,6 +438,7 @@ def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=N
                               f"{info['active']}/{info['starts']} starts active")
     pgnn, res = identify_all(data, setup.motor.pole_pitch, seed=seed, progress=show,
                              gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
+                             gain_width_candidates=tuple(ic.gain_width_candidates),
                              activation=ic.activation, Lambda=ic.regularisation, ridge_output=ic.ridge_output,
                              n_starts=ic.starts, max_iter=ic.max_iterations, tol=ic.tol,
                              validation_fraction=ic.validation_fraction, check_data=check_data)

@@ -30,6 +30,8 @@ leading shape ``S`` of ``y`` and jittable.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -96,6 +98,22 @@ class MLP:
         # Multiply-and-sum over the MINOR axis: the contraction is tiny (n_I), XLA fuses it, and
         # on CPU a reduction over the minor axis runs ~10x faster than over a major one.
         return jnp.sum(h[..., None, :] * jnp.swapaxes(self.W_out, -1, -2), axis=-1) + self.b_out
+
+    def padded(self, width: int) -> "MLP":
+        """The same function with ``width`` hidden units (one hidden layer): the new units have
+        zero weights, bias and output weights, so they add nothing. Lets networks of different
+        widths share one stacked :class:`CombinedModel`."""
+        if len(self.hidden) != 1:
+            raise ValueError("padding needs a network with one hidden layer")
+        (w, b), = self.hidden
+        extra = int(width) - int(b.shape[-1])
+        if extra < 0:
+            raise ValueError(f"cannot pad a width-{b.shape[-1]} network to {width}")
+        def pad(a, axis):
+            ax = axis % a.ndim
+            return jnp.concatenate([a, jnp.zeros(a.shape[:ax] + (extra,) + a.shape[ax + 1:], a.dtype)], axis=ax)
+
+        return MLP(((pad(w, -1), pad(b, -1)),), pad(self.W_out, -2), self.b_out, self.activation)
 
     @classmethod
     def init(cls, key, widths=DEFAULT_GAIN_WIDTHS, activation="tanh", first_scale=2.0) -> "MLP":
@@ -287,6 +305,21 @@ def physics_from_ideal(pole_pitch, k, zeta, mu, lever_arm):
     return a3 @ STAR, b3 @ STAR
 
 
+def _common_widths(models: list) -> list:
+    """Pad single-hidden-layer networks to the widest of their kind (:meth:`MLP.padded`): coil sets
+    identified with different widths (chosen by validation) stack into one model, same function."""
+    def width(net):
+        return None if net is None or len(net.hidden) != 1 else net.widths[0]
+
+    gw = {width(m.gain_nets[0]) for m in models if m.gain_nets is not None}
+    cw = {width(m.cog_net) for m in models if m.cog_net is not None}
+    if len(gw) <= 1 and len(cw) <= 1 or None in gw | cw:
+        return models
+    g_max, c_max = max(gw, default=0), max(cw, default=0)
+    return [replace(m, gain_nets=None if m.gain_nets is None else tuple(n.padded(g_max) for n in m.gain_nets),
+                    cog_net=None if m.cog_net is None else m.cog_net.padded(c_max)) for m in models]
+
+
 @pytree_dataclass
 class CombinedModel:
     """``L`` coil-set models with stacked parameters (eq. PGNN_Electromagnetics).
@@ -335,6 +368,7 @@ class CombinedModel:
         models = list(models)
         if not models:
             raise ValueError("need at least one coil-set model")
+        models = _common_widths(models)
         m0 = models[0]
         for l, m in enumerate(models):
             if m.pole_pitch != m0.pole_pitch:

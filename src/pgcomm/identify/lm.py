@@ -305,12 +305,43 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
             np.abs(np.asarray(st.flat[best])) - w_max, 0.0), 0.0) ** 2)))
 
 
-def identify_all(datasets, pole_pitch: float, *, seed: int = 0, progress=None, **kwargs):
+def identify_selecting_width(data: CoilSetData, pole_pitch: float, *, gain_width_candidates=(2, 4, 8),
+                             **kwargs) -> IdentifyResult:
+    """:func:`identify` for each gain-network width in ``gain_width_candidates``; keep the best on validation.
+
+    The paper's width 2 is a start, not a rule: a motor whose magnets vary one by one needs
+    more capacity along the stroke than one with a smooth field. Every candidate is trained
+    on the same split with the same seed; the one with the lowest validation data cost
+    (``cost_pgnn_validation``, a prediction error comparable across widths) is kept, and
+    ``width_selection`` records every candidate's ``(width, validation cost)``. Without
+    validation data the first candidate is kept (nothing to choose by).
+
+    Args:
+        gain_width_candidates: single-hidden-layer widths of the two gain networks.
+        kwargs: passed to :func:`identify` (``gain_widths`` is set per candidate).
+    """
+    from dataclasses import replace
+
+    cands = tuple(int(w) for w in gain_width_candidates)
+    if not cands:
+        raise ValueError("gain_width_candidates is empty")
+    results = [identify(data, pole_pitch, gain_widths=(w,), **kwargs) for w in cands]
+    val = [r.cost_pgnn_validation for r in results]
+    best = int(np.nanargmin(val)) if np.isfinite(val).any() else 0
+    return replace(results[best], width_selection=tuple((w, float(v)) for w, v in zip(cands, val)),
+                   seconds=float(sum(r.seconds for r in results)))
+
+
+def identify_all(datasets, pole_pitch: float, *, seed: int = 0, progress=None, gain_width_candidates=(),
+                 **kwargs):
     """Identify every coil set independently (Algorithm 2's loop) and combine them (eq. PGNN_Electromagnetics).
 
     Args:
         datasets: list of :class:`CoilSetData`, one per coil set (in coil-set order).
         pole_pitch: ``d_m`` (m). seed: coil set ``l`` (0-based) uses ``seed + l``.
+        gain_width_candidates: if not empty, each coil set's gain width is chosen by validation
+            (:func:`identify_selecting_width`); coil sets may differ (narrower networks are padded
+            with inert units when combined).
         kwargs: passed to :func:`identify`.
 
     Returns:
@@ -318,5 +349,10 @@ def identify_all(datasets, pole_pitch: float, *, seed: int = 0, progress=None, *
     """
     results = []
     for l, data in enumerate(datasets):
-        results.append(identify(data, pole_pitch, seed=seed + l, progress=progress, **kwargs))
+        if gain_width_candidates:
+            kwargs.pop("gain_widths", None)
+            results.append(identify_selecting_width(data, pole_pitch, gain_width_candidates=gain_width_candidates,
+                                                    seed=seed + l, progress=progress, **kwargs))
+        else:
+            results.append(identify(data, pole_pitch, seed=seed + l, progress=progress, **kwargs))
     return CombinedModel.from_coil_sets([r.model for r in results]), results

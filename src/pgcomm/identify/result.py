@@ -61,6 +61,7 @@ class IdentifyResult:
     stop_reason: str = ""
     slope_bound: float = float("inf")
     slope_term: float = 0.0
+    width_selection: tuple = ()
     history: tuple = field(default=(), repr=False)
 
     def to_dict(self) -> dict:
@@ -70,4 +71,6 @@ class IdentifyResult:
                 "ridge_term", "damping", "damping_term", "n_train", "n_validation", "seed", "n_starts", "stop_reason", "slope_bound", "slope_term")
         out = {key: getattr(self, key) for key in keys}
         out["start_costs"] = list(self.start_costs)
+        out["gain_width"] = self.model.gain_nets[0].widths[-1] if self.model.gain_nets is not None else None
+        out["width_selection"] = [{"gain_width": w, "cost_validation": v} for w, v in self.width_selection]
         return {key: (None if isinstance(v, float) and not np.isfinite(v) else v) for key, v in out.items()}
