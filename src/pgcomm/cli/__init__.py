@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from pgcomm.cli import calibrate, check, evaluate, export, identify, inspect, reproduce, simulate
+from pgcomm.cli import calibrate, check, evaluate, export, identify, inspect, reproduce, simulate, zoo
 from pgcomm.cli._common import staged_output, user_error_line
 from pgcomm.errors import PgcommError
 
@@ -30,6 +30,7 @@ COMMANDS = {
     "evaluate": evaluate,
     "export": export,
     "inspect": inspect,
+    "zoo": zoo,
 }
 
 
