@@ -7,8 +7,9 @@ so a failed run leaves no half-written files.
 
 Each command module has ``HELP`` (one line), ``configure(parser)`` (its options) and
 ``run(args, out, progress)``; ``out`` is the staging directory, or ``None`` for commands
-without ``--out`` and for those that set ``STAGED_OUT = False`` (``fleet``: a resumable workspace). The modules import the library lazily, inside ``run``, so that
-``pgcomm --help`` stays fast. The front end imports the library, never the reverse.
+without ``--out`` and for those that set ``STAGED_OUT = False`` (``fleet``: a resumable
+workspace). The modules import the library lazily, inside ``run``, so that ``pgcomm --help``
+stays fast. The front end imports the library, never the reverse.
 """
 
 from __future__ import annotations
