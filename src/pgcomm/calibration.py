@@ -155,14 +155,85 @@ def calibrate_from_datasets(datasets, k_hat, zeta_hat, delta: float, method: str
     """
     steps = []
     for z1, z2 in datasets:
-        l = z1.coil_set
         r1, r2 = z1.result, z2.result
-        c1, c2 = fit_coefficients(r1.f_meas[:, 0], r1.f_star[:, 0], r1.y_meas,
-                                  r2.f_meas[:, 0], r2.f_star[:, 0], r2.y_meas, method=method, n_bins=n_bins,
-                                  sample_time=r1.sample_time, pole_pitch=pole_pitch)
-        k_new, z_new = update(c1, c2, float(k_hat[l]), float(zeta_hat[l]), delta)
-        steps.append(CalibrationStep(l, c1, c2, k_new, z_new))
+        steps.append(_step(z1.coil_set, (r1.f_meas[:, 0], r1.f_star[:, 0], r1.y_meas),
+                           (r2.f_meas[:, 0], r2.f_star[:, 0], r2.y_meas), r1.sample_time, k_hat, zeta_hat, delta,
+                           method, n_bins, pole_pitch))
     return steps
+
+
+def calibrate_from_logs(logs, motor, method: str = "offset", n_bins: int = 40) -> CalibrationResult:
+    """Algorithm 1 (one pass) from logged data sets ``Z_1^l, Z_2^l``, e.g. the files of ``pgcomm calibrate --save-data``.
+
+    Each log is one experiment with one coil set carrying current (:func:`pgcomm.data.active_coil_set`)
+    and the drive's fixed commutation at ``motor``'s nominal ``k̂``, ``ζ̂`` with a constant phase
+    offset ``Δ``. The offset is read from the drive inputs: a log stores ``(Fy_ref_l, delta_l)``
+    with ``Fy_ref_l ≥ 0``, so where ``Fy_ref_l`` and the demanded ``Fy_star`` have opposite signs
+    the applied offset is ``delta_l + π``. Per coil set exactly one log with ``Δ = −Δ0`` and one
+    with ``+Δ0`` are needed. The coefficients and the update are those of
+    :func:`calibrate_from_datasets` (the same numbers as calibrating on the simulated data sets).
+
+    Args:
+        logs: :class:`pgcomm.io.logs.Log` list with ``y``, ``Fy``, ``Fy_star`` and per coil set
+            ``Fy_ref_l``, ``delta_l`` (and currents ``ia_l, ib_l`` or not).
+        motor: :class:`pgcomm.motor.Motor`: the drive's ``k̂`` (L,) N/A, ``ζ̂`` (L,) rad, pole pitch (m).
+        method, n_bins: as :func:`fit_coefficients`.
+
+    Returns:
+        :class:`CalibrationResult` with ``iterations = 1``.
+
+    Raises:
+        DataError: missing columns, no or several active coil sets in a log, a coil set without
+            exactly one log of each sign of ``Δ``, or ``|Δ|`` that differs between the two logs.
+    """
+    from pgcomm.data import active_coil_set, log_currents
+
+    L = motor.n_coil_sets
+    groups: dict[int, dict[int, tuple]] = {}
+    for log in logs:
+        di = log.drive_inputs()
+        if di is None or "Fy_star" not in log:
+            raise DataError(f"{log.source}: calibration needs the drive inputs Fy_ref_l, delta_l and the demanded "
+                            "force Fy_star (as pgcomm calibrate --save-data writes them)")
+        l = active_coil_set(log, log_currents(log, motor))
+        fy_ref, dl = di[0][:, l], di[1][:, l]
+        fs = log["Fy_star"]
+        use = np.abs(fs) > 1e-6 * max(float(np.max(np.abs(fs))), 1e-300)
+        if not use.any():
+            raise DataError(f"{log.source}: the demanded force Fy_star is zero throughout")
+        applied = dl[use] + np.pi * (np.sign(fy_ref[use]) * np.sign(fs[use]) < 0)
+        d = float(np.angle(np.mean(np.exp(1j * applied))))
+        if abs(d) < 1e-3 or abs(d) > np.pi / 2 - 1e-3:
+            raise DataError(f"{log.source}: phase offset Delta = {d:.4g} rad; Algorithm 1 needs 0 < |Delta| < pi/2")
+        sign = 1 if d > 0 else -1
+        if sign in groups.setdefault(l, {}):
+            raise DataError(f"{log.source} and {groups[l][sign][0].source}: two logs of coil set {l + 1} with "
+                            f"Delta {'>' if sign > 0 else '<'} 0; expected one with -Delta0 and one with +Delta0")
+        groups[l][sign] = (log, d)
+    missing = [f"coil set {l + 1} ({'-' if -1 not in groups.get(l, {}) else '+'}Delta)" for l in range(L)
+               if len(groups.get(l, {})) != 2]
+    if missing:
+        raise DataError(f"calibration: no log for {', '.join(missing)}; every coil set needs one log with "
+                        "Delta = -Delta0 and one with +Delta0")
+    k0, z0 = np.asarray(motor.k, float), np.asarray(motor.zeta, float)
+    k, zeta, steps = k0.copy(), z0.copy(), []
+    for l in range(L):
+        (g1, d1), (g2, d2) = groups[l][-1], groups[l][1]
+        if abs(d1 + d2) > 1e-3 * abs(d2):
+            raise DataError(f"{g1.source}, {g2.source}: Delta = {d1:.6g} and {d2:.6g} rad are not opposite")
+        s = _step(l, (g1["Fy"], g1["Fy_star"], g1["y"]), (g2["Fy"], g2["Fy_star"], g2["y"]), g1.sample_time,
+                  k0, z0, 0.5 * (d2 - d1), method, n_bins, motor.pole_pitch)
+        k[l], zeta[l] = s.k, s.zeta
+        steps.append(s)
+    return CalibrationResult(k=k, zeta=zeta, k_initial=k0, zeta_initial=z0, iterations=1, history=[steps])
+
+
+def _step(l, set1, set2, sample_time, k_hat, zeta_hat, delta, method, n_bins, pole_pitch) -> CalibrationStep:
+    """Coefficients of eq. Ci from ``set_i = (Fy, Fy*, y)`` of coil set ``l`` and the update of eq. Update_Calibration."""
+    c1, c2 = fit_coefficients(*set1, *set2, method=method, n_bins=n_bins, sample_time=sample_time,
+                              pole_pitch=pole_pitch)
+    k_new, z_new = update(c1, c2, float(k_hat[l]), float(zeta_hat[l]), delta)
+    return CalibrationStep(l, c1, c2, k_new, z_new)
 
 
 def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1, tol: float = 1e-4,

@@ -90,8 +90,13 @@ __all__ = [
     "reference_span",
     "write_motor",
     "write_zoo",
+    "write_logs",
     "motor_folder_name",
+    "MAX_MOTORS",
 ]
+
+#: Most motors :func:`write_zoo` writes in one call (with logs a motor takes 20-150 MB of CSV).
+MAX_MOTORS = 1000
 
 #: Parasitic effects a zoo motor may have (each absent with some probability).
 EFFECTS = ("imbalance", "field", "end_effects", "harmonics", "out_of_plane", "magnets", "cable", "cogging",
@@ -770,7 +775,7 @@ def write_zoo(n: int, seed: int, out_dir, progress=None) -> list[Path]:
     Motor ``i`` (1-based folder number) is ``draw_motor(seed, i - 1)``.
 
     Args:
-        n: number of motors (≥ 1).
+        n: number of motors, 1 to :data:`MAX_MOTORS`.
         seed: zoo seed.
         out_dir: output directory (created).
         progress: optional :class:`pgcomm.progress.Progress` (one line per motor).
@@ -779,8 +784,8 @@ def write_zoo(n: int, seed: int, out_dir, progress=None) -> list[Path]:
         the ``n`` motor folders.
     """
     n = int(n)
-    if n < 1:
-        raise ValueError(f"write_zoo: n = {n}, need at least one motor")
+    if not 1 <= n <= MAX_MOTORS:
+        raise ValueError(f"write_zoo: n = {n}, expected 1 to {MAX_MOTORS} motors")
     out = Path(out_dir)
     folders = []
     for i in range(1, n + 1):
@@ -791,3 +796,30 @@ def write_zoo(n: int, seed: int, out_dir, progress=None) -> list[Path]:
             progress.info(f"{folder.name}: L = {m.n_coil_sets}, d_m = {m.pole_pitch * 1e3:.1f} mm, "
                           f"k ≈ {np.mean(m.k):.1f} N/A, stroke {m.stroke:.3f} m, effects: {', '.join(m.effects)}")
     return folders
+
+
+def write_logs(folder, seed: int = 0) -> list[Path]:
+    """Write the data sets a production line records for the motor in ``folder``: ``folder/logs/Z{i}_coilset{l}.csv``.
+
+    The experiments of Algorithm 1's first pass (eq. DataSets): the data-generation
+    reference of ``folder/config.toml`` run closed loop on the force map ``folder/plant.csv``,
+    one coil set at a time with the drive at the nominal ``k̂``, ``ζ̂`` of ``folder/motor.toml``
+    and ``Δ = ∓Δ0`` (``[calibration] delta``, default π/4); noise seeded by ``seed`` as in
+    ``pgcomm calibrate --seed``. The files are exactly those of ``pgcomm calibrate --save-data``
+    with the same folder and seed (:func:`pgcomm.io.logs.write_datasets`).
+
+    Args:
+        folder: a motor folder of :func:`write_motor` (``plant.csv``, ``motor.toml``, ``config.toml``).
+        seed: noise seed.
+
+    Returns:
+        the ``2 L`` log paths.
+    """
+    from pgcomm.experiment import build_setup, data_generation_reference, generate, load_experiment
+    from pgcomm.io.logs import write_datasets
+
+    folder = Path(folder)
+    setup = build_setup(load_experiment(folder / "config.toml"), forcemap_path=folder / "plant.csv",
+                        motor_path=folder / "motor.toml")
+    data = generate(setup, data_generation_reference(setup), setup.motor.k, setup.motor.zeta, seed=seed)
+    return write_datasets(folder / "logs", data)

@@ -7,8 +7,9 @@ so a failed run leaves no half-written files.
 
 Each command module has ``HELP`` (one line), ``configure(parser)`` (its options) and
 ``run(args, out, progress)``; ``out`` is the staging directory, or ``None`` for commands
-without ``--out``. The modules import the library lazily, inside ``run``, so that
-``pgcomm --help`` stays fast. The front end imports the library, never the reverse.
+without ``--out`` and for those that set ``STAGED_OUT = False`` (``fleet``: a resumable
+workspace). The modules import the library lazily, inside ``run``, so that ``pgcomm --help``
+stays fast. The front end imports the library, never the reverse.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from pgcomm.cli import calibrate, check, evaluate, export, identify, inspect, reproduce, simulate
+from pgcomm.cli import calibrate, check, evaluate, export, fleet, identify, inspect, reproduce, simulate, zoo
 from pgcomm.cli._common import staged_output, user_error_line
 from pgcomm.errors import PgcommError
 
@@ -30,6 +31,8 @@ COMMANDS = {
     "evaluate": evaluate,
     "export": export,
     "inspect": inspect,
+    "zoo": zoo,
+    "fleet": fleet,
 }
 
 
@@ -56,7 +59,7 @@ def main(argv=None) -> int:
     progress = Progress(enabled=not args.quiet)
     try:
         out = getattr(args, "out", None)
-        if out is None:
+        if out is None or not getattr(module, "STAGED_OUT", True):
             module.run(args, None, progress)
         else:
             with staged_output(out) as tmp:

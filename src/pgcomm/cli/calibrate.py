@@ -34,21 +34,11 @@ def run(args, out: Path, progress) -> None:
     plots.save(plots.plot_calibration(cal.k_initial, cal.zeta_initial, cal.k, cal.zeta, setup.true_k,
                                       setup.true_zeta), out / "calibration.png")
     if args.save_data:
-        _write_datasets(out, data)
+        from pgcomm.io.logs import write_datasets
+
+        write_datasets(out / "data", data)
     write_results(out / "results.json", results)
     if not args.quiet:
         print_calibration(results["calibration"])
         print(f"wrote {args.out}/results.json, calibration.png")
 
-
-def _write_datasets(out: Path, data) -> None:
-    import numpy as np
-
-    from pgcomm.io.logs import Log, write_log
-
-    for pair in data:
-        for i, ds in enumerate(pair):
-            cols = ds.columns()
-            cols["experiment"] = np.full(ds.result.t.shape[0], float(i + 1))
-            write_log(out / "data" / f"Z{i + 1}_coilset{ds.coil_set + 1}.csv",
-                      Log(cols, ds.result.sample_time, source="dataset"))

@@ -19,7 +19,7 @@ Modules:
 
 from pgcomm.io.atomic import atomic_open, atomic_path, atomic_write_bytes, atomic_write_text
 from pgcomm.io.config import load_dataclass, load_motor, load_toml, motor_to_toml, write_motor
-from pgcomm.io.logs import ColumnMapping, Log, load_column_mapping, read_log, read_logs, write_log
+from pgcomm.io.logs import ColumnMapping, Log, load_column_mapping, read_log, read_logs, write_datasets, write_log
 from pgcomm.io.results import get_key, read_results, set_key, to_jsonable, write_results
 
 __all__ = [
@@ -38,6 +38,7 @@ __all__ = [
     "read_log",
     "read_logs",
     "write_log",
+    "write_datasets",
     "get_key",
     "read_results",
     "set_key",

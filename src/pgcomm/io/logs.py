@@ -77,6 +77,7 @@ __all__ = [
     "read_log",
     "read_logs",
     "write_log",
+    "write_datasets",
     "is_log_column",
     "UNITS",
     "REQUIRED",
@@ -401,6 +402,34 @@ def write_log(path, log: Log) -> None:
         table = table.replace_schema_metadata({b"pgcomm.sample_time": repr(log.sample_time).encode()})
         with atomic_path(path) as tmp:
             pq.write_table(table, str(tmp))
+
+
+def write_datasets(folder, datasets) -> list[Path]:
+    """Write data sets ``Z_i^l`` as logs ``folder/Z{i}_coilset{l}.csv`` (1-based ``i``, ``l``; atomically).
+
+    The files a production line (or ``pgcomm calibrate --save-data``) records: every column
+    of :meth:`pgcomm.data.DataSet.columns` (log format plus ``Fy_star, Fx_star, Tz_star``,
+    ``active_coil_set``) and ``experiment = i``.
+
+    Args:
+        folder: target directory (created with its parents).
+        datasets: ``datasets[l][i]`` as returned by :func:`pgcomm.data.generate_datasets`
+            (objects with ``.columns()``, ``.coil_set`` (0-based) and ``.result``).
+
+    Returns:
+        the written paths, in the order of ``datasets``.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for pair in datasets:
+        for i, ds in enumerate(pair):
+            cols = ds.columns()
+            cols["experiment"] = np.full(ds.result.t.shape[0], float(i + 1))
+            path = folder / f"Z{i + 1}_coilset{ds.coil_set + 1}.csv"
+            write_log(path, Log(cols, ds.result.sample_time, source="dataset"))
+            paths.append(path)
+    return paths
 
 
 # --------------------------------------------------------------------------- reading: validation

@@ -1,0 +1,43 @@
+"""``pgcomm zoo``: write random, physically plausible zoo motors (force maps with their truth), optionally with logs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pgcomm.cli._common import add_common_options
+from pgcomm.errors import ConfigError
+
+HELP = ("Write N random zoo motors (force map, motor.toml, config.toml, truth.json per folder); "
+        "--logs also writes the data sets a production line records.")
+
+
+def configure(p) -> None:
+    """Options of ``pgcomm zoo``."""
+    from pgcomm.zoo import MAX_MOTORS
+
+    p.add_argument("--motors", type=int, required=True, metavar="N", help=f"number of motors (1 to {MAX_MOTORS})")
+    p.add_argument("--seed", type=int, default=0, help="zoo seed, also the noise seed of --logs (default 0)")
+    p.add_argument("--logs", action="store_true",
+                   help="also write logs/Z{i}_coilset{l}.csv per motor (as pgcomm calibrate --save-data)")
+    add_common_options(p, out=True, plant=False)
+
+
+def run(args, out: Path, progress) -> None:
+    """Write ``out/motor_NN/`` for every motor (and its ``logs/`` with ``--logs``)."""
+    from pgcomm.zoo import MAX_MOTORS, draw_motor, motor_folder_name, write_logs, write_motor
+
+    n = args.motors
+    if not 1 <= n <= MAX_MOTORS:
+        raise ConfigError(f"--motors {n}: expected 1 to {MAX_MOTORS} motors")
+    for i in range(1, n + 1):
+        name = motor_folder_name(i, n)
+        what = "force map and truth" + (", logs" if args.logs else "")
+        with progress.stage(f"{name} ({i}/{n}): {what}"):
+            m = draw_motor(args.seed, i - 1)
+            folder = write_motor(m, out / name)
+            if args.logs:
+                write_logs(folder, seed=args.seed)
+            progress.info(f"L = {m.n_coil_sets}, d_m = {m.pole_pitch * 1e3:.1f} mm, k ≈ {sum(m.k) / len(m.k):.1f} "
+                          f"N/A, stroke {m.stroke:.3f} m, effects: {', '.join(m.effects) or 'none'}")
+    if not args.quiet:
+        print(f"wrote {n} motor folder(s) to {args.out}")
