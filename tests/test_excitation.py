@@ -255,3 +255,15 @@ def test_coverage_figure_has_a_panel_per_coil_set():
     assert axes[2].get_title(loc="left") == "coil set 3: 1 problem(s)"
     assert any(t.get_text() == "gap" for t in axes[1].texts)
     plt.close(fig)
+
+
+def test_two_exact_directions_in_equal_shares_are_two_directions():
+    # Δ = ±π/4 exactly, equal sample counts, noise-free currents: the doubled directions cancel
+    # (their mean is 0); the criterion must still see two directions in every bin.
+    n = 4000
+    y = np.tile(np.linspace(-0.1, 0.1, n // 2), 2)
+    fy = np.tile(20.0 + 10.0 * np.sin(np.linspace(0.0, 40.0, n // 2)), 2)
+    delta = np.repeat([np.pi / 4, -np.pi / 4], n // 2)
+    data = CoilSetData.from_drive_inputs(y, fy, delta, np.zeros((n, 3)), 60.0, -0.5, 0.03,
+                                         np.repeat([0, 1], n // 2))
+    assert check_excitation(data, 0.03) == []

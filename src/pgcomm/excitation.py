@@ -306,7 +306,9 @@ def _bin_stats(data: CoilSetData, pole_pitch: float, zeta: float, edges, min_sam
             delta_med[b] = float(np.median(delta[sb]))
         if sb.sum() >= 2:
             z = np.exp(2j * psi[sb])  # doubling the angle makes ψ and ψ + π the same direction
-            dev = np.angle(z * np.conj(np.mean(z))) / 2.0
+            # deviations from one sample's direction, not from the mean: with Δ = ±π/4 in equal
+            # shares the two doubled directions cancel and the mean has no direction at all
+            dev = np.angle(z * np.conj(z[0])) / 2.0
             angle_spread[b] = float(np.percentile(dev, 95) - np.percentile(dev, 5))
         if sb.any():
             q = p[sel]
