@@ -258,12 +258,17 @@ def test_coverage_figure_has_a_panel_per_coil_set():
 
 
 def test_two_exact_directions_in_equal_shares_are_two_directions():
-    # Δ = ±π/4 exactly, equal sample counts, noise-free currents: the doubled directions cancel
-    # (their mean is 0); the criterion must still see two directions in every bin.
-    n = 4000
-    y = np.tile(np.linspace(-0.1, 0.1, n // 2), 2)
-    fy = np.tile(20.0 + 10.0 * np.sin(np.linspace(0.0, 40.0, n // 2)), 2)
-    delta = np.repeat([np.pi / 4, -np.pi / 4], n // 2)
-    data = CoilSetData.from_drive_inputs(y, fy, delta, np.zeros((n, 3)), 60.0, -0.5, 0.03,
-                                         np.repeat([0, 1], n // 2))
+    # Δ = ±π/4 exactly, equal sample counts, noise-free currents, one position per bin: the
+    # doubled directions cancel exactly (their mean is 0j, no direction at all); the criterion
+    # must still see two directions in every bin (zoo motor seed 1 #15 was refused this way).
+    edges = np.linspace(-0.1, 0.1, 21)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    per = 300
+    y1 = np.concatenate([[-0.1], np.repeat(centres, per), [0.1]])
+    m = y1.size
+    fy1 = 20.0 + 15.0 * np.sin(2 * np.pi * 61.3 * np.arange(m) / m)  # ~3 periods per bin
+    y, fy = np.tile(y1, 2), np.tile(fy1, 2)
+    delta = np.repeat([np.pi / 4, -np.pi / 4], m)
+    data = CoilSetData.from_drive_inputs(y, fy, delta, np.zeros((2 * m, 3)), 60.0, -0.5, 0.03,
+                                         np.repeat([0, 1], m))
     assert check_excitation(data, 0.03) == []
