@@ -32,6 +32,10 @@ class IdentifyResult:
 
     Validation costs are NaN when ``n_validation == 0``.
 
+    ``cost_y`` / ``cost_y_physics``: the paper's y cost of its Remark on ``sign(dy/dt)``,
+    ``mean_t (Fy - F̂y)²`` (N²) on the training data, of the identified model / the physics-only model
+    (:func:`pgcomm.identify.projection.cost_y`).
+
     ``iterations``: LM iterations of the kept start over both phases; ``start_costs``: the
     objective of every start at the end of phase 1 (on its subsample; the single phase if
     there is only one); ``history``: per phase, the best objective (``V`` plus the ridge and
@@ -59,13 +63,15 @@ class IdentifyResult:
     n_starts: int
     start_costs: tuple = ()
     stop_reason: str = ""
+    cost_y: float = float("nan")
+    cost_y_physics: float = float("nan")
     history: tuple = field(default=(), repr=False)
 
     def to_dict(self) -> dict:
         """JSON-ready summary (keys of ``results.json`` ``identification.coil_sets[l]``)."""
         keys = ("name", "cost_physics", "cost_pgnn", "cost_pgnn_data", "cost_physics_validation",
                 "cost_pgnn_validation", "cost_pgnn_validation_full", "iterations", "seconds", "ridge",
-                "ridge_term", "damping", "damping_term", "n_train", "n_validation", "seed", "n_starts", "stop_reason")
+                "ridge_term", "damping", "damping_term", "n_train", "n_validation", "seed", "n_starts", "stop_reason", "cost_y", "cost_y_physics")
         out = {key: getattr(self, key) for key in keys}
         out["start_costs"] = list(self.start_costs)
         return {key: (None if isinstance(v, float) and not np.isfinite(v) else v) for key, v in out.items()}
