@@ -27,8 +27,6 @@ def row_descriptions(result: ReproduceResult) -> dict:
         "pgnn_direction": (f"PGNN with the direction term C s(dy/dt), s = tanh(v/{cfg.identification.direction_velocity:g}"
                            f" m/s), law fed the {cfg.identification.law_velocity} velocity"
                            + (", 5th/7th harmonics" if cfg.identification.direction_harmonics else "")),
-        "pgnn_sensorless": "PGNN y row identified without a force sensor (positions + mass), x/z classical",
-        "cogging_table_sensorless": "classical + anti-cogging table from the position loop's effort at slow speed",
         "cogging_table": "classical + drive anti-cogging table (force offset vs position)",
         "harmonic_cogging": f"classical + offset of up to {cfg.evaluation.harmonics} pole-pitch harmonics",
         "oracle": "exact inverse of the plant with its true position and velocity (the floor)",

@@ -13,8 +13,7 @@ Steps (each a stage of the progress display):
    harmonic_cogging (classical plus a drive-style force offset learned from the classical
    residual), oracle (the plant's exact inverse with its true state, direction force included);
    beyond the paper (issue 10): pgnn_direction (the PGNN with the direction term ``C^l s(ẏ)``,
-   fed the controller's velocity), pgnn_sensorless and cogging_table_sensorless (no force
-   sensor, see :mod:`pgcomm.sensorless`);
+   fed the controller's velocity);
 6. metrics: 50 Hz-filtered and unfiltered commutation-error MSE per direction, tracking-
    error MSE, and each row's share of the reducible error
    ``(classical - row) / (classical - oracle)``.
@@ -38,8 +37,7 @@ from pgcomm.identify import IdentifyResult
 from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se, reducible_share
 from pgcomm.models import CombinedModel
 
-ROWS = ("original", "classical", "physics", "pgnn", "pgnn_direction", "pgnn_sensorless", "cogging_table",
-        "cogging_table_sensorless", "harmonic_cogging", "oracle")
+ROWS = ("original", "classical", "physics", "pgnn", "pgnn_direction", "cogging_table", "harmonic_cogging", "oracle")
 
 #: The paper's Table Commutation_Performance (filtered, unfiltered) and tracking-error MSE.
 PAPER = {
