@@ -232,7 +232,8 @@ def test_inspect_text_and_json(capsys, model_file):
     assert code == 0, err
     info = json.loads(stdout)
     assert info["structure"]["parameters_per_coil_set"] == {"physics": 12, "gain_networks": 0,
-                                                             "cogging_network": 0, "total": 12}
+                                                             "cogging_network": 0, "harmonics": 0,
+                                                             "direction": 0, "total": 12}
     assert info["structure"]["parameters_total"] == 36 and info["structure"]["coil_sets"] == 3
     assert [c["cost_pgnn"] for c in info["costs"]] == [1.25, 2.25, 3.25]
     assert info["seed"] == 7 and info["version"] == "0.1.0" and info["date"]
@@ -255,7 +256,8 @@ def test_inspect_counts_pgnn_parameters(tmp_path, capsys):
     code, stdout, err = run(["inspect", "--model", path, "--json"], capsys)
     s = json.loads(stdout)["structure"]
     assert (s["gain_widths"], s["cog_widths"], s["activation"]) == ([2], [16], "tanh")
-    assert s["parameters_per_coil_set"] == {"physics": 12, "gain_networks": 26, "cogging_network": 83, "total": 121}
+    assert s["parameters_per_coil_set"] == {"physics": 12, "gain_networks": 26, "cogging_network": 83,
+                                            "harmonics": 0, "direction": 0, "total": 121}
     assert s["parameters_total"] == 363
 
 

@@ -81,7 +81,7 @@ def _object_array(arrays):
 
 
 @pytest.mark.parametrize("edit_json,edit_arrays,message", [
-    (lambda d: d.update(schema="pgcomm-model/2"), None, r"m\.json: schema 'pgcomm-model/2' is not supported"),
+    (lambda d: d.update(schema="pgcomm-model/99"), None, r"m\.json: schema 'pgcomm-model/99' is not supported"),
     (lambda d: d.pop("pole_pitch"), None, r"m\.json: missing or invalid header field 'pole_pitch'"),
     (lambda d: d.update(activation="swish"), None, r"m\.json: unknown activation 'swish'"),
     (None, lambda a: a.pop("cog_b_out"), r"m\.npz: array 'cog_b_out' missing"),

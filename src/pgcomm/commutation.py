@@ -327,6 +327,11 @@ class ModelLaw:
     ``true_state``: the simulation feeds this law the plant's true position and velocity
     instead of the encoder position and the reference velocity (the oracle, which no
     commutation can beat except by noise; see :func:`oracle_law`).
+
+    ``velocity_source``: which velocity the controller gives the law (:mod:`pgcomm.simulate`):
+    ``"reference"`` (default: the reference velocity ``ṙ``, exact and without lag; measured
+    better on the twin, see the README) or ``"encoder"`` (the encoder difference through a
+    first-order low-pass at ``velocity_cutoff_hz``, Hz).
     """
 
     model: object
@@ -334,6 +339,8 @@ class ModelLaw:
     current_limit: float | None = static_field(default=None)
     det_min: float = static_field(default=DEFAULT_DET_MIN)
     true_state: bool = static_field(default=False)
+    velocity_source: str = static_field(default="reference")
+    velocity_cutoff_hz: float = static_field(default=100.0)
 
     def currents(self, y, f_star, v=None):
         """Star currents ``(..., L, 2)`` (A) for ``y`` (m), ``F*`` ``(..., 3)`` and velocity ``v`` (m/s, or ``None``)."""

@@ -120,6 +120,18 @@ class IdentificationConfig:
     validation_fraction: float = 0.2
     ridge_output: float = 0.0
     tol: float = 1e-9
+    #: issue 10: ``v_ε`` (m/s) of the direction term's smooth sign; whether the ``pgnn_direction`` row
+    #: also gets the 5th/7th harmonic columns; which velocity the direction law is given
+    #: (``"reference"`` or ``"encoder"``, see :class:`pgcomm.commutation.ModelLaw`).
+    direction_velocity: float = 1e-3
+    direction_harmonics: bool = False
+    law_velocity: str = "reference"
+
+    def __post_init__(self):
+        if self.law_velocity not in ("reference", "encoder"):
+            raise ValueError(f"law_velocity must be 'reference' or 'encoder', got {self.law_velocity!r}")
+        if not 0 < self.direction_velocity < 1:
+            raise ValueError(f"direction_velocity = {self.direction_velocity} m/s: expected 0 < v_eps < 1 m/s")
 
 
 @dataclass(frozen=True)
@@ -446,6 +458,50 @@ def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=N
     return pgnn, physics, res
 
 
-def identification_results(res, seconds_total: float) -> dict:
-    """The ``identification.*`` keys of results.json from ``[IdentifyResult]`` and the total time (s)."""
-    return {"coil_sets": [r.to_dict() for r in res], "seconds_total": seconds_total}
+def identify_direction_models(setup: Setup, data: list[CoilSetData], start_models, seed: int, progress=None):
+    """The PGNN with the direction term ``C^l s(ẏ)`` (and the harmonics if configured) per coil set.
+
+    Warm-started from ``start_models`` (the paper's PGNN per coil set, same widths): the
+    extension adds only linear columns, which Proposition 1 sets for any hidden weights, so
+    one start refined from the trained hidden layers replaces the random restarts.
+
+    Returns:
+        ``(CombinedModel, [IdentifyResult])``.
+    """
+    from pgcomm.identify import identify
+
+    ic = setup.config.identification
+    res = []
+    for l, (d, m0) in enumerate(zip(data, start_models)):
+        # the widths of the start model (chosen by validation per coil set)
+        gw = None if m0.gain_nets is None else m0.gain_nets[0].widths
+        cw = None if m0.cog_net is None else m0.cog_net.widths
+        res.append(identify(d, setup.motor.pole_pitch, seed=seed + l, gain_widths=gw,
+                            cog_widths=cw, activation=ic.activation, Lambda=ic.regularisation,
+                            ridge_output=ic.ridge_output, n_starts=1, max_iter=ic.max_iterations, tol=ic.tol,
+                            validation_fraction=ic.validation_fraction, check_data=False,
+                            harmonics=ic.direction_harmonics, direction=True,
+                            direction_velocity=ic.direction_velocity, start_from=m0))
+    return CombinedModel.from_coil_sets([r.model for r in res]), res
+
+
+def identification_results(res, seconds_total: float, res_direction=None) -> dict:
+    """The ``identification.*`` keys of results.json from ``[IdentifyResult]`` and the total time (s).
+
+    Per coil set also ``cost_y_pgnn`` (the paper's PGNN) and, with ``res_direction``,
+    ``cost_y_pgnn_direction`` and ``direction_term`` (``C^l``, N, N, N·m): the y cost
+    ``mean (Fy - F̂y)²`` (N²) of the paper's Remark on training data.
+    """
+    sets = []
+    for l, r in enumerate(res):
+        d = r.to_dict()
+        d["cost_y_pgnn"] = d.get("cost_y")
+        if res_direction is not None:
+            rd = res_direction[l]
+            d["cost_y_pgnn_direction"] = rd.cost_y
+            d["direction_term"] = [float(c) for c in np.asarray(rd.model.C)]
+            d["cost_pgnn_direction"] = rd.cost_pgnn
+            d["cost_pgnn_direction_validation"] = rd.cost_pgnn_validation
+            d["seconds_direction"] = rd.seconds
+        sets.append(d)
+    return {"coil_sets": sets, "seconds_total": seconds_total}

@@ -8,7 +8,14 @@
       F̂_cog(y) = f_φ(s)                                              (3,   N, N, N·m)
       F̂(y, i) = K̂(y) i + F̂_cog(y)
 
-  with ``s = (y - y_center) / y_scale``. Without networks it is the physics-only model
+  with ``s = (y - y_center) / y_scale``. Two optional extensions beyond the paper (issue 10),
+  each off by default (``None``) so that the default model is exactly the paper's::
+
+      K̂(y) += Σ_{n ∈ {5, 7}} H_n,c cos(2πn y/d_m) + H_n,s sin(2πn y/d_m)   (higher harmonics)
+      F̂(y, i, ẏ) += C s(ẏ),   s(ẏ) = tanh(ẏ / v_ε)                      (direction term)
+
+  ``H`` and ``C`` are linear parameters, eliminated by Proposition 1 with ``θ_L``.
+  Without networks it is the physics-only model
   (``A cos + B sin``), which for the :func:`physics_from_ideal` values equals the ideal
   gain matrix of eq. Electromagnetics_GainMatrix reduced to the star currents.
 * :class:`CombinedModel` — ``L`` coil-set models stacked (eq. PGNN_Electromagnetics):
@@ -30,6 +37,7 @@ leading shape ``S`` of ``y`` and jittable.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import replace
 
 import jax
@@ -158,10 +166,47 @@ def hidden_features(hidden, s, activation="tanh"):
     return h
 
 
-def harmonic_basis(y, pole_pitch):
-    """``(cos, sin)`` of ``2π y / d_m`` (-), each of the shape of ``y`` (m)."""
-    theta = (2.0 * np.pi / pole_pitch) * jnp.asarray(y, dtype=float)
+def harmonic_basis(y, pole_pitch, order: int = 1):
+    """``(cos, sin)`` of ``2π n y / d_m`` (-) with ``n = order``, each of the shape of ``y`` (m)."""
+    theta = (2.0 * np.pi * order / pole_pitch) * jnp.asarray(y, dtype=float)
     return jnp.cos(theta), jnp.sin(theta)
+
+
+#: Orders of the optional higher spatial harmonics of the gain (the 5th and 7th: a three-phase
+#: winding cancels the triplen harmonics of the field, the 5th and 7th are the first that remain).
+HARMONIC_ORDERS = (5, 7)
+#: Default ``v_ε`` (m/s) of the smooth sign ``tanh(ẏ / v_ε)`` of the direction term. It must be
+#: well below the slowest motion of interest (the paper's references move at >= 25 mm/s, so
+#: ``s(ẏ) > 0.999`` there) and above the velocity noise of a differentiated encoder signal
+#: (0.1 µm / 1 ms quanta, Savitzky–Golay smoothed: ~0.05 mm/s), so that the sign does not
+#: chatter at standstill. 1 mm/s sits between the two with a margin of ~20x each way.
+DEFAULT_DIRECTION_VELOCITY = 1e-3
+
+
+def smooth_sign(v, v_eps):
+    """``s(v) = tanh(v / v_ε)`` (-): the smooth sign of the direction term; ``v`` (m/s), ``v_ε`` (m/s)."""
+    return jnp.tanh(jnp.asarray(v, dtype=float) / v_eps)
+
+
+def harmonic_gain(H, y, pole_pitch):
+    """Gain of the higher harmonics ``Σ_n H[2j] cos(2πn y/d_m) + H[2j+1] sin(2πn y/d_m)``.
+
+    Args:
+        H: ``G + (4, 3, 2)`` coefficients (N/A) of ``cos 5θ, sin 5θ, cos 7θ, sin 7θ``; ``G`` leading
+            dims (e.g. coil sets ``(L,)``) broadcast against ``y``'s trailing dims.
+        y: positions ``S`` (m) (with ``G`` non-empty, shape ``S`` is broadcast to ``S + G``).
+
+    Returns:
+        ``S + G + (3, 2)``.
+    """
+    out = 0.0
+    for j, n in enumerate(HARMONIC_ORDERS):
+        c, s = harmonic_basis(y, pole_pitch, n)
+        extra = (None,) * (H.ndim - 3)
+        c = c[(...,) + extra + (None, None)]
+        s = s[(...,) + extra + (None, None)]
+        out = out + H[..., 2 * j, :, :] * c + H[..., 2 * j + 1, :, :] * s
+    return out
 
 
 @pytree_dataclass
@@ -175,6 +220,10 @@ class CoilSetModel:
         cog_net: :class:`MLP` for the cogging force, or ``None`` (no cogging).
         pole_pitch: ``d_m`` (m). y_center, y_scale: input scaling (m), ``s = (y - y_center) / y_scale``.
         y_min, y_max: positions covered by the training data (m), or ``None`` if unknown.
+        H: ``(4, 3, 2)`` higher-harmonic gain coefficients (N/A) of ``cos 5θ, sin 5θ, cos 7θ,
+            sin 7θ`` (``θ = 2πy/d_m``), or ``None`` (off: the paper's model).
+        C: ``(3,)`` direction term (N, N, N·m) multiplying ``s(ẏ) = tanh(ẏ/v_ε)``, or ``None`` (off).
+        direction_velocity: ``v_ε`` (m/s) of the smooth sign.
     """
 
     A: jnp.ndarray
@@ -186,6 +235,9 @@ class CoilSetModel:
     y_scale: float = static_field(default=1.0)
     y_min: float | None = static_field(default=None)
     y_max: float | None = static_field(default=None)
+    H: jnp.ndarray | None = None
+    C: jnp.ndarray | None = None
+    direction_velocity: float = static_field(default=DEFAULT_DIRECTION_VELOCITY)
 
     @classmethod
     def physics(cls, A, B, pole_pitch, y_center=0.0, y_scale=1.0, y_min=None, y_max=None) -> "CoilSetModel":
@@ -195,17 +247,22 @@ class CoilSetModel:
 
     @classmethod
     def init(cls, key, A, B, pole_pitch, y_center, y_scale, gain_widths=DEFAULT_GAIN_WIDTHS,
-             cog_widths=DEFAULT_COG_WIDTHS, activation="tanh", y_min=None, y_max=None) -> "CoilSetModel":
+             cog_widths=DEFAULT_COG_WIDTHS, activation="tanh", y_min=None, y_max=None, harmonics=False,
+             direction=False, direction_velocity=DEFAULT_DIRECTION_VELOCITY) -> "CoilSetModel":
         """PGNN with random hidden layers (:meth:`MLP.init`) and zero output layers.
 
-        ``gain_widths`` / ``cog_widths`` of ``None`` leave that network out.
+        ``gain_widths`` / ``cog_widths`` of ``None`` leave that network out. ``harmonics`` /
+        ``direction`` switch the extensions on (zero coefficients; Proposition 1 sets them);
+        ``direction_velocity``: ``v_ε`` (m/s).
         """
         k1, k2, k3 = jax.random.split(key, 3)
         gain = None if gain_widths is None else (MLP.init(k1, gain_widths, activation),
                                                  MLP.init(k2, gain_widths, activation))
         cog = None if cog_widths is None else MLP.init(k3, cog_widths, activation)
         return cls(jnp.asarray(A, float), jnp.asarray(B, float), gain, cog, float(pole_pitch),
-                   float(y_center), float(y_scale), y_min, y_max)
+                   float(y_center), float(y_scale), y_min, y_max,
+                   jnp.zeros((4, 3, 2)) if harmonics else None, jnp.zeros(3) if direction else None,
+                   float(direction_velocity))
 
     @property
     def networks(self) -> tuple:
@@ -221,6 +278,8 @@ class CoilSetModel:
         """``K̂(y)``, shape ``S + (3, 2)`` (N/A, N/A, N·m/A)."""
         c, s = harmonic_basis(y, self.pole_pitch)
         k = self.A * c[..., None, None] + self.B * s[..., None, None]
+        if self.H is not None:
+            k = k + harmonic_gain(self.H, y, self.pole_pitch)
         if self.gain_nets is not None:
             sc = self.scaled_position(y)
             k = k + jnp.stack([net(sc) for net in self.gain_nets], axis=-1)
@@ -232,16 +291,39 @@ class CoilSetModel:
             return jnp.zeros(jnp.shape(y) + (3,))
         return self.cog_net(self.scaled_position(y))
 
-    def force(self, y, currents):
-        """``F̂ = K̂(y) i + F̂_cog(y)``; currents ``S + (2,)`` (A) -> ``S + (3,)``."""
-        return jnp.einsum("...qj,...j->...q", self.gain(y), currents) + self.cogging(y)
+    def direction_force(self, y, v):
+        """``C s(ẏ)``, shape ``S + (3,)`` (N, N, N·m) for velocity ``v`` ``S`` (m/s); zeros when off."""
+        if self.C is None:
+            return jnp.zeros(jnp.shape(y) + (3,))
+        return self.C * smooth_sign(v, self.direction_velocity)[..., None]
 
-    def with_outputs(self, A, B, gain_out=None, cog_out=None) -> "CoilSetModel":
+    def force(self, y, currents, v=None):
+        """``F̂ = K̂(y) i + F̂_cog(y) [+ C s(v)]``; currents ``S + (2,)`` (A) -> ``S + (3,)``.
+
+        The direction term is added only when the model has one and ``v`` (m/s) is given.
+        """
+        f = jnp.einsum("...qj,...j->...q", self.gain(y), currents) + self.cogging(y)
+        if self.C is not None and v is not None:
+            f = f + self.direction_force(y, v)
+        return f
+
+    @property
+    def has_direction(self) -> bool:
+        """Whether the direction term ``C s(ẏ)`` is on."""
+        return self.C is not None
+
+    @property
+    def has_harmonics(self) -> bool:
+        """Whether the 5th/7th harmonic gain columns are on."""
+        return self.H is not None
+
+    def with_outputs(self, A, B, gain_out=None, cog_out=None, H=None, C=None) -> "CoilSetModel":
         """Copy with new linear parameters θ_L.
 
         Args:
             A, B: ``(3, 2)``. gain_out: ``((W_1, b_1), (W_2, b_2))`` output layers of the
                 gain networks (``(n_I, 3)``, ``(3,)``). cog_out: ``(W, b)`` of the cogging network.
+            H: ``(4, 3, 2)``, C: ``(3,)``: new extension coefficients (kept when ``None``).
         """
         gain = self.gain_nets
         if gain is not None:
@@ -249,19 +331,18 @@ class CoilSetModel:
         cog = self.cog_net
         if cog is not None:
             cog = MLP(cog.hidden, cog_out[0], cog_out[1], cog.activation)
-        return CoilSetModel(jnp.asarray(A), jnp.asarray(B), gain, cog, self.pole_pitch, self.y_center,
-                            self.y_scale, self.y_min, self.y_max)
+        return dataclasses.replace(self, A=jnp.asarray(A), B=jnp.asarray(B), gain_nets=gain, cog_net=cog,
+                                   H=self.H if H is None else jnp.asarray(H),
+                                   C=self.C if C is None else jnp.asarray(C))
 
     def with_range(self, y_min, y_max) -> "CoilSetModel":
         """Copy with another training range (m)."""
-        return CoilSetModel(self.A, self.B, self.gain_nets, self.cog_net, self.pole_pitch, self.y_center,
-                            self.y_scale, None if y_min is None else float(y_min),
-                            None if y_max is None else float(y_max))
+        return dataclasses.replace(self, y_min=None if y_min is None else float(y_min),
+                                   y_max=None if y_max is None else float(y_max))
 
     def physics_only(self) -> "CoilSetModel":
-        """This model's ``A, B`` without networks."""
-        return CoilSetModel(self.A, self.B, None, None, self.pole_pitch, self.y_center, self.y_scale,
-                            self.y_min, self.y_max)
+        """This model's ``A, B`` without networks and without extensions."""
+        return dataclasses.replace(self, gain_nets=None, cog_net=None, H=None, C=None)
 
 
 def force_from_drive_inputs(model: CoilSetModel, y, fy, delta, k_hat, zeta_hat):
@@ -335,6 +416,10 @@ class CombinedModel:
         y_center, y_scale: ``(L,)`` input scaling of each coil set (m).
         pole_pitch: ``d_m`` (m).
         y_min, y_max: per-coil-set training range (m), tuples of length ``L`` or ``None``.
+        H: ``(L, 4, 3, 2)`` higher-harmonic gain coefficients or ``None`` (see :class:`CoilSetModel`).
+        C: ``(L, 3)`` direction terms or ``None``; the combined direction force is their MEAN
+            times ``s(ẏ)``, like the cogging force (each coil set's data see the whole force).
+        direction_velocity: ``v_ε`` (m/s).
 
     All coil sets must have the same network structure (so that their parameters stack
     and one vectorised evaluation covers all of them).
@@ -349,6 +434,9 @@ class CombinedModel:
     pole_pitch: float = static_field()
     y_min: tuple | None = static_field(default=None)
     y_max: tuple | None = static_field(default=None)
+    H: jnp.ndarray | None = None
+    C: jnp.ndarray | None = None
+    direction_velocity: float = static_field(default=DEFAULT_DIRECTION_VELOCITY)
 
     @property
     def n_coil_sets(self) -> int:
@@ -388,12 +476,19 @@ class CombinedModel:
             per_l = [jax.tree_util.tree_map(stack, *m.gain_nets) for m in models]  # leading (2,)
             gain = jax.tree_util.tree_map(stack, *per_l)  # leading (L, 2)
         cog = None if m0.cog_net is None else jax.tree_util.tree_map(stack, *[m.cog_net for m in models])
+        for name in ("H", "C"):
+            if len({getattr(m, name) is None for m in models}) != 1:
+                raise ValueError(f"coil sets differ in whether the extension {name} is on")
+        if len({m.direction_velocity for m in models}) != 1:
+            raise ValueError("coil sets differ in the direction term's v_eps")
         has_range = all(m.y_min is not None and m.y_max is not None for m in models)
         return cls(stack(*[m.A for m in models]), stack(*[m.B for m in models]), gain, cog,
                    jnp.asarray([m.y_center for m in models], float), jnp.asarray([m.y_scale for m in models], float),
                    float(m0.pole_pitch),
                    tuple(float(m.y_min) for m in models) if has_range else None,
-                   tuple(float(m.y_max) for m in models) if has_range else None)
+                   tuple(float(m.y_max) for m in models) if has_range else None,
+                   None if m0.H is None else stack(*[m.H for m in models]),
+                   None if m0.C is None else stack(*[m.C for m in models]), float(m0.direction_velocity))
 
     def coil_set(self, l: int) -> CoilSetModel:
         """The model of coil set ``l`` (0-based) as a :class:`CoilSetModel`."""
@@ -405,7 +500,8 @@ class CombinedModel:
         cog = None if self.cog_nets is None else jax.tree_util.tree_map(take, self.cog_nets)
         return CoilSetModel(self.A[l], self.B[l], gain, cog, self.pole_pitch, float(self.y_center[l]),
                             float(self.y_scale[l]), None if self.y_min is None else self.y_min[l],
-                            None if self.y_max is None else self.y_max[l])
+                            None if self.y_max is None else self.y_max[l], None if self.H is None else self.H[l],
+                            None if self.C is None else self.C[l], self.direction_velocity)
 
     def scaled_positions(self, y):
         """Per-coil-set scaled positions ``S + (L,)``."""
@@ -415,6 +511,8 @@ class CombinedModel:
         """``K̂^l(y)`` for all coil sets, ``S + (L, 3, 2)`` (N/A)."""
         c, s = harmonic_basis(y, self.pole_pitch)
         k = self.A * c[..., None, None, None] + self.B * s[..., None, None, None]
+        if self.H is not None:
+            k = k + harmonic_gain(self.H, y, self.pole_pitch)
         if self.gain_nets is not None:
             sl = self.scaled_positions(y)
             out = self.gain_nets(jnp.broadcast_to(sl[..., None], sl.shape + (2,)))  # S + (L, 2, 3)
@@ -429,14 +527,36 @@ class CombinedModel:
         # An explicit sum over the (few) coil sets: a reduction over a non-minor axis is slow on CPU.
         return sum(out[..., l, :] for l in range(out.shape[-2])) / out.shape[-2]
 
-    def force(self, y, currents):
-        """``F̂ = Σ_l K̂^l i^l + mean_l F̂^l_cog``; currents ``S + (L, 2)`` (A) -> ``S + (3,)``."""
-        return jnp.einsum("...lqj,...lj->...q", self.gain(y), currents) + self.cogging(y)
+    def direction_force(self, y, v):
+        """Mean direction force ``(1/L) Σ_l C^l s(ẏ)``, ``S + (3,)`` (N, N, N·m); zeros when off.
+
+        ``v``: velocity ``S`` (m/s) — what the controller has (see :class:`pgcomm.commutation.ModelLaw`).
+        """
+        if self.C is None:
+            return jnp.zeros(jnp.shape(y) + (3,))
+        c_mean = sum(self.C[l] for l in range(self.C.shape[0])) / self.C.shape[0]
+        return c_mean * smooth_sign(v, self.direction_velocity)[..., None]
+
+    @property
+    def has_direction(self) -> bool:
+        """Whether the direction term is on."""
+        return self.C is not None
+
+    @property
+    def has_harmonics(self) -> bool:
+        """Whether the 5th/7th harmonic gain columns are on."""
+        return self.H is not None
+
+    def force(self, y, currents, v=None):
+        """``F̂ = Σ_l K̂^l i^l + mean_l F̂^l_cog [+ mean_l C^l s(v)]``; currents ``S + (L, 2)`` (A) -> ``S + (3,)``."""
+        f = jnp.einsum("...lqj,...lj->...q", self.gain(y), currents) + self.cogging(y)
+        if self.C is not None and v is not None:
+            f = f + self.direction_force(y, v)
+        return f
 
     def physics_only(self) -> "CombinedModel":
-        """The same ``A, B`` without networks (the physics-only combined model)."""
-        return CombinedModel(self.A, self.B, None, None, self.y_center, self.y_scale, self.pole_pitch,
-                             self.y_min, self.y_max)
+        """The same ``A, B`` without networks or extensions (the physics-only combined model)."""
+        return dataclasses.replace(self, gain_nets=None, cog_nets=None, H=None, C=None)
 
 
 def warn_outside_training_range(model, y) -> str | None:

@@ -12,7 +12,7 @@ import base64
 import html
 from pathlib import Path
 
-from pgcomm.reproduce import PAPER, ROWS, ReproduceResult
+from pgcomm.reproduce import PAPER, ReproduceResult
 
 def row_descriptions(result: ReproduceResult) -> dict:
     """One line per row of the table, with the set-up's own values (initial ``k̂``, ``ζ̂``, harmonics)."""
@@ -24,6 +24,9 @@ def row_descriptions(result: ReproduceResult) -> dict:
         "classical": "classical commutation, calibrated by Algorithm 1",
         "physics": "physics-only model A cos + B sin, inverted the same way as the PGNN",
         "pgnn": "PGNN commutation (eq. Commutation_Model_Currents)",
+        "pgnn_direction": (f"PGNN with the direction term C s(dy/dt), s = tanh(v/{cfg.identification.direction_velocity:g}"
+                           f" m/s), law fed the {cfg.identification.law_velocity} velocity"
+                           + (", 5th/7th harmonics" if cfg.identification.direction_harmonics else "")),
         "cogging_table": "classical + drive anti-cogging table (force offset vs position)",
         "harmonic_cogging": f"classical + offset of up to {cfg.evaluation.harmonics} pole-pitch harmonics",
         "oracle": "exact inverse of the plant with its true position and velocity (the floor)",
@@ -77,7 +80,7 @@ def comparison_sentences(result: ReproduceResult) -> list[str]:
              "oracle is outside the PGNN's model class (velocity-dependent forces, higher harmonics, variation "
              "along the stroke finer than its networks) or not identified from the data.")
     share = result.reducible_share()
-    below = [row for row in ROWS if row != "oracle" and share[row]["y"] is not None and share[row]["y"] > 1.0]
+    below = [row for row in result.rows if row != "oracle" and share[row]["y"] is not None and share[row]["y"] > 1.0]
     if below:
         s.append(f"Rows below the oracle in y: {', '.join(below)}. The oracle is the floor up to noise; a row "
                  "below it by more than the noise spread points to a defect in the simulation or the oracle.")
@@ -117,7 +120,7 @@ def write_report(path: Path, result: ReproduceResult, figures: dict, *, version:
     share = result.reducible_share()
     descriptions = row_descriptions(result)
     rows_html = []
-    for row in ROWS:
+    for row in result.rows:
         if row not in cm:
             continue
         cells = "".join(f"<td>{_fmt(cm[row][d]['filtered'])} ({_fmt(cm[row][d]['unfiltered'])})</td>"

@@ -12,6 +12,8 @@ Steps (each a stage of the progress display):
 5. rows: original (uncalibrated), classical (calibrated), pgnn, physics, cogging_table and
    harmonic_cogging (classical plus a drive-style force offset learned from the classical
    residual), oracle (the plant's exact inverse with its true state, direction force included);
+   beyond the paper (issue 10): pgnn_direction (the PGNN with the direction term ``C^l s(ẏ)``,
+   fed the controller's velocity);
 6. metrics: 50 Hz-filtered and unfiltered commutation-error MSE per direction, tracking-
    error MSE, and each row's share of the reducible error
    ``(classical - row) / (classical - oracle)``.
@@ -35,7 +37,7 @@ from pgcomm.identify import IdentifyResult
 from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se, reducible_share
 from pgcomm.models import CombinedModel
 
-ROWS = ("original", "classical", "physics", "pgnn", "cogging_table", "harmonic_cogging", "oracle")
+ROWS = ("original", "classical", "physics", "pgnn", "pgnn_direction", "cogging_table", "harmonic_cogging", "oracle")
 
 #: The paper's Table Commutation_Performance (filtered, unfiltered) and tracking-error MSE.
 PAPER = {
@@ -131,6 +133,14 @@ class ReproduceResult:
     feedforward: dict
     tables: dict
     metrics: dict
+    identification_direction: tuple = ()
+    pgnn_direction: CombinedModel | None = None
+    sensorless: object = None
+
+    @property
+    def rows(self) -> tuple:
+        """The rows this run computed, in :data:`ROWS` order."""
+        return tuple(r for r in ROWS if r in self.metrics["long"])
 
     @property
     def commutation_mse(self) -> dict:
@@ -151,7 +161,7 @@ class ReproduceResult:
         cm, tm = self.commutation_mse, self.tracking_mse
         se = self.reducible_standard_errors()
         share = {}
-        for row in ROWS:
+        for row in self.rows:
             share[row] = {d: reducible_share(cm[row][d]["filtered"], cm["classical"][d]["filtered"],
                                              cm["oracle"][d]["filtered"], se[d]) for d in DIRECTIONS}
             share[row]["tracking"] = reducible_share(tm[row], tm["classical"], tm["oracle"], se["tracking"])
@@ -174,15 +184,15 @@ class ReproduceResult:
         """Row -> direction (and ``tracking``) -> classical MSE / row MSE (filtered)."""
         cm, tm = self.commutation_mse, self.tracking_mse
         return {row: {**{d: cm["classical"][d]["filtered"] / cm[row][d]["filtered"] for d in DIRECTIONS},
-                      "tracking": tm["classical"] / tm[row]} for row in ROWS}
+                      "tracking": tm["classical"] / tm[row]} for row in self.rows}
 
     def to_dict(self) -> dict:
         """The JSON-ready ``results.json`` dict (keys in the README; the CLI adds ``command``, ``version``,
         ``quick``, ``seed`` and ``runtime_s``)."""
         out: dict = {"plant": self.setup.plant_name,
                      "calibration": experiment.calibration_results(self.setup, self.calibration),
-                     "identification": experiment.identification_results(self.identification,
-                                                                         self.identification_seconds)}
+                     "identification": experiment.identification_results(
+                         self.identification, self.identification_seconds, self.identification_direction or None)}
         per_ref = {rname: {"commutation_mse": {row: v["commutation_mse"] for row, v in m.items()},
                            "tracking_mse": {row: v["tracking_mse"] for row, v in m.items()}}
                    for rname, m in self.metrics.items()}
@@ -218,6 +228,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
 
     progress = progress or Progress(enabled=False)
     cfg = setup.config
+    ic = cfg.identification
     motor = setup.motor
     refs = {"long": experiment.data_generation_reference(setup),
             "slow": experiment.single_velocity_reference(setup, min(cfg.reference.velocities)),
@@ -244,11 +255,19 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
                           f"{r.cost_physics_validation:.4g} -> {r.cost_pgnn_validation:.4g} (validation), "
                           f"{r.seconds:.1f} s")
 
+    with progress.stage("identification with the direction term C^l s(dy/dt) (warm start from the PGNN)"):
+        pgnn_dir, id_dir = experiment.identify_direction_models(
+            setup, coil_set_data_from_runs(data0), [r.model for r in id_res], seed)
+        for r0, r in zip(id_res, id_dir):
+            progress.info(f"{r.name}: y cost (mean (Fy - Fy_hat)^2) PGNN {r0.cost_y:.4g} -> with direction term "
+                          f"{r.cost_y:.4g} N^2, C_y = {float(r.model.C[0]):.3g} N, {r.seconds:.1f} s")
+
     limit = motor.current_limit
     laws = {"original": ClassicalLaw.from_motor(motor),
             "classical": ClassicalLaw.from_motor(motor, k=cal.k, zeta=cal.zeta),
             "physics": ModelLaw(physics, current_limit=limit),
             "pgnn": ModelLaw(pgnn, current_limit=limit),
+            "pgnn_direction": ModelLaw(pgnn_dir, current_limit=limit, velocity_source=ic.law_velocity),
             "oracle": oracle_law(setup.plant, current_limit=limit)}
 
     with progress.stage(f"feedforward identification per law ({cfg.controller.ff_iterations} closed-loop passes)"):
@@ -267,9 +286,10 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         extra = ["cogging_table", "harmonic_cogging"]
         ffs.update(zip(extra, experiment.tune_feedforward(setup, [laws[n] for n in extra], long_ref, seed=seed + 70)))
 
+    rows = [row for row in ROWS if row in laws]
     runs: dict = {k: {} for k in refs}
-    with progress.stage(f"closed-loop evaluation: {len(ROWS)} laws x {len(refs)} references"):
-        jobs = [(row, rname) for row in ROWS for rname in refs]
+    with progress.stage(f"closed-loop evaluation: {len(rows)} laws x {len(refs)} references"):
+        jobs = [(row, rname) for row in rows for rname in refs]
         out = experiment.run_laws(setup, [laws[row] for row, _ in jobs], [refs[rn] for _, rn in jobs],
                                 [ffs[row] for row, _ in jobs], seeds=[reference_seed(seed, rn) for _, rn in jobs])
         for (row, rname), res in zip(jobs, out):
@@ -279,7 +299,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
                for rname, rows in runs.items()}
     return ReproduceResult(setup=setup, calibration=cal, identification=tuple(id_res), identification_seconds=t_id,
                            pgnn=pgnn, physics=physics, references=refs, runs=runs, feedforward=ffs, tables=tables,
-                           metrics=metrics)
+                           metrics=metrics, identification_direction=tuple(id_dir), pgnn_direction=pgnn_dir)
 
 
 __all__ = ["ROWS", "PAPER", "ReproduceResult", "run", "quick_config", "paper_improvement"]

@@ -4,10 +4,13 @@ One ``jax.lax.scan`` step per controller sample ``k``:
 
 1. the encoder reads ``y_m[k] = Q(y(t_k))``; ``e[k] = r[k] - y_m[k]``;
 2. feedback + feedforward give ``F*[k] = [u_ff[k] + u_fb[k], 0, 0]``;
-3. the commutation law maps ``(y_m[k], F*[k], v_r[k])`` (encoder position, desired
-   force, reference velocity: what a controller has) to star currents — the oracle
+3. the commutation law maps ``(y_m[k], F*[k], v_c[k])`` (encoder position, desired
+   force, a velocity the controller has) to star currents — the oracle
    (``law.true_state``) gets the true ``(y(t_k), v(t_k))`` instead — the drive limits
-   them and holds them over ``[t_k, t_k+1)`` (zero-order hold);
+   them and holds them over ``[t_k, t_k+1)`` (zero-order hold). ``v_c`` is the reference
+   velocity ``v_r[k]`` unless the law has ``velocity_source = "encoder"``: then it is the
+   encoder difference ``(y_m[k] - y_m[k-1]) / T_s`` through a causal first-order low-pass
+   with cut-off ``law.velocity_cutoff_hz`` (ZOH-discretised, the filter a drive would run);
 4. the plant produces ``F[k] = F(y(t_k), v(t_k), i[k])``; the mechanics integrate
    ``F_y[k]`` over the sample in RK4 sub-steps.
 
@@ -87,24 +90,30 @@ def _run(plant, law, r, v_ref, u_ff, y0, *, pid: PID, mech: Mechanics, sample_ti
     ts = sample_time
     alpha = pid.alpha(ts)
     true_state = getattr(law, "true_state", False)
+    encoder_velocity = getattr(law, "velocity_source", "reference") == "encoder"
+    # first-order low-pass of the encoder difference (ZOH): v_f <- v_f + a (Δy_m / T_s - v_f)
+    a_v = 1.0 - np.exp(-2 * np.pi * getattr(law, "velocity_cutoff_hz", 100.0) * ts) if encoder_velocity else 0.0
 
     def body(carry, x):
-        y, v, integ, e_prev, u_fb = carry
+        y, v, integ, e_prev, u_fb, ym_prev, v_f = carry
         r_k, vr_k, uff_k = x
         ym = quantise(y, resolution)
+        v_f = v_f + a_v * ((ym - ym_prev) / ts - v_f)
+        v_law = v_f if encoder_velocity else vr_k
         e = r_k - ym
         integ = integ + e * ts
         u_pid = pid.kp * e + pid.ki * integ + pid.kd * (e - e_prev) / ts
         u_fb = u_fb + alpha * (u_pid - u_fb)
         f_star = jnp.stack([uff_k + u_fb, 0.0, 0.0])
-        i = limit_currents(law.currents(y, f_star, v) if true_state else law.currents(ym, f_star, vr_k),
+        i = limit_currents(law.currents(y, f_star, v) if true_state else law.currents(ym, f_star, v_law),
                            current_limit)
         f = plant_force(plant, y, v, i)
         y_next, v_next = mech_mod.step(mech, y, v, f[0], ts)
-        return (y_next, v_next, integ, e, u_fb), (y, ym, f_star, f, i)
+        return (y_next, v_next, integ, e, u_fb, ym, v_f), (y, ym, f_star, f, i)
 
     e0 = r[0] - quantise(y0, resolution)
-    carry0 = (y0, jnp.zeros_like(y0), jnp.zeros_like(y0), e0, jnp.zeros_like(y0))
+    carry0 = (y0, jnp.zeros_like(y0), jnp.zeros_like(y0), e0, jnp.zeros_like(y0), quantise(y0, resolution),
+              jnp.zeros_like(y0))
     _, out = jax.lax.scan(body, carry0, (r, v_ref, u_ff))
     return out
 

@@ -62,8 +62,15 @@ def model_summary(model, document: dict, path) -> dict:
     per_cog = _n_params(model.cog_nets) // L if model.cog_nets is not None else 0
     n_phy = int(np.size(model.A) + np.size(model.B)) // L
     net = model.gain_nets if model.gain_nets is not None else model.cog_nets
+    n_harm = int(np.size(model.H)) // L if model.H is not None else 0
+    n_dir = int(np.size(model.C)) // L if model.C is not None else 0
     per_cs = {"physics": n_phy, "gain_networks": per_gain, "cogging_network": per_cog,
-              "total": n_phy + per_gain + per_cog}
+              "harmonics": n_harm, "direction": n_dir, "total": n_phy + per_gain + per_cog + n_harm + n_dir}
+    extensions = {"harmonics": model.H is not None,
+                  "direction": None if model.C is None else {
+                      "velocity": float(model.direction_velocity),
+                      "C": [[float(x) for x in row] for row in np.asarray(model.C)]},
+                  "identification": document.get("identification", "force_sensor")}
     ranges = None
     if model.y_min is not None and model.y_max is not None:
         ranges = [[float(a), float(b)] for a, b in zip(model.y_min, model.y_max)]
@@ -80,6 +87,7 @@ def model_summary(model, document: dict, path) -> dict:
         "structure": {"coil_sets": L, "gain_widths": _widths(model.gain_nets), "cog_widths": _widths(model.cog_nets),
                       "activation": None if net is None else net.activation,
                       "parameters_per_coil_set": per_cs, "parameters_total": L * per_cs["total"]},
+        "extensions": extensions,
         "pole_pitch": float(model.pole_pitch),
         "training_range": None if model.training_range is None else list(model.training_range),
         "training_range_per_coil_set": ranges,
@@ -113,6 +121,13 @@ def format_summary(info: dict) -> str:
              f"  parameters:     {pc['total']} per coil set (A, B {pc['physics']}, gain networks "
              f"{pc['gain_networks']}, cogging {pc['cogging_network']}); {s['parameters_total']} in total",
              f"  pole pitch:     {info['pole_pitch']:.6g} m"]
+    ext = info.get("extensions") or {}
+    d = ext.get("direction")
+    lines.append(f"  harmonics:      {'5th and 7th (' + str(pc.get('harmonics', 0)) + ' parameters per coil set)' if ext.get('harmonics') else 'off'}")
+    lines.append("  direction term: " + ("off" if d is None else
+                                          f"C s(v), s = tanh(v / {d['velocity']:g} m/s); C_y per coil set "
+                                          + ", ".join(f"{c[0]:.4g}" for c in d["C"]) + " N; the law needs a velocity"))
+    lines.append(f"  identified:     {'without a force sensor (y row; x/z classical)' if ext.get('identification') == 'no_force_sensor' else 'with a force sensor'}")
     tr = info["training_range"]
     lines.append("  training range: " + ("unknown" if tr is None else f"[{tr[0]:.4g}, {tr[1]:.4g}] m (all coil sets)"))
     for l, r in enumerate(info["training_range_per_coil_set"] or []):

@@ -53,7 +53,7 @@ def run(args, out: Path, progress) -> None:
         fig("reference.png", plots.plot_reference(o.references["long"]),
             "Fig. Data_Generation: the reference used for the data sets and the long evaluation.")
         fig("mse.png", plots.plot_mse_bars({r: {d: o.commutation_mse[r][d]["filtered"] for d in "yxz"}
-                                            for r in reproduce.ROWS}),
+                                            for r in o.rows}),
             "Filtered commutation-error MSE per row and direction (log scale).")
         velocities = setup.config.reference.velocities
         labels = {"slow": f"slow ({min(velocities):g} m/s)", "fast": f"fast ({max(velocities):g} m/s)",
@@ -83,7 +83,7 @@ def run(args, out: Path, progress) -> None:
         write_report(out / "report.html", o, figs, version=__version__, runtime_s=results["runtime_s"])
     if not args.quiet:
         print_calibration(results["calibration"])
-        print_mse(results, reproduce.ROWS)
+        print_mse(results, o.rows)
         imp = results["improvement_over_classical"]["pgnn"]
         paper = reproduce.paper_improvement("pgnn")
         print(f"classical -> pgnn: y {imp['y']:.1f}x, x {imp['x']:.1f}x, z {imp['z']:.1f}x, "

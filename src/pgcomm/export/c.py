@@ -22,6 +22,16 @@ arrays, every function is reentrant). The generated functions are:
 * ``void NAME_model(T y, T gain[L][3][2], T cogging[3])`` — the model itself
   (``K̂^l(y)`` in N/A, N·m/A and the mean ``F̂_cog(y)`` in N, N, N·m), for verification.
 
+Extensions (issue 10), present only when the model has them:
+
+* the 5th/7th harmonic gain columns ``H^l`` add ``H0 cos 5θ + H1 sin 5θ + H2 cos 7θ + H3 sin 7θ``
+  to ``K̂^l`` inside ``NAME_model`` (same order of operations as :func:`pgcomm.models.harmonic_gain`);
+* the direction term: ``NAME_currents`` and ``NAME_drive_inputs`` gain the controller's
+  velocity ``v`` (m/s) as their second argument (``NAME_currents(y, v, f_star, currents)``),
+  the law subtracts ``mean_l C^l · tanh(v / v_ε)`` after the cogging force (as
+  :class:`pgcomm.commutation.ModelLaw` does), and ``void NAME_direction(T v, T force[3])``
+  returns that force. ``NAME_HAS_VELOCITY`` is 1 in the header then, else 0.
+
 ``T`` is ``double`` or ``float`` (``precision="single"``: float literals with an ``f``
 suffix and the float functions ``sinf``, ``tanhf`` ...). In single precision the
 3 x 3 normal-equation solve (about 60 flops) still runs in ``double``: with one coil
@@ -210,6 +220,11 @@ class _Gen:
         self.limit, self.det_min, self.damping = current_limit, det_min, damping
         self.rng = model.training_range
         self.P = name  # prefix of every C symbol
+        self.dir = getattr(model, "C", None) is not None
+        self.harm = getattr(model, "H", None) is not None
+        # the velocity argument of the law functions (direction term only)
+        self.vdecl = f"{num.ctype} v, " if self.dir else ""
+        self.varg = "v, " if self.dir else ""
         self.T = num.ctype
         # the solve runs in double even in single precision (see the module docstring)
         self.S = "double"
@@ -304,26 +319,32 @@ class _Gen:
                f"/** Number of coil sets L. */\n#define {P.upper()}_L {L}\n",
                f"/** 1 if {P} was exported in single precision (float), 0 for double. */\n"
                f"#define {P.upper()}_SINGLE {1 if self.num.single else 0}\n\n",
+               f"/** 1 if the law takes the controller's velocity v (m/s) (direction term), else 0. */\n"
+               f"#define {P.upper()}_HAS_VELOCITY {1 if self.dir else 0}\n\n",
                f"/** Scalar type of the interface ({T}). */\ntypedef {T} {P}_real;\n\n",
                "/**\n"
                " * Star currents of all coil sets (eq. Commutation_Model_Currents).\n"
-               " * y: position (m); f_star: desired [Fy (N), Fx (N), Tz (N m)];\n"
+               " * y: position (m); " + ("v: velocity (m/s) the controller has (reference velocity);\n * "
+                                         if self.dir else "") + "f_star: desired [Fy (N), Fx (N), Tz (N m)];\n"
                " * currents: output, currents[l] = {ia, ib} of coil set l (A), ic = -ia - ib.\n"
                " * Returns 0, or 1 if y is outside the training range (currents still computed).\n"
                " */\n",
-               f"int {P}_currents({T} y, const {T} f_star[3], {T} currents[{P.upper()}_L][2]);\n\n",
+               f"int {P}_currents({T} y, {self.vdecl}const {T} f_star[3], {T} currents[{P.upper()}_L][2]);\n\n",
                "/**\n"
                " * Drive inputs (Fy^l* (N), Delta^l (rad) in (-pi, pi]) that make a fixed-commutation\n"
                " * drive with k_hat[l] (N/A), zeta_hat[l] (rad) produce the currents of\n"
                f" * {P}_currents (eq. Current_To_ForceDelta). Same return code.\n"
                " */\n",
-               f"int {P}_drive_inputs({T} y, const {T} f_star[3], const {T} k_hat[{P.upper()}_L],\n"
+               f"int {P}_drive_inputs({T} y, {self.vdecl}const {T} f_star[3], const {T} k_hat[{P.upper()}_L],\n"
                f"    const {T} zeta_hat[{P.upper()}_L], {T} fy[{P.upper()}_L], {T} delta[{P.upper()}_L]);\n\n",
                "/**\n"
                " * The model: gain[l] = Khat^l(y) (3 x 2; rows Fy, Fx, Tz in N/A, N/A, N m/A;\n"
                " * columns ia, ib) and the mean cogging force [Fy, Fx, Tz] (N, N, N m).\n"
                " */\n",
                f"void {P}_model({T} y, {T} gain[{P.upper()}_L][3][2], {T} cogging[3]);\n\n"]
+        if self.dir:
+            out.append("/** The direction force mean_l C^l tanh(v / v_eps) [Fy, Fx, Tz] (N, N, N m), v in m/s. */\n"
+                       f"void {P}_direction({T} v, {T} force[3]);\n\n")
         if self.drive is not None:
             out.append(f"/** The drive's fixed commutation at export: k_hat (N/A), zeta_hat (rad) per coil set. */\n"
                        f"extern const {T} {P}_drive_k_hat[{P.upper()}_L];\n"
@@ -353,8 +374,10 @@ class _Gen:
             "    t = kc * kc + kd * kd;\n",
             f"    r1 = 1.0 / sqrt(t > {dl(1e-300)} ? t : {dl(1e-300)});\n",
             "    ka *= r0;\n    kb *= r0;\n    kc *= r1;\n    kd *= r1;\n",
-            f"    f0 = ({cast}f_star[0] - {cast}cog[0]) * r0;\n",
-            f"    f1 = ({cast}f_star[1] - {cast}cog[1]) * r1;\n",
+            *([f"    f0 = (({cast}f_star[0] - {cast}cog[0]) - {cast}dirf[0]) * r0;\n",
+               f"    f1 = (({cast}f_star[1] - {cast}cog[1]) - {cast}dirf[1]) * r1;\n"] if self.dir else
+              [f"    f0 = ({cast}f_star[0] - {cast}cog[0]) * r0;\n",
+               f"    f1 = ({cast}f_star[1] - {cast}cog[1]) * r1;\n"]),
             "    det = ka * kd - kb * kc;\n",
             f"    t = 1.0 - det * det / {U}_DET_MIN;\n",
             "    t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);\n",
@@ -432,6 +455,14 @@ class _Gen:
         Lm = P.upper() + "_L"
         arrays = ["/* ---- model parameters (rows Fy, Fx, Tz; columns ia, ib) ---- */\n",
                   self.array(f"{P}_A", m.A), self.array(f"{P}_B", m.B)]
+        if self.harm:
+            arrays += ["/* higher harmonics [coil set][cos 5t, sin 5t, cos 7t, sin 7t][row][column] (N/A) */\n",
+                       self.array(f"{P}_H", m.H)]
+        if self.dir:
+            # mean over coil sets, summed in the order pgcomm.models.CombinedModel.direction_force sums
+            c = np.asarray(m.C, dtype=float)
+            c_mean = sum(c[l] for l in range(c.shape[0])) / c.shape[0]
+            arrays += ["/* direction term: mean_l C^l (N, N, N m) */\n", self.array(f"{P}_C_MEAN", c_mean)]
         if m.gain_nets is not None or m.cog_nets is not None:  # the input scaling only feeds networks
             arrays += ["/* network input s = (y - y_center[l]) / y_scale[l] (m, m) */\n",
                        self.array(f"{P}_y_center", m.y_center), self.array(f"{P}_y_scale", m.y_scale)]
@@ -467,6 +498,13 @@ class _Gen:
             f"#define {P.upper()}_DET_MIN {_m(self.dlit(self.det_min))}\n"
             f"#define {P.upper()}_DAMPING {_m(self.dlit(self.damping))}\n",
         ]
+        if self.harm:
+            consts.append(f"/* 2 pi n / d_m (rad/m) of the 5th and 7th harmonics (pgcomm.models.harmonic_basis) */\n"
+                          f"#define {P.upper()}_OMEGA5 {_m(lit(2.0 * np.pi * 5 / m.pole_pitch))}\n"
+                          f"#define {P.upper()}_OMEGA7 {_m(lit(2.0 * np.pi * 7 / m.pole_pitch))}\n")
+        if self.dir:
+            consts.append(f"/* v_eps (m/s) of the smooth sign tanh(v / v_eps) */\n"
+                          f"#define {P.upper()}_V_EPS {_m(lit(m.direction_velocity))}\n")
         if self.rng is not None:
             consts.append(f"/* training range (m) */\n#define {P.upper()}_Y_MIN {_m(lit(self.rng[0]))}\n"
                           f"#define {P.upper()}_Y_MAX {_m(lit(self.rng[1]))}\n")
@@ -483,6 +521,10 @@ class _Gen:
                     f"    const {T} c = {f('cos')}({U}_OMEGA * {'yh' if self.num.single else 'y'}), "
                     f"sn = {f('sin')}({U}_OMEGA * {'yh' if self.num.single else 'y'});\n",
                     "    int l, q, j;\n"]
+        if self.harm:
+            yy = "yh" if self.num.single else "y"  # the reduction by d_m keeps 5θ, 7θ (periods d_m/5, d_m/7)
+            model_fn.append(f"    const {T} c5 = {f('cos')}({U}_OMEGA5 * {yy}), s5 = {f('sin')}({U}_OMEGA5 * {yy});\n"
+                            f"    const {T} c7 = {f('cos')}({U}_OMEGA7 * {yy}), s7 = {f('sin')}({U}_OMEGA7 * {yy});\n")
         if m.gain_nets is not None or m.cog_nets is not None:
             model_fn.append(f"    {T} s, out[3];\n")
         model_fn.append(f"\n    for (q = 0; q < 3; ++q)\n        cogging[q] = {lit(0)};\n"
@@ -491,6 +533,10 @@ class _Gen:
             model_fn.append(f"        s = (y - {P}_y_center[l]) / {P}_y_scale[l];\n")
         model_fn.append("        for (q = 0; q < 3; ++q)\n            for (j = 0; j < 2; ++j)\n"
                         f"                gain[l][q][j] = {P}_A[l][q][j] * c + {P}_B[l][q][j] * sn;\n")
+        if self.harm:
+            model_fn.append("        for (q = 0; q < 3; ++q)\n            for (j = 0; j < 2; ++j)\n"
+                            f"                gain[l][q][j] += {P}_H[l][0][q][j] * c5 + {P}_H[l][1][q][j] * s5"
+                            f" + {P}_H[l][2][q][j] * c7 + {P}_H[l][3][q][j] * s7;\n")
         if m.gain_nets is not None:
             model_fn.append(f"        for (j = 0; j < 2; ++j) {{\n            {P}_gain_net(l, j, s, out);\n"
                             "            for (q = 0; q < 3; ++q)\n                gain[l][q][j] += out[q];\n"
@@ -503,6 +549,10 @@ class _Gen:
             # jnp.mean divides the sum by L
             model_fn.append(f"    for (q = 0; q < 3; ++q)\n        cogging[q] /= {lit(L)};\n")
         model_fn.append("}\n\n")
+        if self.dir:
+            model_fn.append(f"void {P}_direction({T} v, {T} force[3])\n{{\n"
+                            f"    const {T} sg = {f('tanh')}(v / {U}_V_EPS);\n    int q;\n\n"
+                            f"    for (q = 0; q < 3; ++q)\n        force[q] = {P}_C_MEAN[q] * sg;\n}}\n\n")
 
         # ---- the solve (double: see the module docstring) ----
         dl = self.dlit
@@ -523,15 +573,16 @@ class _Gen:
         range_check = (f"    ret = (y >= {U}_Y_MIN && y <= {U}_Y_MAX) ? 0 : 1; /* NaN y -> 1 */\n"
                        if self.rng is not None else "    ret = 0; /* training range unknown at export */\n")
         solve = [
-            f"int {P}_currents({T} y, const {T} f_star[3], {T} currents[{Lm}][2])\n{{\n",
+            f"int {P}_currents({T} y, {self.vdecl}const {T} f_star[3], {T} currents[{Lm}][2])\n{{\n",
             f"    {T} gain[{Lm}][3][2], cog[3];\n",
+            f"    {T} dirf[3];\n" if self.dir else "",
             f"    double kw[{Lm}][3][2], i[{Lm}][2], a[3][3], dinv[3], fs[3], z[3];\n",
             "    double scale, c00, c01, c02, c11, c12, c22, det, t, eps2;\n",
             "    double b00, b11, b22, d00, d01, d02, d11, d12, d22;\n",
             "    double peak, sc;\n" if self.limit is not None else "",
             "    int l, q, r, j, ret;\n\n",
             range_check,
-            f"    {P}_model(y, gain, cog);\n\n",
+            f"    {P}_model(y, gain, cog);\n" + (f"    {P}_direction(v, dirf);\n" if self.dir else "") + "\n",
             "    /* kw = K^l Q^-1 and A = sum_l K^l Q^-1 K^lT (upper triangle, as _inv3_sym reads it) */\n",
             f"    for (l = 0; l < {Lm}; ++l)\n        for (q = 0; q < 3; ++q) {{\n",
             f"            kw[l][q][0] = {cast}gain[l][q][0] * {U}_QI_D + {cast}gain[l][q][1] * {U}_QI_O;\n",
@@ -572,7 +623,8 @@ class _Gen:
             "    d11 = c11 / det;\n    d12 = c12 / det;\n    d22 = c22 / det;\n\n",
             "    /* z = D inv D (F* - Fcog); i^l = Q^-1 K^lT z */\n",
             "    for (q = 0; q < 3; ++q)\n",
-            f"        fs[q] = ({cast}f_star[q] - {cast}cog[q]) * dinv[q];\n",
+            (f"        fs[q] = (({cast}f_star[q] - {cast}cog[q]) - {cast}dirf[q]) * dinv[q];\n" if self.dir else
+             f"        fs[q] = ({cast}f_star[q] - {cast}cog[q]) * dinv[q];\n"),
             "    z[0] = (d00 * fs[0] + d01 * fs[1] + d02 * fs[2]) * dinv[0];\n",
             "    z[1] = (d01 * fs[0] + d11 * fs[1] + d12 * fs[2]) * dinv[1];\n",
             "    z[2] = (d02 * fs[0] + d12 * fs[1] + d22 * fs[2]) * dinv[2];\n",
@@ -589,10 +641,10 @@ class _Gen:
 
         # ---- drive inputs ----
         drive_fn = [
-            f"int {P}_drive_inputs({T} y, const {T} f_star[3], const {T} k_hat[{Lm}],\n"
+            f"int {P}_drive_inputs({T} y, {self.vdecl}const {T} f_star[3], const {T} k_hat[{Lm}],\n"
             f"    const {T} zeta_hat[{Lm}], {T} fy[{Lm}], {T} delta[{Lm}])\n{{\n",
             f"    {T} i[{Lm}][2], eta, e2, kd, f1, f2, d;\n    int l;\n",
-            f"    const int ret = {P}_currents(y, f_star, i);\n",
+            f"    const int ret = {P}_currents(y, {self.varg}f_star, i);\n",
             f"    const {T} yh = {P}_reduce(y);\n" if self.num.single else "",
             "\n",
             f"    for (l = 0; l < {Lm}; ++l) {{\n",

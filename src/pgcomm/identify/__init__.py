@@ -87,6 +87,7 @@ from pgcomm.identify.projection import (
     CostTerms,
     Proposition1Result,
     cost,
+    cost_y,
     fit_physics,
     projected_normal_equations,
     projected_residual,
@@ -98,6 +99,6 @@ from pgcomm.identify.result import STOP_REASONS, IdentifyResult
 __all__ = [
     "DEFAULT_LAMBDA", "DEFAULT_DAMPING", "DEFAULT_CHUNK", "DEFAULT_CHUNK_GENERIC", "STOP_REASONS",
     "theta_phy", "theta_phy_to_AB", "lambda_diagonal", "hidden_vector", "with_hidden_vector", "theta_L_of",
-    "with_theta_L", "regressor", "fit_physics", "CostTerms", "cost", "Proposition1Result", "proposition1",
+    "with_theta_L", "regressor", "fit_physics", "CostTerms", "cost", "cost_y", "Proposition1Result", "proposition1",
     "projected_normal_equations", "projected_residual", "identify", "identify_all", "IdentifyResult",
 ]

@@ -3,10 +3,17 @@
 ``θ_phy = [col(A); col(B)]`` (12,); ``θ_L`` is ``(p, 3)`` with column ``q`` the linear
 parameters of direction ``q`` (eq. Linear_Parameter_Vector); ``θ_NL`` is the flat vector of
 the hidden layers of the networks ``f_1, f_2, f_φ`` (those present).
+
+Row order of ``θ_L`` (= column order of the regressor ``M``): the 4 physics entries
+``A[:, 0], A[:, 1], B[:, 0], B[:, 1]``; when on, the 8 harmonic entries ``H[j, :, 0], H[j, :, 1]``
+for ``j = cos 5θ, sin 5θ, cos 7θ, sin 7θ``; when on, the direction term ``C``; then the
+output layers of the networks. The first ``n_known`` columns are known functions of the data
+(no hidden weights); the network blocks follow.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import jax.numpy as jnp
@@ -56,6 +63,14 @@ class _Layout:
     cog_widths: tuple | None
     activation: str
     method: str = "auto"  # "structured" | "generic" | "auto"
+    harmonics: bool = False
+    direction: bool = False
+    direction_velocity: float = 1e-3
+
+    @property
+    def n_known(self) -> int:
+        """Number of known (data-only) regressor columns: 4 physics + 8 harmonic + 1 direction (when on)."""
+        return 4 + 8 * int(self.harmonics) + int(self.direction)
 
     @classmethod
     def of(cls, model: CoilSetModel, method="auto") -> "_Layout":
@@ -66,7 +81,8 @@ class _Layout:
         acts = {net.activation for net in model.networks} or {"tanh"}
         if len(acts) != 1:
             raise ValueError(f"all networks must share one activation, got {sorted(acts)}")
-        return cls(gw, cw, acts.pop(), method)
+        return cls(gw, cw, acts.pop(), method, model.H is not None, model.C is not None,
+                   float(model.direction_velocity))
 
     @property
     def blocks(self) -> tuple:
@@ -81,7 +97,7 @@ class _Layout:
     @property
     def p(self) -> int:
         """Length of one regressor row (of ``θ_L,q``)."""
-        return 4 + sum(w[-1] + 1 for _, w in self.blocks)
+        return self.n_known + sum(w[-1] + 1 for _, w in self.blocks)
 
     @property
     def n_nl(self) -> int:
@@ -104,7 +120,7 @@ class _Layout:
 
     def feature_columns(self) -> list[int]:
         """First column in ``M`` of each network's hidden-feature block."""
-        cols, c = [], 4
+        cols, c = [], self.n_known
         for _, w in self.blocks:
             cols.append(c)
             c += w[-1] + 1
@@ -185,13 +201,16 @@ def with_hidden_vector(model: CoilSetModel, flat) -> CoilSetModel:
     cog = None
     if model.cog_net is not None:
         cog = MLP(next(hidden), model.cog_net.W_out, model.cog_net.b_out, model.cog_net.activation)
-    return CoilSetModel(model.A, model.B, gain, cog, model.pole_pitch, model.y_center, model.y_scale,
-                        model.y_min, model.y_max)
+    return dataclasses.replace(model, gain_nets=gain, cog_net=cog)
 
 
 def theta_L_of(model: CoilSetModel) -> jnp.ndarray:
     """``θ_L`` of ``model`` as a ``(p, 3)`` matrix whose column ``q`` is ``θ_L,q`` (eq. Linear_Parameter_Vector)."""
     rows = [model.A[:, 0], model.A[:, 1], model.B[:, 0], model.B[:, 1]]
+    if model.H is not None:
+        rows += [model.H[j, :, c] for j in range(4) for c in range(2)]
+    if model.C is not None:
+        rows.append(model.C)
     for net in model.networks:
         rows += list(net.W_out) + [net.b_out]
     return jnp.stack(rows)
@@ -203,6 +222,13 @@ def with_theta_L(model: CoilSetModel, theta_L) -> CoilSetModel:
     A = jnp.stack([theta_L[0], theta_L[1]], axis=1)
     B = jnp.stack([theta_L[2], theta_L[3]], axis=1)
     i = 4
+    H = C = None
+    if model.H is not None:
+        H = jnp.stack([jnp.stack([theta_L[i + 2 * j], theta_L[i + 2 * j + 1]], axis=1) for j in range(4)])
+        i += 8
+    if model.C is not None:
+        C = theta_L[i]
+        i += 1
     outs = []
     for net in model.networks:
         n = net.W_out.shape[0]
@@ -210,4 +236,4 @@ def with_theta_L(model: CoilSetModel, theta_L) -> CoilSetModel:
         i += n + 1
     gain_out = outs[:2] if model.gain_nets is not None else None
     cog_out = outs[-1] if model.cog_net is not None else None
-    return model.with_outputs(A, B, gain_out, cog_out)
+    return model.with_outputs(A, B, gain_out, cog_out, H, C)

@@ -32,10 +32,17 @@ from pgcomm.identify.projection import (
     _prepare,
     _star_or_fit,
     cost,
+    cost_y,
     fit_physics,
 )
 from pgcomm.identify.result import STOP_REASONS, IdentifyResult
-from pgcomm.models import DEFAULT_COG_WIDTHS, DEFAULT_GAIN_WIDTHS, CoilSetModel, CombinedModel
+from pgcomm.models import (
+    DEFAULT_COG_WIDTHS,
+    DEFAULT_DIRECTION_VELOCITY,
+    DEFAULT_GAIN_WIDTHS,
+    CoilSetModel,
+    CombinedModel,
+)
 
 #: Narrowest 10–90 % width of a hidden unit, in pole pitches (see :func:`identify`).
 MIN_FEATURE_WIDTH = 0.25
@@ -172,8 +179,10 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
              subsample: int = 8, refine_starts: int = 2,
              validation_fraction: float = 0.2, block_size: int = 500, chunk_size: int | None = None,
              damping: float = DEFAULT_DAMPING, lambda0: float = 1e-3, method: str = "auto",
-             min_feature_width: float = MIN_FEATURE_WIDTH, check_data: bool = True,
-             progress=None) -> IdentifyResult:
+             min_feature_width: float = MIN_FEATURE_WIDTH, check_data: bool = True, progress=None,
+             harmonics: bool = False, direction: bool = False,
+             direction_velocity: float = DEFAULT_DIRECTION_VELOCITY, start_from: CoilSetModel | None = None
+             ) -> IdentifyResult:
     """Identify the PGNN of one coil set (Algorithm 2) by variable-projection Levenberg–Marquardt.
 
     Steps: split the data (:func:`train_validation_split`); check excitation
@@ -222,6 +231,16 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
         method: Jacobian sums, ``"auto"``, ``"structured"`` or ``"generic"``.
         min_feature_width: narrowest 10–90 % width of a hidden unit, in pole pitches (0 = no bound).
         check_data: run :func:`check_excitation` first.
+        harmonics: add the 5th/7th harmonic gain columns (8 linear parameters per direction;
+            not regularised: no network can mimic a 6 mm ripple, so there is no
+            over-parametrisation for ``Λ`` to resolve, and pulling them to 0 would only bias them).
+        direction: add the direction term ``C s(ẏ)`` (one linear parameter per direction, not
+            regularised); ``data.velocity`` is then required.
+        direction_velocity: ``v_ε`` (m/s) of ``s(ẏ) = tanh(ẏ/v_ε)``.
+        start_from: a model of the same network widths (e.g. the paper's PGNN of this coil set)
+            whose hidden layers are the first start (a warm start: an extension adds only
+            linear columns, so the trained hidden layers are already close); the other
+            ``n_starts - 1`` starts stay random.
         progress: ``None`` (silent), ``True`` (one line per iteration to stderr) or a callable
             receiving a dict ``{phase, iteration, best_cost, lambda, active, starts}``.
 
@@ -234,6 +253,9 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
         raise DataError(f"{name}: too few samples ({data.n}) to identify a model")
     if gain_widths is None and cog_widths is None:
         raise ValueError("identify needs at least one network; use fit_physics for the physics-only model")
+    if direction and data.velocity is None:
+        raise DataError(f"{name}: the direction term needs the velocity of every sample; "
+                        "build the data with CoilSetData.with_velocity(sample_time)")
     if check_data:
         problems = check_excitation(data, pole_pitch)
         if problems:
@@ -250,9 +272,14 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
 
     keys = jax.random.split(jax.random.PRNGKey(seed), n_starts)
     models0 = [CoilSetModel.init(kk, a_phy, b_phy, pole_pitch, y_center, y_scale, gain_widths, cog_widths, activation,
-                                 y_lo, y_hi) for kk in keys]
+                                 y_lo, y_hi, harmonics, direction, direction_velocity) for kk in keys]
     template = models0[0]
     flats = jnp.stack([hidden_vector(mm) for mm in models0])
+    if start_from is not None:
+        warm = hidden_vector(start_from)
+        if warm.shape != flats.shape[1:]:
+            raise ValueError(f"start_from has {warm.shape[0]} hidden parameters, this structure {flats.shape[1]}")
+        flats = flats.at[0].set(warm)
     show = _progress_printer(name) if progress is True else (progress or None)
     opts = dict(max_iter=max_iter, tol=tol, lambda0=lambda0, show=show)
     history = []
@@ -298,6 +325,7 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
         seconds=time.perf_counter() - t0, ridge=float(ridge_output), ridge_term=float(st.ev.ridge2[best]) / train.n,
         damping=float(damping), damping_term=float(st.ev.damp2[best]) / train.n,
         n_train=train.n, n_validation=val.n, seed=int(seed), n_starts=int(n_starts),
+        cost_y=cost_y(model, train), cost_y_physics=cost_y(physics, train),
         start_costs=tuple(float(x) for x in start_costs),
         stop_reason=STOP_REASONS[int(np.asarray(st.reason)[best])], history=tuple(history),
         slope_bound=float(w_max),

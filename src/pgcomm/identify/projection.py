@@ -27,7 +27,8 @@ from pgcomm.identify.layout import (
     theta_phy,
     with_theta_L,
 )
-from pgcomm.models import CoilSetModel, activation_fn, harmonic_basis
+from pgcomm.errors import DataError
+from pgcomm.models import HARMONIC_ORDERS, CoilSetModel, activation_fn, harmonic_basis, smooth_sign
 
 #: Samples per chunk of the accumulated sums (structured / generic Jacobian path). Small chunks
 #: keep each chunk's features in cache: 512 ran 1.6x faster than 4096 with 8 starts.
@@ -45,13 +46,31 @@ _REORTHOGONALISATIONS = 1
 _FLOOR_PER_COLUMN = 10 * np.finfo(float).eps
 
 
-def _position_data(y, currents, pole_pitch, y_center, y_scale):
-    """Data-only parts of the regressor: ``x0 = [cos·ia, cos·ib, sin·ia, sin·ib]ᵀ`` ``(4, N)``, ``s`` ``(N,)``."""
+def _position_data(y, currents, pole_pitch, y_center, y_scale, harmonics=False, velocity=None, v_eps=None):
+    """Data-only (known) columns of the regressor ``x0`` ``(n_known, N)`` and the scaled position ``s`` ``(N,)``.
+
+    ``x0 = [cos·ia, cos·ib, sin·ia, sin·ib]``, then with ``harmonics`` the same four for
+    ``5θ`` and ``7θ`` (8 rows), then with a ``velocity`` (m/s) the direction column
+    ``s(ẏ) = tanh(ẏ/v_ε)`` (see :mod:`pgcomm.identify.layout` for the order).
+    """
     y = jnp.asarray(y, dtype=float)
     cur = jnp.asarray(currents, dtype=float)
-    c, sn = harmonic_basis(y, pole_pitch)
-    x0 = jnp.stack([c * cur[:, 0], c * cur[:, 1], sn * cur[:, 0], sn * cur[:, 1]])
-    return x0, (y - y_center) / y_scale
+    rows = []
+    for order in ((1,) + HARMONIC_ORDERS if harmonics else (1,)):
+        c, sn = harmonic_basis(y, pole_pitch, order)
+        rows += [c * cur[:, 0], c * cur[:, 1], sn * cur[:, 0], sn * cur[:, 1]]
+    if velocity is not None:
+        rows.append(smooth_sign(velocity, v_eps))
+    return jnp.stack(rows), (y - y_center) / y_scale
+
+
+def _known_data(layout: _Layout, data_y, data_currents, velocity, pole_pitch, y_center, y_scale, name="data"):
+    """:func:`_position_data` for ``layout`` (checks that a direction term has its velocity)."""
+    if layout.direction and velocity is None:
+        raise DataError(f"{name}: the direction term needs a velocity (CoilSetData.velocity, m/s); "
+                        "build the data with velocity_from_positions")
+    return _position_data(data_y, data_currents, pole_pitch, y_center, y_scale, layout.harmonics,
+                          velocity if layout.direction else None, layout.direction_velocity)
 
 
 def _rows(layout: _Layout, hidden, x0, s, currents, with_u=False):
@@ -85,22 +104,24 @@ def _rows(layout: _Layout, hidden, x0, s, currents, with_u=False):
     return (m, jnp.concatenate(ucols, axis=1)) if with_u else m
 
 
-def regressor(theta_nl: CoilSetModel, y, currents):
+def regressor(theta_nl: CoilSetModel, y, currents, velocity=None):
     """LIP regressor ``M(θ_NL, t)`` (eq. PGNN_Rewritten_LIP), the same for the three directions.
 
     ``F̂_q(t) = M(θ_NL, t) θ_L,q`` with ``θ_L = theta_L_of(model)``.
 
     Args:
         theta_nl: a :class:`CoilSetModel`; its hidden layers are ``θ_NL`` (its ``A, B`` and
-            output layers are not used) and it gives ``d_m`` and the input scaling.
-        y: ``(N,)`` (m); currents: ``(N, 2)`` (A).
+            output layers are not used) and it gives ``d_m``, the input scaling and which
+            extensions are on.
+        y: ``(N,)`` (m); currents: ``(N, 2)`` (A); velocity: ``(N,)`` (m/s), needed with the direction term.
 
     Returns:
-        ``(N, p)`` with columns ``[cos·ia, cos·ib, sin·ia, sin·ib, h_1·ia, ia, h_2·ib, ib, h_φ, 1]``
-        (networks that are absent leave their columns out).
+        ``(N, p)`` with columns ``[cos·ia, cos·ib, sin·ia, sin·ib, (harmonics: 8), (s(ẏ)),
+        h_1·ia, ia, h_2·ib, ib, h_φ, 1]`` (extensions and networks that are absent leave their
+        columns out).
     """
     layout = _Layout.of(theta_nl)
-    x0, s = _position_data(y, currents, theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
+    x0, s = _known_data(layout, y, currents, velocity, theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
     hidden = _unflatten(layout, hidden_vector(theta_nl)[None])
     return _rows(layout, hidden, x0, s, jnp.asarray(currents, dtype=float).T)[0].T
 
@@ -162,11 +183,12 @@ def chunk_count(n: int, chunk: int) -> int:
     return 1 << (need - 1).bit_length()
 
 
-def _to_chunks(data: CoilSetData, chunk: int, pole_pitch, y_center, y_scale) -> _Chunks:
+def _to_chunks(layout: _Layout, data: CoilSetData, chunk: int, pole_pitch, y_center, y_scale) -> _Chunks:
     n = data.n
     n_chunks = chunk_count(n, chunk)
     pad = n_chunks * chunk - n
-    x0, s = (np.asarray(a) for a in _position_data(data.y, data.currents, pole_pitch, y_center, y_scale))
+    x0, s = (np.asarray(a) for a in _known_data(layout, data.y, data.currents, data.velocity, pole_pitch, y_center,
+                                                 y_scale, data.name))
 
     def padded(a):  # (k, N) -> (C, k, c)
         a = np.concatenate([np.atleast_2d(a), np.zeros((np.atleast_2d(a).shape[0], pad))], axis=1)
@@ -409,7 +431,7 @@ def cost(model: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_ph
     """
     if data.n == 0:
         return CostTerms(float("nan"), 0.0)
-    f_hat = np.asarray(_force_jit(model, data.y, data.currents))
+    f_hat = np.asarray(_force_jit(model, data.y, data.currents, _velocity_for(model, data)))
     dat = float(np.sum((data.force - f_hat) ** 2) / data.n)
     reg = 0.0
     if theta_phy_star is not None:
@@ -417,7 +439,29 @@ def cost(model: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_ph
     return CostTerms(dat, reg)
 
 
-_force_jit = jax.jit(lambda model, y, currents: model.force(y, currents))
+_force_jit = jax.jit(lambda model, y, currents, v: model.force(y, currents, v))
+
+
+def _velocity_for(model, data: CoilSetData):
+    """The data's velocity when the model has a direction term (which then needs one), else ``None``."""
+    if getattr(model, "C", None) is None:
+        return None
+    if data.velocity is None:
+        raise DataError(f"{data.name}: the model has a direction term; the data need a velocity (m/s)")
+    return data.velocity
+
+
+def cost_y(model: CoilSetModel, data: CoilSetData) -> float:
+    """The paper's y identification cost of its Remark on ``sign(dy/dt)``: ``mean_t (Fy(t) - F̂y(t))²`` (N²).
+
+    The mean over all samples of ``data`` of the squared driving-direction error (noise included).
+    The Remark writes ``1/(2N) Σ`` with ``2N`` the number of samples of ``Z_1 ∪ Z_2``, i.e. this mean;
+    for coil set 1 of the paper's motor: 3.52 N² (PGNN), 1.20 N² (PGNN with a direction term).
+    """
+    if data.n == 0:
+        return float("nan")
+    f_hat = np.asarray(_force_jit(model, data.y, data.currents, _velocity_for(model, data)))
+    return float(np.mean((data.force[:, 0] - f_hat[:, 0]) ** 2))
 
 
 def _consts(layout: _Layout, data: CoilSetData, Lambda, theta_phy_star, ridge_output, damping) -> _Consts:
@@ -441,6 +485,10 @@ def _consts(layout: _Layout, data: CoilSetData, Lambda, theta_phy_star, ridge_ou
     ia, ib = data.currents[:, 0], data.currents[:, 1]
     norms = {0: np.linalg.norm(ia), 1: np.linalg.norm(ib), 2: np.sqrt(data.n)}
     bound = [norms[0], norms[1], norms[0], norms[1]]
+    if layout.harmonics:
+        bound += [norms[0], norms[1]] * 4
+    if layout.direction:
+        bound.append(norms[2])  # |tanh| <= 1
     for kind, widths in layout.blocks:
         bound += [norms[kind]] * (widths[-1] + 1)
     damp_w = damping * np.maximum(np.asarray(bound), 1e-300)
@@ -485,7 +533,7 @@ def _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, damping, chun
         chunk_size = DEFAULT_CHUNK if layout.structured else DEFAULT_CHUNK_GENERIC
     star = _star_or_fit(data, theta_nl.pole_pitch, theta_phy_star)
     k = _consts(layout, data, Lambda, star, ridge_output, damping)
-    chunks = _to_chunks(data, int(chunk_size), theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
+    chunks = _to_chunks(layout, data, int(chunk_size), theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
     return layout, chunks, k
 
 

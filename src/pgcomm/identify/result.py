@@ -32,6 +32,10 @@ class IdentifyResult:
 
     Validation costs are NaN when ``n_validation == 0``.
 
+    ``cost_y`` / ``cost_y_physics``: the paper's y cost of its Remark on ``sign(dy/dt)``,
+    ``mean_t (Fy - F̂y)²`` (N²) on the training data, of the identified model / the physics-only model
+    (:func:`pgcomm.identify.projection.cost_y`).
+
     ``iterations``: LM iterations of the kept start over both phases; ``start_costs``: the
     objective of every start at the end of phase 1 (on its subsample; the single phase if
     there is only one); ``history``: per phase, the best objective (``V`` plus the ridge and
@@ -62,13 +66,16 @@ class IdentifyResult:
     slope_bound: float = float("inf")
     slope_term: float = 0.0
     width_selection: tuple = ()
+    cost_y: float = float("nan")
+    cost_y_physics: float = float("nan")
     history: tuple = field(default=(), repr=False)
 
     def to_dict(self) -> dict:
         """JSON-ready summary (keys of ``results.json`` ``identification.coil_sets[l]``)."""
         keys = ("name", "cost_physics", "cost_pgnn", "cost_pgnn_data", "cost_physics_validation",
                 "cost_pgnn_validation", "cost_pgnn_validation_full", "iterations", "seconds", "ridge",
-                "ridge_term", "damping", "damping_term", "n_train", "n_validation", "seed", "n_starts", "stop_reason", "slope_bound", "slope_term")
+                "ridge_term", "damping", "damping_term", "n_train", "n_validation", "seed", "n_starts", "stop_reason",
+                "slope_bound", "slope_term", "cost_y", "cost_y_physics")
         out = {key: getattr(self, key) for key in keys}
         out["start_costs"] = list(self.start_costs)
         out["gain_width"] = self.model.gain_nets[0].widths[-1] if self.model.gain_nets is not None else None

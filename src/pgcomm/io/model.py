@@ -1,11 +1,13 @@
 """Model files: a :class:`~pgcomm.models.CombinedModel` as ``NAME.json`` + ``NAME.npz`` (no pickle).
 
-``NAME.json`` (human-readable, schema ``"pgcomm-model/1"``)::
+``NAME.json`` (human-readable, schema ``"pgcomm-model/2"``)::
 
-    {"schema": "pgcomm-model/1", "kind": "CombinedModel", "arrays": "NAME.npz",
+    {"schema": "pgcomm-model/2", "kind": "CombinedModel", "arrays": "NAME.npz",
      "n_coil_sets": L, "pole_pitch": d_m, "activation": "tanh",
      "gain_widths": [2] | null, "cog_widths": [16] | null,
      "training_range": {"y_min": [...], "y_max": [...]} | null,
+     "harmonics": false, "direction": {"velocity": v_eps} | null,
+     "identification": "force_sensor" | "no_force_sensor",
      "array_shapes": {"A": [L, 3, 2], ...},
      "package_version": "0.1.0", "created": "ISO 8601 (UTC)",
      "metadata": {... user metadata: costs, seed, ...}}
@@ -15,7 +17,10 @@ executes code): ``A``, ``B`` ``(L, 3, 2)``; ``y_center``, ``y_scale`` ``(L,)``; 
 ``i = 1..I`` of the gain networks ``gain_W{i}`` ``(L, 2, n_{i-1}, n_i)``, ``gain_b{i}``
 ``(L, 2, n_i)``, and ``gain_W_out`` ``(L, 2, n_I, 3)``, ``gain_b_out`` ``(L, 2, 3)``; likewise
 ``cog_W{i}`` ``(L, n_{i-1}, n_i)``, ``cog_b{i}``, ``cog_W_out`` ``(L, n_I, 3)``, ``cog_b_out``
-``(L, 3)``. Floats in the JSON are written with Python's shortest round-trip ``repr``, so a
+``(L, 3)``; with the extensions of issue 10 also ``H`` ``(L, 4, 3, 2)`` (5th/7th harmonic gain
+coefficients) and ``C`` ``(L, 3)`` (direction term, N, N, N·m). Schema ``"pgcomm-model/1"``
+files (before the extensions) still load: they are the paper's model, identified with a
+force sensor. Floats in the JSON are written with Python's shortest round-trip ``repr``, so a
 loaded model gives bit-identical outputs.
 
 Both files are written to temporary names in the target directory and renamed into place
@@ -24,6 +29,7 @@ Both files are written to temporary names in the target directory and renamed in
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import json
 import math
@@ -38,8 +44,12 @@ from pgcomm.errors import DataError, PgcommError
 from pgcomm.io.atomic import atomic_open, atomic_write_text
 from pgcomm.models import MLP, CombinedModel, activation_fn
 
-#: Schema identifier written to and required in every model file.
-SCHEMA = "pgcomm-model/1"
+#: Schema identifier written to every model file.
+SCHEMA = "pgcomm-model/2"
+#: Schemas this version reads (``/1``: no extensions; loaded as the paper's model).
+READABLE_SCHEMAS = ("pgcomm-model/1", SCHEMA)
+#: Values of the header field ``identification``.
+IDENTIFICATION_MODES = ("force_sensor", "no_force_sensor")
 
 
 def model_paths(path) -> tuple[Path, Path]:
@@ -50,7 +60,8 @@ def model_paths(path) -> tuple[Path, Path]:
     return p.with_name(p.name + ".json"), p.with_name(p.name + ".npz")
 
 
-def save_model(path, model: CombinedModel, metadata: dict | None = None) -> tuple[Path, Path]:
+def save_model(path, model: CombinedModel, metadata: dict | None = None,
+               identification: str = "force_sensor") -> tuple[Path, Path]:
     """Write ``model`` to ``NAME.json`` + ``NAME.npz`` (see the module docstring).
 
     Args:
@@ -58,12 +69,15 @@ def save_model(path, model: CombinedModel, metadata: dict | None = None) -> tupl
         model: :class:`CombinedModel` (wrap a single coil set with ``CombinedModel.from_coil_sets``).
         metadata: JSON-serialisable dict (costs, seed, ...) stored under ``"metadata"``; numpy
             scalars and arrays are converted, non-finite floats become ``null``.
+        identification: ``"force_sensor"`` or ``"no_force_sensor"`` (how the model was identified).
 
     Returns:
         ``(json_path, npz_path)``.
     """
     if not isinstance(model, CombinedModel):
         raise TypeError(f"save_model needs a CombinedModel, got {type(model).__name__}")
+    if identification not in IDENTIFICATION_MODES:
+        raise ValueError(f"identification must be one of {IDENTIFICATION_MODES}, got {identification!r}")
     json_path, npz_path = model_paths(path)
     arrays = _arrays_of(model)
     document = {
@@ -76,6 +90,9 @@ def save_model(path, model: CombinedModel, metadata: dict | None = None) -> tupl
         "gain_widths": None if model.gain_nets is None else list(model.gain_nets.widths),
         "cog_widths": None if model.cog_nets is None else list(model.cog_nets.widths),
         "training_range": None if model.y_min is None else {"y_min": list(model.y_min), "y_max": list(model.y_max)},
+        "harmonics": model.H is not None,
+        "direction": None if model.C is None else {"velocity": float(model.direction_velocity)},
+        "identification": identification,
         "array_shapes": {k: list(v.shape) for k, v in arrays.items()},
         "package_version": pgcomm.__version__,
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
@@ -123,9 +140,9 @@ def _load_model(path) -> tuple[CombinedModel, dict]:
         raise DataError(f"{json_path}: model file not found") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
         raise DataError(f"{json_path}: not a valid JSON model file ({' '.join(str(err).split())})") from None
-    if not isinstance(document, dict) or document.get("schema") != SCHEMA:
+    if not isinstance(document, dict) or document.get("schema") not in READABLE_SCHEMAS:
         found = document.get("schema") if isinstance(document, dict) else None
-        raise DataError(f"{json_path}: schema {found!r} is not supported (expected {SCHEMA!r})")
+        raise DataError(f"{json_path}: schema {found!r} is not supported (expected one of {list(READABLE_SCHEMAS)})")
     try:
         n_l = int(document["n_coil_sets"])
         pole_pitch = float(document["pole_pitch"])
@@ -134,6 +151,11 @@ def _load_model(path) -> tuple[CombinedModel, dict]:
         cog_widths = _widths(document["cog_widths"])
         rng = document["training_range"]
         npz_name = str(document["arrays"])
+        # schema /1 has no extensions (the paper's model, force sensor)
+        harmonics = bool(document.get("harmonics", False))
+        direction = document.get("direction")
+        v_eps = None if direction is None else float(direction["velocity"])
+        document.setdefault("identification", "force_sensor")
     except (KeyError, TypeError, ValueError) as err:
         raise DataError(f"{json_path}: missing or invalid header field {err}") from None
     if n_l < 1 or not pole_pitch > 0:
@@ -144,7 +166,9 @@ def _load_model(path) -> tuple[CombinedModel, dict]:
         raise DataError(f"{json_path}: {err}") from None
 
     npz_path = json_path.with_name(npz_name)
-    expected = _expected_shapes(n_l, gain_widths, cog_widths)
+    if v_eps is not None and not v_eps > 0:
+        raise DataError(f"{json_path}: direction velocity must be positive, got {v_eps}")
+    expected = _expected_shapes(n_l, gain_widths, cog_widths, harmonics, v_eps is not None)
     try:
         # Open the file ourselves so that it is closed even when numpy/zipfile give up half way.
         with open(npz_path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:
@@ -179,7 +203,12 @@ def _load_model(path) -> tuple[CombinedModel, dict]:
             raise DataError(f"{json_path}: invalid training_range ({err!r})") from None
         if len(y_min) != n_l or len(y_max) != n_l:
             raise DataError(f"{json_path}: training_range needs {n_l} values per bound")
-    return _model_of(arrays, pole_pitch, activation, gain_widths, cog_widths, y_min, y_max), document
+    model = _model_of(arrays, pole_pitch, activation, gain_widths, cog_widths, y_min, y_max)
+    if harmonics or v_eps is not None:
+        model = dataclasses.replace(model, H=jnp.asarray(arrays["H"]) if harmonics else None,
+                                    C=jnp.asarray(arrays["C"]) if v_eps is not None else None,
+                                    direction_velocity=v_eps if v_eps is not None else model.direction_velocity)
+    return model, document
 
 
 # --------------------------------------------------------------------------------------------
@@ -213,11 +242,19 @@ def _arrays_of(model: CombinedModel) -> dict:
         arrays.update(_net_arrays("gain", model.gain_nets))
     if model.cog_nets is not None:
         arrays.update(_net_arrays("cog", model.cog_nets))
+    if model.H is not None:
+        arrays["H"] = model.H
+    if model.C is not None:
+        arrays["C"] = model.C
     return {k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()}
 
 
-def _expected_shapes(n_l, gain_widths, cog_widths) -> dict:
+def _expected_shapes(n_l, gain_widths, cog_widths, harmonics=False, direction=False) -> dict:
     shapes = {"A": (n_l, 3, 2), "B": (n_l, 3, 2), "y_center": (n_l,), "y_scale": (n_l,)}
+    if harmonics:
+        shapes["H"] = (n_l, 4, 3, 2)
+    if direction:
+        shapes["C"] = (n_l, 3)
     for prefix, lead, widths in (("gain", (n_l, 2), gain_widths), ("cog", (n_l,), cog_widths)):
         if widths is None:
             continue
