@@ -25,7 +25,9 @@ with every parasitic effect of DESIGN.md switchable through its own parameter
    (``cog_offset``, ``cog_slope``, ``cog_curvature``, ``cog_wave`` with wavelength
    ``cog_wave_length``) plus a weak periodic part ``cog_periodic`` with period
    ``cog_period`` that is not a multiple of the pole pitch;
-7. a direction-dependent force ``direction_force · tanh(v / direction_velocity)``
+7. a direction-dependent force ``direction_force · (1 + direction_ripple · sin(2π y / direction_ripple_length
+   + 0.5)) · tanh(v / direction_velocity)``: its mean is what a constant ``C sign(ẏ)`` can learn,
+   the part that varies along the stroke (hysteresis of the magnet track, cable slab) is not
    (paper, Remark on ``sign(dy/dt)``);
 8. force-sensor noise and encoder quantisation live in :mod:`pgcomm.sensors`.
 
@@ -93,6 +95,8 @@ class TwinParams:
     # 7. direction-dependent force
     direction_force: tuple[float, float, float] = (3.0, 0.1, 0.2)
     direction_velocity: float = 0.002    # m/s
+    direction_ripple: float = 0.35       # relative variation along the stroke
+    direction_ripple_length: float = 0.07  # m
 
     @property
     def n_coil_sets(self) -> int:
@@ -116,11 +120,12 @@ class TwinParams:
             harmonics=a([self.harmonic_5, self.harmonic_7, *self.harmonic_phase]), mu=a(self.mu),
             lever_arms=a(self.lever_arms), lateral_offsets=a(self.lateral_offsets),
             cog=a([self.cog_offset, self.cog_slope, self.cog_curvature, self.cog_wave, self.cog_periodic]),
-            direction=a(self.direction_force),
+            direction=a(self.direction_force), direction_ripple=a(self.direction_ripple),
             pole_pitch=float(self.pole_pitch), field_ripple_length=float(self.field_ripple_length),
             end_length=float(self.end_length), track_ends=tuple(float(t) for t in self.track_ends),
             cog_wave_length=float(self.cog_wave_length), cog_period=float(self.cog_period),
-            direction_velocity=float(self.direction_velocity))
+            direction_velocity=float(self.direction_velocity),
+            direction_ripple_length=float(self.direction_ripple_length))
 
     def without(self, *effects: str) -> "TwinParams":
         """Copy with named effects switched off: any of ``imbalance, field, harmonics, out_of_plane,
@@ -168,6 +173,7 @@ class TwinPlant:
     lateral_offsets: jnp.ndarray    # (L,)
     cog: jnp.ndarray                # (5, 3)
     direction: jnp.ndarray          # (3,)
+    direction_ripple: jnp.ndarray   # ()
     pole_pitch: float = static_field()
     field_ripple_length: float = static_field()
     end_length: float = static_field()
@@ -175,6 +181,7 @@ class TwinPlant:
     cog_wave_length: float = static_field()
     cog_period: float = static_field()
     direction_velocity: float = static_field()
+    direction_ripple_length: float = static_field()
 
     @property
     def y_range(self):
@@ -244,9 +251,10 @@ class TwinPlant:
                 + per * jnp.sin(2 * jnp.pi * y / self.cog_period + 1.1))
 
     def direction_force(self, y, v):
-        """Direction-dependent force ``S + (3,)``: ``c · tanh(v / v_d)`` (outside the PGNN class)."""
-        del y
-        return self.direction * jnp.tanh(jnp.asarray(v, dtype=float)[..., None] / self.direction_velocity)
+        """Direction-dependent force ``S + (3,)``: ``c (1 + a sin(2π y/λ + 0.5)) tanh(v / v_d)`` (outside the PGNN class)."""
+        y = jnp.asarray(y, dtype=float)[..., None]
+        ripple = 1.0 + self.direction_ripple * jnp.sin(2 * jnp.pi * y / self.direction_ripple_length + 0.5)
+        return self.direction * ripple * jnp.tanh(jnp.asarray(v, dtype=float)[..., None] / self.direction_velocity)
 
     def in_range(self, y):
         """``True`` where ``y`` lies inside :attr:`y_range`."""
