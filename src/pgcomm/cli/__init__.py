@@ -14,7 +14,9 @@ without ``--out``. The modules import the library lazily, inside ``run``, so tha
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 
 from pgcomm.cli import calibrate, check, evaluate, export, identify, inspect, reproduce, simulate
 from pgcomm.cli._common import staged_output, user_error_line
@@ -33,44 +35,123 @@ COMMANDS = {
 }
 
 
+#: Largest ``--seed``: JAX and NumPy seeds are unsigned 32-bit integers.
+MAX_SEED = 2**32 - 1
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``pgcomm: error: ...`` and exit code 2 (no usage block)."""
+
+    def error(self, message):
+        print(f"pgcomm: error: {' '.join(message.split())} (see '{self.prog} --help')", file=sys.stderr)
+        raise SystemExit(2)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand of :data:`COMMANDS`."""
     from pgcomm import __version__
 
-    parser = argparse.ArgumentParser(prog="pgcomm", description="Physics-guided commutation for linear motors.")
+    parser = _Parser(prog="pgcomm", description="Physics-guided commutation for linear motors.")
     parser.add_argument("--version", action="version", version=f"pgcomm {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                help=", ".join(COMMANDS))
     for name, module in COMMANDS.items():
         p = sub.add_parser(name, help=module.HELP, description=module.HELP)
         module.configure(p)
     return parser
 
 
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM, raised in the main thread so that staging folders are cleaned up."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _on_signal(signum, frame):
+    # Further signals would interrupt the clean-up; the first one decides the exit code.
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_IGN)
+    raise Interrupted(signum)
+
+
+def _wait_for_jax() -> None:
+    """Block until computations JAX dispatched asynchronously have finished.
+
+    Exiting the interpreter while XLA's threads still run a computation crashed with a
+    segfault (exit 139); after this the process can exit normally.
+    """
+    jax = sys.modules.get("jax")
+    if jax is None:
+        return
+    try:
+        for a in jax.live_arrays():
+            a.block_until_ready()
+    except Exception:  # noqa: BLE001  (best effort on the way out)
+        pass
+
+
+def _where_from(e: Exception, args) -> str:
+    """For a :class:`~pgcomm.errors.SimulationError`: the file its cause came from (reference or settings)."""
+    from pgcomm.errors import SimulationError
+
+    if not isinstance(e, SimulationError):
+        return ""
+    config, reference = getattr(args, "config", None), getattr(args, "reference", None)
+    plant = f"--plant {args.plant} with --motor {args.motor}" if getattr(args, "plant", None) else None
+    if e.cause == "reference":
+        if reference:
+            return f" (the reference is --reference {reference})"
+        if config:
+            return f" (the reference is built from [reference] in --config {config})"
+        return f" (the default reference; set [reference] stroke in a --config file)"
+    where = [w for w in (f"--config {config}" if config else None, plant) if w]
+    return f" (settings from {' and '.join(where)})" if where else " (with the default settings)"
+
+
 def main(argv=None) -> int:
-    """Entry point of the ``pgcomm`` console script (and ``python -m pgcomm``); returns the exit code."""
+    """Entry point of the ``pgcomm`` console script (and ``python -m pgcomm``); returns the exit code.
+
+    Exit codes: 0 success, 1 a finding (``pgcomm check``), 2 bad input (one line
+    ``pgcomm: error: ...``), 130 SIGINT, 143 SIGTERM (``--out`` left as it was).
+    """
+    import signal as _signal
+
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:
+        return int(e.code or 0) if not isinstance(e.code, str) else 2
     module = COMMANDS[args.command]
     from pgcomm.progress import Progress
 
     progress = Progress(enabled=not args.quiet)
+    handlers = {}
+    if threading.current_thread() is threading.main_thread():
+        handlers = {s: _signal.signal(s, _on_signal) for s in (_signal.SIGINT, _signal.SIGTERM)}
     try:
         out = getattr(args, "out", None)
         if out is None:
             module.run(args, None, progress)
         else:
-            with staged_output(out) as tmp:
+            with staged_output(out, getattr(args, "overwrite", False)) as tmp:
                 module.run(args, tmp, progress)
     except PgcommError as e:
-        print(f"pgcomm: error: {user_error_line(e)}", file=sys.stderr)
+        print(f"pgcomm: error: {user_error_line(e)}{_where_from(e, args)}", file=sys.stderr)
         return 2
     except FileNotFoundError as e:
         print(f"pgcomm: error: {e.filename}: file not found", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("pgcomm: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as e:
+        signum = getattr(e, "signum", _signal.SIGINT)
+        _wait_for_jax()
+        print(f"pgcomm: interrupted ({_signal.Signals(signum).name}); --out left as it was", file=sys.stderr)
+        return 128 + int(signum)
+    finally:
+        for s, h in handlers.items():
+            _signal.signal(s, h)
     return 0
 
 
-__all__ = ["COMMANDS", "build_parser", "main"]
+__all__ = ["COMMANDS", "MAX_SEED", "build_parser", "main"]

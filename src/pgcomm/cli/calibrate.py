@@ -46,6 +46,7 @@ def _write_datasets(out: Path, data) -> None:
 
     from pgcomm.io.logs import Log, write_log
 
+    (out / "data").mkdir(exist_ok=True)
     for pair in data:
         for i, ds in enumerate(pair):
             cols = ds.columns()
