@@ -359,9 +359,10 @@ def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=N
     """
     ic = setup.config.identification
     show = None
-    if progress is not None and progress.enabled:
+    if progress is not None:
         def show(info):
-            if info["iteration"] % 10 == 0:
+            progress.checkpoint()
+            if progress.enabled and info["iteration"] % 10 == 0:
                 progress.info(f"iteration {info['iteration']:3d}: best V = {info['best_cost']:.5g}, "
                               f"{info['active']}/{info['starts']} starts active")
     pgnn, res = identify_all(data, setup.motor.pole_pitch, seed=seed, progress=show,
