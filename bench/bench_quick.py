@@ -12,14 +12,17 @@ instead of ~18 000 samples per coil set; 2 random starts instead of 8 and at mos
 iterations instead of 100; 2 feedforward passes instead of 3. The full ``reproduce`` is
 unchanged.
 
-What it costs (measured on this machine, seed 0; quick vs full, filtered MSE): see the table
-printed by ``--full``. Measured 2026-11-22: PGNN y 2.32 vs 2.19 N^2, x 0.0355 vs 0.0356 N^2,
-z 0.133 vs 0.130 N^2 m^2; calibrated k within 0.2 % of the full run's; improvement classical -> PGNN
-in y 15.4x vs 16.3x. The compilation cache changes no number: the compiled code is the same.
+What it costs (measured on this machine, seed 0, quick vs full, filtered commutation MSE; the
+rows are evaluated on the run's own references, and quick has no slow 0.025 m/s reference, so
+the numbers compare what a first look tells, not the same experiment): classical y 35.85 vs
+35.62 N^2; PGNN y 2.32 vs 2.78 N^2, x 0.0355 vs 0.0362 N^2, z 0.133 vs 0.144 N^2 m^2; oracle y
+0.106 vs 0.103 N^2; calibrated k +0.30 %, +0.25 %, -0.05 % off the full run's. Improvement
+classical -> PGNN in y 15.4x (quick) vs 12.8x (full). The compilation cache changes no number:
+the compiled code is the same.
 
-Measured (2 cores, AMD EPYC, second run = warm cache): first run ~107 s, second ~30 s.
-Most of the remaining time is JAX tracing/lowering (~14 s, not cached), imports (~5 s) and
-matplotlib (~5 s).
+Measured 2026-11-22 on 2 cores: cold cache ~107 s; warm cache 17-19 s on an idle machine (30 s
+with other jobs running). What is left is JAX tracing/lowering (not cached), imports (~5 s)
+and matplotlib (~4 s). The full run: 166 s.
 
 Usage::
 

@@ -39,6 +39,8 @@ class Mechanics:
                                                "hint": f"RK4 sub-steps per controller sample; 1 to {MAX_SUBSTEPS}"})
 
     def __post_init__(self):
+        if not all(isinstance(v, (int, float)) for v in (self.mass, self.substeps, self.coulomb_velocity)):
+            return  # traced or array values (jax.vmap over parameters): checked where they are made
         if not self.mass > 0:
             raise ValueError(f"mass = {self.mass} kg: expected a positive moving mass")
         if not 1 <= self.substeps <= MAX_SUBSTEPS:

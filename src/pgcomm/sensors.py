@@ -26,6 +26,8 @@ class Sensors:
         "range": (0.0, 1e4), "hint": "standard deviations (N, N, N m) are >= 0"})
 
     def __post_init__(self):
+        if not all(isinstance(v, (int, float)) for v in (self.encoder_resolution, *tuple(self.force_noise))):
+            return  # traced or array values: checked where they are made
         if not self.encoder_resolution >= 0 or any(not s >= 0 for s in self.force_noise):
             raise ValueError(f"encoder_resolution = {self.encoder_resolution} m, force_noise = {self.force_noise}: "
                              "expected >= 0 (standard deviations and a quantum)")
