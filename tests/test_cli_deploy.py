@@ -212,8 +212,9 @@ def test_evaluate_with_model_reports_model_error_and_range(tmp_path, capsys, mod
     m = truth_model()
     narrow, _ = save_model(tmp_path / "narrow", CombinedModel.from_coil_sets(
         [m.coil_set(l).with_range(-0.08, 0.1) for l in range(3)]))
-    code, stdout, err = run(["evaluate", "--data", pattern, "--model", narrow, "--out", out, "--quiet"], capsys)
-    assert code == 0
+    code, stdout, err = run(["evaluate", "--data", pattern, "--model", narrow, "--out", out, "--overwrite",
+                             "--quiet"], capsys)
+    assert code == 0, err
     lines = err.strip().splitlines()
     assert len(lines) == 2 and all(ln.startswith("pgcomm: warning: ") for ln in lines)
     assert "lie outside the training range [-0.08, 0.1] m" in lines[0] and "Zm_coilset1.csv" in lines[0]

@@ -303,7 +303,7 @@ def test_read_reference_csv_round_trip_with_and_without_time(tmp_path, ref_small
     q = tmp_path / "r_only.csv"
     _write_csv(q, ["r"], [(repr(float(r)),) for r in ref_small.r])
     _assert_round_trip(read_reference(q, sample_time=1e-3), ref_small)
-    with pytest.raises(DataError, match=r"r_only\.csv.*pass sample_time"):
+    with pytest.raises(DataError, match=r"r_only\.csv.*--reference-sample-time"):
         read_reference(q)
 
 
@@ -317,7 +317,7 @@ def test_read_reference_mat_v5_round_trip(tmp_path, ref_small):
     s = tmp_path / "bare.mat"
     scipy.io.savemat(s, {"r": ref_small.r})
     _assert_round_trip(read_reference(s, sample_time=1e-3), ref_small)
-    with pytest.raises(DataError, match=r"bare\.mat.*pass sample_time"):
+    with pytest.raises(DataError, match=r"bare\.mat.*--reference-sample-time"):
         read_reference(s)
 
 

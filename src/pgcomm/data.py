@@ -73,8 +73,8 @@ class CoilSetData:
         exp = np.zeros(n, dtype=int) if self.experiment is None else np.asarray(self.experiment)
         if exp.shape != (n,):
             raise DataError(f"{self.name}: experiment labels must have shape ({n},), got {exp.shape}")
-        for label, arr in (("y", y), ("currents", cur), ("force", frc)) if n else ():  # (an empty split is fine)
-            bad = ~np.isfinite(arr.reshape(n, -1)).all(axis=1)
+        for label, arr in (("y", y), ("currents", cur), ("force", frc)):
+            bad = ~np.isfinite(arr.reshape(n, int(np.prod(arr.shape[1:])))).all(axis=1)  # n = 0 allowed
             if bad.any():
                 raise DataError(f"{self.name}: {label} is not finite in row {int(np.argmax(bad))} "
                                 f"({int(bad.sum())} rows)")

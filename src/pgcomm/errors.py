@@ -20,3 +20,17 @@ class ConfigError(PgcommError):
 
 class ExcitationError(DataError):
     """Data that does not persistently excite the model (paper, Remark on excitation)."""
+
+
+class SimulationError(DataError):
+    """A closed-loop run that left the plant's range.
+
+    ``cause`` is ``"reference"`` (the reference itself leaves the range: the reference file or
+    ``[reference]`` settings are at fault) or ``"divergence"`` (the loop went unstable or
+    saturated: a setting of the controller, mechanics or plant is at fault). The CLI adds the
+    file the cause came from.
+    """
+
+    def __init__(self, message: str, cause: str):
+        super().__init__(message)
+        self.cause = cause

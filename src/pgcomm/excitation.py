@@ -44,11 +44,14 @@ from pgcomm.data import CoilSetData, active_coil_set, log_currents
 from pgcomm.motor import Motor
 
 __all__ = ["BinStats", "CoilSetExcitation", "ExcitationReport", "excitation_report", "coil_set_excitation",
-           "group_logs", "plot_coverage", "check_excitation", "DEFAULT_BINS", "MIN_SAMPLES", "MIN_ANGLE",
+           "group_logs", "plot_coverage", "check_excitation", "DEFAULT_BINS", "MAX_BINS", "MIN_SAMPLES", "MIN_ANGLE",
            "MIN_SPREAD", "DELTA_ZERO", "PROBLEMS"]
 
 #: Default number of position bins over the stroke.
 DEFAULT_BINS = 20
+#: Most position bins of a report: each bin needs MIN_SAMPLES samples of each kind, so more bins than
+#: this cannot be filled by any log that fits in memory (and the per-bin arrays stay small).
+MAX_BINS = 10_000
 #: Fewest samples per bin (else a gap).
 MIN_SAMPLES = 20
 #: Smallest 5–95 % spread (rad) of the current direction ψ (mod π) per bin (else a single Δ).
@@ -217,8 +220,8 @@ def excitation_report(logs, motor: Motor, n_bins: int = DEFAULT_BINS, y_range=No
     lo, hi = map(float, y_range)
     if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
         raise DataError(f"position range [{lo:g}, {hi:g}] m is empty; the logs need motion (or give a range)")
-    if int(n_bins) < 1:
-        raise DataError(f"number of position bins {n_bins} must be at least 1")
+    if not 1 <= int(n_bins) <= MAX_BINS:
+        raise DataError(f"number of position bins {n_bins}: expected 1 to {MAX_BINS}")
     groups = group_logs(logs, motor)
     out = []
     for l in range(motor.n_coil_sets):

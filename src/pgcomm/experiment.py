@@ -55,9 +55,9 @@ from pgcomm.twin import TwinParams, true_fundamental
 class ControllerConfig:
     """Feedback tuning: bandwidth (Hz) for a mass (kg); feedforward identification passes."""
 
-    bandwidth_hz: float = 6.0
-    mass: float = 30.0
-    ff_iterations: int = 3
+    bandwidth_hz: float = field(default=6.0, metadata={"range": (0.01, 1e4), "unit": "Hz", "hint": "a closed-loop bandwidth above 0"})
+    mass: float = field(default=30.0, metadata={"range": (1e-3, 1e5), "unit": "kg", "hint": "the moving mass the feedback is tuned for"})
+    ff_iterations: int = field(default=3, metadata={"range": (0, 100)})
 
     def pid(self) -> PID:
         """The tuned :class:`PID`."""
@@ -73,12 +73,14 @@ class ReferenceConfig:
     :func:`build_setup` resolves them, so a :class:`Setup`'s config always holds numbers.
     """
 
-    stroke: float | None = None
-    center: float | None = None
-    velocities: tuple[float, ...] = (0.025, 0.075, 0.15)
-    a_max: float = 1.0
-    j_max: float = 1000.0
-    dwell: float = 0.5
+    stroke: float | None = field(default=None, metadata={"range": (1e-4, 10.0), "unit": "m",
+                                                         "hint": "did you give mm?"})
+    center: float | None = field(default=None, metadata={"range": (-100.0, 100.0), "unit": "m",
+                                                         "hint": "did you give mm?"})
+    velocities: tuple[float, ...] = field(default=(0.025, 0.075, 0.15), metadata={"range": (1e-5, 100.0), "unit": "m/s"})
+    a_max: float = field(default=1.0, metadata={"range": (1e-4, 1e4), "unit": "m/s^2"})
+    j_max: float = field(default=1000.0, metadata={"range": (1e-3, 1e7), "unit": "m/s^3"})
+    dwell: float = field(default=0.5, metadata={"range": (0.0, 100.0), "unit": "s"})
 
     @property
     def span(self) -> tuple[float, float]:
@@ -93,14 +95,18 @@ class CalibrationConfig:
     k0: float = 67.0
     zeta0: float = -0.52
     delta: float = math.pi / 4
-    iterations: int = 1
-    tol: float = 1e-4
+    iterations: int = field(default=1, metadata={"range": (1, 100), "hint": "Algorithm 1 needs at least one pass"})
+    tol: float = field(default=1e-4, metadata={"range": (0.0, 1.0)})
     method: str = "offset"
-    n_bins: int = 40
+    n_bins: int = field(default=40, metadata={"range": (1, 1000), "hint": "offset bins of the cable-slab/cogging tables; default 40"})
 
     def __post_init__(self):
         if self.method not in ("paper", "offset"):
             raise ValueError(f"method must be 'paper' or 'offset', got {self.method!r}")
+        if self.iterations < 1:
+            raise ValueError(f"iterations = {self.iterations}: Algorithm 1 needs at least 1 pass")
+        if self.n_bins < 1:
+            raise ValueError(f"n_bins = {self.n_bins}: need at least 1 offset bin (default 40)")
         if not 0 < abs(self.delta) <= math.pi / 4 + 1e-12:
             raise ValueError(f"delta = {self.delta} rad: expected 0 < |delta| <= pi/4 (paper: for safety)")
 
@@ -109,17 +115,18 @@ class CalibrationConfig:
 class IdentificationConfig:
     """Algorithm 2 settings (paper defaults: widths 2 and 16, tanh, Λ = 0.1 I)."""
 
-    gain_widths: tuple[int, ...] = (2,)
-    cog_widths: tuple[int, ...] = (16,)
+    gain_widths: tuple[int, ...] = field(default=(2,), metadata={"range": (1, 256), "hint": "neurons per hidden layer"})
+    cog_widths: tuple[int, ...] = field(default=(16,), metadata={"range": (1, 256), "hint": "neurons per hidden layer"})
     #: single-layer gain widths chosen from per coil set by validation cost; empty = ``gain_widths``
-    gain_width_candidates: tuple[int, ...] = (2, 4, 8)
+    gain_width_candidates: tuple[int, ...] = field(default=(2, 4, 8), metadata={"range": (1, 256),
+                                                                                 "hint": "neurons per hidden layer"})
     activation: str = "tanh"
-    regularisation: float = 0.1
-    starts: int = 8
-    max_iterations: int = 100
-    validation_fraction: float = 0.2
-    ridge_output: float = 0.0
-    tol: float = 1e-9
+    regularisation: float = field(default=0.1, metadata={"range": (0.0, 1e6), "hint": "Lambda = regularisation * I must be >= 0"})
+    starts: int = field(default=8, metadata={"range": (1, 256), "hint": "random starts, run batched (memory grows with starts): 1 to 256"})
+    max_iterations: int = field(default=100, metadata={"range": (1, 100000), "hint": "LM iterations per start"})
+    validation_fraction: float = field(default=0.2, metadata={"range": (0.0, 0.5), "hint": "0 trains on everything"})
+    ridge_output: float = field(default=0.0, metadata={"range": (0.0, 1e6)})
+    tol: float = field(default=1e-9, metadata={"range": (0.0, 1.0)})
     #: issue 10: ``v_ε`` (m/s) of the direction term's smooth sign; whether the ``pgnn_direction`` row
     #: also gets the 5th/7th harmonic columns; which velocity the direction law is given
     #: (``"reference"`` or ``"encoder"``, see :class:`pgcomm.commutation.ModelLaw`).
@@ -128,6 +135,16 @@ class IdentificationConfig:
     law_velocity: str = "reference"
 
     def __post_init__(self):
+        if len(self.gain_widths) == 0 or len(self.cog_widths) == 0:
+            which = "gain_widths" if len(self.gain_widths) == 0 else "cog_widths"
+            raise ValueError(f"{which} = []: give at least one hidden layer width, e.g. [2] (gain) or [16] (cogging)")
+        if self.starts < 1 or self.max_iterations < 1:
+            raise ValueError(f"starts = {self.starts}, max_iterations = {self.max_iterations}: both must be >= 1")
+        if not self.regularisation >= 0:
+            raise ValueError(f"regularisation = {self.regularisation}: must be >= 0 (Lambda = regularisation * I)")
+        if not 0.0 <= self.validation_fraction <= 0.5:
+            raise ValueError(f"validation_fraction = {self.validation_fraction}: expected 0 to 0.5 "
+                             "(0 trains on everything)")
         if self.law_velocity not in ("reference", "encoder"):
             raise ValueError(f"law_velocity must be 'reference' or 'encoder', got {self.law_velocity!r}")
         if not 0 < self.direction_velocity < 1:
@@ -138,17 +155,17 @@ class IdentificationConfig:
 class EvaluationConfig:
     """Evaluation: low-pass cut-off (Hz), anti-cogging table entries, harmonics of the harmonic fit."""
 
-    lowpass_hz: float = 50.0
-    cogging_table_entries: int = 2000
-    harmonics: int = 10
+    lowpass_hz: float = field(default=50.0, metadata={"range": (1e-3, 1e6), "unit": "Hz", "hint": "a cut-off above 0 and below the Nyquist frequency"})
+    cogging_table_entries: int = field(default=2000, metadata={"range": (2, 1000000)})
+    harmonics: int = field(default=10, metadata={"range": (0, 1000)})
 
 
 @dataclass(frozen=True)
 class ExperimentConfig:
     """Everything an experiment needs besides the plant itself (SI units)."""
 
-    sample_time: float = 1e-3
-    current_limit: float = 10.0
+    sample_time: float = field(default=1e-3, metadata={"range": (1e-6, 0.1), "unit": "s", "hint": "did you give ms?"})
+    current_limit: float = field(default=10.0, metadata={"range": (1e-3, 1e4), "unit": "A", "hint": "a positive peak phase current in A"})
     twin: TwinParams = field(default_factory=TwinParams)
     mechanics: Mechanics = field(default_factory=Mechanics)
     sensors: Sensors = field(default_factory=Sensors)
@@ -161,6 +178,18 @@ class ExperimentConfig:
     def __post_init__(self):
         if not 1e-6 <= self.sample_time <= 0.1:
             raise ValueError(f"sample_time = {self.sample_time} s is implausible (expected 1e-6 to 0.1 s)")
+        if not self.current_limit > 0:
+            raise ValueError(f"current_limit = {self.current_limit} A: expected a positive peak phase current")
+        nyquist = 0.5 / self.sample_time
+        lp = self.evaluation.lowpass_hz
+        if not 0 < lp < nyquist:
+            raise ValueError(f"[evaluation] lowpass_hz = {lp:g} Hz: expected above 0 and below the Nyquist "
+                             f"frequency {nyquist:g} Hz of sample_time = {self.sample_time:g} s")
+        bw = self.controller.bandwidth_hz
+        if not 0 < bw <= nyquist / 10:
+            raise ValueError(f"[controller] bandwidth_hz = {bw:g} Hz: expected above 0 and at most a tenth of the "
+                             f"Nyquist frequency ({nyquist / 10:g} Hz at sample_time = {self.sample_time:g} s); "
+                             "a faster loop is unstable")
 
 
 def load_experiment(path) -> ExperimentConfig:
@@ -233,9 +262,12 @@ def build_setup(config: ExperimentConfig, forcemap_path=None, motor_path=None, t
     if plant.n_coil_sets != motor.n_coil_sets:
         raise ConfigError(f"{forcemap_path}: {plant.n_coil_sets} coil sets, but {motor_path} describes "
                           f"{motor.n_coil_sets}")
-    config = replace(config, sample_time=motor.sample_time,
-                     current_limit=motor.current_limit if motor.current_limit else config.current_limit,
-                     reference=_resolve_reference(config.reference, *plant.y_range, str(forcemap_path)))
+    try:
+        config = replace(config, sample_time=motor.sample_time,
+                         current_limit=motor.current_limit if motor.current_limit else config.current_limit)
+    except ValueError as e:
+        raise ConfigError(f"{motor_path} with the experiment settings: {' '.join(str(e).split())}") from None
+    config = replace(config, reference=_resolve_reference(config.reference, *plant.y_range, str(forcemap_path)))
     if truth_path is None and (Path(forcemap_path).parent / "truth.json").is_file():
         truth_path = Path(forcemap_path).parent / "truth.json"
     if truth_path is None:
@@ -443,9 +475,10 @@ def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=N
     """
     ic = setup.config.identification
     show = None
-    if progress is not None and progress.enabled:
+    if progress is not None:
         def show(info):
-            if info["iteration"] % 10 == 0:
+            progress.checkpoint()
+            if progress.enabled and info["iteration"] % 10 == 0:
                 progress.info(f"iteration {info['iteration']:3d}: best V = {info['best_cost']:.5g}, "
                               f"{info['active']}/{info['starts']} starts active")
     pgnn, res = identify_all(data, setup.motor.pole_pitch, seed=seed, progress=show,

@@ -10,10 +10,13 @@ integrator is stable when ``h f_c / (m v_c) < 2.7`` (checked by :func:`check_sta
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
+
+#: Most RK4 sub-steps per controller sample (1000 already resolve any plausible friction).
+MAX_SUBSTEPS = 1000
 
 
 @dataclass(frozen=True)
@@ -28,11 +31,23 @@ class Mechanics:
         substeps: RK4 sub-steps per controller sample.
     """
 
-    mass: float = 30.0
-    viscous: float = 80.0
-    coulomb: float = 12.0
-    coulomb_velocity: float = 1e-3
-    substeps: int = 4
+    mass: float = field(default=30.0, metadata={"range": (1e-3, 1e5), "unit": "kg", "hint": "the moving mass"})
+    viscous: float = field(default=80.0, metadata={"range": (0.0, 1e6), "unit": "N s/m"})
+    coulomb: float = field(default=12.0, metadata={"range": (0.0, 1e6), "unit": "N"})
+    coulomb_velocity: float = field(default=1e-3, metadata={"range": (1e-9, 10.0), "unit": "m/s"})
+    substeps: int = field(default=4, metadata={"range": (1, MAX_SUBSTEPS),
+                                               "hint": f"RK4 sub-steps per controller sample; 1 to {MAX_SUBSTEPS}"})
+
+    def __post_init__(self):
+        if not all(isinstance(v, (int, float)) for v in (self.mass, self.substeps, self.coulomb_velocity)):
+            return  # traced or array values (jax.vmap over parameters): checked where they are made
+        if not self.mass > 0:
+            raise ValueError(f"mass = {self.mass} kg: expected a positive moving mass")
+        if not 1 <= self.substeps <= MAX_SUBSTEPS:
+            raise ValueError(f"substeps = {self.substeps}: expected 1 to {MAX_SUBSTEPS} RK4 sub-steps per sample "
+                             "(more cost run time without changing the result)")
+        if not self.coulomb_velocity > 0:
+            raise ValueError(f"coulomb_velocity = {self.coulomb_velocity} m/s: expected > 0")
 
 
 def acceleration(mech: Mechanics, v, force_y):

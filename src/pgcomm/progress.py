@@ -11,30 +11,43 @@ class Progress:
     """Prints ``[stage n] message ... done (x.x s)`` lines to ``stream`` (stderr by default).
 
     Args:
-        enabled: ``False`` makes every call a no-op (``--quiet``, library use).
+        enabled: ``False`` makes every call print nothing (``--quiet``, library use).
+        checkpoint: called (enabled or not) at every stage boundary and :meth:`info`; the
+            command line passes a function that raises if a signal arrived whose exception
+            was swallowed (a signal handler's exception raised inside a garbage-collector
+            callback is only printed by Python), so an interrupt always stops the run.
     """
 
-    def __init__(self, enabled: bool = True, stream=None):
+    def __init__(self, enabled: bool = True, stream=None, checkpoint=None):
         self.enabled = enabled
+        self._checkpoint = checkpoint
         self.stream = stream or sys.stderr
         self.n = 0
         self.t0 = time.perf_counter()
 
     def info(self, msg: str) -> None:
         """One line of information, indented under the current stage."""
+        self.checkpoint()
         if self.enabled:
             print(f"    {msg}", file=self.stream, flush=True)
 
     @contextmanager
     def stage(self, msg: str):
         """Context manager around one stage; prints its start and its duration."""
+        self.checkpoint()
         self.n += 1
         t = time.perf_counter()
         if self.enabled:
             print(f"[{self.n}] {msg} ...", file=self.stream, flush=True)
         yield self
+        self.checkpoint()
         if self.enabled:
             print(f"    done in {time.perf_counter() - t:.1f} s", file=self.stream, flush=True)
+
+    def checkpoint(self) -> None:
+        """Call the ``checkpoint`` hook, if any (may raise to stop the run)."""
+        if self._checkpoint is not None:
+            self._checkpoint()
 
     def elapsed(self) -> float:
         """Seconds since construction."""

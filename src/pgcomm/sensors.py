@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
@@ -20,8 +20,17 @@ class Sensors:
             variance times ``1 - (1 - a)/(1 + a)`` with ``a = exp(-2π·50·Ts)``.
     """
 
-    encoder_resolution: float = 1e-7
-    force_noise: tuple[float, float, float] = (0.8, 0.45, 0.9)
+    encoder_resolution: float = field(default=1e-7, metadata={"range": (0.0, 1e-2), "unit": "m",
+                                                              "hint": "0 disables quantisation"})
+    force_noise: tuple[float, float, float] = field(default=(0.8, 0.45, 0.9), metadata={
+        "range": (0.0, 1e4), "hint": "standard deviations (N, N, N m) are >= 0"})
+
+    def __post_init__(self):
+        if not all(isinstance(v, (int, float)) for v in (self.encoder_resolution, *tuple(self.force_noise))):
+            return  # traced or array values: checked where they are made
+        if not self.encoder_resolution >= 0 or any(not s >= 0 for s in self.force_noise):
+            raise ValueError(f"encoder_resolution = {self.encoder_resolution} m, force_noise = {self.force_noise}: "
+                             "expected >= 0 (standard deviations and a quantum)")
 
 
 def quantise(y, resolution):

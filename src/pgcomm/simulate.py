@@ -31,7 +31,7 @@ import numpy as np
 from pgcomm import mechanics as mech_mod
 from pgcomm.commutation import currents_to_drive_inputs, limit_currents
 from pgcomm.control import PID, Feedforward, feedforward_signal
-from pgcomm.errors import DataError
+from pgcomm.errors import DataError, SimulationError
 from pgcomm.mechanics import Mechanics
 from pgcomm.motor import Motor
 from pgcomm.plant import plant_force
@@ -172,6 +172,16 @@ def simulate_many(plant, laws, reference, *, drive: Motor, pid: PID | None = Non
         if abs(ref.sample_time - ts) > 1e-12 * ts:
             raise DataError(f"reference sample time {ref.sample_time} s differs from the motor's {ts} s")
     mech_mod.check_stable(mechanics, ts)
+    if hasattr(plant, "y_range"):
+        lo, hi = (float(v) for v in plant.y_range)
+        for j, ref in enumerate(refs):
+            rr = np.asarray(ref.r, float)
+            bad = np.flatnonzero((rr < lo) | (rr > hi))
+            if bad.size:
+                k = int(bad[0])
+                raise SimulationError(f"reference{'' if len(refs) == 1 else f' {j + 1}'}: r = {rr[k]:.6g} m at sample "
+                                      f"{k} is outside the plant's range [{lo:.6g}, {hi:.6g}] m; keep the reference "
+                                      "inside the plant's range", "reference")
     pid = pid or PID.tuned(mechanics.mass)
     feedforwards = feedforwards or [Feedforward()] * b
     seeds = list(range(b)) if seeds is None else list(seeds)
@@ -199,7 +209,7 @@ def simulate_many(plant, laws, reference, *, drive: Motor, pid: PID | None = Non
     for j, ((y, ym, f_star, f_true, cur), seed) in enumerate(zip(outs, seeds)):
         n = lengths[j]
         y, ym, f_star, f_true, cur = y[:n], ym[:n], f_star[:n], f_true[:n], cur[:n]
-        _check_range(plant, y)
+        _check_range(plant, y, r[j, :n])
         noise = np.asarray(force_noise(jax.random.PRNGKey(seed), n, sensors))
         fy, delta = currents_to_drive_inputs(jnp.asarray(ym), jnp.asarray(cur), k_hat, zeta_hat, drive.pole_pitch)
         results.append(SimResult(t=np.arange(n) * ts, r=r[j, :n], y=y, y_meas=ym, e=r[j, :n] - y, f_star=f_star,
@@ -218,10 +228,14 @@ def _run_batched(plant, laws, r, v_ref, u_ff, y0, **kw):
     return jax.vmap(lambda law, rr, vv, uff, y00: _run(plant, law, rr, vv, uff, y00, **kw))(laws, r, v_ref, u_ff, y0)
 
 
-def _check_range(plant, y):
+def _check_range(plant, y, r):
+    """Raise :class:`SimulationError` (``cause="divergence"``) if the motion ``y`` (m) left the plant's range."""
     ok = np.asarray(plant.in_range(jnp.asarray(y)))
     if not ok.all():
         k = int(np.argmin(ok))
         lo, hi = plant.y_range
-        raise DataError(f"simulation: position y = {y[k]:.6g} m at sample {k} is outside the plant's range "
-                        f"[{lo:.6g}, {hi:.6g}] m")
+        raise SimulationError(
+            f"simulation diverged: position y = {y[k]:.6g} m at sample {k} is outside the plant's range "
+            f"[{lo:.6g}, {hi:.6g}] m while the reference is at r = {r[k]:.6g} m; the loop is unstable or saturated: "
+            "check the controller (bandwidth_hz, mass), the mechanics and the plant's k, zeta against the drive's",
+            "divergence")

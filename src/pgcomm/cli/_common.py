@@ -20,7 +20,7 @@ from pgcomm.errors import ConfigError, PgcommError
 def add_common_options(p: argparse.ArgumentParser, out: bool = True, plant: bool = True) -> None:
     """``--out DIR`` (if ``out``), ``--plant/--motor/--config/--seed`` (if ``plant``) and ``--quiet``."""
     if out:
-        p.add_argument("--out", required=True, type=Path, help="output directory (created; files replaced)")
+        add_out_option(p)
     if plant:
         p.add_argument("--plant", type=Path, metavar="FORCEMAP.csv",
                        help="force map replacing the twin's electromagnetics (needs --motor)")
@@ -29,8 +29,28 @@ def add_common_options(p: argparse.ArgumentParser, out: bool = True, plant: bool
                        help="experiment settings (see README); default: config.toml beside --plant, if there")
         p.add_argument("--truth", type=Path, metavar="TRUTH.json",
                        help="the plant's known k, zeta (default: truth.json beside --plant, if there)")
-        p.add_argument("--seed", type=int, default=0, help="seed for noise and random starts (default 0)")
+        p.add_argument("--seed", type=seed_value, default=0,
+                       help="seed for noise and random starts, 0 to 2**32-1 (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+def seed_value(text: str) -> int:
+    """``--seed``: an integer in ``[0, 2**32 - 1]`` (JAX and NumPy seeds are unsigned 32-bit)."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if not 0 <= v <= 2**32 - 1:
+        raise argparse.ArgumentTypeError(f"{text} is outside 0 to 2**32-1 = {2**32 - 1}; give a smaller seed")
+    return v
+
+
+def add_out_option(p: argparse.ArgumentParser, dest: str = "out", required: bool = True) -> None:
+    """``--out DIR`` and ``--overwrite`` (replace a non-empty ``DIR`` as a whole)."""
+    p.add_argument("--out", dest=dest, required=required, type=Path, metavar="DIR",
+                   help="output folder (created with its parents; must be new or empty unless --overwrite)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a non-empty --out folder as a whole (its old files are deleted on success)")
 
 
 def add_data_options(p: argparse.ArgumentParser) -> None:
@@ -108,29 +128,85 @@ def reference_from_args(args, setup):
     return data_generation_reference(setup)
 
 
-@contextmanager
-def staged_output(out: Path):
-    """Yield a temporary directory next to ``out``; on success move its files into ``out``.
+#: Folders that ``--out ... --overwrite`` never replaces (the whole folder would be deleted).
+def _protected_dirs() -> set[Path]:
+    home = Path.home().resolve()
+    cwd = Path.cwd().resolve()
+    return {home, cwd, *cwd.parents, Path(cwd.anchor)}
 
-    On an exception the temporary directory is removed and ``out`` is left untouched.
+
+def check_out(out: Path, overwrite: bool = False) -> Path:
+    """Check ``--out DIR`` before any work is done; return the nearest existing folder (where staging goes).
+
+    Rules (DESIGN, "--out"): missing parent folders are created (at the end, on success); the
+    command fails only where a path component exists as a file or the nearest existing folder is
+    not writable. An existing ``DIR`` that holds anything is refused unless ``overwrite``: then the
+    whole folder is replaced by the new outputs (never the current, home or root folder).
+
+    Raises:
+        ConfigError: one line naming ``--out`` and what to do.
     """
     out = Path(out)
-    parent = out.resolve().parent
-    if not parent.exists():
-        raise PgcommError(f"--out {out}: parent directory {parent} does not exist")
-    if out.exists() and not out.is_dir():
-        raise PgcommError(f"--out {out}: exists and is not a directory")
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
+    resolved = out.resolve()
+    for comp in [resolved, *resolved.parents]:
+        if comp.exists() and not comp.is_dir():
+            raise ConfigError(f"--out {out}: '{comp}' exists and is a file, not a folder; "
+                              "choose another --out or move the file")
+    if resolved.exists() and any(resolved.iterdir()):
+        if not overwrite:
+            names = sorted(p.name for p in resolved.iterdir())
+            shown = ", ".join(names[:3]) + (", ..." if len(names) > 3 else "")
+            raise ConfigError(f"--out {out}: folder exists and is not empty ({len(names)} entries: {shown}); "
+                              "pass --overwrite to replace the whole folder with this run's outputs, "
+                              "or choose a new --out")
+        if resolved in _protected_dirs():
+            raise ConfigError(f"--out {out}: refusing to replace the current, home or root folder with "
+                              "--overwrite; give a subfolder")
+    base = resolved.parent  # staging goes beside (never inside) DIR, in its nearest existing ancestor
+    while not base.exists():
+        base = base.parent
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise ConfigError(f"--out {out}: folder '{base}' is not writable; choose a writable --out")
+    return base
+
+
+@contextmanager
+def staged_output(out: Path, overwrite: bool = False):
+    """Yield an empty staging folder ``.NAME.xxxxxxxx``; on success it becomes ``out``.
+
+    ``out`` is checked first (:func:`check_out`). The staging folder sits in the nearest
+    existing folder of ``out`` (same file system, so the final rename is atomic). On success the
+    missing parents of ``out`` are created and the staging folder is renamed to ``out``; an
+    existing ``out`` (empty, or non-empty with ``overwrite``) is replaced as a whole, so no stale
+    file of an earlier run survives beside the new ones. On any exception (including
+    ``KeyboardInterrupt`` and ``SystemExit`` from a signal) the staging folder is removed and
+    ``out`` is left as it was.
+    """
+    out = Path(out)
+    base = check_out(out, overwrite)
+    resolved = out.resolve()
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{resolved.name}.", dir=base))
+    except OSError as e:
+        raise ConfigError(f"--out {out}: cannot create a folder in '{base}' ({e.strerror}); "
+                          "choose a writable --out") from None
+    old = None
     try:
         yield tmp
-        out.mkdir(exist_ok=True)
-        for f in sorted(tmp.rglob("*")):
-            if f.is_file():
-                dest = out / f.relative_to(tmp)
-                dest.parent.mkdir(parents=True, exist_ok=True)
-                os.replace(f, dest)
+        try:
+            resolved.parent.mkdir(parents=True, exist_ok=True)
+            if resolved.exists():
+                old = Path(tempfile.mkdtemp(prefix=f".{resolved.name}.old.", dir=resolved.parent))
+                os.replace(resolved, old / "out")
+            os.replace(tmp, resolved)
+        except OSError as e:
+            if old is not None and not resolved.exists():
+                os.replace(old / "out", resolved)
+            raise ConfigError(f"--out {out}: cannot move the outputs into place ({e.strerror})") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
 
 
 def user_error_line(e: Exception) -> str:

@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from pgcomm.cli._common import add_common_options, add_data_options, add_motor_option, motor_from_args, \
+from pgcomm.cli._common import add_common_options, add_data_options, add_out_option, check_out, add_motor_option, motor_from_args, \
     read_data_logs, require_data, staged_output
 from pgcomm.errors import ConfigError
 
@@ -27,8 +27,7 @@ def configure(p) -> None:
     add_data_options(p)
     add_motor_option(p, "drive-input logs are converted with k and zeta; Delta is measured against zeta")
     # dest is not "out": cli.main would stage it and discard the report when check exits with code 1
-    p.add_argument("--out", dest="report_dir", type=Path, metavar="DIR",
-                   help="also write results.json and coverage.png into DIR (created; files replaced)")
+    add_out_option(p, dest="report_dir", required=False)
     p.add_argument("--bins", type=int, default=None, metavar="N",
                    help="position bins over the stroke (default 20, as identification checks)")
     p.add_argument("--range", type=float, nargs=2, metavar=("YMIN", "YMAX"),
@@ -43,12 +42,15 @@ def run(args, out, progress) -> None:
     t0 = time.perf_counter()
     require_data(args)
     n_bins = excitation.DEFAULT_BINS if args.bins is None else args.bins
-    if n_bins < 1:
-        raise ConfigError(f"--bins {n_bins}: need at least 1 position bin")
+    if not 1 <= n_bins <= excitation.MAX_BINS:
+        raise ConfigError(f"--bins {n_bins}: expected 1 to {excitation.MAX_BINS} position bins (each bin needs "
+                          f"{excitation.MIN_SAMPLES} samples of each kind; default {excitation.DEFAULT_BINS})")
     if args.range is not None:
         lo, hi = args.range
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
             raise ConfigError(f"--range {lo:g} {hi:g}: need YMIN < YMAX (m)")
+    if args.report_dir is not None:
+        check_out(args.report_dir, args.overwrite)  # before the work: a bad --out fails at once
     motor = motor_from_args(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         logs = read_data_logs(args)
@@ -60,7 +62,7 @@ def run(args, out, progress) -> None:
                    "logs": [lg.source for lg in logs], "check": report.to_dict(),
                    "runtime_s": time.perf_counter() - t0}
         # staged here (not by cli.main) so that the report is kept when the data fail the check
-        with staged_output(args.report_dir) as tmp:
+        with staged_output(args.report_dir, args.overwrite) as tmp:
             plots.save(excitation.plot_coverage(report), tmp / "coverage.png")
             write_results(tmp / "results.json", results)
     if not args.quiet:

@@ -14,7 +14,7 @@ import math
 import time
 from pathlib import Path
 
-from pgcomm.cli._common import add_common_options
+from pgcomm.cli._common import add_common_options, add_out_option
 from pgcomm.errors import ConfigError
 
 HELP = "Export a model's commutation law as C code or a lookup table, verified against the model."
@@ -30,7 +30,7 @@ def configure(p) -> None:
     p.add_argument("--model", required=True, type=Path, metavar="MODEL.json", help="model file (pgcomm identify)")
     p.add_argument("--format", required=True, choices=("c", "lut"),
                    help="c: self-contained C99 law; lut: lookup table (CSV + C header) and anti-cogging table")
-    p.add_argument("--out", required=True, type=Path, help="output directory (created; files replaced)")
+    add_out_option(p)
     p.add_argument("--precision", choices=("double", "single"), default="double",
                    help="C scalar type for --format c (default double)")
     p.add_argument("--resolution", type=float, default=DEFAULT_RESOLUTION, metavar="M",
@@ -139,6 +139,14 @@ def _export_lut(args, out, progress, model, metadata, name, results):
         source = "training data (model metadata)"
         if f_max is None:
             f_max, source = DEFAULT_F_MAX, "default (no training force in the model's metadata)"
+    from pgcomm.export.lut import MAX_ROWS
+
+    lo, hi = model.training_range
+    if (hi - lo) / args.resolution > MAX_ROWS:
+        raise ConfigError(f"--resolution {args.resolution:g} m over the training range [{lo:.6g}, {hi:.6g}] m of "
+                          f"{args.model} gives {(hi - lo) / args.resolution:.3g} rows; at most {MAX_ROWS} "
+                          f"(the table and its 10x finer error check must fit a drive and this machine); "
+                          f"use --resolution {(hi - lo) / (MAX_ROWS - 1):.3g} or more")
     with progress.stage(f"tabulate the law every {args.resolution:g} m over {model.training_range} m"):
         try:
             lut = build_lut(model, args.resolution, current_limit=args.current_limit)

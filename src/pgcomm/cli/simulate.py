@@ -41,6 +41,12 @@ def run(args, out: Path, progress) -> None:
         from pgcomm.io.model import load_model
 
         model, _ = load_model(args.model)
+        if model.n_coil_sets != setup.motor.n_coil_sets:
+            raise ConfigError(f"{args.model}: the model has {model.n_coil_sets} coil set(s) but the plant "
+                              f"({setup.plant_name}) has {setup.motor.n_coil_sets}; use a model identified on this motor")
+        if abs(model.pole_pitch - setup.motor.pole_pitch) > 1e-9 * setup.motor.pole_pitch:
+            raise ConfigError(f"{args.model}: pole pitch {model.pole_pitch:g} m differs from the motor's "
+                              f"{setup.motor.pole_pitch:g} m; use a model identified on this motor")
         law, name = ModelLaw(model, current_limit=setup.motor.current_limit), "pgnn"
     elif args.law == "nominal":
         law, name = ClassicalLaw.from_motor(setup.motor), "nominal"

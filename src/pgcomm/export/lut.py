@@ -80,7 +80,7 @@ from pgcomm.errors import DataError
 from pgcomm.interp import interp_linear
 
 __all__ = [
-    "DEFAULT_RESOLUTION", "Lut", "LutError", "CoggingTable", "CoggingTableError",
+    "DEFAULT_RESOLUTION", "MAX_ROWS", "grid_rows", "Lut", "LutError", "CoggingTable", "CoggingTableError",
     "build_lut", "lut_currents", "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns",
     "build_cogging_table", "cogging_table_error", "write_cogging_table",
     "classical_parameters", "f_star_set",
@@ -148,6 +148,17 @@ class Lut:
         return 4 * self.entries
 
 
+#: Most rows of a table (law or anti-cogging): 200 000 rows of 21 float32 entries are 17 MB, far more
+#: than a drive holds, and the error check on a 10x finer grid (2 million points) still runs in seconds.
+MAX_ROWS = 200_000
+
+
+def grid_rows(y_range, resolution: float) -> int:
+    """Rows of the uniform grid over ``y_range`` (m) with spacing ``<= resolution`` (m), without allocating it."""
+    y0, y1 = float(y_range[0]), float(y_range[1])
+    return max(int(math.ceil((y1 - y0) / resolution * (1 - 1e-9))) + 1, 2)
+
+
 def _grid(model, resolution, y_range):
     """Uniform grid covering ``y_range`` (or the training range) with spacing ``<= resolution``."""
     if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
@@ -162,8 +173,12 @@ def _grid(model, resolution, y_range):
     # the last point lands exactly on y_max (no extrapolation of the model); the spacing is the
     # largest (y1 - y0)/(n - 1) not above the requested resolution (a relative 1e-9 slack keeps
     # exact divisions, e.g. 0.2 m / 0.25 mm, at the requested spacing)
-    n = int(math.ceil((y1 - y0) / resolution * (1 - 1e-9))) + 1
-    return np.linspace(y0, y1, max(n, 2))
+    span = y1 - y0
+    if span / resolution > MAX_ROWS:
+        raise ValueError(f"a table every {resolution:g} m over [{y0:.6g}, {y1:.6g}] m would have "
+                         f"{span / resolution:.3g} rows; at most {MAX_ROWS} (use a resolution of at least "
+                         f"{span / (MAX_ROWS - 1):.3g} m)")
+    return np.linspace(y0, y1, grid_rows((y0, y1), resolution))
 
 
 @jax.jit

@@ -21,6 +21,10 @@ from pgcomm.io.tables import read_csv_columns, read_csv_header
 __all__ = ["load_forcemap", "write_forcemap", "forcemap_columns"]
 
 _QUANTITIES = ("Fy", "Fx", "Tz")
+#: Plausibility bounds that catch a wrong unit: a stroke beyond 10 m (positions in mm), a force per
+#: ampere beyond 10 kN/A (mN/A, or a force table that is not per ampere).
+MAX_SPAN = 10.0
+MAX_GAIN = 1e4
 _PHASES = ("a", "b", "c")
 _COG = ("Fy_cog", "Fx_cog", "Tz_cog")
 _GAIN_RE = re.compile(r"^(Fy|Fx|Tz)_([0-9]+)([abc])$")
@@ -109,6 +113,19 @@ def load_forcemap(path) -> ForceMapPlant:
         if not np.isfinite(a).all():
             i = int(np.flatnonzero(~np.isfinite(a))[0])
             raise DataError(f"{src} row {i + 1} column '{name}': {a[i]} is not a finite number")
+    y = data["y"]
+    span = float(np.max(y) - np.min(y))
+    if span > MAX_SPAN or float(np.max(np.abs(y))) > MAX_SPAN:
+        hint = "; looks like mm: give y in m (divide by 1000)" if span / 1000 <= MAX_SPAN else ""
+        raise DataError(f"{src} column 'y': positions span [{np.min(y):.6g}, {np.max(y):.6g}], implausible for a "
+                        f"linear motor in m (at most {MAX_SPAN:g} m){hint}")
+    for name in header:
+        if name == "y" or name.endswith("_cog"):
+            continue
+        big = float(np.max(np.abs(data[name])))
+        if big > MAX_GAIN:
+            raise DataError(f"{src} column '{name}': |{name}| reaches {big:.6g} per A, implausible (at most "
+                            f"{MAX_GAIN:g} N/A or N m/A); give force per ampere in N/A (not mN/A) for 1 A in one phase")
     gain = np.empty((m, n_sets, 3, 3))
     for l in range(n_sets):
         for r, q in enumerate(_QUANTITIES):

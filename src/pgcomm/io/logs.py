@@ -97,6 +97,11 @@ _COIL_RE = re.compile(r"^(ia|ib|Fy_ref|delta)_([0-9]+)$")
 #: Relative tolerance on the uniformity of ``t`` steps.
 TIME_TOLERANCE = 1e-6
 
+#: Plausibility bounds that catch a wrong unit: a controller sample beyond 0.1 s (t in ms), a
+#: position beyond 10 m (y or r in mm).
+MAX_SAMPLE_TIME = 0.1
+MAX_POSITION = 10.0
+
 #: Known units per quantity: unit string -> factor to SI.
 UNITS = {
     "length": {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "μm": 1e-6, "nm": 1e-9},
@@ -610,6 +615,18 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
                 f"[options] sample_time in the column mapping){closest_hint('t', unused)}"
             )
         cols = {"t": np.arange(n) * ts, **cols}
+    if ts > MAX_SAMPLE_TIME:
+        hint = ("; looks like milliseconds: declare it with [units] t = \"ms\" in a --columns mapping"
+                if ts * 1e-3 <= MAX_SAMPLE_TIME else "")
+        raise DataError(f"{src} {kind} {lab('t')}: sample time {ts:.6g} s is implausible for a motor controller "
+                        f"(at most {MAX_SAMPLE_TIME:g} s){hint}")
+    for name in ("y", "r"):
+        if name in cols and float(np.max(np.abs(cols[name]))) > MAX_POSITION:
+            big = float(np.max(np.abs(cols[name])))
+            hint = (f"; looks like mm: declare it with [units] {name} = \"mm\" in a --columns mapping"
+                    if big * 1e-3 <= MAX_POSITION else "")
+            raise DataError(f"{src} {kind} {lab(name)}: |{name}| reaches {big:.6g} m, implausible for a linear "
+                            f"motor (at most {MAX_POSITION:g} m){hint}")
     return Log(cols, ts, src)
 
 

@@ -51,6 +51,12 @@ READABLE_SCHEMAS = ("pgcomm-model/1", SCHEMA)
 #: Values of the header field ``identification``.
 IDENTIFICATION_MODES = ("force_sensor", "no_force_sensor")
 
+#: Largest model header read (bytes): a real one is a few kB (metadata included).
+MAX_JSON_BYTES = 16 * 2**20
+#: Most coil sets and hidden-layer width a model file may declare (bounds what a header can make us allocate).
+MAX_COIL_SETS = 64
+MAX_WIDTH = 4096
+
 
 def model_paths(path) -> tuple[Path, Path]:
     """``(NAME.json, NAME.npz)`` for ``path`` given with or without either suffix."""
@@ -135,11 +141,18 @@ def _load_model(path) -> tuple[CombinedModel, dict]:
     """:func:`load_model` without the last-resort guard."""
     json_path, _ = model_paths(path)
     try:
-        document = json.loads(json_path.read_text(encoding="utf-8"))
+        size = json_path.stat().st_size
     except FileNotFoundError:
         raise DataError(f"{json_path}: model file not found") from None
+    if size > MAX_JSON_BYTES:
+        raise DataError(f"{json_path}: {size} bytes is far more than a model header needs (at most "
+                        f"{MAX_JSON_BYTES} bytes); not a pgcomm model file")
+    try:
+        document = json.loads(json_path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
         raise DataError(f"{json_path}: not a valid JSON model file ({' '.join(str(err).split())})") from None
+    except RecursionError:
+        raise DataError(f"{json_path}: JSON nested too deeply to be a model header; not a pgcomm model file") from None
     if not isinstance(document, dict) or document.get("schema") not in READABLE_SCHEMAS:
         found = document.get("schema") if isinstance(document, dict) else None
         raise DataError(f"{json_path}: schema {found!r} is not supported (expected one of {list(READABLE_SCHEMAS)})")
@@ -158,6 +171,17 @@ def _load_model(path) -> tuple[CombinedModel, dict]:
         document.setdefault("identification", "force_sensor")
     except (KeyError, TypeError, ValueError) as err:
         raise DataError(f"{json_path}: missing or invalid header field {err}") from None
+    if Path(npz_name).name != npz_name or npz_name in ("", ".", "..") or not npz_name.endswith(".npz"):
+        raise DataError(f"{json_path}: \"arrays\": {npz_name!r} must be the plain name of a .npz file in the same "
+                        f"folder (no folders, no absolute path), e.g. {json_path.with_suffix('.npz').name!r}")
+    if document.get("metadata") is not None and not isinstance(document["metadata"], dict):
+        raise DataError(f"{json_path}: \"metadata\" must be a JSON object (or null), found "
+                        f"{type(document['metadata']).__name__}")
+    if not 1 <= n_l <= MAX_COIL_SETS:
+        raise DataError(f"{json_path}: n_coil_sets = {n_l}: expected 1 to {MAX_COIL_SETS}")
+    for w in (gain_widths or ()) + (cog_widths or ()):
+        if not 1 <= w <= MAX_WIDTH:
+            raise DataError(f"{json_path}: network width {w}: expected 1 to {MAX_WIDTH}")
     if n_l < 1 or not pole_pitch > 0:
         raise DataError(f"{json_path}: n_coil_sets must be >= 1 and pole_pitch > 0, got {n_l} and {pole_pitch}")
     try:
@@ -170,16 +194,7 @@ def _load_model(path) -> tuple[CombinedModel, dict]:
         raise DataError(f"{json_path}: direction velocity must be positive, got {v_eps}")
     expected = _expected_shapes(n_l, gain_widths, cog_widths, harmonics, v_eps is not None)
     try:
-        # Open the file ourselves so that it is closed even when numpy/zipfile give up half way.
-        with open(npz_path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:
-            names = set(npz.files)
-            for k in expected:
-                if k not in names:
-                    raise DataError(f"{npz_path}: array {k!r} missing")
-            extra = sorted(names - set(expected))
-            if extra:
-                raise DataError(f"{npz_path}: unexpected arrays {extra}")
-            arrays = {k: npz[k] for k in expected}
+        arrays = _read_npz(npz_path, expected)
     except FileNotFoundError:
         raise DataError(f"{npz_path}: array file not found") from None
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:  # damaged archive, or an object array
@@ -212,6 +227,43 @@ def _load_model(path) -> tuple[CombinedModel, dict]:
 
 
 # --------------------------------------------------------------------------------------------
+
+
+def _read_npz(npz_path: Path, expected: dict) -> dict:
+    """The arrays of ``expected`` (name -> shape) from ``npz_path``, headers checked before any data is read.
+
+    Every member must be a ``.npy`` array named in ``expected``; each header must declare
+    float64 and exactly the expected shape, so a damaged or hostile file (a header declaring
+    1e11 elements, a member that is not an array) is refused without allocating.
+    """
+    arrays = {}
+    with zipfile.ZipFile(npz_path) as z:
+        members = z.namelist()
+        for m in members:
+            if not m.endswith(".npy"):
+                raise DataError(f"{npz_path}: member {m!r} is not a .npy array (a model's .npz holds only arrays "
+                                f"{sorted(expected)})")
+        names = {m[:-4] for m in members}
+        for k in expected:
+            if k not in names:
+                raise DataError(f"{npz_path}: array {k!r} missing")
+        extra = sorted(names - set(expected))
+        if extra:
+            raise DataError(f"{npz_path}: unexpected arrays {extra}")
+        for k, shape in expected.items():
+            with z.open(k + ".npy") as f:
+                version = np.lib.format.read_magic(f)
+                if version == (1, 0):
+                    hdr_shape, fortran, dtype = np.lib.format.read_array_header_1_0(f)
+                else:
+                    hdr_shape, fortran, dtype = np.lib.format.read_array_header_2_0(f)
+            if dtype != np.float64:
+                raise DataError(f"{npz_path}: array {k!r} has dtype {dtype}, expected float64")
+            if tuple(hdr_shape) != shape:
+                raise DataError(f"{npz_path}: array {k!r} has shape {tuple(hdr_shape)}, expected {shape}")
+            with z.open(k + ".npy") as f:
+                arrays[k] = np.lib.format.read_array(f, allow_pickle=False)
+    return arrays
 
 
 def _activation(model: CombinedModel) -> str:

@@ -25,6 +25,8 @@ __all__ = ["read_reference"]
 
 #: Relative tolerance of a uniform time base (and of a file's sample time against the given one).
 UNIFORM_RTOL = 1e-6
+#: Largest plausible |r| (m): a reference beyond 10 m is in another unit (mm).
+MAX_POSITION = 10.0
 
 _SUFFIXES = (".csv", ".txt", ".mat", ".h5", ".hdf5")
 
@@ -93,7 +95,13 @@ def read_reference(path, sample_time=None, variable="r") -> Reference:
     elif ts_arg is not None:
         ts = ts_arg
     else:
-        raise DataError(f"{p}: no 't' column or 'Ts' variable in the file; pass sample_time (s)")
+        raise DataError(f"{p}: no 't' column or 'Ts' variable in the file; give its sample time in s "
+                        "(--reference-sample-time on the command line, sample_time= in Python)")
+    big = float(np.max(np.abs(r)))
+    if big > MAX_POSITION:
+        hint = "; looks like mm: give r in m (divide by 1000)" if big / 1000 <= MAX_POSITION else ""
+        raise DataError(f"{p}: '{variable}' reaches {big:.6g}, implausible for a position in m "
+                        f"(at most {MAX_POSITION:g} m){hint}")
     return reference_from_positions(r, ts, t)
 
 

@@ -1,0 +1,302 @@
+"""Every bad input of issue 8, one table per class: exit code 2, one line ``pgcomm: error: ...`` naming
+the file / key / value, no traceback, ``--out`` untouched and no staging folder left.
+
+The cases fail in validation, before any simulation or identification, so the whole table runs
+in-process (``pgcomm.cli.main``) in seconds. Two subprocess tests check SIGINT / SIGTERM.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pgcomm.cli import main
+from pgcomm.forcemap import ForceMapPlant
+from pgcomm.io.config import write_motor
+from pgcomm.io.forcemap import write_forcemap
+from pgcomm.io.logs import Log, write_log
+from pgcomm.io.model import save_model
+from pgcomm.twin import TwinParams
+
+from test_io_model import _model
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+
+# --------------------------------------------------------------------------- fixtures: files
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Bad (and good) input files shared by the tables: name -> path."""
+    d = tmp_path_factory.mktemp("bad")
+    f = {}
+    tw = TwinParams().without("direction")
+    y = np.linspace(-0.13, 0.13, 261)
+    fm = ForceMapPlant.from_plant(tw.plant(), y)
+    gain, cog = np.asarray(fm.gain_table), np.asarray(fm.cog_table)
+    write_forcemap(d / "map.csv", y, gain, cog)
+    write_forcemap(d / "map_mm.csv", y * 1000.0, gain, cog)
+    write_forcemap(d / "map_mNA.csv", y, gain * 1000.0, cog)
+    write_forcemap(d / "map2.csv", y, gain[:, :2], cog)
+    write_motor(d / "motor.toml", tw.motor())
+    text = (d / "motor.toml").read_text()
+    text = text.replace("[67.0, 67.0, 67.0]", "[67.0, 67.0]").replace("[-0.52, -0.52, -0.52]", "[-0.52, -0.52]")
+    (d / "motor2.toml").write_text(text[: text.rfind("[[coil_set]]")])
+    f.update({k: d / f"{k}.csv" for k in ("map", "map_mm", "map_mNA", "map2")})
+    f["motor"], f["motor2"] = d / "motor.toml", d / "motor2.toml"
+
+    # model files: a good one, and each damage of the issue
+    save_model(d / "model", _model(), {"seed": 0})
+    good = json.loads((d / "model.json").read_text())
+    f["model"] = d / "model.json"
+
+    def model(name, npz=None, **changes):
+        doc = {**good, "arrays": f"{name}.npz", **changes}
+        (d / f"{name}.json").write_text(json.dumps(doc))
+        (d / f"{name}.npz").write_bytes(npz if npz is not None else (d / "model.npz").read_bytes())
+        f[name] = d / f"{name}.json"
+
+    model("m_dotdot", arrays="../x.npz")
+    model("m_abs", arrays=str(d / "model.npz"))
+    model("m_meta", metadata="hello")
+    model("m_range", training_range={"y_min": [-1e6] * 3, "y_max": [1e6] * 3})
+    src = np.load(d / "model.npz")
+
+    def npz(edit):
+        b = io.BytesIO()
+        with zipfile.ZipFile(b, "w") as z:
+            for k in src.files:
+                a = io.BytesIO()
+                np.save(a, src[k])
+                z.writestr(k + ".npy", edit(k, a.getvalue()))
+            if edit("extra", None) is not None:
+                z.writestr("evil.txt", "not an array")
+        return b.getvalue()
+
+    header = "{'descr': '<f8', 'fortran_order': False, 'shape': (100000000000,), }"
+    header = (header + " " * (118 - len(header)) + "\n").encode()
+    huge = b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header + b"\0" * 64
+    model("m_notnpy", npz(lambda k, v: b"" if k == "extra" else v))
+    model("m_huge", npz(lambda k, v: None if k == "extra" else (huge if k == "A" else v)))
+    (d / "m_deep.json").write_text("[" * 200_000 + "]" * 200_000)
+    f["m_deep"] = d / "m_deep.json"
+
+    # logs and references in the wrong units
+    n = 400
+    t = np.arange(n) * 1e-3
+    yy = 0.05 * np.sin(2 * np.pi * t)
+    cols = {"t": t, "y": yy, "Fy": np.zeros(n), "Fx": np.zeros(n), "Tz": np.zeros(n),
+            "ia_1": np.ones(n), "ib_1": np.ones(n)}
+    write_log(d / "log_ms.csv", Log({**cols, "t": t * 1000.0}, 1.0))
+    write_log(d / "log_mm.csv", Log({**cols, "y": yy * 1000.0}, 1e-3))
+    f["log_ms"], f["log_mm"] = d / "log_ms.csv", d / "log_mm.csv"
+    (d / "ref_not.csv").write_text("r\n" + "\n".join(repr(float(v)) for v in yy) + "\n")
+    (d / "ref_mm.csv").write_text("t,r\n" + "\n".join(f"{float(a)!r},{1000 * float(v)!r}" for a, v in zip(t, yy)) + "\n")
+    f["ref_not"], f["ref_mm"] = d / "ref_not.csv", d / "ref_mm.csv"
+    (d / "file").write_text("a file, not a folder")
+    f["file"] = d / "file"
+    f["dir"] = d
+    return f
+
+
+def _config(tmp_path, text):
+    p = tmp_path / "exp.toml"
+    p.write_text(text)
+    return p
+
+
+def _check_refused(argv, out, capsys, pattern, tmp_path):
+    """Run ``pgcomm argv --out out``: exit 2, one matching line, no traceback, out untouched, no staging."""
+    before = sorted(p.name for p in out.iterdir()) if out is not None and out.is_dir() else None
+    t0 = time.perf_counter()
+    code = main([str(a) for a in argv] + (["--out", str(out)] if out is not None else []) + ["--quiet"])
+    seconds = time.perf_counter() - t0
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert code == 2, captured.err
+    assert len(lines) == 1 and lines[0].startswith("pgcomm: error: "), captured.err
+    assert "Traceback" not in captured.err
+    import re
+
+    assert re.search(pattern, lines[0]), lines[0]
+    if out is not None:
+        after = sorted(p.name for p in out.iterdir()) if out.is_dir() else None
+        assert after == before, "--out changed"
+        parent = out.parent if out.parent.exists() else tmp_path
+        assert not list(parent.glob(f".{out.name}.*")), "staging folder left"
+    assert seconds < 30, f"refused after {seconds:.0f} s"
+
+
+# --------------------------------------------------------------------------- class 1: settings (silent wrong results)
+
+CONFIG_CASES = [
+    ("calibrate", "[calibration]\nn_bins = 0\n", r"exp\.toml \[calibration\]: n_bins = 0 .*expected 1"),
+    ("calibrate", "[calibration]\niterations = 0\n", r"\[calibration\]: iterations = 0 .*at least one pass"),
+    ("simulate", "[evaluation]\nlowpass_hz = 0\n", r"\[evaluation\]: lowpass_hz = 0 Hz"),
+    ("simulate", "[evaluation]\nlowpass_hz = 600\n", r"lowpass_hz = 600 Hz: .*Nyquist frequency 500 Hz"),
+    ("simulate", "current_limit = 0\n", r"exp\.toml: current_limit = 0 A .*positive"),
+    ("simulate", "current_limit = -1\n", r"current_limit = -1 A"),
+    ("simulate", "[controller]\nbandwidth_hz = 0\n", r"\[controller\]: bandwidth_hz = 0 Hz"),
+    ("simulate", "[controller]\nbandwidth_hz = 400\n", r"bandwidth_hz = 400 Hz: .*unstable"),
+    ("simulate", "[sensors]\nforce_noise = [-0.8, 0.45, 0.9]\n", r"\[sensors\]: force_noise\[0\] = -0\.8"),
+    ("simulate", "[mechanics]\nmass = 0\n", r"\[mechanics\]: mass = 0 kg"),
+    ("simulate", "[mechanics]\nsubsteps = 0\n", r"\[mechanics\]: substeps = 0 .*1 to 1000"),
+    ("simulate", "[mechanics]\nsubsteps = 1000000000\n", r"substeps = 1e\+09 .*1 to 1000"),
+    ("identify", "[identification]\nregularisation = -0.1\n", r"\[identification\]: regularisation = -0\.1"),
+    ("identify", "[identification]\nmax_iterations = 0\n", r"max_iterations = 0 "),
+    ("identify", "[identification]\nstarts = 0\n", r"\[identification\]: starts = 0 .*1 to 256"),
+    ("identify", "[identification]\ngain_widths = []\n", r"gain_widths = \[\]: give at least one"),
+    ("identify", "[identification]\nvalidation_fraction = 1.0\n", r"validation_fraction = 1 .*expected 0"),
+    ("identify", "[identification]\nvalidation_fraction = -0.1\n", r"validation_fraction = -0\.1"),
+    ("reproduce", "[reference]\nstroke = 100\n", r"stroke = 100 m .*mm"),
+]
+
+
+@pytest.mark.parametrize("command,text,pattern", CONFIG_CASES, ids=[c[1].strip().replace("\n", " ") for c in CONFIG_CASES])
+def test_config_values_refused(tmp_path, capsys, command, text, pattern):
+    _check_refused([command, "--config", _config(tmp_path, text)], tmp_path / "out", capsys, pattern, tmp_path)
+
+
+# --------------------------------------------------------------------------- class 2: input files (units, model files)
+
+FILE_CASES = [
+    (["calibrate", "--plant", "map_mm", "--motor", "motor"], r"map_mm\.csv column 'y': .*looks like mm"),
+    (["calibrate", "--plant", "map_mNA", "--motor", "motor"], r"map_mNA\.csv column 'Fy_1\w': .*N/A"),
+    (["export", "--format", "c", "--model", "m_dotdot"], r"m_dotdot\.json: \"arrays\": '\.\./x\.npz' must be the plain name"),
+    (["simulate", "--model", "m_dotdot"], r"m_dotdot\.json: \"arrays\""),
+    (["export", "--format", "c", "--model", "m_abs"], r"m_abs\.json: \"arrays\": '/.*no absolute path"),
+    (["export", "--format", "c", "--model", "m_notnpy"], r"m_notnpy\.npz: member 'evil\.txt' is not a \.npy array"),
+    (["export", "--format", "lut", "--model", "m_huge"], r"m_huge\.npz: array 'A' has shape \(100000000000,\)"),
+    (["export", "--format", "c", "--model", "m_deep"], r"m_deep\.json: JSON nested too deeply"),
+    (["simulate", "--model", "m_deep"], r"m_deep\.json: JSON nested too deeply"),
+    (["inspect", "--model", "m_meta"], r"m_meta\.json: \"metadata\" must be a JSON object"),
+    (["simulate", "--model", "model", "--plant", "map2", "--motor", "motor2"],
+     r"model\.json: the model has 3 coil set\(s\) but the plant .*map2\.csv\) has 2"),
+    (["evaluate", "--data", "log_ms"], r"log_ms\.csv column 't': sample time 1 s .*looks like milliseconds"),
+    (["evaluate", "--data", "log_mm"], r"log_mm\.csv column 'y': .*looks like mm"),
+    (["simulate", "--reference", "ref_mm"], r"ref_mm\.csv: 'r' reaches 50.*looks like mm"),
+    (["simulate", "--reference", "ref_not"], r"ref_not\.csv: no 't' column .*--reference-sample-time"),
+]
+
+
+@pytest.mark.parametrize("argv,pattern", FILE_CASES, ids=[" ".join(c[0][:3]) for c in FILE_CASES])
+def test_bad_files_refused(tmp_path, capsys, files, argv, pattern):
+    argv = [str(files.get(a, a)) if not a.startswith("-") else a for a in argv]
+    out = None if argv[0] == "inspect" else tmp_path / "out"
+    _check_refused(argv, out, capsys, pattern, tmp_path)
+
+
+# --------------------------------------------------------------------------- class 3: sizes and options
+
+def test_sizes_and_options_refused(tmp_path, capsys, files):
+    cases = [
+        (["export", "--format", "lut", "--model", files["model"], "--resolution", "1e-9"],
+         r"--resolution 1e-09 m over the training range .* at most 200000 .*use --resolution"),
+        (["export", "--format", "lut", "--model", files["m_range"]], r"training range \[-1e\+06, 1e\+06\] m .*rows"),
+        (["check", "--data", files["log_mm"], "--bins", "100000000"], r"--bins 100000000: expected 1 to 10000"),
+        (["simulate", "--seed", "1000000000000000000000"], r"--seed: 1000000000000000000000 is outside 0 to 2\*\*32-1"),
+        (["simulate", "--seed", "-1"], r"--seed: -1 is outside"),
+        (["simulate", "--bogus"], r"unrecognized arguments: --bogus"),
+        (["simulate", "--law", "nonsense"], r"--law: invalid choice: 'nonsense'"),
+    ]
+    for argv, pattern in cases:
+        out = None if argv[0] == "check" else tmp_path / "out"
+        _check_refused(argv, out, capsys, pattern, tmp_path)
+    code = main([])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "required: COMMAND" in err[0]
+
+
+# --------------------------------------------------------------------------- class 4: --out
+
+def test_out_refused(tmp_path, capsys, files):
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "log.parquet").write_text("stale")
+    cases = [
+        (files["file"] / "x", r"--out .*file/x: '.*file' exists and is a file"),
+        (files["file"], r"exists and is a file"),
+        (full, r"--out .*full: folder exists and is not empty \(1 entries: log\.parquet\); pass --overwrite"),
+    ]
+    for out, pattern in cases:
+        _check_refused(["simulate"], out, capsys, pattern, tmp_path)  # refused before any work
+    assert (full / "log.parquet").read_text() == "stale"
+    # /proc takes no new folders, even from root: refused before any work
+    _check_refused(["simulate"], Path("/proc/pgcomm-test/x"), capsys, r"not writable|cannot create", tmp_path)
+
+
+def test_out_overwrite_replaces_the_whole_folder_and_creates_parents(tmp_path):
+    from pgcomm.cli._common import staged_output
+
+    out = tmp_path / "a" / "b" / "out"
+    with staged_output(out) as tmp:
+        (tmp / "log.parquet").write_text("1")
+    assert sorted(p.name for p in out.iterdir()) == ["log.parquet"]
+    with pytest.raises(Exception, match="not empty"):
+        with staged_output(out) as tmp:
+            pass
+    with staged_output(out, overwrite=True) as tmp:
+        (tmp / "log.csv").write_text("2")
+    assert sorted(p.name for p in out.iterdir()) == ["log.csv"]  # no stale log.parquet beside the new run
+    with pytest.raises(RuntimeError):
+        with staged_output(out, overwrite=True) as tmp:
+            (tmp / "x").write_text("3")
+            raise RuntimeError("failed")
+    assert sorted(p.name for p in out.iterdir()) == ["log.csv"]
+    assert sorted(p.name for p in out.parent.iterdir()) == ["out"]  # no staging or old folder left
+
+
+def test_calibrate_save_data_writes_the_data_sets(tmp_path, capsys):
+    cfg = _config(tmp_path, "[reference]\nvelocities = [0.15]\ndwell = 0.05\n")
+    code = main(["calibrate", "--config", str(cfg), "--save-data", "--out", str(tmp_path / "cal"), "--quiet"])
+    assert code == 0, capsys.readouterr().err
+    names = sorted(p.name for p in (tmp_path / "cal" / "data").iterdir())
+    assert names == [f"Z{i}_coilset{l}.csv" for i in (1, 2) for l in (1, 2, 3)]
+
+
+def test_identify_without_validation_set():
+    """``validation_fraction=0`` trains on everything; validation costs are NaN (documented)."""
+    from pgcomm.data import CoilSetData
+    from pgcomm.identify import identify
+
+    rng = np.random.default_rng(0)
+    n = 3000
+    y = np.linspace(-0.1, 0.1, n)
+    cur = rng.normal(size=(n, 2))
+    eta = 2 * np.pi * y / 0.03
+    force = np.stack([60 * (np.sin(eta) * cur[:, 0] + np.sin(eta + 2 * np.pi / 3) * cur[:, 1]),
+                      np.zeros(n), np.zeros(n)], axis=1) + rng.normal(size=(n, 3)) * 0.1
+    exp = (np.arange(n) >= n // 2).astype(int)
+    r = identify(CoilSetData(y, cur, force, exp), 0.03, validation_fraction=0.0, n_starts=1, max_iter=2,
+                 check_data=False)
+    assert r.n_validation == 0 and r.n_train == n
+    assert np.isnan(r.cost_pgnn_validation) and np.isnan(r.cost_physics_validation)
+    assert np.isfinite(r.cost_pgnn)
+
+
+# --------------------------------------------------------------------------- interrupts (subprocess)
+
+@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_interrupt_leaves_no_output(tmp_path, sig, code):
+    out = tmp_path / "D"
+    env = dict(os.environ, PYTHONPATH=str(SRC) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    p = subprocess.Popen([sys.executable, "-m", "pgcomm", "reproduce", "--quick", "--out", str(out), "--quiet"],
+                         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    time.sleep(4.0)
+    p.send_signal(sig)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == code, err
+    assert "Traceback" not in err
+    assert not out.exists()
+    assert not list(tmp_path.glob(".D.*"))
