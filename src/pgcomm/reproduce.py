@@ -93,7 +93,7 @@ def quick_config(config: ExperimentConfig) -> ExperimentConfig:
     velocities, short dwells, fewer random starts and iterations, two feedforward passes."""
     ref = replace(config.reference, velocities=tuple(sorted(config.reference.velocities)[-2:]),
                   dwell=min(config.reference.dwell, 0.2))
-    ident = replace(config.identification, starts=2, max_iterations=25, gain_width_candidates=())
+    ident = replace(config.identification, starts=2, max_iterations=25)
     ctrl = replace(config.controller, ff_iterations=2)
     return replace(config, reference=ref, identification=ident, controller=ctrl)
 
