@@ -70,11 +70,21 @@ def run_motor(folder: str, seed: int, quick: bool) -> dict:
     }
 
 
+def run_motor_safe(folder: str, seed: int, quick: bool) -> dict:
+    """:func:`run_motor`, with a motor that fails recorded by its one-line error (the others go on)."""
+    try:
+        return run_motor(folder, seed, quick)
+    except Exception as e:  # noqa: BLE001 - a failing motor is a finding of the benchmark, not its end
+        return {"motor": Path(folder).name, "error": f"{type(e).__name__}: {' '.join(str(e).split())}"}
+
+
 def summarise(motors: list[dict]) -> dict:
     """Median and worst over the zoo, and each target with the motors that miss it."""
+    failed = {m["motor"]: m["error"] for m in motors if "error" in m}
+    motors = [m for m in motors if "error" not in m]
     k_err = np.concatenate([np.abs(m["calibration"]["k_rel_error"]) for m in motors])
     z_err = np.concatenate([np.abs(m["calibration"]["zeta_error"]) for m in motors])
-    out = {"motors": len(motors),
+    out = {"motors": len(motors), "failed": failed,
            "calibration": {"k_rel_error_median": float(np.median(k_err)), "k_rel_error_worst": float(k_err.max()),
                            "zeta_error_median": float(np.median(z_err)), "zeta_error_worst": float(z_err.max()),
                            "meets_target": bool(k_err.max() <= 5e-3 and z_err.max() <= 5e-3)}}
@@ -145,17 +155,20 @@ def main(argv=None) -> int:
     motors, t0 = [], time.perf_counter()
     # spawn, not fork: JAX's threads in this process make a forked child deadlock
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futs = {pool.submit(run_motor, str(f), args.seed, args.quick): f for f in folders}
+        futs = {pool.submit(run_motor_safe, str(f), args.seed, args.quick): f for f in folders}
         for fut in as_completed(futs):
             m = fut.result()
             motors.append(m)
+            if "error" in m:
+                print(f"{m['motor']} FAILED: {m['error']}", flush=True)
+                continue
             print(f"{m['motor']} L={m['n_coil_sets']} k err {np.round(100 * np.asarray(m['calibration']['k_rel_error']), 3)} % "
                   f"share y/x/z {[m['reducible_share']['pgnn'][d] for d in 'yxz']} ({m['seconds']:.0f} s; "
                   f"{len(motors)}/{len(folders)}, {time.perf_counter() - t0:.0f} s)", flush=True)
     motors.sort(key=lambda m: m["motor"])
     summary = summarise(motors)
     (args.out / "zoo.json").write_text(json.dumps({"summary": summary, "motors": motors}, indent=1))
-    plot(motors, args.out / "zoo.png")
+    plot([m for m in motors if "error" not in m], args.out / "zoo.png")
     print(json.dumps(summary, indent=1))
     return 0
 
