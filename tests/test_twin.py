@@ -147,9 +147,16 @@ def test_direction_force_is_odd_in_velocity():
     fp = np.asarray(plant.direction_force(y, v))
     fm = np.asarray(plant.direction_force(y, -v))
     np.testing.assert_allclose(fp, -fm, rtol=0, atol=1e-15)
-    # saturates at ± the direction-force amplitude, zero at rest
-    np.testing.assert_allclose(np.asarray(plant.direction_force(0.0, 1.0)), DEFAULT_TWIN.direction_force,
-                               rtol=1e-12)
+    # saturates at ± the direction-force amplitude times its variation along the stroke, zero at rest
+    tw = DEFAULT_TWIN
+    for y0 in (-0.07, 0.0, 0.05):
+        ripple = 1.0 + tw.direction_ripple * np.sin(2 * np.pi * y0 / tw.direction_ripple_length + 0.5)
+        np.testing.assert_allclose(np.asarray(plant.direction_force(y0, 1.0)),
+                                   np.asarray(tw.direction_force) * ripple, rtol=1e-12)
+    # its mean along the stroke is the amplitude (what a constant C sign(v) can learn)
+    ys = np.linspace(-0.105, 0.105, 200_001)  # three ripple lengths
+    np.testing.assert_allclose(np.asarray(plant.direction_force(ys, 1.0)).mean(axis=0), tw.direction_force,
+                               rtol=1e-4)
     np.testing.assert_array_equal(np.asarray(plant.direction_force(0.0, 0.0)), 0.0)
 
 
