@@ -15,7 +15,7 @@ plus ``summary`` (median and worst over the zoo of each figure, and the targets 
 the reducible y error and ≥ 60 % of x and z where reported, no row below the oracle beyond noise)
 and ``zoo.png``.
 
-Usage: ``python bench/zoo.py --motors 24 --seed 1 --out bench_out/zoo [--quick] [--jobs 2]``.
+Usage: ``python bench/zoo.py --motors 24 --seed 1 --out bench_out/zoo [--quick] [--jobs 2] [--only motor_02,…]``.
 Each motor runs in its own process pinned to one thread (``--jobs`` at a time).
 """
 
@@ -147,11 +147,14 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=Path("bench_out/zoo"))
     p.add_argument("--quick", action="store_true", help="the --quick experiment per motor")
     p.add_argument("--jobs", type=int, default=2)
+    p.add_argument("--only", default="", help="comma-separated motor folders to run (e.g. motor_02,motor_14)")
     args = p.parse_args(argv)
     from pgcomm.zoo import write_zoo
 
     args.out.mkdir(parents=True, exist_ok=True)
     folders = write_zoo(args.motors, args.seed, args.out / "motors")
+    if args.only:
+        folders = [f for f in folders if f.name in set(args.only.split(","))]
     motors, t0 = [], time.perf_counter()
     # spawn, not fork: JAX's threads in this process make a forked child deadlock
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
