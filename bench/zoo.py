@@ -48,8 +48,10 @@ def run_motor(folder: str, seed: int, quick: bool) -> dict:
     if quick:
         config = reproduce.quick_config(config)
     setup = build_setup(config, folder / "plant.csv", folder / "motor.toml")
+    from pgcomm.io.results import to_jsonable
+
     t0 = time.perf_counter()
-    res = reproduce.run(setup, seed=seed).to_dict()
+    res = to_jsonable(reproduce.run(setup, seed=seed).to_dict())  # arrays -> lists, NaN -> null
     truth = json.loads((folder / "truth.json").read_text())
     cal = res["calibration"]
     return {
