@@ -84,8 +84,8 @@ def summarise(motors: list[dict]) -> dict:
     """Median and worst over the zoo, and each target with the motors that miss it."""
     failed = {m["motor"]: m["error"] for m in motors if "error" in m}
     motors = [m for m in motors if "error" not in m]
-    k_err = np.concatenate([np.abs(m["calibration"]["k_rel_error"]) for m in motors])
-    z_err = np.concatenate([np.abs(m["calibration"]["zeta_error"]) for m in motors])
+    k_err = np.concatenate([np.abs(np.asarray(m["calibration"]["k_rel_error"], float)) for m in motors])
+    z_err = np.concatenate([np.abs(np.asarray(m["calibration"]["zeta_error"], float)) for m in motors])
     out = {"motors": len(motors), "failed": failed,
            "calibration": {"k_rel_error_median": float(np.median(k_err)), "k_rel_error_worst": float(k_err.max()),
                            "zeta_error_median": float(np.median(z_err)), "zeta_error_worst": float(z_err.max()),
@@ -103,7 +103,8 @@ def summarise(motors: list[dict]) -> dict:
         se, cm = m["reducible_standard_error"], m["commutation_mse"]
         for row, v in cm.items():
             for d in "yxz":
-                if row != "oracle" and v[d]["filtered"] < cm["oracle"][d]["filtered"] - 5 * se[d]:
+                spread = 5 * se[d] if se.get(d) is not None else float("inf")  # null: no SE (too few blocks)
+                if row != "oracle" and v[d]["filtered"] < cm["oracle"][d]["filtered"] - spread:
                     below.append(f"{m['motor']}:{row}:{d}")
     out["rows_below_oracle_beyond_noise"] = below
     secs = [m["identification"]["seconds"] for m in motors]
