@@ -120,6 +120,7 @@ def plot(motors: list[dict], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 3, figsize=(14, 4))
+    labelled = set()
     for j, m in enumerate(motors):
         ax[0].plot([j] * len(m["calibration"]["k_rel_error"]), 100 * np.asarray(m["calibration"]["k_rel_error"]),
                    "o", color="C0", ms=4)
@@ -129,7 +130,8 @@ def plot(motors: list[dict], path: Path) -> None:
             s = m["reducible_share"]["pgnn"][d]
             if s is not None:
                 ax[2].plot(j + 0.2 * (q - 1), 100 * s, "os^"[q], color=f"C{q + 2}", ms=5,
-                           label=d if j == 0 else None)
+                           label=None if d in labelled else d)
+                labelled.add(d)
     for a, lim, lab in ((ax[0], 0.5, "k error (%)"), (ax[1], 5.0, "ζ error (mrad)")):
         a.axhspan(-lim, lim, color="0.9")
         a.set_ylabel(lab)
