@@ -259,8 +259,9 @@ def test_coverage_figure_has_a_panel_per_coil_set():
 
 def test_two_exact_directions_in_equal_shares_are_two_directions():
     # Δ = ±π/4 exactly, equal sample counts, noise-free currents, one position per bin: the
-    # doubled directions cancel exactly (their mean is 0j, no direction at all); the criterion
-    # must still see two directions in every bin (zoo motor seed 1 #15 was refused this way).
+    # doubled directions nearly cancel; the criterion must still see two directions in every bin.
+    # (Zoo motor seed 1 #15 was refused when their mean was exactly 0j; this case does not reach
+    # exact cancellation, so it guards the balanced case, not that one input.)
     edges = np.linspace(-0.1, 0.1, 21)
     centres = 0.5 * (edges[1:] + edges[:-1])
     per = 300

@@ -146,7 +146,7 @@ def calibrate_from_datasets(datasets, k_hat, zeta_hat, delta: float, method: str
 
     Args:
         datasets: ``datasets[l] = (Z_1, Z_2)``, each with ``.result.f_meas``, ``.result.f_star``,
-            ``.result.y_meas`` and ``.coil_set`` (see :func:`pgcomm.datasets.generate_datasets`).
+            ``.result.y_meas`` and ``.coil_set`` (see :func:`pgcomm.data.generate_datasets`).
         k_hat, zeta_hat: ``(L,)`` values the data were generated with.
         delta: ``Δ`` (rad).
 
@@ -243,7 +243,7 @@ def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1
     Args:
         generate: ``generate(k_hat (L,), zeta_hat (L,)) -> datasets`` producing ``Z_{1,2}^l``
             with the drive set to those values (e.g. a closure over
-            :func:`pgcomm.datasets.generate_datasets` on the twin).
+            :func:`pgcomm.data.generate_datasets` on the twin).
         k0, zeta0: ``(L,)`` initial ``k̂`` (N/A), ``ζ̂`` (rad).
         iterations: maximum passes; stops earlier when ``max |Δk̂/k̂|`` and ``max |Δζ̂|`` (rad)
             are both below ``tol``.

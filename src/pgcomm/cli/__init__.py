@@ -174,27 +174,23 @@ def main(argv=None) -> int:
     Exit codes: 0 success, 1 a finding (``pgcomm check``), 2 bad input (one line
     ``pgcomm: error: ...``), 130 SIGINT, 143 SIGTERM (``--out`` left as it was).
     """
-    import signal as _signal
-
     _PENDING.clear()
     handlers = {}
     if threading.current_thread() is threading.main_thread():  # first thing: no window without a handler
-        handlers = {s: _signal.signal(s, _on_signal) for s in (_signal.SIGINT, _signal.SIGTERM)}
+        handlers = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         return _main(argv, handlers)
     except KeyboardInterrupt as e:  # a signal before the command started: nothing was written
-        signum = getattr(e, "signum", _signal.SIGINT)
-        print(f"pgcomm: interrupted ({_signal.Signals(signum).name}); --out left as it was", file=sys.stderr)
+        signum = getattr(e, "signum", signal.SIGINT)
+        print(f"pgcomm: interrupted ({signal.Signals(signum).name}); --out left as it was", file=sys.stderr)
         return 128 + int(signum)
     finally:
         for s, h in handlers.items():
-            _signal.signal(s, h)
+            signal.signal(s, h)
 
 
 def _main(argv, handlers) -> int:
     """:func:`main` with the signal handlers installed."""
-    import signal as _signal
-
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -221,9 +217,9 @@ def _main(argv, handlers) -> int:
         print(f"pgcomm: error: {e.filename}: file not found", file=sys.stderr)
         return 2
     except KeyboardInterrupt as e:
-        signum = getattr(e, "signum", _signal.SIGINT)
+        signum = getattr(e, "signum", signal.SIGINT)
         _wait_for_jax()
-        print(f"pgcomm: interrupted ({_signal.Signals(signum).name}); --out left as it was", file=sys.stderr)
+        print(f"pgcomm: interrupted ({signal.Signals(signum).name}); --out left as it was", file=sys.stderr)
         return 128 + int(signum)
     return 0
 
