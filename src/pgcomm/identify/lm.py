@@ -34,7 +34,9 @@ from pgcomm.identify.projection import (
     cost,
     cost_y,
     fit_physics,
+    split_friction,
 )
+from pgcomm.sensorless import SensorlessData
 from pgcomm.identify.result import STOP_REASONS, IdentifyResult
 from pgcomm.models import (
     DEFAULT_COG_WIDTHS,
@@ -253,14 +255,19 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
         raise DataError(f"{name}: too few samples ({data.n}) to identify a model")
     if gain_widths is None and cog_widths is None:
         raise ValueError("identify needs at least one network; use fit_physics for the physics-only model")
+    sensorless = isinstance(data, SensorlessData)
+    if sensorless and direction:
+        raise ValueError(f"{name}: without a force sensor the direction term is the Coulomb friction column; "
+                         "identify with direction=False")
     if direction and data.velocity is None:
         raise DataError(f"{name}: the direction term needs the velocity of every sample; "
                         "build the data with CoilSetData.with_velocity(sample_time)")
     if check_data:
-        problems = check_excitation(data, pole_pitch)
+        problems = check_excitation(data.raw if sensorless else data, pole_pitch)
         if problems:
             raise ExcitationError(f"{name}: data do not persistently excite the model: " + "; ".join(problems))
-    train, val = train_validation_split(data, validation_fraction, block_size)
+    train, val = (data.split(validation_fraction, block_size) if sensorless
+                  else train_validation_split(data, validation_fraction, block_size))
     y_lo, y_hi = float(data.y.min()), float(data.y.max())
     y_center = 0.5 * (float(train.y.min()) + float(train.y.max()))
     y_scale = max(0.5 * (float(train.y.max()) - float(train.y.min())), 1e-9)
@@ -312,12 +319,19 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     best = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
     if start_costs is None:
         start_costs = 2.0 * fs / train.n
-    model = with_theta_L(with_hidden_vector(template, st.flat[best]), st.ev.theta_L[best])
-    c_pgnn = cost(model, train, lam12, star)
+    theta_model, friction = split_friction(layout, st.ev.theta_L[best])
+    model = with_theta_L(with_hidden_vector(template, st.flat[best]), theta_model)
+    c_pgnn = cost(model, train, lam12, star, friction=friction)
     c_phys = cost(physics, train)
     nan = float("nan")
-    c_pgnn_val = cost(model, val, lam12, star) if val.n else CostTerms(nan, nan)
+    c_pgnn_val = cost(model, val, lam12, star, friction=friction) if val.n else CostTerms(nan, nan)
     c_phys_val = cost(physics, val) if val.n else CostTerms(nan, 0.0)
+    mechanics = None
+    if sensorless:
+        # the friction columns enter with the force (m ÿ = F + θ_f [s(ẏ), ẏ]), friction opposes motion
+        mechanics = {"mass": data.mass, "coulomb": -float(friction[0]), "viscous": -float(friction[1]),
+                     "friction_velocity": data.friction_velocity, "filter": data.filt.to_dict(),
+                     "windows": data.n}
     return IdentifyResult(
         name=name, model=model, physics_model=physics, cost_physics=c_phys.data, cost_pgnn=c_pgnn.total,
         cost_pgnn_data=c_pgnn.data, cost_physics_validation=c_phys_val.data, cost_pgnn_validation=c_pgnn_val.data,
@@ -325,7 +339,7 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
         seconds=time.perf_counter() - t0, ridge=float(ridge_output), ridge_term=float(st.ev.ridge2[best]) / train.n,
         damping=float(damping), damping_term=float(st.ev.damp2[best]) / train.n,
         n_train=train.n, n_validation=val.n, seed=int(seed), n_starts=int(n_starts),
-        cost_y=cost_y(model, train), cost_y_physics=cost_y(physics, train),
+        cost_y=cost_y(model, train, friction), cost_y_physics=cost_y(physics, train), mechanics=mechanics,
         start_costs=tuple(float(x) for x in start_costs),
         stop_reason=STOP_REASONS[int(np.asarray(st.reason)[best])], history=tuple(history),
         slope_bound=float(w_max),

@@ -7,6 +7,7 @@ chunked sums, structured and generic Jacobian paths).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import partial
 
@@ -16,6 +17,7 @@ import numpy as np
 from jax import lax
 
 from pgcomm._pytree import pytree_dataclass
+from pgcomm.calibration import _hat_basis
 from pgcomm.data import CoilSetData
 from pgcomm.identify.layout import (
     DEFAULT_LAMBDA,
@@ -29,6 +31,7 @@ from pgcomm.identify.layout import (
 )
 from pgcomm.errors import DataError
 from pgcomm.models import HARMONIC_ORDERS, CoilSetModel, activation_fn, harmonic_basis, smooth_sign
+from pgcomm.sensorless import SensorlessData
 
 #: Samples per chunk of the accumulated sums (structured / generic Jacobian path). Small chunks
 #: keep each chunk's features in cache: 512 ran 1.6x faster than 4096 with 8 starts.
@@ -133,6 +136,12 @@ class _Chunks:
     Feature-major like :func:`_rows`: ``x0`` ``(C, 4, c)`` and ``s`` ``(C, c)`` are the data-only
     parts of the regressor (:func:`_position_data`), computed once; currents ``(C, 2, c)``,
     force ``(C, 3, c)``, mask ``(C, c)``.
+
+    Filtered (sensorless) data: every output sample is a window of ``W`` raw samples and its
+    regressor row is ``Σ_w taps[w] M(raw_w)`` (:mod:`pgcomm.sensorless`); ``x0``, ``s`` and
+    ``currents`` then hold the windows' raw samples, ``(C, ·, c W)`` with ``W`` minor, while
+    ``force`` and ``mask`` stay per output sample. ``taps`` ``(W,)``; ``W = 1`` (``taps = [1]``)
+    is the unfiltered case and takes the plain path.
     """
 
     x0: jnp.ndarray
@@ -140,6 +149,7 @@ class _Chunks:
     currents: jnp.ndarray
     force: jnp.ndarray
     mask: jnp.ndarray
+    taps: jnp.ndarray
 
 
 @pytree_dataclass
@@ -183,18 +193,35 @@ def chunk_count(n: int, chunk: int) -> int:
     return 1 << (need - 1).bit_length()
 
 
-def _to_chunks(layout: _Layout, data: CoilSetData, chunk: int, pole_pitch, y_center, y_scale) -> _Chunks:
+def _to_chunks(layout: _Layout, data, chunk: int, pole_pitch, y_center, y_scale) -> _Chunks:
     n = data.n
     n_chunks = chunk_count(n, chunk)
     pad = n_chunks * chunk - n
+
+    def padded(a, w=1):  # (k, N W) -> (C, k, c W)
+        a = np.atleast_2d(a)
+        a = np.concatenate([a, np.zeros((a.shape[0], pad * w))], axis=1)
+        return jnp.asarray(a.reshape(-1, n_chunks, chunk * w).transpose(1, 0, 2))
+
+    if isinstance(data, SensorlessData):
+        raw = data.raw
+        x0, s = (np.asarray(a) for a in _known_data(layout, raw.y, raw.currents, raw.velocity, pole_pitch, y_center,
+                                                     y_scale, data.name))
+        x0 = np.concatenate([x0, data.friction_columns().T])
+        idx = data.window_index().ravel()  # (J W,), window-major
+        w = data.filt.length + 1
+        return _Chunks(padded(x0[:, idx], w), padded(s[idx], w)[:, 0], padded(raw.currents[idx].T, w),
+                       padded(data.force.T), padded(np.ones(n))[:, 0], jnp.asarray(data.filt.regressor_taps))
     x0, s = (np.asarray(a) for a in _known_data(layout, data.y, data.currents, data.velocity, pole_pitch, y_center,
                                                  y_scale, data.name))
+    return _Chunks(padded(x0), padded(s)[:, 0], padded(data.currents.T), padded(data.force.T), padded(np.ones(n))[:, 0],
+                   jnp.ones(1))
 
-    def padded(a):  # (k, N) -> (C, k, c)
-        a = np.concatenate([np.atleast_2d(a), np.zeros((np.atleast_2d(a).shape[0], pad))], axis=1)
-        return jnp.asarray(a.reshape(-1, n_chunks, chunk).transpose(1, 0, 2))
 
-    return _Chunks(padded(x0), padded(s)[:, 0], padded(data.currents.T), padded(data.force.T), padded(np.ones(n))[:, 0])
+def _apply_taps(a, taps):
+    """``(..., c W) -> (..., c)``: each output sample's window of ``W`` raw samples weighted by ``taps`` ``(W,)``."""
+    w = taps.shape[0]
+    return jnp.einsum("...cw,w->...c", a.reshape(a.shape[:-1] + (a.shape[-1] // w, w)), taps)
 
 
 def _gram_factor(g):
@@ -261,11 +288,18 @@ def _evaluate(layout: _Layout, flats, chunks: _Chunks, k: _Consts, want_jac: boo
     p, m, n = layout.p, layout.p + 3, layout.n_nl
     structured = want_jac and layout.structured
     xs = (chunks.x0, chunks.s, chunks.currents, chunks.force, chunks.mask)
+    taps = chunks.taps
+    filtered = taps.shape[0] > 1  # static: a window per output sample (sensorless)
 
     def rows(ch, with_u):
+        """``A = [M, F]`` ``(S, m, c)`` of a chunk; with ``with_u`` also ``u`` (filtered: ``[u; u s]`` filtered)."""
         x0, s, cur, frc, msk = ch
         out = _rows(layout, hidden, x0, s, cur, with_u)
         mm, u = out if with_u else (out, None)
+        if filtered:
+            mm = _apply_taps(mm, taps)
+            if with_u:  # filtering breaks V = u s^a into u and s: filter both powers
+                u = _apply_taps(jnp.concatenate([u, u * s[None, None, :]], axis=1), taps)
         a = jnp.concatenate([mm, jnp.broadcast_to(frc, (n_s,) + frc.shape)], axis=1) * msk
         return a, (None if u is None else u * msk)
 
@@ -280,6 +314,8 @@ def _evaluate(layout: _Layout, flats, chunks: _Chunks, k: _Consts, want_jac: boo
         g_aa = g[0] + jnp.einsum("skc,slc->skl", a, a)
         if not structured:
             return (g_aa,), None
+        if filtered:  # u = [u_f; (u s)_f]: the full Gram of V and V A^T
+            return (g_aa, g[1] + jnp.einsum("skc,slc->skl", u, a), g[2] + jnp.einsum("skc,slc->skl", u, u)), None
         s = ch[1][None, None, :]
         us = u * s
         g_ua = g[1] + jnp.einsum("skc,slc->skl", jnp.concatenate([u, us], axis=1), a)
@@ -288,7 +324,7 @@ def _evaluate(layout: _Layout, flats, chunks: _Chunks, k: _Consts, want_jac: boo
 
     init = (jnp.zeros((n_s, m, m)),)
     if structured:
-        init += (jnp.zeros((n_s, 2 * n_u, m)), jnp.zeros((n_s, n_u, 3 * n_u)))
+        init += (jnp.zeros((n_s, 2 * n_u, m)), jnp.zeros((n_s, 2 * n_u, 2 * n_u) if filtered else (n_s, n_u, 3 * n_u)))
     g1, _ = lax.scan(pass1, init, xs)
     ga = g1[0]
     d = jnp.sqrt(jnp.diagonal(ga, axis1=1, axis2=2))
@@ -317,9 +353,9 @@ def _evaluate(layout: _Layout, flats, chunks: _Chunks, k: _Consts, want_jac: boo
         return _Eval(f, data2, phys2, ridge2, damp2, theta_l, jnp.zeros((n_s, n, n)), jnp.zeros((n_s, n)))
 
     if structured:
-        s_aa, p_q, e_q = jax.vmap(partial(_structured_sums, layout))(g1[1], g1[2], theta_l)
+        s_aa, p_q, e_q = jax.vmap(partial(_structured_sums, layout, filtered=filtered))(g1[1], g1[2], theta_l)
     else:
-        s_aa, p_q, e_q = _generic_sums(layout, flats, xs, theta_l)
+        s_aa, p_q, e_q = _generic_sums(layout, flats, xs, theta_l, taps)
 
     def assemble(s_aa, p_q, e_q, sinv, vt, theta_l, d):
         d_m = d[:p, None]
@@ -333,7 +369,7 @@ def _evaluate(layout: _Layout, flats, chunks: _Chunks, k: _Consts, want_jac: boo
     return _Eval(f, data2, phys2, ridge2, damp2, theta_l, jtj, jtr)
 
 
-def _structured_sums(layout: _Layout, g_ua, g_uu, theta_l):
+def _structured_sums(layout: _Layout, g_ua, g_uu, theta_l, filtered=False):
     """``Σ_t a aᵀ``, ``P_q``, ``E_q`` (per q) of one start from the pass-1 sums (single hidden layer).
 
     Parameter ``i`` feeds unit ``k(i)`` and enters as ``s^{a(i)}`` (``a = 1`` weight, 0 bias), so
@@ -341,12 +377,18 @@ def _structured_sums(layout: _Layout, g_ua, g_uu, theta_l):
     ``∂M_t/∂θ_NL``. With ``w_q[i] = θ_L[col(i), q]``: ``a_t,q[i] = w_q[i] V_t[i]``, hence
     ``Σ a aᵀ = w wᵀ ⊙ VᵀV``, ``P_q = MᵀV diag(w_q)`` and ``E_q[col(i), i] = Σ_t r_t,q V_t[i] =
     (VᵀF - VᵀM θ_L)[i, q]``; ``VᵀV`` and ``Vᵀ[M, F]`` are gathered from
-    ``g_uu = Σ u [u; u s; u s²]ᵀ`` and ``g_ua = Σ [u; u s] [M, F]ᵀ``.
+    ``g_uu = Σ u [u; u s; u s²]ᵀ`` and ``g_ua = Σ [u; u s] [M, F]ᵀ``. ``filtered``: ``V`` of a
+    filtered output is the filtered ``u s^a``, not a product, so ``g_uu`` is the full Gram
+    ``Σ [u; u s]_f [u; u s]_fᵀ``.
     """
     p = layout.p
     unit, power, col = layout.param_units()
     n_u = int(unit.max()) + 1
-    s_vv = g_uu[unit[:, None], (power[:, None] + power[None, :]) * n_u + unit[None, :]]
+    if filtered:
+        v = power * n_u + unit
+        s_vv = g_uu[v[:, None], v[None, :]]
+    else:
+        s_vv = g_uu[unit[:, None], (power[:, None] + power[None, :]) * n_u + unit[None, :]]
     s_va = g_ua[power * n_u + unit]  # (n, m)
     s_vm, s_vf = s_va[:, :p], s_va[:, p:]
     wq = theta_l[col, :].T  # (3, n)
@@ -357,12 +399,13 @@ def _structured_sums(layout: _Layout, g_ua, g_uu, theta_l):
     return s_aa, p_q, onehot[None] * rho[:, None, :]
 
 
-def _generic_sums(layout: _Layout, flats, xs, theta_l):
+def _generic_sums(layout: _Layout, flats, xs, theta_l, taps):
     """Chunked ``Σ_t a a^T``, ``P_q``, ``E_q`` with ``∂M/∂θ_NL`` from ``jax.jacfwd`` (any depth)."""
     p, n = layout.p, layout.n_nl
 
     def feats(fl, x0, s, cur):
-        return _rows(layout, _unflatten(layout, fl[None]), x0, s, cur)[0].T  # (c, p)
+        m = _rows(layout, _unflatten(layout, fl[None]), x0, s, cur)[0]
+        return (_apply_taps(m, taps) if taps.shape[0] > 1 else m).T  # (c, p)
 
     def per_start(fl, th, ch):
         x0, s, cur, frc, msk = ch
@@ -385,15 +428,35 @@ def _generic_sums(layout: _Layout, flats, xs, theta_l):
 _evaluate_jit = jax.jit(_evaluate, static_argnums=(0, 4))
 
 
-def fit_physics(data: CoilSetData, pole_pitch: float) -> tuple[np.ndarray, np.ndarray]:
+def filter_abs(data: SensorlessData, column) -> np.ndarray:
+    """``Σ_m |g'_m| |x[s_j + m]|`` ``(J,)``: bounds the filtered ``|h x|`` for any ``|h| <= 1``."""
+    return np.abs(np.asarray(column, float))[data.window_index()] @ np.abs(data.filt.regressor_taps)
+
+
+def fit_physics(data, pole_pitch: float) -> tuple[np.ndarray, np.ndarray]:
     """Physics-only least squares: ``min Σ_t ||F - (A cos + B sin) i||²`` (no networks, no cogging, no Λ).
 
     Solved per direction ``q`` by ``numpy.linalg.lstsq`` on the columns
-    ``[cos·ia, cos·ib, sin·ia, sin·ib]``.
+    ``[cos·ia, cos·ib, sin·ia, sin·ib]``. Sensorless data (:class:`~pgcomm.sensorless.SensorlessData`):
+    the filtered columns and the two friction columns against ``m ÿ_f``; only the y row is
+    observed, the x and z rows are 0.
 
     Returns:
         ``(A, B)``, each ``(3, 2)`` (N/A); ``θ_phy* = theta_phy(A, B)``.
     """
+    if isinstance(data, SensorlessData):
+        raw = data.raw
+        c, s = (np.asarray(x) for x in harmonic_basis(raw.y, pole_pitch))
+        ia, ib = raw.currents[:, 0], raw.currents[:, 1]
+        # A position-only nuisance (hat basis, as the calibration's offset tables) stands in for the
+        # cogging: in closed loop the current carries -F_cog/k, so leaving it out biases k low (~0.5x).
+        lo, hi = float(raw.y.min()), float(raw.y.max())
+        bins = int(np.clip((hi - lo) / (pole_pitch / 4), 4, 200))
+        x = data.filtered(np.column_stack([c * ia, c * ib, s * ia, s * ib, data.friction_columns(),
+                                           _hat_basis(raw.y, lo, hi, bins)]))
+        coef = np.zeros((4, 3))
+        coef[:, 0] = np.linalg.lstsq(x, data.target, rcond=None)[0][:4]
+        return coef[:2].T.copy(), coef[2:].T.copy()
     c, s = (np.asarray(x) for x in harmonic_basis(data.y, pole_pitch))
     ia, ib = data.currents[:, 0], data.currents[:, 1]
     x = np.column_stack([c * ia, c * ib, s * ia, s * ib])
@@ -421,18 +484,23 @@ class CostTerms:
         return self.data + self.regularisation
 
 
-def cost(model: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_phy_star=None) -> CostTerms:
+def cost(model: CoilSetModel, data, Lambda=DEFAULT_LAMBDA, theta_phy_star=None, friction=None) -> CostTerms:
     """Evaluate eq. Identification_CostFunction of ``model`` on ``data`` directly (no LIP rewrite).
 
     Args:
-        model: :class:`CoilSetModel`; data: the samples (``2N = data.n``);
+        model: :class:`CoilSetModel`; data: the samples (``2N = data.n``), :class:`CoilSetData` or
+            :class:`~pgcomm.sensorless.SensorlessData` (then the y row only: ``mean (m ÿ_f - F̂_y,f - friction)²``);
         Lambda: ``Λ`` (see :func:`lambda_diagonal`); theta_phy_star: ``(12,)`` or ``None``
-            (then the regularisation term is 0).
+            (then the regularisation term is 0); friction: sensorless only, ``(F_c, c)`` (N, N s/m)
+            or ``None`` (least-squares fit on ``data``).
     """
     if data.n == 0:
         return CostTerms(float("nan"), 0.0)
-    f_hat = np.asarray(_force_jit(model, data.y, data.currents, _velocity_for(model, data)))
-    dat = float(np.sum((data.force - f_hat) ** 2) / data.n)
+    if isinstance(data, SensorlessData):
+        dat = float(np.mean(sensorless_residual(model, data, friction)[0] ** 2))
+    else:
+        f_hat = np.asarray(_force_jit(model, data.y, data.currents, _velocity_for(model, data)))
+        dat = float(np.sum((data.force - f_hat) ** 2) / data.n)
     reg = 0.0
     if theta_phy_star is not None:
         reg = float(np.sum((lambda_diagonal(Lambda) * (theta_phy(model.A, model.B) - np.asarray(theta_phy_star))) ** 2))
@@ -451,7 +519,7 @@ def _velocity_for(model, data: CoilSetData):
     return data.velocity
 
 
-def cost_y(model: CoilSetModel, data: CoilSetData) -> float:
+def cost_y(model: CoilSetModel, data, friction=None) -> float:
     """The paper's y identification cost of its Remark on ``sign(dy/dt)``: ``mean_t (Fy(t) - F̂y(t))²`` (N²).
 
     The mean over all samples of ``data`` of the squared driving-direction error (noise included).
@@ -460,8 +528,25 @@ def cost_y(model: CoilSetModel, data: CoilSetData) -> float:
     """
     if data.n == 0:
         return float("nan")
+    if isinstance(data, SensorlessData):
+        return float(np.mean(sensorless_residual(model, data, friction)[0] ** 2))
     f_hat = np.asarray(_force_jit(model, data.y, data.currents, _velocity_for(model, data)))
     return float(np.mean((data.force[:, 0] - f_hat[:, 0]) ** 2))
+
+
+def sensorless_residual(model: CoilSetModel, data: SensorlessData, friction=None):
+    """``(r, friction)``: ``r = m ÿ_f - (F̂_y)_f - [s(ẏ), ẏ]_f (F_c, c)`` ``(J,)`` (N) of a model on sensorless data.
+
+    ``friction`` ``(F_c, c)`` (N, N s/m); ``None``: the least-squares values for this model and data.
+    """
+    raw = data.raw
+    fy = np.asarray(_force_jit(model, raw.y, raw.currents, _velocity_for(model, raw)))[:, 0]
+    rest = data.target - data.filtered(fy)
+    cols = data.filtered(data.friction_columns())
+    if friction is None:
+        friction = np.linalg.lstsq(cols, rest, rcond=None)[0]
+    friction = np.asarray(friction, float)
+    return rest - cols @ friction, friction
 
 
 def _consts(layout: _Layout, data: CoilSetData, Lambda, theta_phy_star, ridge_output, damping) -> _Consts:
@@ -481,14 +566,22 @@ def _consts(layout: _Layout, data: CoilSetData, Lambda, theta_phy_star, ridge_ou
         raise ValueError(f"damping must be >= 0, got {damping}")
     # Column-norm bounds that do not depend on θ_NL (|h| <= 1 for tanh/sigmoid), so the
     # damping rows are constants of the variable projection.
-    # ||cos·i||, ||sin·i|| <= ||i||
-    ia, ib = data.currents[:, 0], data.currents[:, 1]
-    norms = {0: np.linalg.norm(ia), 1: np.linalg.norm(ib), 2: np.sqrt(data.n)}
+    # ||cos·i||, ||sin·i|| <= ||i||; filtered: ||Σ g' x|| <= ||Σ |g'| |x|||
+    if isinstance(data, SensorlessData):
+        raw = data.raw
+        absf = [np.linalg.norm(filter_abs(data, c)) for c in (raw.currents[:, 0], raw.currents[:, 1],
+                                                               np.ones(raw.n), raw.velocity)]
+        norms = {0: absf[0], 1: absf[1], 2: absf[2]}
+    else:
+        ia, ib = data.currents[:, 0], data.currents[:, 1]
+        norms = {0: np.linalg.norm(ia), 1: np.linalg.norm(ib), 2: np.sqrt(data.n)}
     bound = [norms[0], norms[1], norms[0], norms[1]]
     if layout.harmonics:
         bound += [norms[0], norms[1]] * 4
     if layout.direction:
         bound.append(norms[2])  # |tanh| <= 1
+    if layout.friction:
+        bound += [norms[2], absf[3]]
     for kind, widths in layout.blocks:
         bound += [norms[kind]] * (widths[-1] + 1)
     damp_w = damping * np.maximum(np.asarray(bound), 1e-300)
@@ -516,6 +609,8 @@ class Proposition1Result:
         cost: ``V`` (data + Λ term, eq. Identification_CostFunction) at that point.
         cost_data, cost_regularisation: its two parts.
         ridge_term: ``ridge·||W_out||²``; damping_term: ``α² Σ (b_k θ_k)² / (2N)`` (neither in ``V``).
+        friction: sensorless data only: ``(F_c, c)`` (N, N s/m), else ``None``; ``theta_L`` then
+            holds them in rows :attr:`_Layout.friction_rows` and ``model`` does not.
     """
 
     theta_L: np.ndarray
@@ -525,12 +620,21 @@ class Proposition1Result:
     cost_regularisation: float
     ridge_term: float
     damping_term: float
+    friction: np.ndarray | None = None
 
 
 def _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, damping, chunk_size, method):
     layout = _Layout.of(theta_nl, method)
+    if isinstance(data, SensorlessData):
+        if layout.direction:
+            raise ValueError("without a force sensor the direction term is the Coulomb friction column: "
+                             "identify without direction=True")
+        layout = dataclasses.replace(layout, friction=True)
     if chunk_size is None:
         chunk_size = DEFAULT_CHUNK if layout.structured else DEFAULT_CHUNK_GENERIC
+        if isinstance(data, SensorlessData):  # as many raw samples per chunk as unfiltered
+            w = data.filt.length + 1
+            chunk_size = max(8, 1 << max(0, int(np.log2(max(1, chunk_size // w)))))
     star = _star_or_fit(data, theta_nl.pole_pitch, theta_phy_star)
     k = _consts(layout, data, Lambda, star, ridge_output, damping)
     chunks = _to_chunks(layout, data, int(chunk_size), theta_nl.pole_pitch, theta_nl.y_center, theta_nl.y_scale)
@@ -578,9 +682,21 @@ def proposition1(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBD
     ev = jax.tree_util.tree_map(lambda a: a[0], _evaluate_jit(layout, hidden_vector(theta_nl)[None], chunks, k, False))
     theta_L = np.asarray(ev.theta_L)
     two_n = float(data.n)
-    return Proposition1Result(theta_L, with_theta_L(theta_nl, theta_L), float(ev.data2 + ev.phys2) / two_n,
+    theta_model, friction = split_friction(layout, theta_L)
+    return Proposition1Result(theta_L, with_theta_L(theta_nl, theta_model), float(ev.data2 + ev.phys2) / two_n,
                               float(ev.data2) / two_n, float(ev.phys2) / two_n, float(ev.ridge2) / two_n,
-                              float(ev.damp2) / two_n)
+                              float(ev.damp2) / two_n, friction)
+
+
+def split_friction(layout: _Layout, theta_L):
+    """``(θ_L of the model, friction)``: sensorless layouts carry ``[F_c, c]`` (N, N s/m) in rows
+    :attr:`_Layout.friction_rows` of the y column; they are mechanics, not part of the model.
+    ``friction`` is ``None`` for other layouts."""
+    theta_L = np.asarray(theta_L)
+    if not layout.friction:
+        return theta_L, None
+    rows = layout.friction_rows
+    return np.delete(theta_L, np.arange(rows.start, rows.stop), axis=0), theta_L[rows, 0].copy()
 
 
 def projected_normal_equations(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBDA, theta_phy_star=None,
@@ -616,7 +732,9 @@ def _projected_residual(layout: _Layout, flat, chunks: _Chunks, k: _Consts):
     hidden = _unflatten(layout, flat[None])
 
     def data_rows(x0, s, cur, frc, msk):  # padded samples give zero rows
-        return ((frc - theta_l.T @ _rows(layout, hidden, x0, s, cur)[0]) * msk).ravel()
+        m = _rows(layout, hidden, x0, s, cur)[0]
+        m = _apply_taps(m, chunks.taps) if chunks.taps.shape[0] > 1 else m
+        return ((frc - theta_l.T @ m) * msk).ravel()
 
     r_data = jax.vmap(data_rows)(chunks.x0, chunks.s, chunks.currents, chunks.force, chunks.mask)
     r_reg = jnp.sqrt(k.two_n) * k.reg_w.T * (theta_l - k.theta_bar)

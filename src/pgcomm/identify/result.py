@@ -36,6 +36,12 @@ class IdentifyResult:
     ``mean_t (Fy - F̂y)²`` (N²) on the training data, of the identified model / the physics-only model
     (:func:`pgcomm.identify.projection.cost_y`).
 
+    ``mechanics``: identification without a force sensor only (else ``None``): the given mass
+    (kg), the identified Coulomb ``coulomb`` (N, with the motor's direction-dependent force) and
+    viscous ``viscous`` (N s/m) friction, the Coulomb column's ``friction_velocity`` (m/s), the
+    acceleration filter and the number of filtered windows; costs are then of the y row on
+    filtered windows (``mean (m ÿ_f - F̂_y,f - friction)²``, N²).
+
     ``iterations``: LM iterations of the kept start over both phases; ``start_costs``: the
     objective of every start at the end of phase 1 (on its subsample; the single phase if
     there is only one); ``history``: per phase, the best objective (``V`` plus the ridge and
@@ -68,6 +74,7 @@ class IdentifyResult:
     width_selection: tuple = ()
     cost_y: float = float("nan")
     cost_y_physics: float = float("nan")
+    mechanics: dict | None = None
     history: tuple = field(default=(), repr=False)
 
     def to_dict(self) -> dict:
@@ -78,6 +85,9 @@ class IdentifyResult:
                 "slope_bound", "slope_term", "cost_y", "cost_y_physics")
         out = {key: getattr(self, key) for key in keys}
         out["start_costs"] = list(self.start_costs)
+        out["force_sensor"] = self.mechanics is None
+        if self.mechanics is not None:
+            out["mechanics"] = dict(self.mechanics)
         out["gain_width"] = self.model.gain_nets[0].widths[-1] if self.model.gain_nets is not None else None
         out["width_selection"] = [{"gain_width": w, "cost_validation": v} for w, v in self.width_selection]
         return {key: (None if isinstance(v, float) and not np.isfinite(v) else v) for key, v in out.items()}

@@ -1,0 +1,314 @@
+"""Identification without a force sensor (issue 10, part 3): the driving force from the motion.
+
+A coil set driving the translator alone obeys (DESIGN.md, "Without a force sensor")::
+
+    m ÿ = F_y(y, i) - c ẏ - F_c s(ẏ)        F_y = K_y(y) i + F_cog,y(y)   (+ what the plant adds)
+
+With the moving mass ``m`` given (only ``k/m`` is observable from motion), ``m ÿ`` is the
+measured side; viscous ``c`` and Coulomb ``F_c`` friction are two more linear parameters that
+Proposition 1 eliminates with ``θ_L``. A direction-dependent force of the motor and Coulomb
+friction are the same column ``s(ẏ)``, so there is no separate direction term. Only the y row
+is observable; the x and z rows come from the classical model with the calibrated ``k``, ``ζ``
+(:func:`with_classical_rows`).
+
+**The filter** (one, applied to ``ÿ`` and to every regressor column alike). Positions are
+differentiated twice by the second difference ``Δ²y[i] = y[i+1] - 2y[i] + y[i-1]``; a drive
+holds the current over a sample (zero-order hold), and then exactly
+``Δ²y[i] = T_s²/(2m) (F[i-1] + F[i])`` (friction aside): the second difference is centred half a
+sample after the force samples. Both sides are smoothed by one symmetric (zero-phase) Hann
+window ``g`` of ``T`` samples, and the regressor side also gets the half-sample average::
+
+    m ÿ_f[j] = m Σ_k g_k Δ²y[s_j + k + 1] / T_s²   =   Σ_m g'_m M(s_j + m) θ_L,   g' = g * [½, ½]
+
+Why this filter: a finite window (FIR) has an exact, local inverse problem (every output
+sample is one equation on ``T + 1`` samples, so the chunked identification can evaluate it
+without the whole series in memory) and no phase. The noise of ``Δ²y`` (encoder quanta) grows as
+``f²``; the Hann window's side lobes fall 18 dB per octave, and its noise gain on ``Δ²y`` falls
+as ``T^{-2.5}``: a 0.1 µm encoder at 1 ms gives 0.08 N rms on a 30 kg translator with a 10 ms
+window. The window must stay short against the electrical period of the fastest motion
+(``d_m / v``), else the position dependence of the regressor averages out: its length is
+``WINDOW_POLE_SHARE · d_m / v_95`` (``v_95`` the 95th percentile of the speed), clipped to
+``[MIN_WINDOW_SAMPLES, MAX_WINDOW]``. Output samples are taken every ``T/4`` samples
+(consecutive outputs would repeat the same information).
+
+Windows in which the translator is slower than ``v_min`` anywhere (standstill, reversals) are
+left out: there stiction and the shape of the friction curve are not the model's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from pgcomm.data import CoilSetData, split_indices
+from pgcomm.errors import DataError
+
+#: Window length in pole pitches travelled at the fast speed ``v_95`` (see the module docstring).
+WINDOW_POLE_SHARE = 0.1
+#: Shortest window (samples): below this the noise gain of ``Δ²y`` explodes (``∝ T^{-2.5}``).
+MIN_WINDOW_SAMPLES = 8
+#: Longest window (s).
+MAX_WINDOW = 0.2
+#: Windows with a speed below ``max(MIN_SPEED_VEPS · v_ε, MIN_SPEED_SHARE · v_95)`` anywhere are left out.
+MIN_SPEED_VEPS = 5.0
+MIN_SPEED_SHARE = 0.02
+#: The data must accelerate: at least ``MIN_ACCEL_WINDOWS`` windows with ``|ÿ_f| >= MIN_ACCELERATION`` (m/s²)
+#: per experiment, else mass and friction cannot be told from the gain.
+MIN_ACCELERATION = 0.2
+MIN_ACCEL_WINDOWS = 10
+#: Share of samples at the drive's current limit above which a log is refused (the logged
+#: current is then the demand, not what flowed).
+MAX_SATURATED_SHARE = 0.01
+
+
+@dataclass(frozen=True)
+class AccelerationFilter:
+    """The one zero-phase filter of sensorless identification (module docstring).
+
+    Attributes:
+        taps: ``(T,)`` Hann window, sum 1 (applied to ``Δ²y / T_s²``).
+        stride: samples between output samples (``max(1, T // 4)``).
+        sample_time: ``T_s`` (s).
+    """
+
+    taps: np.ndarray
+    stride: int
+    sample_time: float
+
+    @classmethod
+    def for_motion(cls, velocity, sample_time: float, pole_pitch: float) -> "AccelerationFilter":
+        """The filter for a motion with velocity samples ``velocity`` (m/s), ``T_s`` (s), ``d_m`` (m)."""
+        speed = np.abs(np.asarray(velocity, float))
+        v95 = float(np.percentile(speed, 95)) if speed.size else 0.0
+        window = WINDOW_POLE_SHARE * pole_pitch / v95 if v95 > 0 else MAX_WINDOW
+        n = int(round(min(window, MAX_WINDOW) / sample_time))
+        return cls.of_length(max(MIN_WINDOW_SAMPLES, n), sample_time)
+
+    @classmethod
+    def of_length(cls, n_taps: int, sample_time: float) -> "AccelerationFilter":
+        """Hann window of ``n_taps`` samples (>= 2), stride ``n_taps // 4``."""
+        n = int(n_taps)
+        if n < 2:
+            raise ValueError(f"the acceleration filter needs at least 2 taps, got {n}")
+        g = np.hanning(n + 2)[1:-1]  # no zero end taps
+        return cls(g / g.sum(), max(1, n // 4), float(sample_time))
+
+    @property
+    def length(self) -> int:
+        """``T`` (samples)."""
+        return int(self.taps.shape[0])
+
+    @property
+    def window(self) -> float:
+        """Window length ``T T_s`` (s)."""
+        return self.length * self.sample_time
+
+    @property
+    def regressor_taps(self) -> np.ndarray:
+        """``g' = g * [½, ½]``: ``(T + 1,)`` taps applied to the regressor samples ``s_j .. s_j + T``."""
+        return 0.5 * (np.concatenate([self.taps, [0.0]]) + np.concatenate([[0.0], self.taps]))
+
+    @property
+    def span(self) -> int:
+        """Samples of ``y`` one output needs: ``s_j .. s_j + T + 1``."""
+        return self.length + 2
+
+    def to_dict(self) -> dict:
+        return {"kind": "hann", "taps": self.length, "window_s": self.window, "stride": self.stride}
+
+
+def window_starts(filt: AccelerationFilter, segments, keep=None) -> np.ndarray:
+    """Starts ``s_j`` (every ``stride``-th) of the windows ``[s_j, s_j + T + 1]`` inside one segment.
+
+    Args:
+        segments: ``(N,)`` labels (a window never crosses a label change, e.g. two logs).
+        keep: ``(N,)`` bool or ``None``: windows must lie where ``keep`` is true throughout.
+    """
+    labels = np.asarray(segments)
+    n = labels.shape[0]
+    span = filt.span
+    if n < span:
+        return np.zeros(0, int)
+    bad = np.zeros(n, bool)
+    bad[1:] = labels[1:] != labels[:-1]  # a window may not contain a sample whose label differs from its start's
+    if keep is not None:
+        bad |= ~np.asarray(keep, bool)
+    # s is valid when no "bad" (change or excluded) lies in (s, s + span - 1] and s itself is kept
+    c = np.concatenate([[0], np.cumsum(bad)])
+    s = np.arange(0, n - span + 1)
+    changes = c[s + span] - c[s + 1]
+    ok = changes == 0
+    if keep is not None:
+        ok &= np.asarray(keep, bool)[s]
+    starts = s[ok]
+    # every stride-th valid start, restarting the count in every run of valid starts
+    if starts.size == 0:
+        return starts
+    run = np.concatenate([[0], np.cumsum(np.diff(starts) != 1)])
+    first = np.concatenate([[0], np.flatnonzero(np.diff(run)) + 1])
+    offset = np.arange(starts.size) - np.repeat(first, np.diff(np.concatenate([first, [starts.size]])))
+    return starts[offset % filt.stride == 0]
+
+
+def filter_windows(filt: AccelerationFilter, starts, columns) -> np.ndarray:
+    """``Σ_m g'_m x[s_j + m]`` for columns ``x`` ``(N,)`` or ``(N, k)``: ``(J,)`` or ``(J, k)``."""
+    x = np.asarray(columns, float)
+    idx = np.asarray(starts)[:, None] + np.arange(filt.length + 1)
+    return np.tensordot(x[idx], filt.regressor_taps, axes=([1], [0])) if x.ndim == 1 else \
+        np.einsum("jmk,m->jk", x[idx], filt.regressor_taps)
+
+
+def filtered_acceleration(filt: AccelerationFilter, starts, y) -> np.ndarray:
+    """``ÿ_f[j] = Σ_k g_k Δ²y[s_j + k + 1] / T_s²`` (m/s²), ``(J,)``."""
+    y = np.asarray(y, float)
+    idx = np.asarray(starts)[:, None] + np.arange(filt.length)
+    d2 = y[idx + 2] - 2.0 * y[idx + 1] + y[idx]
+    return d2 @ filt.taps / filt.sample_time**2
+
+
+@dataclass(frozen=True)
+class SensorlessData:
+    """One coil set's data for identification without a force sensor (module docstring).
+
+    ``n`` is the number of output samples (filtered windows), and ``force`` ``(n, 3)`` the
+    measured side ``[m ÿ_f, 0, 0]`` (N): only the driving direction is observed.
+
+    Attributes:
+        raw: the samples (positions, currents, velocity, experiment labels; its ``force`` is unused).
+        starts: ``(J,)`` window starts into ``raw``.
+        target: ``(J,)`` ``m ÿ_f`` (N).
+        filt: the :class:`AccelerationFilter`.
+        mass: moving mass ``m`` (kg), given.
+        friction_velocity: ``v_ε`` (m/s) of the Coulomb column ``tanh(ẏ/v_ε)``.
+    """
+
+    raw: CoilSetData
+    starts: np.ndarray
+    target: np.ndarray
+    filt: AccelerationFilter
+    mass: float
+    friction_velocity: float
+
+    @property
+    def n(self) -> int:
+        return int(self.starts.shape[0])
+
+    @property
+    def name(self) -> str:
+        return self.raw.name
+
+    @property
+    def y(self) -> np.ndarray:
+        """Positions of the samples the windows cover (m)."""
+        return self.raw.y[self.window_index().ravel()] if self.n else self.raw.y[:0]
+
+    @property
+    def velocity(self) -> np.ndarray:
+        return self.raw.velocity
+
+    @property
+    def force(self) -> np.ndarray:
+        return np.column_stack([self.target, np.zeros((self.n, 2))])
+
+    def window_index(self) -> np.ndarray:
+        """``(J, T + 1)`` indices into ``raw`` of each window's regressor samples."""
+        return self.starts[:, None] + np.arange(self.filt.length + 1)
+
+    def filtered(self, columns) -> np.ndarray:
+        """Filtered raw columns ``(N,)``/``(N, k)`` at the output samples (:func:`filter_windows`)."""
+        return filter_windows(self.filt, self.starts, columns)
+
+    def friction_columns(self) -> np.ndarray:
+        """``(N, 2)`` raw friction regressors ``[tanh(ẏ/v_ε), ẏ]`` (-, m/s)."""
+        v = self.raw.velocity
+        return np.column_stack([np.tanh(v / self.friction_velocity), v])
+
+    def take(self, index) -> "SensorlessData":
+        """The output samples ``index``."""
+        return dataclasses.replace(self, starts=self.starts[index], target=self.target[index])
+
+    def split(self, validation_fraction: float = 0.2, block_size: int = 500):
+        """``(train, validation)`` by contiguous blocks of output samples (``block_size`` raw samples each)."""
+        tr, va = split_indices(self.n, validation_fraction, max(1, block_size // self.filt.stride))
+        return self.take(tr), self.take(va)
+
+
+def sensorless_data(data: CoilSetData, sample_time: float, pole_pitch: float, mass: float, *,
+                    current_limit: float | None = None, friction_velocity: float = 1e-3,
+                    filt: AccelerationFilter | None = None) -> SensorlessData:
+    """Build :class:`SensorlessData` from one coil set's samples (its ``force`` is ignored).
+
+    Args:
+        data: positions (m), currents (A), velocity (m/s; from the positions if missing) and
+            experiment labels (windows never cross a label change).
+        sample_time: ``T_s`` (s); pole_pitch: ``d_m`` (m); mass: moving mass ``m`` (kg).
+        current_limit: the drive's peak current (A); samples at the limit are refused.
+        friction_velocity: ``v_ε`` (m/s) of the Coulomb column.
+        filt: the filter, default :meth:`AccelerationFilter.for_motion`.
+
+    Raises:
+        DataError: saturated currents, no window where the translator moves, or an
+            experiment without acceleration (message names the coil set and experiment).
+    """
+    if not (mass is not None and np.isfinite(mass) and mass > 0):
+        raise DataError(f"{data.name}: identification without a force sensor needs the moving mass (kg): "
+                        f"set mass in the motor TOML (got {mass!r})")
+    if data.velocity is None:
+        data = data.with_velocity(sample_time)
+    name = data.name
+    if current_limit:
+        sat = np.max(np.abs(_phase_currents(data.currents)), axis=1) >= 0.999 * current_limit
+        if sat.mean() > MAX_SATURATED_SHARE:
+            raise DataError(f"{name}: currents at the drive's limit {current_limit:g} A in {100 * sat.mean():.1f} % "
+                            f"of the samples (first at row {int(np.argmax(sat))}); saturated samples do not obey "
+                            "m ÿ = F(y, i): log slower or lighter motions")
+    else:
+        sat = np.zeros(data.n, bool)
+    filt = filt or AccelerationFilter.for_motion(data.velocity, sample_time, pole_pitch)
+    speed = np.abs(data.velocity)
+    v95 = float(np.percentile(speed, 95)) if data.n else 0.0
+    v_min = max(MIN_SPEED_VEPS * friction_velocity, MIN_SPEED_SHARE * v95)
+    keep = (speed > v_min) & ~sat
+    starts = window_starts(filt, data.experiment, keep)
+    if starts.size == 0:
+        raise DataError(f"{name}: no window of {filt.span} samples ({1e3 * filt.span * sample_time:.0f} ms) in "
+                        f"which the translator moves faster than {1e3 * v_min:.3g} mm/s; the logs are too short "
+                        "or too slow for identification without a force sensor")
+    acc = filtered_acceleration(filt, starts, data.y)
+    exp = data.experiment[starts]
+    for e in np.unique(data.experiment):
+        n_acc = int(np.sum((exp == e) & (np.abs(acc) >= MIN_ACCELERATION)))
+        if n_acc < MIN_ACCEL_WINDOWS:
+            raise DataError(f"{name}: no acceleration above {MIN_ACCELERATION:g} m/s^2 in Z_{int(e) + 1} "
+                            f"({n_acc} of {int(np.sum(exp == e))} moving windows); without acceleration the mass "
+                            "and friction cannot be told from the motor force")
+    return SensorlessData(data, starts, mass * acc, filt, float(mass), float(friction_velocity))
+
+
+def _phase_currents(star):
+    """``(N, 3)`` phase currents of star currents ``(N, 2)`` ``(ia, ib)`` (``ic = -ia - ib``)."""
+    star = np.asarray(star, float)
+    return np.column_stack([star, -star.sum(axis=1)])
+
+
+def with_classical_rows(model, k: float, zeta: float, mu: float, lever_arm: float):
+    """Copy of a sensorless :class:`~pgcomm.models.CoilSetModel` whose x and z rows are the classical model.
+
+    The y row (identified from the motion) is kept; the Fx and Tz rows become the ideal motor's
+    with the calibrated ``k`` (N/A), ``ζ`` (rad), nominal ``μ`` (-) and lever arm (m)
+    (:func:`pgcomm.models.physics_from_ideal`): no network, cogging, harmonic or direction part.
+    """
+    from pgcomm.identify.layout import theta_L_of, with_theta_L
+    from pgcomm.models import physics_from_ideal
+
+    a, b = physics_from_ideal(model.pole_pitch, k, zeta, mu, lever_arm)
+    th = np.array(theta_L_of(model))
+    th[:, 1:] = 0.0
+    th[0, 1:], th[1, 1:], th[2, 1:], th[3, 1:] = a[1:, 0], a[1:, 1], b[1:, 0], b[1:, 1]
+    return with_theta_L(model, th)
+
+
+__all__ = ["AccelerationFilter", "SensorlessData", "sensorless_data", "window_starts", "filter_windows",
+           "filtered_acceleration", "with_classical_rows"]
