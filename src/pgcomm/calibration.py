@@ -28,7 +28,14 @@ with what they share as nuisance and the gain resolved along the stroke::
   demands);
 * samples slower than ``v_min`` (standstill, reversals) are left out.
 
-The update equations are unchanged. On noise-free data from an ideal motor both methods
+``method="sensorless"`` (no force sensor, DESIGN.md "Without a force sensor") replaces the
+measured force by the motion: ``m ÿ = F_y - c ẏ - F_c s(ẏ)``. The regression is the one of
+``"offset"`` with ``m ÿ`` on the measured side and a viscous column ``ẏ`` added (the per-direction
+offset tables already hold the Coulomb friction), every column and ``ÿ`` passed through the one
+zero-phase filter of :mod:`pgcomm.sensorless` (windows never cross a data set or a slow sample).
+The moving mass ``m`` is given.
+
+The update equations are unchanged. On noise-free data from an ideal motor the methods
 return the exact ``k``, ``ζ``.
 """
 
@@ -67,7 +74,7 @@ class CalibrationResult:
 
 def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset", n_bins: int = 40,
                      y_range=None, sample_time: float = 1e-3, min_speed: float = 0.01, pole_pitch=None,
-                     gain_bins: int = 8):
+                     gain_bins: int = 8, mass: float | None = None):
     """Least-squares ``ĉ_1, ĉ_2`` of eq. Ci from the two data sets of one coil set.
 
     Args:
@@ -75,7 +82,8 @@ def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset
         method: ``"paper"`` (eq. Ci per data set) or ``"offset"`` (module docstring), with
             ``n_bins`` offset bins and ``gain_bins`` gain bins over ``y_range`` (m, default the
             data's range), samples with ``|v| <= min_speed`` (m/s; ``v`` from the positions and
-            ``sample_time``, s) left out, ripple terms when ``pole_pitch`` (m) is given.
+            ``sample_time``, s) left out, ripple terms when ``pole_pitch`` (m) is given; or
+            ``"sensorless"`` (module docstring; ``fy*`` unused, ``mass`` (kg) and ``pole_pitch`` needed).
 
     Returns:
         ``(c1, c2)``.
@@ -89,20 +97,38 @@ def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset
                 raise DataError("calibration: the demanded force F_y* is zero throughout a data set")
             c.append(float(fy @ fs) / den)
         return c[0], c[1]
-    if method != "offset":
-        raise ValueError(f"method must be 'paper' or 'offset', got {method!r}")
+    if method not in ("offset", "sensorless"):
+        raise ValueError(f"method must be 'paper', 'offset' or 'sensorless', got {method!r}")
     y = np.concatenate([np.asarray(y1, float), np.asarray(y2, float)])
     lo, hi = (float(y.min()), float(y.max())) if y_range is None else y_range
     n1 = fy1.shape[0]
-    v = np.concatenate([np.gradient(np.asarray(y1, float)), np.gradient(np.asarray(y2, float))]) / sample_time
+    sensorless = method == "sensorless"
+    if sensorless:
+        from pgcomm.data import velocity_from_positions
+
+        labels = (np.arange(y.shape[0]) >= n1).astype(int)
+        v = velocity_from_positions(y, sample_time, labels)
+    else:
+        v = np.concatenate([np.gradient(np.asarray(y1, float)), np.gradient(np.asarray(y2, float))]) / sample_time
     # Standstill and reversals are left out: there the direction-dependent force and the
     # friction change shape with speed and no position-only term can describe them.
     keep = np.abs(v) > min_speed
     if keep.sum() < 10 * (n_bins + gain_bins):
         raise DataError(f"calibration: only {int(keep.sum())} samples move faster than {min_speed:g} m/s")
+    if sensorless:
+        return _sensorless_coefficients(y, v, np.concatenate([fs1, fs2]), labels, keep, lo, hi, sample_time, mass,
+                                        pole_pitch, n_bins, gain_bins)
     y, v = y[keep], v[keep]
     fs = np.concatenate([fs1, fs2])[keep]
     first = (np.arange(fy1.shape[0] + fy2.shape[0]) < n1)[keep]
+    x, m = _offset_design(y, v, fs, first, lo, hi, pole_pitch, n_bins, gain_bins)
+    # pivoted QR: handles empty bins (rank deficiency) and is ~10x faster than SVD here
+    theta = scipy.linalg.lstsq(x, np.concatenate([fy1, fy2])[keep], lapack_driver="gelsy")[0]
+    return _mean_gains(theta, m, gain_bins)
+
+
+def _offset_design(y, v, fs, first, lo, hi, pole_pitch, n_bins, gain_bins):
+    """Columns of method ``"offset"`` ``(N, 2 m + 2 (n_bins + 1))`` and ``m`` (columns per data set)."""
     # Position-resolved gain c_i(y) on a coarse grid (the field varies along the stroke; its
     # mean is the fundamental) and current-proportional ripple at the 2nd (winding imbalance)
     # and 6th (5th/7th field harmonics) electrical harmonics, separately per data set.
@@ -116,13 +142,35 @@ def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset
     # force, and the ripple of the friction force the loop demands).
     hats = _hat_basis(y, lo, hi, n_bins)
     nuisance = np.hstack([hats * (v > 0)[:, None], hats * (v < 0)[:, None]])
-    x = np.hstack([per_set * first[:, None], per_set * ~first[:, None], nuisance])
-    # pivoted QR: handles empty bins (rank deficiency) and is ~10x faster than SVD here
-    theta = scipy.linalg.lstsq(x, np.concatenate([fy1, fy2])[keep], lapack_driver="gelsy")[0]
+    return np.hstack([per_set * first[:, None], per_set * ~first[:, None], nuisance]), per_set.shape[1]
+
+
+def _mean_gains(theta, m, gain_bins):
+    """``(ĉ_1, ĉ_2)``: the stroke means of the piecewise-linear gains ``c_i(y)`` in ``theta``."""
     wts = np.full(gain_bins + 1, 1.0 / gain_bins)
     wts[[0, -1]] *= 0.5  # trapezoid mean of a piecewise-linear function over [lo, hi]
-    m = per_set.shape[1]
     return float(wts @ theta[: gain_bins + 1]), float(wts @ theta[m: m + gain_bins + 1])
+
+
+def _sensorless_coefficients(y, v, fs, labels, keep, lo, hi, sample_time, mass, pole_pitch, n_bins, gain_bins):
+    """``(ĉ_1, ĉ_2)`` of method ``"sensorless"``: the ``"offset"`` columns and ``ẏ``, filtered, against ``m ÿ_f``."""
+    from pgcomm.sensorless import AccelerationFilter, filter_windows, filtered_acceleration, window_starts
+
+    if not (mass is not None and mass > 0):
+        raise DataError(f"calibration without a force sensor needs the moving mass (kg), got {mass!r}")
+    if not pole_pitch:
+        raise ValueError("method 'sensorless' needs the pole pitch")
+    filt = AccelerationFilter.for_motion(v, sample_time, pole_pitch)
+    starts = window_starts(filt, labels, keep)
+    if starts.size < 4 * (n_bins + gain_bins):
+        raise DataError(f"calibration: only {starts.size} windows of {filt.span} samples move faster than "
+                        "the minimum speed; the data sets are too short or too slow for calibration without a "
+                        "force sensor")
+    x, m = _offset_design(y, v, fs, labels == 0, lo, hi, pole_pitch, n_bins, gain_bins)
+    xf = filter_windows(filt, starts, np.column_stack([x, v]))
+    target = mass * filtered_acceleration(filt, starts, y)
+    theta = scipy.linalg.lstsq(xf, target, lapack_driver="gelsy")[0]
+    return _mean_gains(theta, m, gain_bins)
 
 
 def update(c1: float, c2: float, k_hat: float, zeta_hat: float, delta: float):
@@ -141,14 +189,14 @@ def update(c1: float, c2: float, k_hat: float, zeta_hat: float, delta: float):
 
 
 def calibrate_from_datasets(datasets, k_hat, zeta_hat, delta: float, method: str = "offset",
-                            n_bins: int = 40, pole_pitch=None) -> list[CalibrationStep]:
+                            n_bins: int = 40, pole_pitch=None, mass: float | None = None) -> list[CalibrationStep]:
     """One pass of Algorithm 1 over coil sets, from already generated data sets.
 
     Args:
         datasets: ``datasets[l] = (Z_1, Z_2)``, each with ``.result.f_meas``, ``.result.f_star``,
             ``.result.y_meas`` and ``.coil_set`` (see :func:`pgcomm.data.generate_datasets`).
         k_hat, zeta_hat: ``(L,)`` values the data were generated with.
-        delta: ``Δ`` (rad).
+        delta: ``Δ`` (rad). mass: moving mass (kg), method ``"sensorless"`` only (``f_meas`` unused).
 
     Returns:
         one :class:`CalibrationStep` per coil set in ``datasets``.
@@ -158,7 +206,7 @@ def calibrate_from_datasets(datasets, k_hat, zeta_hat, delta: float, method: str
         r1, r2 = z1.result, z2.result
         steps.append(_step(z1.coil_set, (r1.f_meas[:, 0], r1.f_star[:, 0], r1.y_meas),
                            (r2.f_meas[:, 0], r2.f_star[:, 0], r2.y_meas), r1.sample_time, k_hat, zeta_hat, delta,
-                           method, n_bins, pole_pitch))
+                           method, n_bins, pole_pitch, mass))
     return steps
 
 
@@ -228,16 +276,18 @@ def calibrate_from_logs(logs, motor, method: str = "offset", n_bins: int = 40) -
     return CalibrationResult(k=k, zeta=zeta, k_initial=k0, zeta_initial=z0, iterations=1, history=[steps])
 
 
-def _step(l, set1, set2, sample_time, k_hat, zeta_hat, delta, method, n_bins, pole_pitch) -> CalibrationStep:
+def _step(l, set1, set2, sample_time, k_hat, zeta_hat, delta, method, n_bins, pole_pitch,
+          mass=None) -> CalibrationStep:
     """Coefficients of eq. Ci from ``set_i = (Fy, Fy*, y)`` of coil set ``l`` and the update of eq. Update_Calibration."""
     c1, c2 = fit_coefficients(*set1, *set2, method=method, n_bins=n_bins, sample_time=sample_time,
-                              pole_pitch=pole_pitch)
+                              pole_pitch=pole_pitch, mass=mass)
     k_new, z_new = update(c1, c2, float(k_hat[l]), float(zeta_hat[l]), delta)
     return CalibrationStep(l, c1, c2, k_new, z_new)
 
 
 def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1, tol: float = 1e-4,
-              method: str = "offset", n_bins: int = 40, progress=None, pole_pitch=None) -> CalibrationResult:
+              method: str = "offset", n_bins: int = 40, progress=None, pole_pitch=None,
+              mass: float | None = None) -> CalibrationResult:
     """Algorithm 1, optionally iterated until the update is below ``tol``.
 
     Args:
@@ -249,6 +299,7 @@ def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1
             are both below ``tol``.
         progress: optional callable ``progress(iteration, k, zeta)``.
         pole_pitch: ``d_m`` (m) for the ripple terms of ``method="offset"``.
+        mass: moving mass (kg) for ``method="sensorless"`` (no force data used).
 
     Returns:
         :class:`CalibrationResult`.
@@ -259,7 +310,7 @@ def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1
     it = 0
     for it in range(1, iterations + 1):
         steps = calibrate_from_datasets(generate(k, zeta), k, zeta, delta, method=method, n_bins=n_bins,
-                                        pole_pitch=pole_pitch)
+                                        pole_pitch=pole_pitch, mass=mass)
         k_new, z_new = k.copy(), zeta.copy()
         for s in steps:
             k_new[s.coil_set], z_new[s.coil_set] = s.k, s.zeta

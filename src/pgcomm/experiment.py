@@ -390,10 +390,13 @@ def generate(setup: Setup, reference, k_hat, zeta_hat, seed: int = 0, coil_sets=
                              coil_sets=coil_sets)
 
 
-def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first=None) -> tuple[CalibrationResult, list]:
+def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first=None,
+                    sensorless: bool = False) -> tuple[CalibrationResult, list]:
     """Algorithm 1 from the set-up's initial ``k0``, ``ζ0``; returns the result and the last data sets.
 
     ``first``: data sets already generated at ``k0``, ``ζ0`` (used for the first pass).
+    ``sensorless``: no force data (:func:`pgcomm.calibration.fit_coefficients` method
+    ``"sensorless"`` with the moving mass :func:`sensorless_mass`).
     """
     cc = setup.config.calibration
     last = {"calls": 0}
@@ -412,9 +415,26 @@ def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first
                           f"zeta = {np.array2string(zeta, precision=4)} rad")
 
     cal = calibrate(gen, np.asarray(setup.motor.k), np.asarray(setup.motor.zeta), delta=cc.delta,
-                    iterations=cc.iterations, tol=cc.tol, method=cc.method, n_bins=cc.n_bins, progress=report,
-                    pole_pitch=setup.motor.pole_pitch)
+                    iterations=cc.iterations, tol=cc.tol, method="sensorless" if sensorless else cc.method,
+                    n_bins=cc.n_bins, progress=report, pole_pitch=setup.motor.pole_pitch,
+                    mass=sensorless_mass(setup) if sensorless else None)
     return cal, last["data"]
+
+
+def sensorless_mass(setup: Setup) -> float:
+    """The moving mass (kg) identification without a force sensor is given: the motor's ``mass``,
+    defaulted only on the built-in twin (its mechanics' mass).
+
+    Raises:
+        ConfigError: no mass in the motor description of a force-map plant.
+    """
+    mass = getattr(setup.motor, "mass", None)
+    if mass is not None:
+        return float(mass)
+    if setup.plant_name == "twin":
+        return float(setup.config.mechanics.mass)
+    raise ConfigError("identification without a force sensor needs the moving mass: set mass (kg) in the motor "
+                      "TOML")
 
 
 def tune_feedforward(setup: Setup, laws: list, reference, seed: int = 0) -> list[Feedforward]:
@@ -477,14 +497,7 @@ def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=N
     ``check_data=False`` skips the excitation check (the caller ran it and chose to go on).
     """
     ic = setup.config.identification
-    show = None
-    if progress is not None:
-        def show(info):
-            progress.checkpoint()
-            if progress.enabled and info["iteration"] % 10 == 0:
-                progress.info(f"iteration {info['iteration']:3d}: best V = {info['best_cost']:.5g}, "
-                              f"{info['active']}/{info['starts']} starts active")
-    pgnn, res = identify_all(data, setup.motor.pole_pitch, seed=seed, progress=show,
+    pgnn, res = identify_all(data, setup.motor.pole_pitch, seed=seed, progress=_lm_progress(progress),
                              gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
                              gain_width_candidates=tuple(ic.gain_width_candidates),
                              activation=ic.activation, Lambda=ic.regularisation, ridge_output=ic.ridge_output,
@@ -492,6 +505,48 @@ def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=N
                              validation_fraction=ic.validation_fraction, check_data=check_data)
     physics = CombinedModel.from_coil_sets([r.physics_model for r in res])
     return pgnn, physics, res
+
+
+def identify_sensorless_models(setup: Setup, data: list[CoilSetData], k, zeta, seed: int, progress=None,
+                               check_data: bool = True):
+    """Algorithm 2 without a force sensor for every coil set (:mod:`pgcomm.sensorless`); force columns unused.
+
+    The y row of each coil set's PGNN is identified jointly with its Coulomb and viscous
+    friction from the motion (moving mass :func:`sensorless_mass`); the x and z rows are the
+    classical model with ``k`` (L,) N/A and ``ζ`` (L,) rad (e.g. a sensorless calibration).
+
+    Returns:
+        ``(CombinedModel, [IdentifyResult])``; each result's ``mechanics`` holds the friction.
+    """
+    from pgcomm.sensorless import sensorless_data, with_classical_rows
+
+    ic = setup.config.identification
+    motor = setup.motor
+    mass = sensorless_mass(setup)
+    sdata = [sensorless_data(d, motor.sample_time, motor.pole_pitch, mass, current_limit=motor.current_limit,
+                             friction_velocity=ic.direction_velocity) for d in data]
+    _, res = identify_all(sdata, motor.pole_pitch, seed=seed, progress=_lm_progress(progress),
+                          gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
+                          gain_width_candidates=tuple(ic.gain_width_candidates), activation=ic.activation,
+                          Lambda=ic.regularisation, ridge_output=ic.ridge_output, n_starts=ic.starts,
+                          max_iter=ic.max_iterations, tol=ic.tol, validation_fraction=ic.validation_fraction,
+                          check_data=check_data)
+    models = [with_classical_rows(r.model, float(k[l]), float(zeta[l]), motor.mu, motor.lever_arms[l])
+              for l, r in enumerate(res)]
+    return CombinedModel.from_coil_sets(models), res
+
+
+def _lm_progress(progress):
+    """Per-iteration callback of :func:`pgcomm.identify.identify` printing to ``progress`` every 10 iterations."""
+    if progress is None:
+        return None
+
+    def show(info):
+        progress.checkpoint()
+        if progress.enabled and info["iteration"] % 10 == 0:
+            progress.info(f"iteration {info['iteration']:3d}: best V = {info['best_cost']:.5g}, "
+                          f"{info['active']}/{info['starts']} starts active")
+    return show
 
 
 def identify_direction_models(setup: Setup, data: list[CoilSetData], start_models, seed: int, progress=None):

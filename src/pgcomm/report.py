@@ -27,7 +27,12 @@ def row_descriptions(result: ReproduceResult) -> dict:
         "pgnn_direction": (f"PGNN with the direction term C s(dy/dt), s = tanh(v/{cfg.identification.direction_velocity:g}"
                            f" m/s), law fed the {cfg.identification.law_velocity} velocity"
                            + (", 5th/7th harmonics" if cfg.identification.direction_harmonics else "")),
+        "pgnn_sensorless": ("PGNN identified without a force sensor (y row from m d2y/dt2 with friction; x, z rows "
+                            "classical), calibration without force data"),
         "cogging_table": "classical + drive anti-cogging table (force offset vs position)",
+        "cogging_table_sensorless": ("classical (calibrated without force data) + anti-cogging table from the "
+                                     "position controller's effort at slow constant velocity, both directions "
+                                     "averaged"),
         "harmonic_cogging": f"classical + offset of up to {cfg.evaluation.harmonics} pole-pitch harmonics",
         "oracle": "exact inverse of the plant with its true position and velocity (the floor)",
     }
@@ -100,7 +105,26 @@ def comparison_sentences(result: ReproduceResult) -> list[str]:
              "position: it cannot follow errors that scale with the current, and has no x/z action); the harmonic "
              f"fit reaches {cm['harmonic_cogging']['y']['filtered']:.3g} N² (it holds only forces periodic in the "
              "pole pitch).")
+    if result.sensorless is not None and "pgnn_sensorless" in cm:
+        sl = result.to_dict()["sensorless"]
+        r_sy = cm["pgnn_sensorless"]["y"]["filtered"]
+        share_p = sl["share_of_pgnn_reduction_y"]
+        fr = "; ".join(f"{c['name']}: F_c {c['mechanics']['coulomb']:.3g} N, c {c['mechanics']['viscous']:.3g} N s/m"
+                       for c in sl["coil_sets"])
+        s.append(f"Without a force sensor, y: {r_sy:.3g} N² (classical {r_cy:.3g}, force-sensor PGNN {r_py:.3g}): it "
+                 f"removes {_pct(share_p)} of what the force-sensor PGNN removes. Its Coulomb column also holds any "
+                 "direction-dependent force of the motor (the two cannot be told apart from the motion), so that "
+                 f"force stays in its error. Identified friction ({fr}) against the simulated translator's "
+                 f"{mech.coulomb:g} N Coulomb and {mech.viscous:g} N s/m, mass {sl['mass']:g} kg given; offered as "
+                 "the feedforward's parameters.")
+        if "cogging_table_sensorless" in cm:
+            s.append(f"The drives' sensorless anti-cogging table reaches "
+                     f"{cm['cogging_table_sensorless']['y']['filtered']:.3g} N² in y.")
     return s
+
+
+def _pct(x) -> str:
+    return "–" if x is None else f"{100 * x:.0f} %"
 
 
 def write_report(path: Path, result: ReproduceResult, figures: dict, *, version: str = "",

@@ -37,7 +37,8 @@ from pgcomm.identify import IdentifyResult
 from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se, reducible_share
 from pgcomm.models import CombinedModel
 
-ROWS = ("original", "classical", "physics", "pgnn", "pgnn_direction", "cogging_table", "harmonic_cogging", "oracle")
+ROWS = ("original", "classical", "physics", "pgnn", "pgnn_direction", "pgnn_sensorless", "cogging_table",
+        "cogging_table_sensorless", "harmonic_cogging", "oracle")
 
 #: The paper's Table Commutation_Performance (filtered, unfiltered) and tracking-error MSE.
 PAPER = {
@@ -106,6 +107,32 @@ def paper_improvement(row: str) -> dict:
 
 
 @dataclass(frozen=True)
+class SensorlessResult:
+    """The chain without a force sensor (issue 10, part 3) of one run.
+
+    Attributes:
+        calibration: Algorithm 1 on the motion (method ``"sensorless"``).
+        identification: per coil set, the y row with friction (``mechanics``).
+        model: the combined model (x, z rows classical with ``calibration``'s ``k``, ``ζ``).
+        seconds: wall time of calibration and identification (s).
+        mass: the given moving mass (kg).
+    """
+
+    calibration: CalibrationResult
+    identification: tuple
+    model: CombinedModel
+    seconds: float
+    mass: float
+
+    def to_dict(self, setup: Setup) -> dict:
+        mech = setup.config.mechanics
+        return {"calibration": experiment.calibration_results(setup, self.calibration),
+                "coil_sets": [r.to_dict() for r in self.identification],
+                "mass": self.mass, "seconds": self.seconds,
+                "simulated_mechanics": {"mass": mech.mass, "viscous": mech.viscous, "coulomb": mech.coulomb}}
+
+
+@dataclass(frozen=True)
 class ReproduceResult:
     """Everything the paper's experiment produced on one set-up.
 
@@ -135,7 +162,7 @@ class ReproduceResult:
     metrics: dict
     identification_direction: tuple = ()
     pgnn_direction: CombinedModel | None = None
-    sensorless: object = None
+    sensorless: SensorlessResult | None = None
 
     @property
     def rows(self) -> tuple:
@@ -211,6 +238,14 @@ class ReproduceResult:
                                               // 2}}
         out["model_error"] = {name: model_error(model, self.setup.plant, self.setup.config.reference.span)
                               for name, model in (("pgnn", self.pgnn), ("physics", self.physics))}
+        if self.sensorless is not None:
+            sl = self.sensorless.to_dict(self.setup)
+            cm = self.commutation_mse
+            c, p, s_ = (cm[r]["y"]["filtered"] for r in ("classical", "pgnn", "pgnn_sensorless"))
+            # issue 10's target: the sensorless PGNN removes >= 80 % of what the force-sensor PGNN removes
+            sl["share_of_pgnn_reduction_y"] = (c - s_) / (c - p) if c - p > 0 else None
+            sl["model_error"] = model_error(self.sensorless.model, self.setup.plant, self.setup.config.reference.span)
+            out["sensorless"] = sl
         out["paper"] = PAPER
         return out
 
@@ -262,12 +297,28 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
             progress.info(f"{r.name}: y cost (mean (Fy - Fy_hat)^2) PGNN {r0.cost_y:.4g} -> with direction term "
                           f"{r.cost_y:.4g} N^2, C_y = {float(r.model.C[0]):.3g} N, {r.seconds:.1f} s")
 
+    with progress.stage("without a force sensor: calibration (Algorithm 1 on m d2y/dt2) and identification of "
+                        "the y row with friction"):
+        t_sl = time.perf_counter()
+        cal_sl, _ = experiment.run_calibration(setup, long_ref, seed=seed, progress=progress, first=data0,
+                                               sensorless=True)
+        pgnn_sl, id_sl = experiment.identify_sensorless_models(setup, coil_set_data_from_runs(data0), cal_sl.k,
+                                                               cal_sl.zeta, seed, progress)
+        sensorless = SensorlessResult(cal_sl, tuple(id_sl), pgnn_sl, time.perf_counter() - t_sl,
+                                      experiment.sensorless_mass(setup))
+        for r in id_sl:
+            me = r.mechanics
+            progress.info(f"{r.name}: y cost {r.cost_y:.4g} N^2 on {me['windows']} filtered windows "
+                          f"({1e3 * me['filter']['window_s']:.0f} ms); friction F_c = {me['coulomb']:.3g} N, "
+                          f"c = {me['viscous']:.3g} N s/m (m = {me['mass']:.3g} kg given)")
+
     limit = motor.current_limit
     laws = {"original": ClassicalLaw.from_motor(motor),
             "classical": ClassicalLaw.from_motor(motor, k=cal.k, zeta=cal.zeta),
             "physics": ModelLaw(physics, current_limit=limit),
             "pgnn": ModelLaw(pgnn, current_limit=limit),
             "pgnn_direction": ModelLaw(pgnn_dir, current_limit=limit, velocity_source=ic.law_velocity),
+            "pgnn_sensorless": ModelLaw(pgnn_sl, current_limit=limit),
             "oracle": oracle_law(setup.plant, current_limit=limit)}
 
     with progress.stage(f"feedforward identification per law ({cfg.controller.ff_iterations} closed-loop passes)"):
@@ -299,7 +350,8 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
                for rname, rows in runs.items()}
     return ReproduceResult(setup=setup, calibration=cal, identification=tuple(id_res), identification_seconds=t_id,
                            pgnn=pgnn, physics=physics, references=refs, runs=runs, feedforward=ffs, tables=tables,
-                           metrics=metrics, identification_direction=tuple(id_dir), pgnn_direction=pgnn_dir)
+                           metrics=metrics, identification_direction=tuple(id_dir), pgnn_direction=pgnn_dir,
+                           sensorless=sensorless)
 
 
 __all__ = ["ROWS", "PAPER", "ReproduceResult", "run", "quick_config", "paper_improvement"]
