@@ -89,6 +89,7 @@ def test_proposition1_matches_lstsq_on_the_filtered_regressor(sdata):
     raw = sd.raw
     m = np.asarray(idf.regressor(model, raw.y, raw.currents))
     nk = _Layout.of(model).n_known
+    nf = sd.n_friction
     mf = sd.filtered(np.concatenate([m[:, :nk], sd.friction_columns(), m[:, nk:]], axis=1))
     n, p = mf.shape
     ref = []
@@ -100,7 +101,7 @@ def test_proposition1_matches_lstsq_on_the_filtered_regressor(sdata):
         ref.append(np.linalg.lstsq(a, np.concatenate([sd.force[:, q], np.sqrt(n) * w * tgt]), rcond=None)[0])
     ref = np.stack(ref, axis=1)
     np.testing.assert_allclose(res.theta_L, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
-    np.testing.assert_allclose(res.friction, ref[nk:nk + 2, 0], rtol=0, atol=1e-9 * np.abs(ref).max())
+    np.testing.assert_allclose(res.friction, ref[nk:nk + nf, 0], rtol=0, atol=1e-9 * np.abs(ref).max())
     # the model carries no friction rows; its y cost with that friction is the reported data term
     assert idf.cost(res.model, sd, lam12, star, friction=res.friction).data == pytest.approx(
         res.cost_data, rel=1e-9)

@@ -66,20 +66,21 @@ class _Layout:
     harmonics: bool = False
     direction: bool = False
     direction_velocity: float = 1e-3
-    #: sensorless identification (:mod:`pgcomm.sensorless`): two friction columns ``[s(ẏ), ẏ]`` after
-    #: the model's own known columns; their parameters are mechanics, not part of the model
-    friction: bool = False
+    #: sensorless identification (:mod:`pgcomm.sensorless`): the number of friction columns
+    #: (Coulomb table and viscous) after the model's own known columns; their parameters are
+    #: mechanics, not part of the model
+    friction: int = 0
 
     @property
     def n_known(self) -> int:
-        """Number of known (data-only) regressor columns: 4 physics + 8 harmonic + 1 direction + 2 friction (when on)."""
-        return 4 + 8 * int(self.harmonics) + int(self.direction) + 2 * int(self.friction)
+        """Number of known (data-only) regressor columns: 4 physics + 8 harmonic + 1 direction + friction (when on)."""
+        return 4 + 8 * int(self.harmonics) + int(self.direction) + int(self.friction)
 
     @property
     def friction_rows(self) -> slice:
-        """Rows of ``θ_L`` holding the friction parameters ``[F_c, c]`` (empty unless ``friction``)."""
+        """Rows of ``θ_L`` holding the friction parameters (empty unless ``friction``)."""
         end = self.n_known
-        return slice(end - 2 * int(self.friction), end)
+        return slice(end - int(self.friction), end)
 
     @classmethod
     def of(cls, model: CoilSetModel, method="auto") -> "_Layout":

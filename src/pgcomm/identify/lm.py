@@ -328,10 +328,7 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     c_phys_val = cost(physics, val) if val.n else CostTerms(nan, 0.0)
     mechanics = None
     if sensorless:
-        # the friction columns enter with the force (m ÿ = F + θ_f [s(ẏ), ẏ]), friction opposes motion
-        mechanics = {"mass": data.mass, "coulomb": -float(friction[0]), "viscous": -float(friction[1]),
-                     "friction_velocity": data.friction_velocity, "filter": data.filt.to_dict(),
-                     "windows": data.n}
+        mechanics = data.mechanics(friction)
     return IdentifyResult(
         name=name, model=model, physics_model=physics, cost_physics=c_phys.data, cost_pgnn=c_pgnn.total,
         cost_pgnn_data=c_pgnn.data, cost_physics_validation=c_phys_val.data, cost_pgnn_validation=c_pgnn_val.data,

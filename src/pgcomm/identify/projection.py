@@ -581,7 +581,7 @@ def _consts(layout: _Layout, data: CoilSetData, Lambda, theta_phy_star, ridge_ou
     if layout.direction:
         bound.append(norms[2])  # |tanh| <= 1
     if layout.friction:
-        bound += [norms[2], absf[3]]
+        bound += [norms[2]] * (layout.friction - 1) + [absf[3]]  # |tanh φ_j| <= 1
     for kind, widths in layout.blocks:
         bound += [norms[kind]] * (widths[-1] + 1)
     damp_w = damping * np.maximum(np.asarray(bound), 1e-300)
@@ -609,7 +609,7 @@ class Proposition1Result:
         cost: ``V`` (data + Λ term, eq. Identification_CostFunction) at that point.
         cost_data, cost_regularisation: its two parts.
         ridge_term: ``ridge·||W_out||²``; damping_term: ``α² Σ (b_k θ_k)² / (2N)`` (neither in ``V``).
-        friction: sensorless data only: ``(F_c, c)`` (N, N s/m), else ``None``; ``theta_L`` then
+        friction: sensorless data only: the coefficients of the friction columns, else ``None``; ``theta_L`` then
             holds them in rows :attr:`_Layout.friction_rows` and ``model`` does not.
     """
 
@@ -629,7 +629,7 @@ def _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, damping, chun
         if layout.direction:
             raise ValueError("without a force sensor the direction term is the Coulomb friction column: "
                              "identify without direction=True")
-        layout = dataclasses.replace(layout, friction=True)
+        layout = dataclasses.replace(layout, friction=data.n_friction)
     if chunk_size is None:
         chunk_size = DEFAULT_CHUNK if layout.structured else DEFAULT_CHUNK_GENERIC
         if isinstance(data, SensorlessData):  # as many raw samples per chunk as unfiltered
@@ -689,9 +689,9 @@ def proposition1(theta_nl: CoilSetModel, data: CoilSetData, Lambda=DEFAULT_LAMBD
 
 
 def split_friction(layout: _Layout, theta_L):
-    """``(θ_L of the model, friction)``: sensorless layouts carry ``[F_c, c]`` (N, N s/m) in rows
-    :attr:`_Layout.friction_rows` of the y column; they are mechanics, not part of the model.
-    ``friction`` is ``None`` for other layouts."""
+    """``(θ_L of the model, friction)``: sensorless layouts carry the friction coefficients (of
+    :meth:`~pgcomm.sensorless.SensorlessData.friction_columns`) in rows :attr:`_Layout.friction_rows`
+    of the y column; they are mechanics, not part of the model. ``friction`` is ``None`` for other layouts."""
     theta_L = np.asarray(theta_L)
     if not layout.friction:
         return theta_L, None
