@@ -25,7 +25,8 @@ except through an optional :class:`pgcomm.progress.Progress`): the paper's refer
 (:func:`generate`), Algorithm 1 (:func:`run_calibration`, :func:`calibration_results`),
 Algorithm 2 for every coil set (:func:`identify_models`, :func:`identification_results`),
 feedforward per law (:func:`tune_feedforward`), closed-loop runs (:func:`run_laws`) and
-their metrics (:func:`run_metrics`). The CLI commands and :mod:`pgcomm.reproduce` use them.
+their metrics (:func:`run_metrics`), and the drives' sensorless anti-cogging table
+(:func:`sensorless_cogging_table`). The CLI commands and :mod:`pgcomm.reproduce` use them.
 """
 
 from __future__ import annotations
