@@ -116,6 +116,8 @@ class SensorlessResult:
         model: the combined model (x, z rows classical with ``calibration``'s ``k``, ``ζ``).
         seconds: wall time of calibration and identification (s).
         mass: the given moving mass (kg).
+        table_info: the run of the ``cogging_table_sensorless`` row
+            (:func:`pgcomm.experiment.sensorless_cogging_table`'s ``info``).
     """
 
     calibration: CalibrationResult
@@ -123,12 +125,13 @@ class SensorlessResult:
     model: CombinedModel
     seconds: float
     mass: float
+    table_info: dict | None = None
 
     def to_dict(self, setup: Setup) -> dict:
         mech = setup.config.mechanics
         return {"calibration": experiment.calibration_results(setup, self.calibration),
                 "coil_sets": [r.to_dict() for r in self.identification],
-                "mass": self.mass, "seconds": self.seconds,
+                "mass": self.mass, "seconds": self.seconds, "cogging_table": self.table_info,
                 "simulated_mechanics": {"mass": mech.mass, "viscous": mech.viscous, "coulomb": mech.coulomb}}
 
 
@@ -145,7 +148,7 @@ class ReproduceResult:
         references: reference name (``long``, ``slow``, ``fast``, optional ``user``) -> Reference.
         runs: reference name -> row -> :class:`~pgcomm.simulate.SimResult`.
         feedforward: row -> :class:`~pgcomm.control.Feedforward` (``m`` kg, ``f_v`` N s/m, ``f_c`` N).
-        tables: ``"cogging_table"`` / ``"harmonic_cogging"`` -> the drive-style offset.
+        tables: ``"cogging_table"`` / ``"harmonic_cogging"`` / ``"cogging_table_sensorless"`` -> the drive-style offset.
         metrics: reference name -> row -> ``{"commutation_mse": {dir: {filtered, unfiltered}}, "tracking_mse": m²}``.
     """
 
@@ -232,10 +235,11 @@ class ReproduceResult:
         out["improvement_over_classical"] = self.improvement_over_classical()
         out["feedforward"] = {row: {"mass": ff.mass, "viscous": ff.viscous, "coulomb": ff.coulomb}
                               for row, ff in self.feedforward.items()}
-        out["tables"] = {"cogging_table": {"entries": int(self.tables["cogging_table"].values.shape[0]),
-                                           "bytes": self.tables["cogging_table"].nbytes},
+        out["tables"] = {name: {"entries": int(self.tables[name].values.shape[0]), "bytes": self.tables[name].nbytes}
+                         for name in ("cogging_table", "cogging_table_sensorless") if name in self.tables}
+        out["tables"].update({
                          "harmonic_cogging": {"harmonics": (int(self.tables["harmonic_cogging"].coef.shape[0]) - 1)
-                                              // 2}}
+                                              // 2}})
         out["model_error"] = {name: model_error(model, self.setup.plant, self.setup.config.reference.span)
                               for name, model in (("pgnn", self.pgnn), ("physics", self.physics))}
         if self.sensorless is not None:
@@ -325,7 +329,8 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         names = list(laws)
         ffs = dict(zip(names, experiment.tune_feedforward(setup, [laws[n] for n in names], long_ref, seed=seed + 50)))
 
-    with progress.stage("drive-style rows: anti-cogging table and harmonic fit from the classical residual"):
+    with progress.stage("drive-style rows: anti-cogging table and harmonic fit from the classical residual, "
+                        "anti-cogging table from the controller's effort (no force sensor)"):
         run_c = experiment.run_laws(setup, [laws["classical"]], long_ref, [ffs["classical"]], seeds=[seed + 60])[0]
         residual = run_c.f_meas[:, 0] - run_c.f_star[:, 0]
         tables = {"cogging_table": fit_cogging_table(run_c.y_meas, residual, cfg.evaluation.cogging_table_entries,
@@ -334,7 +339,14 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
                                                            cfg.evaluation.harmonics)}
         for name, tab in tables.items():
             laws[name] = OffsetLaw(laws["classical"], tab)
-        extra = ["cogging_table", "harmonic_cogging"]
+        # the drives' way without a force sensor: classical commutation calibrated without force data and
+        # a table from the controller's effort (the feedforward is identified from the demand, no force)
+        classical_sl = ClassicalLaw.from_motor(motor, k=cal_sl.k, zeta=cal_sl.zeta)
+        tables["cogging_table_sensorless"], info = experiment.sensorless_cogging_table(
+            setup, classical_sl, ffs["classical"], seed=seed + 80)
+        laws["cogging_table_sensorless"] = OffsetLaw(classical_sl, tables["cogging_table_sensorless"])
+        sensorless = replace(sensorless, table_info=info)
+        extra = ["cogging_table", "harmonic_cogging", "cogging_table_sensorless"]
         ffs.update(zip(extra, experiment.tune_feedforward(setup, [laws[n] for n in extra], long_ref, seed=seed + 70)))
 
     rows = [row for row in ROWS if row in laws]

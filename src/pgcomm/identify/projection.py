@@ -141,7 +141,10 @@ class _Chunks:
     regressor row is ``Σ_w taps[w] M(raw_w)`` (:mod:`pgcomm.sensorless`); ``x0``, ``s`` and
     ``currents`` then hold the windows' raw samples, ``(C, ·, c W)`` with ``W`` minor, while
     ``force`` and ``mask`` stay per output sample. ``taps`` ``(W,)``; ``W = 1`` (``taps = [1]``)
-    is the unfiltered case and takes the plain path.
+    is the unfiltered case and takes the plain path. ``extra`` ``(C, e, c)``: known columns
+    already filtered (the friction columns, whose filter differs by half a sample: see
+    :meth:`~pgcomm.sensorless.SensorlessData.filtered_friction`), inserted after the model's
+    own known columns; ``e = 0`` unfiltered.
     """
 
     x0: jnp.ndarray
@@ -150,6 +153,7 @@ class _Chunks:
     force: jnp.ndarray
     mask: jnp.ndarray
     taps: jnp.ndarray
+    extra: jnp.ndarray
 
 
 @pytree_dataclass
@@ -207,15 +211,29 @@ def _to_chunks(layout: _Layout, data, chunk: int, pole_pitch, y_center, y_scale)
         raw = data.raw
         x0, s = (np.asarray(a) for a in _known_data(layout, raw.y, raw.currents, raw.velocity, pole_pitch, y_center,
                                                      y_scale, data.name))
-        x0 = np.concatenate([x0, data.friction_columns().T])
         idx = data.window_index().ravel()  # (J W,), window-major
         w = data.filt.length + 1
         return _Chunks(padded(x0[:, idx], w), padded(s[idx], w)[:, 0], padded(raw.currents[idx].T, w),
-                       padded(data.force.T), padded(np.ones(n))[:, 0], jnp.asarray(data.filt.regressor_taps))
+                       padded(data.force.T), padded(np.ones(n))[:, 0], jnp.asarray(data.filt.regressor_taps),
+                       padded(data.filtered_friction().T))
     x0, s = (np.asarray(a) for a in _known_data(layout, data.y, data.currents, data.velocity, pole_pitch, y_center,
                                                  y_scale, data.name))
     return _Chunks(padded(x0), padded(s)[:, 0], padded(data.currents.T), padded(data.force.T), padded(np.ones(n))[:, 0],
-                   jnp.ones(1))
+                   jnp.ones(1), jnp.zeros((n_chunks, 0, chunk)))
+
+
+def _filtered_rows(layout: _Layout, m, taps, extra):
+    """Raw rows ``m`` ``(S, p - e, c W)`` -> filtered ``(S, p, c)`` with the prefiltered ``extra`` ``(e, c)`` inserted.
+
+    Unfiltered (``W = 1``, ``e = 0``) ``m`` is returned as it is.
+    """
+    if taps.shape[0] > 1:
+        m = _apply_taps(m, taps)
+    if extra.shape[0] == 0:
+        return m
+    nk = layout.n_known - layout.friction
+    ext = jnp.broadcast_to(extra, m.shape[:-2] + extra.shape)
+    return jnp.concatenate([m[..., :nk, :], ext, m[..., nk:, :]], axis=-2)
 
 
 def _apply_taps(a, taps):
@@ -287,17 +305,17 @@ def _evaluate(layout: _Layout, flats, chunks: _Chunks, k: _Consts, want_jac: boo
     hidden = _unflatten(layout, flats)
     p, m, n = layout.p, layout.p + 3, layout.n_nl
     structured = want_jac and layout.structured
-    xs = (chunks.x0, chunks.s, chunks.currents, chunks.force, chunks.mask)
+    xs = (chunks.x0, chunks.s, chunks.currents, chunks.force, chunks.mask, chunks.extra)
     taps = chunks.taps
     filtered = taps.shape[0] > 1  # static: a window per output sample (sensorless)
 
     def rows(ch, with_u):
         """``A = [M, F]`` ``(S, m, c)`` of a chunk; with ``with_u`` also ``u`` (filtered: ``[u; u s]`` filtered)."""
-        x0, s, cur, frc, msk = ch
+        x0, s, cur, frc, msk, ext = ch
         out = _rows(layout, hidden, x0, s, cur, with_u)
         mm, u = out if with_u else (out, None)
+        mm = _filtered_rows(layout, mm, taps, ext)
         if filtered:
-            mm = _apply_taps(mm, taps)
             if with_u:  # filtering breaks V = u s^a into u and s: filter both powers
                 u = _apply_taps(jnp.concatenate([u, u * s[None, None, :]], axis=1), taps)
         a = jnp.concatenate([mm, jnp.broadcast_to(frc, (n_s,) + frc.shape)], axis=1) * msk
@@ -403,14 +421,13 @@ def _generic_sums(layout: _Layout, flats, xs, theta_l, taps):
     """Chunked ``Σ_t a a^T``, ``P_q``, ``E_q`` with ``∂M/∂θ_NL`` from ``jax.jacfwd`` (any depth)."""
     p, n = layout.p, layout.n_nl
 
-    def feats(fl, x0, s, cur):
-        m = _rows(layout, _unflatten(layout, fl[None]), x0, s, cur)[0]
-        return (_apply_taps(m, taps) if taps.shape[0] > 1 else m).T  # (c, p)
+    def feats(fl, x0, s, cur, ext):
+        return _filtered_rows(layout, _rows(layout, _unflatten(layout, fl[None]), x0, s, cur)[0], taps, ext).T  # (c, p)
 
     def per_start(fl, th, ch):
-        x0, s, cur, frc, msk = ch
-        mm = feats(fl, x0, s, cur) * msk[:, None]
-        dm = jax.jacfwd(feats)(fl, x0, s, cur) * msk[:, None, None]  # (c, p, n)
+        x0, s, cur, frc, msk, ext = ch
+        mm = feats(fl, x0, s, cur, ext) * msk[:, None]
+        dm = jax.jacfwd(feats)(fl, x0, s, cur, ext) * msk[:, None, None]  # (c, p, n)
         r = (frc.T - mm @ th) * msk[:, None]
         a = jnp.einsum("cpn,pq->qcn", dm, th)
         return (jnp.einsum("qcn,qcm->qnm", a, a), jnp.einsum("cp,qcn->qpn", mm, a),
@@ -452,8 +469,9 @@ def fit_physics(data, pole_pitch: float) -> tuple[np.ndarray, np.ndarray]:
         # cogging: in closed loop the current carries -F_cog/k, so leaving it out biases k low (~0.5x).
         lo, hi = float(raw.y.min()), float(raw.y.max())
         bins = int(np.clip((hi - lo) / (pole_pitch / 4), 4, 200))
-        x = data.filtered(np.column_stack([c * ia, c * ib, s * ia, s * ib, data.friction_columns(),
-                                           _hat_basis(raw.y, lo, hi, bins)]))
+        x = np.column_stack([data.filtered(np.column_stack([c * ia, c * ib, s * ia, s * ib,
+                                                            _hat_basis(raw.y, lo, hi, bins)])),
+                             data.filtered_friction()])
         coef = np.zeros((4, 3))
         coef[:, 0] = np.linalg.lstsq(x, data.target, rcond=None)[0][:4]
         return coef[:2].T.copy(), coef[2:].T.copy()
@@ -542,7 +560,7 @@ def sensorless_residual(model: CoilSetModel, data: SensorlessData, friction=None
     raw = data.raw
     fy = np.asarray(_force_jit(model, raw.y, raw.currents, _velocity_for(model, raw)))[:, 0]
     rest = data.target - data.filtered(fy)
-    cols = data.filtered(data.friction_columns())
+    cols = data.filtered_friction()
     if friction is None:
         friction = np.linalg.lstsq(cols, rest, rcond=None)[0]
     friction = np.asarray(friction, float)
@@ -731,11 +749,10 @@ def _projected_residual(layout: _Layout, flat, chunks: _Chunks, k: _Consts):
     theta_l = _evaluate(layout, flat[None], chunks, k, False).theta_L[0]
     hidden = _unflatten(layout, flat[None])
 
-    def data_rows(x0, s, cur, frc, msk):  # padded samples give zero rows
-        m = _rows(layout, hidden, x0, s, cur)[0]
-        m = _apply_taps(m, chunks.taps) if chunks.taps.shape[0] > 1 else m
+    def data_rows(x0, s, cur, frc, msk, ext):  # padded samples give zero rows
+        m = _filtered_rows(layout, _rows(layout, hidden, x0, s, cur)[0], chunks.taps, ext)
         return ((frc - theta_l.T @ m) * msk).ravel()
 
-    r_data = jax.vmap(data_rows)(chunks.x0, chunks.s, chunks.currents, chunks.force, chunks.mask)
+    r_data = jax.vmap(data_rows)(chunks.x0, chunks.s, chunks.currents, chunks.force, chunks.mask, chunks.extra)
     r_reg = jnp.sqrt(k.two_n) * k.reg_w.T * (theta_l - k.theta_bar)
     return jnp.concatenate([r_data.ravel(), r_reg.ravel(), (k.damp_w[:, None] * theta_l).ravel()])
