@@ -37,8 +37,9 @@ as ``T^{-2.5}``: a 0.1 µm encoder at 1 ms gives 0.08 N rms on a 30 kg translato
 window. The window must stay short against the electrical period of the fastest motion
 (``d_m / v``), else the position dependence of the regressor averages out: its length is
 ``WINDOW_POLE_SHARE · d_m / v_95`` (``v_95`` the 95th percentile of the speed), clipped to
-``[MIN_WINDOW_SAMPLES, MAX_WINDOW]``. Output samples are taken every ``T/4`` samples
-(consecutive outputs would repeat the same information).
+``[MIN_WINDOW_SAMPLES, MAX_WINDOW]``. Output samples are taken every ``T/2`` samples
+(consecutive outputs would repeat the same information; on the default twin ``T/4`` gave the same
+gain within 0.01 % in twice the time).
 
 Windows in which the translator is slower than ``v_min`` anywhere (standstill, reversals) are
 left out: there stiction and the shape of the friction curve are not the model's.
@@ -81,7 +82,7 @@ class AccelerationFilter:
 
     Attributes:
         taps: ``(T,)`` Hann window, sum 1 (applied to ``Δ²y / T_s²``).
-        stride: samples between output samples (``max(1, T // 4)``).
+        stride: samples between output samples (``max(1, T // 2)``).
         sample_time: ``T_s`` (s).
     """
 
@@ -100,12 +101,12 @@ class AccelerationFilter:
 
     @classmethod
     def of_length(cls, n_taps: int, sample_time: float) -> "AccelerationFilter":
-        """Hann window of ``n_taps`` samples (>= 2), stride ``n_taps // 4``."""
+        """Hann window of ``n_taps`` samples (>= 2), stride ``n_taps // 2``."""
         n = int(n_taps)
         if n < 2:
             raise ValueError(f"the acceleration filter needs at least 2 taps, got {n}")
         g = np.hanning(n + 2)[1:-1]  # no zero end taps
-        return cls(g / g.sum(), max(1, n // 4), float(sample_time))
+        return cls(g / g.sum(), max(1, n // 2), float(sample_time))
 
     @property
     def length(self) -> int:
