@@ -11,12 +11,18 @@
    against the plain law; the law is called through a one-line wrapper in the harness's
    translation unit that passes the velocity.
 
-(The sensorless/force-sensor improvement ratio of the issue is not measured: identification
-without a force sensor is not implemented yet.)
+3. Without a force sensor: ``pgcomm reproduce`` (``--quick`` settings unless ``--full``) on the
+   default twin; printed: the filtered y commutation MSE of classical, pgnn, pgnn_sensorless, the
+   two anti-cogging tables and the oracle, the sensorless/force-sensor improvement ratio
+   ``(classical - pgnn_sensorless) / (classical - pgnn)`` (issue 10's target >= 0.8), each row's MSE
+   with the plant's direction-dependent force taken out of the error (known on the twin only: no
+   sensorless law can tell it from friction), and the identification times (s) with and without a
+   force sensor.
 
 Usage::
 
     /work/venv/bin/python bench/bench_beyond.py [--samples 1000000] [--repeats 5] [--skip-identification]
+        [--skip-sensorless] [--full]
 """
 
 from __future__ import annotations
@@ -97,16 +103,55 @@ def bench_c(cc, n, reps) -> None:
         print(f"  {name:40s} {best:9.1f} {mean:9.1f}")
 
 
+def bench_sensorless(full: bool) -> None:
+    from pgcomm import reproduce
+    from pgcomm.experiment import ExperimentConfig, build_setup
+    from pgcomm.metrics import lowpass
+
+    cfg = ExperimentConfig() if full else reproduce.quick_config(ExperimentConfig())
+    setup = build_setup(cfg)
+    t0 = time.perf_counter()
+    res = reproduce.run(setup, seed=0)
+    wall = time.perf_counter() - t0
+    d = res.to_dict()
+    cm = d["commutation_mse"]
+    lp = cfg.evaluation.lowpass_hz
+    print(f"\nwithout a force sensor, default twin ({'full' if full else 'quick'} settings, reproduce {wall:.0f} s)")
+    print(f"  {'row':26s} {'y MSE [N^2]':>12s} {'y MSE without the direction force':>34s}")
+    for row in ("classical", "pgnn", "pgnn_sensorless", "cogging_table", "cogging_table_sensorless", "oracle"):
+        r = res.runs["long"][row]
+        v = np.gradient(r.y, r.sample_time)
+        e = r.f_true[:, :1] - r.f_star[:, :1] - np.asarray(setup.plant.direction_force(jnp.asarray(r.y),
+                                                                                       jnp.asarray(v)))[:, :1]
+        rest = float(np.mean(lowpass(e, r.sample_time, lp) ** 2))
+        # only for rows that leave the direction force alone (the others compensate some or all of it)
+        rest_s = f"{rest:34.4g}" if row in ("classical", "pgnn_sensorless", "cogging_table",
+                                              "cogging_table_sensorless") else f"{'-':>34s}"
+        print(f"  {row:26s} {cm[row]['y']['filtered']:12.4g} {rest_s}")
+    sl = d["sensorless"]
+    print(f"  sensorless / force-sensor improvement (classical -> row): {sl['share_of_pgnn_reduction_y']:.3f} "
+          "(target >= 0.8)")
+    t_force = d["identification"]["seconds_total"]
+    t_sl = sum(c["seconds"] for c in sl["coil_sets"])
+    print(f"  identification: force sensor {t_force:.1f} s, sensorless {t_sl:.1f} s (ratio {t_sl / t_force:.2f})")
+    print(f"  sensorless calibration error k: {np.round(100 * np.asarray(sl['calibration']['error']['k_relative']), 3)} %,"
+          f" zeta: {np.round(1e3 * np.asarray(sl['calibration']['error']['zeta_rad']), 3)} mrad")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--samples", type=int, default=1_000_000)
     p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--cc", default=shutil.which("cc") or shutil.which("gcc") or "cc")
     p.add_argument("--skip-identification", action="store_true")
+    p.add_argument("--skip-sensorless", action="store_true")
+    p.add_argument("--full", action="store_true", help="full reproduce settings for the sensorless rows")
     args = p.parse_args(argv)
     bench_c(args.cc, args.samples, args.repeats)
     if not args.skip_identification:
         bench_identification()
+    if not args.skip_sensorless:
+        bench_sensorless(args.full)
     return 0
 
 

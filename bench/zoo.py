@@ -15,8 +15,13 @@ plus ``summary`` (median and worst over the zoo of each figure, and the targets 
 the reducible y error and ≥ 60 % of x and z where reported, no row below the oracle beyond noise)
 and ``zoo.png``.
 
-Usage: ``python bench/zoo.py --motors 24 --seed 1 --out bench_out/zoo [--quick] [--jobs 2] [--only motor_02,…]``.
-Each motor runs in its own process pinned to one thread (``--jobs`` at a time).
+With ``--twin-type`` the plant of each motor is its twin-type plant (the force map plus its
+direction-dependent force, :meth:`pgcomm.zoo.ZooMotor.plant`), and the summary adds issue 10's
+sensorless targets: ``pgnn_sensorless`` removes >= 80 % of what the force-sensor ``pgnn`` removes of
+the y error (classical -> row), and beats ``cogging_table_sensorless``.
+
+Usage: ``python bench/zoo.py --motors 24 --seed 1 --out bench_out/zoo [--quick] [--jobs 2] [--only motor_02,…]
+[--twin-type]``. Each motor runs in its own process pinned to one thread (``--jobs`` at a time).
 """
 
 from __future__ import annotations
@@ -37,8 +42,10 @@ import numpy as np  # noqa: E402
 ROW_TARGETS = {"y": 0.90, "x": 0.60, "z": 0.60}
 
 
-def run_motor(folder: str, seed: int, quick: bool) -> dict:
+def run_motor(folder: str, seed: int, quick: bool, twin_type: bool = False) -> dict:
     """The experiment on one zoo motor folder; the zoo.json entry of that motor."""
+    from dataclasses import replace
+
     import pgcomm  # noqa: F401
     from pgcomm import reproduce
     from pgcomm.experiment import build_setup, load_experiment
@@ -48,6 +55,10 @@ def run_motor(folder: str, seed: int, quick: bool) -> dict:
     if quick:
         config = reproduce.quick_config(config)
     setup = build_setup(config, folder / "plant.csv", folder / "motor.toml")
+    if twin_type:  # the same motor with its direction-dependent force (folder motor_i is draw_motor(seed, i - 1))
+        from pgcomm.zoo import draw_motor
+
+        setup = replace(setup, plant=draw_motor(seed, int(folder.name.split("_")[1]) - 1).plant(direction=True))
     from pgcomm.io.results import to_jsonable
 
     t0 = time.perf_counter()
@@ -68,14 +79,16 @@ def run_motor(folder: str, seed: int, quick: bool) -> dict:
                                                             "stop_reason", "iterations")}
                                          for c in res["identification"]["coil_sets"]]},
         "model_error": res["model_error"],
+        "sensorless": {k: res["sensorless"][k] for k in ("share_of_pgnn_reduction_y", "model_error")}
+        if "sensorless" in res else None,
         "seconds": time.perf_counter() - t0,
     }
 
 
-def run_motor_safe(folder: str, seed: int, quick: bool) -> dict:
+def run_motor_safe(folder: str, seed: int, quick: bool, twin_type: bool = False) -> dict:
     """:func:`run_motor`, with a motor that fails recorded by its one-line error (the others go on)."""
     try:
-        return run_motor(folder, seed, quick)
+        return run_motor(folder, seed, quick, twin_type)
     except Exception as e:  # noqa: BLE001 - a failing motor is a finding of the benchmark, not its end
         return {"motor": Path(folder).name, "error": f"{type(e).__name__}: {' '.join(str(e).split())}"}
 
@@ -109,6 +122,17 @@ def summarise(motors: list[dict]) -> dict:
     out["rows_below_oracle_beyond_noise"] = below
     secs = [m["identification"]["seconds"] for m in motors]
     out["identification_seconds"] = {"median": float(np.median(secs)), "worst": float(max(secs))}
+    sl = [m for m in motors if m.get("sensorless")]
+    if sl:
+        ratio = [(m["motor"], m["sensorless"]["share_of_pgnn_reduction_y"]) for m in sl]
+        vals = [v for _, v in ratio if v is not None]
+        beats = [(m["motor"], m["commutation_mse"]["pgnn_sensorless"]["y"]["filtered"]
+                  <= m["commutation_mse"]["cogging_table_sensorless"]["y"]["filtered"]) for m in sl]
+        out["sensorless"] = {"share_of_pgnn_reduction_y_median": float(np.median(vals)) if vals else None,
+                             "share_of_pgnn_reduction_y_worst": float(min(vals)) if vals else None,
+                             "target": 0.8, "missed_by": [n for n, v in ratio if v is not None and v < 0.8],
+                             "beats_cogging_table_sensorless_on": sum(b for _, b in beats),
+                             "does_not_beat_on": [n for n, b in beats if not b]}
     return out
 
 
@@ -153,6 +177,8 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true", help="the --quick experiment per motor")
     p.add_argument("--jobs", type=int, default=2)
     p.add_argument("--only", default="", help="comma-separated motor folders to run (e.g. motor_02,motor_14)")
+    p.add_argument("--twin-type", action="store_true",
+                   help="each motor's twin-type plant (force map + direction-dependent force)")
     args = p.parse_args(argv)
     from pgcomm.zoo import write_zoo
 
@@ -163,7 +189,7 @@ def main(argv=None) -> int:
     motors, t0 = [], time.perf_counter()
     # spawn, not fork: JAX's threads in this process make a forked child deadlock
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futs = {pool.submit(run_motor_safe, str(f), args.seed, args.quick): f for f in folders}
+        futs = {pool.submit(run_motor_safe, str(f), args.seed, args.quick, args.twin_type): f for f in folders}
         for fut in as_completed(futs):
             m = fut.result()
             motors.append(m)
@@ -171,7 +197,9 @@ def main(argv=None) -> int:
                 print(f"{m['motor']} FAILED: {m['error']}", flush=True)
                 continue
             print(f"{m['motor']} L={m['n_coil_sets']} k err {np.round(100 * np.asarray(m['calibration']['k_rel_error']), 3)} % "
-                  f"share y/x/z {[m['reducible_share']['pgnn'][d] for d in 'yxz']} ({m['seconds']:.0f} s; "
+                  f"share y/x/z {[m['reducible_share']['pgnn'][d] for d in 'yxz']} "
+                  + (f"sensorless/pgnn y {m['sensorless']['share_of_pgnn_reduction_y']} " if m.get("sensorless") else "")
+                  + f"({m['seconds']:.0f} s; "
                   f"{len(motors)}/{len(folders)}, {time.perf_counter() - t0:.0f} s)", flush=True)
     motors.sort(key=lambda m: m["motor"])
     summary = summarise(motors)
