@@ -80,6 +80,15 @@ def run(args, out: Path, progress) -> None:
             data = [dataclasses.replace(d, force=np.zeros_like(d.force)) for d in data]
         source = setup.plant_name
         sample_time = setup.motor.sample_time
+    if sensorless:  # first: refuses logs too short or slow, without acceleration or saturated, in one line
+        from pgcomm.sensorless import sensorless_data
+
+        ic = setup.config.identification
+        with progress.stage("filtered acceleration windows per coil set"):
+            sl = [sensorless_data(d, sample_time, setup.motor.pole_pitch, mass,
+                                  current_limit=setup.motor.current_limit, friction_velocity=ic.direction_velocity)
+                  for d in data]
+            progress.info(", ".join(f"{d.name.split(' (')[0]}: {d.n} windows of {d.filt.length} samples" for d in sl))
     problems = {d.name: check_excitation(d, setup.motor.pole_pitch) for d in data}  # positions and currents only
     bad = {k: v for k, v in problems.items() if v}
     if bad:
@@ -89,14 +98,6 @@ def run(args, out: Path, progress) -> None:
         progress.info(f"warning: {msg}")
     mechanics = feedforward = None
     if sensorless:
-        from pgcomm.sensorless import sensorless_data
-
-        ic = setup.config.identification
-        with progress.stage("filtered acceleration windows per coil set"):
-            sl = [sensorless_data(d, sample_time, setup.motor.pole_pitch, mass,
-                                  current_limit=setup.motor.current_limit, friction_velocity=ic.direction_velocity)
-                  for d in data]
-            progress.info(", ".join(f"{d.name.split(' (')[0]}: {d.n} windows of {d.filt.length} samples" for d in sl))
         with progress.stage("identification without a force sensor (y row and friction) per coil set"):
             t_id = time.perf_counter()
             pgnn, res = identify_sensorless_models(setup, sl, args.seed, progress)
