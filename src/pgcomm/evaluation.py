@@ -13,7 +13,7 @@ For each log (:class:`pgcomm.io.logs.Log`):
   drive's ``k̂``, ``ζ̂``), and a warning when positions leave the model's training range.
 
 **Logs without a force sensor** (no ``Fy, Fx, Tz``): the driving force is reconstructed from
-the motion, ``F_y = m ÿ + f_v ẏ + f_c s(ẏ)`` (:func:`reconstruct_force`), with the moving mass
+the motion, ``F_y = m ÿ + f_v ẏ + F_c(y) s(ẏ)`` (:func:`reconstruct_force`), with the moving mass
 and the friction identified without a force sensor (``pgcomm identify --no-force-sensor``)
 and the zero-phase filtering of :mod:`pgcomm.sensorless` (one Hann window on ``Δ²y`` and,
 with the half-sample shift of the zero-order hold, on every other column). The commutation
@@ -51,7 +51,7 @@ class ReconstructedForce:
 
     Attributes:
         starts: ``(J,)`` window starts (samples); t: ``(J,)`` window centres (s).
-        force: ``(J,)`` ``m ÿ_f + f_v ẏ_f + f_c s(ẏ)_f`` (N).
+        force: ``(J,)`` ``m ÿ_f + f_v ẏ_f + F_c(y) s(ẏ)_f`` (N).
         demanded: ``(J,)`` the filtered demand ``Fy*_f`` (N).
         filt: the :class:`pgcomm.sensorless.AccelerationFilter`.
         mechanics: ``{"mass", "viscous", "coulomb", "friction_velocity"}`` used (kg, N s/m, N, m/s).
@@ -77,7 +77,7 @@ class ReconstructedForce:
 
 
 def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedForce:
-    """``F_y = m ÿ + f_v ẏ + f_c tanh(ẏ/v_ε)`` of a log, filtered as in identification without a force sensor.
+    """``F_y = m ÿ + f_v ẏ + F_c(y) tanh(ẏ/v_ε)`` of a log, filtered as in identification without a force sensor.
 
     The velocity is :func:`pgcomm.data.velocity_from_positions` of the logged positions, the
     filter :meth:`pgcomm.sensorless.AccelerationFilter.for_motion` of that motion (its window is
@@ -87,14 +87,16 @@ def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedF
 
     Args:
         log: :class:`pgcomm.io.logs.Log` with ``y`` and ``Fy_star``.
-        mechanics: ``mass`` (kg), ``viscous`` (N s/m), ``coulomb`` (N), ``friction_velocity`` (m/s).
+        mechanics: ``mass`` (kg), ``viscous`` (N s/m), ``coulomb`` (N), ``friction_velocity`` (m/s)
+            and, if identified so, the Coulomb table ``F_c(y)``: ``coulomb_knots`` (m), ``coulomb_table``
+            (N), piecewise linear (held beyond its ends); else ``F_c = coulomb`` everywhere.
         pole_pitch: ``d_m`` (m).
 
     Raises:
         DataError: no window in which the translator moves (names the log).
     """
     from pgcomm import sensorless as sl
-    from pgcomm.data import velocity_from_positions
+    from pgcomm.data import CoilSetData, velocity_from_positions
 
     ts = log.sample_time
     y = log["y"]
@@ -109,12 +111,34 @@ def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedF
         raise DataError(f"{log.source}: no window of {filt.span} samples in which the translator moves faster than "
                         f"{1e3 * v_min:.3g} mm/s; the force cannot be reconstructed from the motion")
     acc = sl.filtered_acceleration(filt, starts, y)
-    fric = sl.filter_windows(filt, starts, np.column_stack([np.tanh(v / v_eps), v]))
-    force = float(mechanics["mass"]) * acc + fric @ np.array([float(mechanics["coulomb"]), float(mechanics["viscous"])])
+    # the friction columns exactly as identification filters them (SensorlessData.filtered_friction)
+    knots, table = _coulomb_table(mechanics, y)
+    n = y.shape[0]
+    raw = CoilSetData(y, np.zeros((n, 2)), np.zeros((n, 3)), name=log.source, velocity=v)
+    mass = float(mechanics["mass"])
+    frame = sl.SensorlessData(raw, starts, mass * acc, filt, mass, v_eps, knots)
+    force = mass * acc + frame.filtered_friction() @ np.concatenate([table, [float(mechanics["viscous"])]])
     demanded = sl.filter_windows(filt, starts, log["Fy_star"])
     t = log.t[starts] + 0.5 * (filt.length + 1) * ts
     mech = {k: float(mechanics[k]) for k in ("mass", "viscous", "coulomb", "friction_velocity")}
+    if "coulomb_table" in mechanics:
+        mech.update(coulomb_knots=[float(x) for x in knots], coulomb_table=[float(x) for x in table])
     return ReconstructedForce(starts, t, force, demanded, filt, mech)
+
+
+def _coulomb_table(mechanics: dict, y) -> tuple[np.ndarray, np.ndarray]:
+    """``(knots (m), F_c at the knots (N))`` of the Coulomb friction: the identified table
+    (``coulomb_knots``, ``coulomb_table``), else the constant ``coulomb`` over the log's span."""
+    if mechanics.get("coulomb_table") is not None and mechanics.get("coulomb_knots") is not None:
+        knots = np.asarray(mechanics["coulomb_knots"], float)
+        table = np.asarray(mechanics["coulomb_table"], float)
+        if knots.ndim != 1 or knots.shape != table.shape or knots.shape[0] < 2 or np.any(np.diff(knots) <= 0) \
+                or not np.isfinite(table).all():
+            raise DataError(f"mechanics: coulomb_knots ({knots.shape[0]}) must increase and match coulomb_table "
+                            f"({table.shape[0]} finite values)")
+        return knots, table
+    lo, hi = float(np.min(y)), float(np.max(y))
+    return np.array([lo, max(hi, lo + 1e-9)]), np.full(2, float(mechanics["coulomb"]))
 
 
 def _mse_y_only(value: float | None) -> dict:
@@ -184,7 +208,8 @@ class LogEvaluation:
                "force_reconstructed": self.force_reconstructed}
         if self.reconstructed is not None:
             rc = self.reconstructed
-            out["reconstruction"] = {"formula": "m*ddy + viscous*dy + coulomb*tanh(dy/friction_velocity)",
+            out["reconstruction"] = {"formula": "m*ddy + viscous*dy + F_c(y)*tanh(dy/friction_velocity), F_c(y) piecewise linear "
+                                                "on coulomb_knots (else the constant coulomb)",
                                      "mechanics": rc.mechanics, "filter": rc.filt.to_dict(),
                                      "windows": int(rc.starts.shape[0])}
         if self.model_mse is not None or self.range_warning is not None:
@@ -258,8 +283,8 @@ def _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch
         raise ValueError("evaluate_log: a log without a force sensor needs pole_pitch, a model or a motor")
     rc = reconstruct_force(log, mechanics, float(pole_pitch))
     m = rc.mechanics
-    notes = [f"no force columns: Fy reconstructed from the motion as m ÿ + f_v ẏ + f_c s(ẏ) (m = {m['mass']:.4g} "
-             f"kg, f_v = {m['viscous']:.4g} N s/m, f_c = {m['coulomb']:.4g} N) and compared with the demanded Fy* "
+    notes = [f"no force columns: Fy reconstructed from the motion as m ÿ + f_v ẏ + F_c(y) s(ẏ) (m = {m['mass']:.4g} "
+             f"kg, f_v = {m['viscous']:.4g} N s/m, F_c of mean {m['coulomb']:.4g} N) and compared with the demanded Fy* "
              f"on {rc.starts.shape[0]} filtered windows of {rc.filt.length} samples; x, z not observable (n/a)"]
     r = log["r"] if "r" in log else None
     e = None if r is None else r - log["y"]
@@ -440,7 +465,7 @@ def format_table(evaluations) -> str:
             cells = [_cell(ev.model_mse[d], ev.force_reconstructed) for d in DIRECTIONS]
             lines.append(f"{ev.label[:24]:24s} {cells[0]:>19s} {cells[1]:>19s} {cells[2]:>19s}")
     if any(ev.force_reconstructed for ev in evaluations):
-        lines.append("(rec.): no force sensor; Fy reconstructed from the motion (m ÿ + f_v ẏ + f_c s(ẏ)) and compared "
+        lines.append("(rec.): no force sensor; Fy reconstructed from the motion (m ÿ + f_v ẏ + F_c(y) s(ẏ)) and compared "
                      "on zero-phase filtered windows; x, z not observable")
     return "\n".join(lines)
 

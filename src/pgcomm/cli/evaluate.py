@@ -2,7 +2,7 @@
 how well a model explains them (``F − F̂(y, i)``).
 
 Logs without force columns (no force sensor): the driving force is reconstructed from the
-motion, ``m ÿ + f_v ẏ + f_c s(ẏ)`` (:func:`pgcomm.evaluation.reconstruct_force`), with the
+motion, ``m ÿ + f_v ẏ + F_c(y) s(ẏ)`` (:func:`pgcomm.evaluation.reconstruct_force`), with the
 friction of a ``--model`` identified without a force sensor and the moving mass of ``--motor``
 (key ``mass``) or, without ``--motor``, the mass that model was identified with; the command
 says so.

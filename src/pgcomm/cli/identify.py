@@ -80,7 +80,10 @@ def run(args, out: Path, progress) -> None:
             data = [dataclasses.replace(d, force=np.zeros_like(d.force)) for d in data]
         source = setup.plant_name
         sample_time = setup.motor.sample_time
-    if sensorless:  # first: refuses logs too short or slow, without acceleration or saturated, in one line
+    if sensorless:
+        # the drive's motor with the mass and the data's sample time (the acceleration scales with its square)
+        setup = dataclasses.replace(setup, motor=dataclasses.replace(setup.motor, mass=mass, sample_time=sample_time))
+        # first: logs too short or slow, without acceleration or saturated get their own one-line message
         from pgcomm.sensorless import sensorless_data
 
         ic = setup.config.identification
@@ -100,12 +103,14 @@ def run(args, out: Path, progress) -> None:
     if sensorless:
         with progress.stage("identification without a force sensor (y row and friction) per coil set"):
             t_id = time.perf_counter()
-            pgnn, res = identify_sensorless_models(setup, sl, args.seed, progress)
+            # x/z rows: the classical model with the motor's nominal (calibrated) k, zeta
+            pgnn, res = experiment.identify_sensorless_models(setup, data, setup.motor.k, setup.motor.zeta, args.seed,
+                                                              progress, check_data=False)
             t_id = time.perf_counter() - t_id
         mechanics, feedforward = combined_mechanics(res)
-        fy_abs_max = max(float(np.max(np.abs(np.asarray(r.model.force(jnp.asarray(d.raw.y),
-                                                                      jnp.asarray(d.raw.currents)))[:, 0])))
-                         for r, d in zip(res, sl))
+        fy_abs_max = max(float(np.max(np.abs(np.asarray(r.model.force(jnp.asarray(d.y),
+                                                                      jnp.asarray(d.currents)))[:, 0])))
+                         for r, d in zip(res, data))
     else:
         with progress.stage("identification (Algorithm 2) per coil set"):
             t_id = time.perf_counter()
@@ -179,63 +184,19 @@ def _common_sample_time(logs) -> float:
     return float(ts)
 
 
-def _show(progress):
-    """Progress callback of :func:`pgcomm.identify.identify_all` (as :func:`pgcomm.experiment.identify_models`)."""
-    if progress is None:
-        return None
-
-    def show(info):
-        progress.checkpoint()
-        if progress.enabled and info["iteration"] % 10 == 0:
-            progress.info(f"iteration {info['iteration']:3d}: best V = {info['best_cost']:.5g}, "
-                          f"{info['active']}/{info['starts']} starts active")
-    return show
-
-
-def identify_sensorless_models(setup, data, seed: int, progress=None, check_data: bool = False):
-    """Algorithm 2 without a force sensor for every coil set; returns ``(CombinedModel, [IdentifyResult])``.
-
-    The settings of :func:`pgcomm.experiment.identify_models` (``[identification]``); each coil
-    set's y row comes from its :class:`~pgcomm.sensorless.SensorlessData`, its x and z rows from
-    the classical model with the motor's nominal ``k̂``, ``ζ̂``, ``μ̂`` and lever arm
-    (:func:`pgcomm.sensorless.with_classical_rows`): they are not observable from the motion.
-
-    Args:
-        setup: :class:`pgcomm.experiment.Setup` (motor and settings).
-        data: ``[SensorlessData]``, one per coil set in order.
-        check_data: run the excitation check on the raw samples first.
-    """
-    import dataclasses
-
-    from pgcomm.identify import identify_all
-    from pgcomm.models import CombinedModel
-    from pgcomm.sensorless import with_classical_rows
-
-    ic = setup.config.identification
-    motor = setup.motor
-    _, res = identify_all(data, motor.pole_pitch, seed=seed, progress=_show(progress),
-                          gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
-                          gain_width_candidates=tuple(ic.gain_width_candidates),
-                          activation=ic.activation, Lambda=ic.regularisation, ridge_output=ic.ridge_output,
-                          n_starts=ic.starts, max_iter=ic.max_iterations, tol=ic.tol,
-                          validation_fraction=ic.validation_fraction, check_data=check_data)
-    res = [dataclasses.replace(r, model=with_classical_rows(r.model, motor.k[l], motor.zeta[l], motor.mu,
-                                                         motor.lever_arms[l]))
-           for l, r in enumerate(res)]
-    return CombinedModel.from_coil_sets([r.model for r in res]), res
-
-
 def combined_mechanics(res) -> tuple[dict, dict]:
     """The translator's mechanics from every coil set's identification, and the feedforward's parameters.
 
-    Every coil set's experiments move the same translator, so its Coulomb and viscous friction
-    are estimated once per coil set; the feedforward takes their mean weighted by the number of
-    filtered windows (the mass is the given one).
+    Every coil set's experiments move the same translator, so its friction is estimated once per
+    coil set; the combination is their mean weighted by the number of filtered windows: viscous
+    ``f_v``, the Coulomb table ``F_c(y)`` (each coil set's piecewise-linear table on common knots
+    over the union of their spans, held constant beyond a table's own span) and its stroke mean
+    ``f_c``. The mass is the given one.
 
     Returns:
         ``(mechanics, feedforward)``: ``{"mass", "coulomb", "viscous", "friction_velocity",
-        "coil_sets": [per coil set]}`` and ``{"mass" (kg), "viscous" (N s/m), "coulomb" (N)}``
-        (the fields of :class:`pgcomm.control.Feedforward`).
+        "coulomb_knots", "coulomb_table", "coil_sets": [per coil set]}`` and ``{"mass" (kg),
+        "viscous" (N s/m), "coulomb" (N)}`` (the fields of :class:`pgcomm.control.Feedforward`).
     """
     import numpy as np
 
@@ -245,8 +206,16 @@ def combined_mechanics(res) -> tuple[dict, dict]:
     viscous = float(np.average([m["viscous"] for m in mech], weights=w))
     mass = float(mech[0]["mass"])
     mechanics = {"mass": mass, "coulomb": coulomb, "viscous": viscous,
-                 "friction_velocity": float(mech[0]["friction_velocity"]),
-                 "coil_sets": [dict(m, name=r.name) for m, r in zip(mech, res)]}
+                 "friction_velocity": float(mech[0]["friction_velocity"])}
+    if all("coulomb_table" in m and "coulomb_knots" in m for m in mech):
+        lo = min(m["coulomb_knots"][0] for m in mech)
+        hi = max(m["coulomb_knots"][-1] for m in mech)
+        n = max(len(m["coulomb_knots"]) for m in mech)
+        knots = np.linspace(lo, hi, n)
+        table = np.average([np.interp(knots, m["coulomb_knots"], m["coulomb_table"]) for m in mech], axis=0,
+                           weights=w)
+        mechanics.update(coulomb_knots=[float(x) for x in knots], coulomb_table=[float(x) for x in table])
+    mechanics["coil_sets"] = [dict(m, name=r.name) for m, r in zip(mech, res)]
     return mechanics, {"mass": mass, "viscous": viscous, "coulomb": coulomb}
 
 
