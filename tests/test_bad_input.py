@@ -7,6 +7,7 @@ in-process (``pgcomm.cli.main``) in seconds. Two subprocess tests check SIGINT /
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import os
@@ -50,11 +51,13 @@ def files(tmp_path_factory):
     write_forcemap(d / "map_mNA.csv", y, gain * 1000.0, cog)
     write_forcemap(d / "map2.csv", y, gain[:, :2], cog)
     write_motor(d / "motor.toml", tw.motor())
+    write_motor(d / "motor_nomass.toml", dataclasses.replace(tw.motor(), mass=None))
     text = (d / "motor.toml").read_text()
     text = text.replace("[67.0, 67.0, 67.0]", "[67.0, 67.0]").replace("[-0.52, -0.52, -0.52]", "[-0.52, -0.52]")
     (d / "motor2.toml").write_text(text[: text.rfind("[[coil_set]]")])
     f.update({k: d / f"{k}.csv" for k in ("map", "map_mm", "map_mNA", "map2")})
     f["motor"], f["motor2"] = d / "motor.toml", d / "motor2.toml"
+    f["motor_nomass"] = d / "motor_nomass.toml"
 
     # model files: a good one, and each damage of the issue
     save_model(d / "model", _model(), {"seed": 0})
@@ -104,6 +107,29 @@ def files(tmp_path_factory):
     (d / "ref_not.csv").write_text("r\n" + "\n".join(repr(float(v)) for v in yy) + "\n")
     (d / "ref_mm.csv").write_text("t,r\n" + "\n".join(f"{float(a)!r},{1000 * float(v)!r}" for a, v in zip(t, yy)) + "\n")
     f["ref_not"], f["ref_mm"] = d / "ref_not.csv", d / "ref_mm.csv"
+    # identification without a force sensor (issue 10 part 3): a one-coil-set rig, its logs without force
+    from pgcomm.motor import Motor
+
+    rig = Motor(pole_pitch=0.03, lever_arms=(0.0,), k=67.0, zeta=-0.52, current_limit=10.0, mass=30.0)
+    write_motor(d / "rig.toml", rig)
+    write_motor(d / "rig_nomass.toml", Motor(pole_pitch=0.03, lever_arms=(0.0,), k=67.0, zeta=-0.52))
+    f["rig"], f["rig_nomass"] = d / "rig.toml", d / "rig_nomass.toml"
+    ts = 1e-3
+
+    def rig_log(name, y, amp=2.0, extra=None):
+        eta = 2 * np.pi * y / 0.03 - 0.52
+        cols = {"t": np.arange(y.shape[0]) * ts, "y": y, "ia_1": amp * np.sin(eta),
+                "ib_1": amp * np.sin(eta + 2 * np.pi / 3), "Fy_star": np.full(y.shape[0], 100.0 * amp), **(extra or {})}
+        write_log(d / f"{name}.csv", Log(cols, ts))
+        f[name] = d / f"{name}.csv"
+
+    tt = np.arange(4000) * ts
+    moving = -0.1 + 0.05 * tt + 0.5 * 0.2 * np.minimum(tt, 1.0) ** 2  # accelerates for 1 s, then coasts
+    rig_log("sl_short", 0.05 * np.arange(6) * ts)                       # 6 samples: no filter window fits
+    rig_log("sl_constv", -0.1 + 0.05 * tt)                              # constant velocity: no acceleration
+    rig_log("sl_sat", moving, amp=10.0 / np.sin(np.pi / 3))             # peak phase current at the 10 A limit
+    rig_log("sl_fyonly", moving, extra={"Fy": np.zeros(tt.shape[0])})   # Fy without Fx, Tz
+    rig_log("sl_ok", moving)
     (d / "file").write_text("a file, not a folder")
     f["file"] = d / "file"
     f["dir"] = d
@@ -188,6 +214,35 @@ FILE_CASES = [
     (["simulate", "--reference", "ref_mm"], r"ref_mm\.csv: 'r' reaches 50.*looks like mm"),
     (["simulate", "--reference", "ref_not"], r"ref_not\.csv: no 't' column .*--reference-sample-time"),
 ]
+
+
+# identification without a force sensor: logs too short, without acceleration, saturated, partial force
+# columns, no mass; refused before any identification
+SENSORLESS_CASES = [
+    (["identify", "--plant", "map", "--motor", "motor_nomass", "--no-force-sensor"],
+     r"--motor .*motor_nomass\.toml: key 'mass' missing: identification without a force sensor needs the moving mass"),
+    (["identify", "--data", "sl_ok", "--motor", "rig_nomass"],
+     r"--motor .*rig_nomass\.toml: key 'mass' missing"),
+    (["identify", "--data", "sl_short", "--motor", "rig"],
+     r"coil set 1 \(.*sl_short\.csv\): no window of \d+ samples .*too short or too slow"),
+    (["identify", "--data", "sl_constv", "--motor", "rig"],
+     r"coil set 1 \(.*sl_constv\.csv\): no acceleration above 0\.2 m/s\^2 in Z_1"),
+    (["identify", "--data", "sl_sat", "--motor", "rig"],
+     r"sl_sat\.csv\): currents at the drive's limit 10 A in 100\.0 % of the samples"),
+    (["identify", "--data", "sl_fyonly", "--motor", "rig"],
+     r"sl_fyonly\.csv: columns 'Fx', 'Tz' missing \(a log has all of the force columns Fy, Fx, Tz, or none"),
+    (["evaluate", "--data", "sl_ok"], r"sl_ok\.csv: no force columns Fy, Fx, Tz: .*needs --model"),
+    (["evaluate", "--data", "sl_ok", "--model", "model"], r"--model .*model\.json: no identified mechanics"),
+    (["check", "--data", "sl_fyonly", "--motor", "rig"], r"sl_fyonly\.csv: columns 'Fx', 'Tz' missing"),
+]
+
+
+@pytest.mark.parametrize("argv,pattern", SENSORLESS_CASES, ids=[" ".join(c[0][:3]) + f" {i}"
+                                                                for i, c in enumerate(SENSORLESS_CASES)])
+def test_sensorless_bad_input_refused(tmp_path, capsys, files, argv, pattern):
+    argv = [str(files.get(a, a)) if not a.startswith("-") else a for a in argv]
+    out = None if argv[0] == "check" else tmp_path / "out"
+    _check_refused(argv, out, capsys, pattern, tmp_path)
 
 
 @pytest.mark.parametrize("argv,pattern", FILE_CASES, ids=[" ".join(c[0][:3]) for c in FILE_CASES])

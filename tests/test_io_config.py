@@ -179,6 +179,10 @@ def test_motor_optional_keys(tmp_path):
     text = MOTOR.replace("current_limit = 10.0\n", "").replace("mu = 0.04\n", "").replace("k = [61.0, 62.0, 60.0]", "k = 67")
     m = load_motor(_toml(tmp_path, text))
     assert m.current_limit is None and m.mu == Motor().mu and m.k == (67.0, 67.0, 67.0)
+    assert m.mass is None  # only identification without a force sensor needs it
+    m = load_motor(_toml(tmp_path, MOTOR.replace("current_limit = 10.0\n", "current_limit = 10.0\nmass = 12.5\n"),
+                         "mass.toml"))
+    assert m.mass == 12.5
 
 
 def test_motor_round_trip(tmp_path):
@@ -187,6 +191,8 @@ def test_motor_round_trip(tmp_path):
     p.parent.mkdir()
     write_motor(p, motor)
     assert load_motor(p) == motor  # bit-exact floats
+    write_motor(p, Motor(mass=1.0 / 3.0))
+    assert load_motor(p) == Motor(mass=1.0 / 3.0)
     assert load_motor(_toml(tmp_path, motor_to_toml(Motor()), "default.toml")) == Motor()
 
 
@@ -201,6 +207,10 @@ def test_motor_round_trip(tmp_path):
         ("current_limit = 10.0", "current_limit = 0", r"current_limit = 0 A is implausible \(expected 0 < value ≤ 10000 A\)"),
         ("current_limit = 10.0", "current_limit = 10000", None),
         ("mu = 0.04", "mu = 40", r"\[nominal\]: mu = 40 is implausible \(expected -10–10\)"),
+        ("current_limit = 10.0", "mass = 30000", r"^.*motor.toml: mass = 30000 kg is implausible \(expected 0.001–10000 kg; did you give g\?\)$"),
+        ("current_limit = 10.0", "mass = 0", r"motor.toml: mass = 0 kg is implausible"),
+        ("current_limit = 10.0", "mass = '30 kg'", r"motor.toml: mass = '30 kg' is a string, expected a number in kg"),
+        ("current_limit = 10.0", "mas = 30", r"unknown key 'mas' in the top-level table \(closest valid key: 'mass'\)"),
         ("mu = 0.04", "mu = nan", r"\[nominal\]: mu = nan is not finite"),
         ("k = [61.0, 62.0, 60.0]", "k = [61.0, 62.0]", r"motor.toml \[nominal\]: k has 2 entries but there are 3 \[\[coil_set\]\] tables"),
         ("pole_pitch = 0.03", "pole_pitch = '30 mm'", r"motor.toml: pole_pitch = '30 mm' is a string, expected a number in m"),

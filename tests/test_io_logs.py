@@ -228,8 +228,26 @@ def test_missing_column_closest_match(tmp_path):
     cols = _columns()
     cols["Fz"] = cols.pop("Fy")
     p = _write_csv(tmp_path / "log.csv", cols)
-    with pytest.raises(DataError, match=r"log.csv: column 'Fy' missing; found t, y, Fx, Tz, .* \(closest match: 'Fz'\)$"):
+    with pytest.raises(DataError, match=r"log.csv: column 'Fy' missing \(a log has all of the force columns Fy, Fx, Tz, "
+                                        r"or none of them without a force sensor\); found t, y, Fx, Tz, .* "
+                                        r"\(closest match: 'Fz'\)$"):
         read_log(p)
+
+
+def test_force_columns_all_or_none(tmp_path):
+    """A log without Fy, Fx, Tz is a log of a rig without a force sensor; some of them is an error."""
+    cols = _columns()
+    for c in ("Fy", "Fx", "Tz"):
+        del cols[c]
+    log = read_log(_write_csv(tmp_path / "noforce.csv", cols))
+    assert not log.has_force
+    with pytest.raises(DataError, match=r"noforce.csv: no measured force \(column\(s\) Fy, Fx, Tz missing\)"):
+        log.force()
+    cols = _columns()
+    del cols["Fx"], cols["Tz"]
+    with pytest.raises(DataError, match=r"fyonly.csv: columns 'Fx', 'Tz' missing \(a log has all of the force columns"):
+        read_log(_write_csv(tmp_path / "fyonly.csv", cols))
+    assert read_log(_write_csv(tmp_path / "all.csv", _columns())).has_force
 
 
 def test_non_numeric_cell_names_row(tmp_path):

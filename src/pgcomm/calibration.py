@@ -243,6 +243,9 @@ def calibrate_from_logs(logs, motor, method: str = "offset", n_bins: int = 40) -
         if di is None or "Fy_star" not in log:
             raise DataError(f"{log.source}: calibration needs the drive inputs Fy_ref_l, delta_l and the demanded "
                             "force Fy_star (as pgcomm calibrate --save-data writes them)")
+        if "Fy" not in log:
+            raise DataError(f"{log.source}: calibration from logs needs the measured force Fy (a force sensor); "
+                            "this log has none")
         l = active_coil_set(log, log_currents(log, motor))
         fy_ref, dl = di[0][:, l], di[1][:, l]
         fs = log["Fy_star"]

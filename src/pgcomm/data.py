@@ -307,12 +307,29 @@ def active_coil_set(log, currents: np.ndarray) -> int:
     return int(active[0])
 
 
-def coil_set_data_from_logs(logs, motor: Motor) -> list[CoilSetData]:
+def coil_set_data_from_logs(logs, motor: Motor, force: bool = True) -> list[CoilSetData]:
     """Group logs by active coil set into :class:`CoilSetData` (one per coil set, in order).
 
-    Each log becomes one experiment label. Raises :class:`DataError` naming the coil sets
-    that no log excites.
+    Each log becomes one experiment label.
+
+    Args:
+        logs: :class:`pgcomm.io.logs.Log` list.
+        motor: coil-set count; the drive's ``k̂``, ``ζ̂`` for drive-input logs.
+        force: ``True``: the measured force ``Fy, Fx, Tz`` of every log (identification with a
+            force sensor; a log without it is refused). ``False``: for identification without a
+            force sensor (:func:`pgcomm.sensorless.sensorless_data`, which ignores ``force``): the
+            ``force`` of the result is zero and must not be used.
+
+    Raises:
+        DataError: naming the coil sets that no log excites, or (``force=True``) a log without
+            force columns.
     """
+    logs = list(logs)
+    if force:
+        for log in logs:
+            if not log.has_force:
+                raise DataError(f"{log.source}: no force columns Fy, Fx, Tz (a rig without a force sensor); "
+                                "identify such logs without a force sensor (pgcomm identify --no-force-sensor)")
     groups: dict[int, list] = {}
     for log in logs:
         cur = log_currents(log, motor)
@@ -330,7 +347,7 @@ def coil_set_data_from_logs(logs, motor: Motor) -> list[CoilSetData]:
         for i, (log, cur) in enumerate(groups[l]):
             ys.append(log["y"])
             cs.append(cur)
-            fs.append(log.force())
+            fs.append(log.force() if force else np.zeros((len(log["y"]), 3)))
             ex.append(np.full(len(log["y"]), i))
         data = CoilSetData(np.concatenate(ys), np.concatenate(cs), np.concatenate(fs), np.concatenate(ex),
                            name=f"coil set {l + 1} ({', '.join(lg.source for lg, _ in groups[l])})")

@@ -12,6 +12,16 @@ For each log (:class:`pgcomm.io.logs.Log`):
   rig) with the same MSEs, where currents are logged (or drive inputs converted with the
   drive's ``k̂``, ``ζ̂``), and a warning when positions leave the model's training range.
 
+**Logs without a force sensor** (no ``Fy, Fx, Tz``): the driving force is reconstructed from
+the motion, ``F_y = m ÿ + f_v ẏ + F_c(y) s(ẏ)`` (:func:`reconstruct_force`), with the moving mass
+and the friction identified without a force sensor (``pgcomm identify --no-force-sensor``)
+and the zero-phase filtering of :mod:`pgcomm.sensorless` (one Hann window on ``Δ²y`` and,
+with the half-sample shift of the zero-order hold, on every other column). The commutation
+error is then ``F_y,f − F_y,f*`` on those filtered windows (``commutation_mse.y.filtered``;
+``unfiltered`` and the x, z rows are ``None``: not observable), the model error
+``F_y,f − F̂_y,f``, and the evaluation says so (``force_reconstructed``, a note). Windows in
+which the translator is slower than the identification's speed bound are left out, as there.
+
 Figures (:func:`plot_logs`, :func:`plot_model_error`) overlay all logs, one line per log
 labelled by its file stem, in the layout of the paper's Figs. CommutationError_Ref1/2
 (:func:`pgcomm.plots.plot_comparison`). Logs may have different lengths, so every log is
@@ -29,10 +39,112 @@ from pgcomm.errors import DataError
 from pgcomm.metrics import DIRECTIONS, commutation_mse, lowpass, tracking_mse
 
 __all__ = ["LogEvaluation", "evaluate_log", "evaluate_logs", "evaluation_results", "plot_logs", "plot_model_error",
-           "format_table", "require_desired_force", "STAR_COLUMNS"]
+           "format_table", "require_desired_force", "reconstruct_force", "ReconstructedForce", "STAR_COLUMNS"]
 
-#: Desired-force columns a log needs to be evaluated.
+#: Desired-force columns a log needs to be evaluated (a log without a force sensor: ``Fy_star`` only).
 STAR_COLUMNS = ("Fy_star", "Fx_star", "Tz_star")
+
+
+@dataclass(frozen=True)
+class ReconstructedForce:
+    """The driving force of a log without a force sensor, from the motion, on filtered windows.
+
+    Attributes:
+        starts: ``(J,)`` window starts (samples); t: ``(J,)`` window centres (s).
+        force: ``(J,)`` ``m ÿ_f + f_v ẏ_f + F_c(y) s(ẏ)_f`` (N).
+        demanded: ``(J,)`` the filtered demand ``Fy*_f`` (N).
+        filt: the :class:`pgcomm.sensorless.AccelerationFilter`.
+        mechanics: ``{"mass", "viscous", "coulomb", "friction_velocity"}`` used (kg, N s/m, N, m/s).
+    """
+
+    starts: np.ndarray
+    t: np.ndarray
+    force: np.ndarray
+    demanded: np.ndarray
+    filt: object
+    mechanics: dict
+
+    @property
+    def error(self) -> np.ndarray:
+        """``(J,)`` ``F_y,f − Fy*_f`` (N)."""
+        return self.force - self.demanded
+
+    def filtered(self, columns) -> np.ndarray:
+        """Raw columns ``(N,)``/``(N, k)`` filtered as the force (:func:`pgcomm.sensorless.filter_windows`)."""
+        from pgcomm.sensorless import filter_windows
+
+        return filter_windows(self.filt, self.starts, columns)
+
+
+def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedForce:
+    """``F_y = m ÿ + f_v ẏ + F_c(y) tanh(ẏ/v_ε)`` of a log, filtered as in identification without a force sensor.
+
+    The velocity is :func:`pgcomm.data.velocity_from_positions` of the logged positions, the
+    filter :meth:`pgcomm.sensorless.AccelerationFilter.for_motion` of that motion (its window is
+    a share of the electrical period at the log's fast speed), the windows those of
+    :func:`pgcomm.sensorless.window_starts` where the translator moves faster than the speed
+    bound of :func:`pgcomm.sensorless.sensorless_data` throughout.
+
+    Args:
+        log: :class:`pgcomm.io.logs.Log` with ``y`` and ``Fy_star``.
+        mechanics: ``mass`` (kg), ``viscous`` (N s/m), ``coulomb`` (N), ``friction_velocity`` (m/s)
+            and, if identified so, the Coulomb table ``F_c(y)``: ``coulomb_knots`` (m), ``coulomb_table``
+            (N), piecewise linear (held beyond its ends); else ``F_c = coulomb`` everywhere.
+        pole_pitch: ``d_m`` (m).
+
+    Raises:
+        DataError: no window in which the translator moves (names the log).
+    """
+    from pgcomm import sensorless as sl
+    from pgcomm.data import CoilSetData, velocity_from_positions
+
+    ts = log.sample_time
+    y = log["y"]
+    v = velocity_from_positions(y, ts)
+    filt = sl.AccelerationFilter.for_motion(v, ts, pole_pitch)
+    speed = np.abs(v)
+    v95 = float(np.percentile(speed, 95))
+    v_eps = float(mechanics["friction_velocity"])
+    v_min = max(sl.MIN_SPEED_VEPS * v_eps, sl.MIN_SPEED_SHARE * v95)
+    starts = sl.window_starts(filt, np.zeros(y.shape[0], int), speed > v_min)
+    if starts.size == 0:
+        raise DataError(f"{log.source}: no window of {filt.span} samples in which the translator moves faster than "
+                        f"{1e3 * v_min:.3g} mm/s; the force cannot be reconstructed from the motion")
+    acc = sl.filtered_acceleration(filt, starts, y)
+    # the friction columns exactly as identification filters them (SensorlessData.filtered_friction)
+    knots, table = _coulomb_table(mechanics, y)
+    n = y.shape[0]
+    raw = CoilSetData(y, np.zeros((n, 2)), np.zeros((n, 3)), name=log.source, velocity=v)
+    mass = float(mechanics["mass"])
+    frame = sl.SensorlessData(raw, starts, mass * acc, filt, mass, v_eps, knots)
+    force = mass * acc + frame.filtered_friction() @ np.concatenate([table, [float(mechanics["viscous"])]])
+    demanded = sl.filter_windows(filt, starts, log["Fy_star"])
+    t = log.t[starts] + 0.5 * (filt.length + 1) * ts
+    mech = {k: float(mechanics[k]) for k in ("mass", "viscous", "coulomb", "friction_velocity")}
+    if "coulomb_table" in mechanics:
+        mech.update(coulomb_knots=[float(x) for x in knots], coulomb_table=[float(x) for x in table])
+    return ReconstructedForce(starts, t, force, demanded, filt, mech)
+
+
+def _coulomb_table(mechanics: dict, y) -> tuple[np.ndarray, np.ndarray]:
+    """``(knots (m), F_c at the knots (N))`` of the Coulomb friction: the identified table
+    (``coulomb_knots``, ``coulomb_table``), else the constant ``coulomb`` over the log's span."""
+    if mechanics.get("coulomb_table") is not None and mechanics.get("coulomb_knots") is not None:
+        knots = np.asarray(mechanics["coulomb_knots"], float)
+        table = np.asarray(mechanics["coulomb_table"], float)
+        if knots.ndim != 1 or knots.shape != table.shape or knots.shape[0] < 2 or np.any(np.diff(knots) <= 0) \
+                or not np.isfinite(table).all():
+            raise DataError(f"mechanics: coulomb_knots ({knots.shape[0]}) must increase and match coulomb_table "
+                            f"({table.shape[0]} finite values)")
+        return knots, table
+    lo, hi = float(np.min(y)), float(np.max(y))
+    return np.array([lo, max(hi, lo + 1e-9)]), np.full(2, float(mechanics["coulomb"]))
+
+
+def _mse_y_only(value: float | None) -> dict:
+    """``{dir: {"filtered", "unfiltered"}}`` with only ``y.filtered`` known (reconstructed force)."""
+    return {"y": {"filtered": value, "unfiltered": None}, "x": {"filtered": None, "unfiltered": None},
+            "z": {"filtered": None, "unfiltered": None}}
 
 
 @dataclass(frozen=True)
@@ -46,7 +158,7 @@ class LogEvaluation:
         file: the log's file name; label: its stem (figure legend).
         t: ``(N,)`` s; y: ``(N,)`` logged position (m); r: ``(N,)`` reference (m) or ``None``.
         e: ``(N,)`` tracking error ``r − y`` (m) or ``None`` without ``r``.
-        commutation_error: ``(N, 3)`` ``F − F*`` (N, N, N·m).
+        commutation_error: ``(N, 3)`` ``F − F*`` (N, N, N·m); ``None`` when the force is reconstructed.
         sample_time: s; lowpass_hz: cut-off of ``H(z)`` (Hz).
         commutation_mse: ``{dir: {"filtered", "unfiltered"}}`` (N², N²m² for z).
         tracking_mse: m², or ``None`` without ``r``.
@@ -55,6 +167,9 @@ class LogEvaluation:
         currents: ``"logged"``, ``"from drive inputs"`` or ``None`` (no model: not needed).
         range_warning: text when positions leave the model's training range, else ``None``.
         notes: what was skipped and why.
+        reconstructed: :class:`ReconstructedForce` for a log without a force sensor, else ``None``
+            (then ``commutation_mse`` and ``model_mse`` hold the y row on its windows only).
+        window_model_error: ``(J,)`` ``F_y,f − F̂_y,f`` on those windows (with a model), else ``None``.
     """
 
     file: str
@@ -63,7 +178,7 @@ class LogEvaluation:
     y: np.ndarray
     r: np.ndarray | None
     e: np.ndarray | None
-    commutation_error: np.ndarray
+    commutation_error: np.ndarray | None
     sample_time: float
     lowpass_hz: float
     commutation_mse: dict
@@ -73,6 +188,13 @@ class LogEvaluation:
     currents: str | None = None
     range_warning: str | None = None
     notes: tuple = field(default=())
+    reconstructed: ReconstructedForce | None = None
+    window_model_error: np.ndarray | None = None
+
+    @property
+    def force_reconstructed(self) -> bool:
+        """Whether the driving force was reconstructed from the motion (log without a force sensor)."""
+        return self.reconstructed is not None
 
     @property
     def samples(self) -> int:
@@ -82,7 +204,14 @@ class LogEvaluation:
     def to_dict(self) -> dict:
         """``evaluation.logs[i]`` of results.json."""
         out = {"file": self.file, "samples": self.samples, "sample_time": self.sample_time,
-               "commutation_mse": self.commutation_mse, "tracking_mse": self.tracking_mse, "notes": list(self.notes)}
+               "commutation_mse": self.commutation_mse, "tracking_mse": self.tracking_mse, "notes": list(self.notes),
+               "force_reconstructed": self.force_reconstructed}
+        if self.reconstructed is not None:
+            rc = self.reconstructed
+            out["reconstruction"] = {"formula": "m*ddy + viscous*dy + F_c(y)*tanh(dy/friction_velocity), F_c(y) piecewise linear "
+                                                "on coulomb_knots (else the constant coulomb)",
+                                     "mechanics": rc.mechanics, "filter": rc.filt.to_dict(),
+                                     "windows": int(rc.starts.shape[0])}
         if self.model_mse is not None or self.range_warning is not None:
             out["model_mse"] = self.model_mse
             out["model_currents"] = self.currents
@@ -90,21 +219,28 @@ class LogEvaluation:
         return out
 
 
-def evaluate_log(log, lowpass_hz: float = 50.0, model=None, motor=None) -> LogEvaluation:
+def evaluate_log(log, lowpass_hz: float = 50.0, model=None, motor=None, mechanics: dict | None = None,
+                 pole_pitch: float | None = None) -> LogEvaluation:
     """Evaluate one log (see the module docstring).
 
     Args:
-        log: :class:`pgcomm.io.logs.Log` with ``y, Fy, Fx, Tz`` and ``Fy_star, Fx_star, Tz_star``.
+        log: :class:`pgcomm.io.logs.Log` with ``y, Fy, Fx, Tz`` and ``Fy_star, Fx_star, Tz_star``,
+            or without a force sensor ``y`` and ``Fy_star``.
         lowpass_hz: cut-off ``f_lp`` of ``H(z)`` (Hz); the paper uses 50 Hz.
         model: a combined model (``force(y, currents (N, L, 2)) -> (N, 3)``, ``n_coil_sets``,
             training range), or ``None``.
         motor: :class:`pgcomm.motor.Motor` converting drive-input logs to currents (model error only).
+        mechanics: for a log without a force sensor: ``mass`` (kg), ``viscous`` (N s/m),
+            ``coulomb`` (N), ``friction_velocity`` (m/s) of :func:`reconstruct_force`.
+        pole_pitch: ``d_m`` (m) for the reconstruction's window; default the model's, else the motor's.
 
     Raises:
-        DataError: the desired-force columns are missing (names the file and the columns), or
-            the log's coil sets do not match the model's.
+        DataError: the desired-force columns are missing (names the file and the columns), a log
+            without a force sensor and no ``mechanics``, or the log's coil sets do not match the model's.
     """
     require_desired_force(log)
+    if not log.has_force:
+        return _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch)
     f, f_star = log.force(), log.desired_force()
     ts = log.sample_time
     notes = []
@@ -122,19 +258,58 @@ def evaluate_log(log, lowpass_hz: float = 50.0, model=None, motor=None) -> LogEv
 
 
 def require_desired_force(log) -> None:
-    """Raise :class:`DataError` naming the file and the missing columns if ``log`` has no ``F*``."""
+    """Raise :class:`DataError` naming the file and the missing columns if ``log`` has no ``F*``
+    (a log without a force sensor needs ``Fy_star`` only)."""
+    if not log.has_force:
+        if "Fy_star" not in log:
+            raise DataError(f"{log.source}: column Fy_star missing: a log without a force sensor is evaluated by "
+                            "comparing the force reconstructed from the motion with the demanded force Fy_star (N)")
+        return
     missing = [c for c in STAR_COLUMNS if c not in log]
     if missing:
         raise DataError(f"{log.source}: column(s) {', '.join(missing)} missing: evaluating the commutation error "
                         "F - F* needs the desired force Fy_star, Fx_star, Tz_star (N, N, N m) in every log")
 
 
-def _model_fit(log, model, motor, lowpass_hz) -> dict:
-    """``model_error``, ``model_mse``, ``currents``, ``range_warning`` of one log."""
-    import jax.numpy as jnp
+def _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch) -> LogEvaluation:
+    """:func:`evaluate_log` of a log without a force sensor: the force from the motion (module docstring)."""
+    if mechanics is None:
+        raise DataError(f"{log.source}: no force columns Fy, Fx, Tz: evaluating it reconstructs the force from the "
+                        "motion, which needs the mass and the friction identified without a force sensor (a model "
+                        "of pgcomm identify --no-force-sensor)")
+    if pole_pitch is None:
+        pole_pitch = model.pole_pitch if model is not None else (motor.pole_pitch if motor is not None else None)
+    if pole_pitch is None:
+        raise ValueError("evaluate_log: a log without a force sensor needs pole_pitch, a model or a motor")
+    rc = reconstruct_force(log, mechanics, float(pole_pitch))
+    m = rc.mechanics
+    notes = [f"no force columns: Fy reconstructed from the motion as m ÿ + f_v ẏ + F_c(y) s(ẏ) (m = {m['mass']:.4g} "
+             f"kg, f_v = {m['viscous']:.4g} N s/m, F_c of mean {m['coulomb']:.4g} N) and compared with the demanded Fy* "
+             f"on {rc.starts.shape[0]} filtered windows of {rc.filt.length} samples; x, z not observable (n/a)"]
+    r = log["r"] if "r" in log else None
+    e = None if r is None else r - log["y"]
+    if r is None:
+        notes.append("no column r (reference): tracking error skipped")
+    ev = dict(file=log.source, label=Path(log.source).stem, t=log.t, y=log["y"], r=r, e=e, commutation_error=None,
+              sample_time=log.sample_time, lowpass_hz=float(lowpass_hz),
+              commutation_mse=_mse_y_only(float(np.mean(rc.error ** 2))),
+              tracking_mse=None if e is None else tracking_mse(e), notes=tuple(notes), reconstructed=rc)
+    if model is not None:
+        import jax.numpy as jnp
 
+        from pgcomm.models import warn_outside_training_range
+
+        cur, source = _currents(log, model, motor)
+        fy_hat = rc.filtered(np.asarray(model.force(jnp.asarray(log["y"]), jnp.asarray(cur)))[:, 0])
+        err = rc.force - fy_hat
+        ev.update(model_mse=_mse_y_only(float(np.mean(err ** 2))), window_model_error=err, currents=source,
+                  range_warning=warn_outside_training_range(model, log["y"]))
+    return LogEvaluation(**ev)
+
+
+def _currents(log, model, motor):
+    """``(currents (N, L, 2) A, "logged" | "from drive inputs")`` of a log, checked against the model."""
     from pgcomm.data import log_currents
-    from pgcomm.models import warn_outside_training_range
 
     cur = log.currents()
     source = "logged"
@@ -144,6 +319,16 @@ def _model_fit(log, model, motor, lowpass_hz) -> dict:
         cur, source = log_currents(log, motor), "from drive inputs"
     if cur.shape[1] != model.n_coil_sets:
         raise DataError(f"{log.source}: {cur.shape[1]} coil sets in the log, the model has {model.n_coil_sets}")
+    return cur, source
+
+
+def _model_fit(log, model, motor, lowpass_hz) -> dict:
+    """``model_error``, ``model_mse``, ``currents``, ``range_warning`` of one log."""
+    import jax.numpy as jnp
+
+    from pgcomm.models import warn_outside_training_range
+
+    cur, source = _currents(log, model, motor)
     y = log["y"]
     f_hat = np.asarray(model.force(jnp.asarray(y), jnp.asarray(cur)))
     f = log.force()
@@ -151,12 +336,18 @@ def _model_fit(log, model, motor, lowpass_hz) -> dict:
             "currents": source, "range_warning": warn_outside_training_range(model, y)}
 
 
-def evaluate_logs(logs, lowpass_hz: float = 50.0, model=None, motor=None) -> list[LogEvaluation]:
-    """:func:`evaluate_log` for each log; every log is checked for ``F*`` before any work is done."""
+def evaluate_logs(logs, lowpass_hz: float = 50.0, model=None, motor=None, mechanics: dict | None = None,
+                  pole_pitch: float | None = None) -> list[LogEvaluation]:
+    """:func:`evaluate_log` for each log; every log is checked for ``F*`` (and, without a force
+    sensor, ``mechanics``) before any work is done."""
     logs = list(logs)
     for log in logs:  # refuse before any work: a bad last log should not cost the first ones' time
         require_desired_force(log)
-    return [evaluate_log(log, lowpass_hz, model, motor) for log in logs]
+        if not log.has_force and mechanics is None:
+            raise DataError(f"{log.source}: no force columns Fy, Fx, Tz: evaluating it reconstructs the force from "
+                            "the motion, which needs the mass and the friction identified without a force sensor "
+                            "(a model of pgcomm identify --no-force-sensor)")
+    return [evaluate_log(log, lowpass_hz, model, motor, mechanics, pole_pitch) for log in logs]
 
 
 def evaluation_results(evaluations, lowpass_hz: float = 50.0, model: str | None = None) -> dict:
@@ -164,11 +355,15 @@ def evaluation_results(evaluations, lowpass_hz: float = 50.0, model: str | None 
 
     ``logs[i]`` holds ``file``, ``samples``, ``commutation_mse.{y,x,z}.{filtered,unfiltered}``,
     ``tracking_mse`` (``null`` without ``r``) and, with a model, ``model_mse`` and
-    ``range_warning``; ``warnings`` lists every range warning and note with its file.
+    ``range_warning``; ``warnings`` lists every range warning and note with its file. A log
+    without a force sensor has ``force_reconstructed: true``, its ``reconstruction`` (mechanics,
+    filter, windows) and only ``y.filtered`` of the MSEs (the others ``null``); the block's
+    ``force_reconstructed`` says whether any log's force was reconstructed.
     """
     warnings = [f"{ev.file}: {ev.range_warning}" for ev in evaluations if ev.range_warning]
     notes = [f"{ev.file}: {n}" for ev in evaluations for n in ev.notes]
     return {"lowpass_hz": float(lowpass_hz), "model": model, "logs": [ev.to_dict() for ev in evaluations],
+            "force_reconstructed": any(ev.force_reconstructed for ev in evaluations),
             "warnings": warnings, "notes": notes}
 
 
@@ -200,15 +395,29 @@ def plot_logs(evaluations, title: str = ""):
             ax[0].plot(ev.t, ev.r * 1e3, lw=0.9, color=c, label=ev.label)
         else:
             ax[0].plot(ev.t, ev.y * 1e3, "--", lw=0.9, color=c, label=f"{ev.label} (y)")
+        if ev.reconstructed is not None:  # y only, on the reconstruction's windows
+            rc = ev.reconstructed
+            ax[1].plot(rc.t, rc.error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
+            if ev.e is not None:
+                ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
+            continue
         err = lowpass(ev.commutation_error, ev.sample_time, ev.lowpass_hz)
         plots.draw_error_lines(ax, ev.t, err, ev.e, c, ev.label)
+    if any(ev.force_reconstructed for ev in evaluations):
+        for q in (2, 3):
+            ax[q].text(0.5, 0.9, "force reconstructed from the motion: x, z not observable (n/a)",
+                       transform=ax[q].transAxes, ha="center", va="top", fontsize=8)
     ax[0].set_ylabel("$y^*$ [mm]")
     if not any(ev.e is not None for ev in evaluations):
         ax[4].text(0.5, 0.5, "no reference r logged: tracking error not available", transform=ax[4].transAxes,
                    ha="center", va="center")
     ax[0].legend(loc="upper right", ncol=min(4, len(evaluations)), fontsize=8)
     lp = evaluations[0].lowpass_hz if evaluations else 50.0
-    ax[1].set_title(f"commutation error, {lp:g} Hz low-pass", fontsize=10)
+    n_rec = sum(ev.force_reconstructed for ev in evaluations)
+    title1 = ("commutation error, Fy reconstructed from the motion, zero-phase filtered windows"
+              if evaluations and n_rec == len(evaluations) else
+              f"commutation error, {lp:g} Hz low-pass" + (" (reconstructed: filtered windows)" if n_rec else ""))
+    ax[1].set_title(title1, fontsize=10)
     plots.finish_error_axes(fig, ax, title)
     return fig
 
@@ -218,9 +427,12 @@ def plot_model_error(evaluations, title: str = "model error F - F̂(y, i)"):
     from pgcomm import plots  # noqa: F401  (selects the Agg backend)
     import matplotlib.pyplot as plt
 
-    evs = [ev for ev in evaluations if ev.model_error is not None]
+    evs = [ev for ev in evaluations if ev.model_error is not None or ev.window_model_error is not None]
     fig, ax = plt.subplots(3, 1, figsize=(10, 7), sharex=True)
     for ev, c in zip(evs, _colors(len(evs))):
+        if ev.window_model_error is not None:  # reconstructed force: y on its windows only
+            ax[0].plot(ev.reconstructed.t, ev.window_model_error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
+            continue
         err = lowpass(ev.model_error, ev.sample_time, ev.lowpass_hz)
         for q in range(3):
             ax[q].plot(ev.t, err[:, q], lw=0.7, color=c, label=ev.label)
@@ -242,8 +454,7 @@ def format_table(evaluations) -> str:
     head = f"{'log':24s} {'y [N^2]':>19s} {'x [N^2]':>19s} {'z [N^2m^2]':>19s} {'tracking [m^2]':>15s}"
     lines = [head]
     for ev in evaluations:
-        cells = [f"{ev.commutation_mse[d]['filtered']:.3g} ({ev.commutation_mse[d]['unfiltered']:.3g})"
-                 for d in DIRECTIONS]
+        cells = [_cell(ev.commutation_mse[d], ev.force_reconstructed) for d in DIRECTIONS]
         tr = "-" if ev.tracking_mse is None else f"{ev.tracking_mse:.3g}"
         lines.append(f"{ev.label[:24]:24s} {cells[0]:>19s} {cells[1]:>19s} {cells[2]:>19s} {tr:>15s}")
     if with_model:
@@ -251,6 +462,17 @@ def format_table(evaluations) -> str:
         for ev in evaluations:
             if ev.model_mse is None:
                 continue
-            cells = [f"{ev.model_mse[d]['filtered']:.3g} ({ev.model_mse[d]['unfiltered']:.3g})" for d in DIRECTIONS]
+            cells = [_cell(ev.model_mse[d], ev.force_reconstructed) for d in DIRECTIONS]
             lines.append(f"{ev.label[:24]:24s} {cells[0]:>19s} {cells[1]:>19s} {cells[2]:>19s}")
+    if any(ev.force_reconstructed for ev in evaluations):
+        lines.append("(rec.): no force sensor; Fy reconstructed from the motion (m ÿ + f_v ẏ + F_c(y) s(ẏ)) and compared "
+                     "on zero-phase filtered windows; x, z not observable")
     return "\n".join(lines)
+
+
+def _cell(mse: dict, reconstructed: bool) -> str:
+    """``filtered (unfiltered)``; a reconstructed force's y as ``value (rec.)``, unknowns as ``n/a``."""
+    f, u = mse["filtered"], mse["unfiltered"]
+    if f is None:
+        return "n/a"
+    return f"{f:.3g} (rec.)" if reconstructed else f"{f:.3g} ({u:.3g})"

@@ -201,7 +201,9 @@ def excitation_report(logs, motor: Motor, n_bins: int = DEFAULT_BINS, y_range=No
     """Excitation report of logs (:class:`pgcomm.io.logs.Log`) for every coil set of ``motor``.
 
     Args:
-        logs: logs, each with one active coil set (data sets ``Z_i^l``).
+        logs: logs, each with one active coil set (data sets ``Z_i^l``); positions and currents
+            (or drive inputs) are all the criterion needs, so logs without force columns (no
+            force sensor) are checked alike.
         motor: coil-set count, pole pitch ``d_m`` and the drive's ``k̂``, ``ζ̂`` (drive-input
             logs are converted with them; ``Δ`` is measured against ``ζ̂``).
         n_bins: position bins over ``y_range``.
@@ -231,8 +233,10 @@ def excitation_report(logs, motor: Motor, n_bins: int = DEFAULT_BINS, y_range=No
                                           "its own experiments Z_1, Z_2)",)))
             continue
         members = groups[l]
-        data = CoilSetData(np.concatenate([lg["y"] for lg, _ in members]), np.concatenate([c for _, c in members]),
-                           np.concatenate([lg.force() for lg, _ in members]), name=f"coil set {l + 1}")
+        # the criterion needs positions and currents only: logs without a force sensor are checked alike
+        y = np.concatenate([lg["y"] for lg, _ in members])
+        data = CoilSetData(y, np.concatenate([c for _, c in members]), np.zeros((y.shape[0], 3)),
+                           name=f"coil set {l + 1}")
         out.append(coil_set_excitation(data, l, motor, n_bins, (lo, hi), min_samples, min_angle, min_spread,
                                        files=tuple(lg.source for lg, _ in members)))
     thresholds = {"min_samples": min_samples, "min_angle": min_angle, "min_spread": min_spread,

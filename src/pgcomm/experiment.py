@@ -248,7 +248,7 @@ def build_setup(config: ExperimentConfig, forcemap_path=None, motor_path=None, t
             raise ConfigError("--motor is only used with --plant FORCEMAP.csv (the twin has its own motor)")
         tw = config.twin
         motor = tw.motor(k_hat=cal.k0, zeta_hat=cal.zeta0, sample_time=config.sample_time,
-                         current_limit=config.current_limit)
+                         current_limit=config.current_limit, mass=config.mechanics.mass)
         rc = config.reference
         rc = replace(rc, stroke=0.1 if rc.stroke is None else rc.stroke, center=rc.center or 0.0)
         plant = tw.plant()

@@ -37,6 +37,8 @@ class Motor:
         mu: nominal ratio ``μ̂`` of the out-of-plane force constant (-).
         sample_time: controller sample time (s).
         current_limit: peak phase current limit of the drive (A), or ``None``.
+        mass: moving mass ``m`` of the translator (kg), or ``None`` (unknown). Needed only to
+            identify without a force sensor (``m ÿ`` is then the measured force).
     """
 
     pole_pitch: float = 0.03
@@ -46,8 +48,14 @@ class Motor:
     mu: float = 0.05
     sample_time: float = 1e-3
     current_limit: float | None = 10.0
+    mass: float | None = None
 
     def __post_init__(self):
+        if self.mass is not None:
+            m = float(self.mass)
+            if not (np.isfinite(m) and m > 0):
+                raise ValueError(f"mass = {self.mass} kg: expected a positive moving mass")
+            object.__setattr__(self, "mass", m)
         n = len(self.lever_arms)
         for name in ("k", "zeta"):
             v = getattr(self, name)

@@ -103,11 +103,20 @@ class TwinParams:
         """Number of coil sets ``L``."""
         return len(self.k)
 
-    def motor(self, k_hat=67.0, zeta_hat=-0.52, mu_hat=None, sample_time=1e-3, current_limit=10.0) -> Motor:
-        """Nominal :class:`Motor` description of this twin with a starting guess ``k̂`` (N/A), ``ζ̂`` (rad)."""
+    def motor(self, k_hat=67.0, zeta_hat=-0.52, mu_hat=None, sample_time=1e-3, current_limit=10.0,
+              mass=None) -> Motor:
+        """Nominal :class:`Motor` description of this twin with a starting guess ``k̂`` (N/A), ``ζ̂`` (rad).
+
+        ``mass`` (kg) defaults to the twin's default mechanics (:class:`pgcomm.mechanics.Mechanics`,
+        30 kg): on the built-in twin the moving mass is known, so identification without a force
+        sensor needs no motor file. :func:`pgcomm.experiment.build_setup` passes the configured
+        ``[mechanics] mass``.
+        """
+        from pgcomm.mechanics import Mechanics
+
         return Motor(pole_pitch=self.pole_pitch, lever_arms=self.lever_arms, k=k_hat, zeta=zeta_hat,
                      mu=self.mu if mu_hat is None else mu_hat, sample_time=sample_time,
-                     current_limit=current_limit)
+                     current_limit=current_limit, mass=Mechanics().mass if mass is None else mass)
 
     def plant(self) -> "TwinPlant":
         """The jittable plant (pytree of arrays) for these parameters."""

@@ -7,7 +7,8 @@ folder a user could have brought, and :func:`write_zoo` writes ``n`` of them::
 
     motor_01/plant.csv    force map (pgcomm.forcemap format) on a non-uniform grid
     motor_01/motor.toml   what a user knows: pole pitch, sample time, current limit,
-                          nominal k̂, ζ̂ (a few % / tens of mrad off), μ̂, lever arms
+                          nominal k̂, ζ̂ (a few % / tens of mrad off), μ̂, lever arms,
+                          moving mass (the true one)
     motor_01/config.toml  experiment settings (--config): a whole machine scaled to the motor
     motor_01/truth.json   true fundamental k, zeta per coil set, the range it was fitted
                           over, seed, index and every generating parameter
@@ -250,9 +251,11 @@ class ZooMotor:
         return self.n_coil_sets * float(np.mean(self.k)) * self.current_limit / PEAK_TO_CONTINUOUS
 
     def motor(self) -> Motor:
-        """What a user knows (the motor TOML): nominal ``k̂``, ``ζ̂``, ``μ̂``, lever arms, sample time, limit."""
+        """What a user knows (the motor TOML): nominal ``k̂``, ``ζ̂``, ``μ̂``, lever arms, sample time, limit,
+        and the moving mass (kg; the true one: a machine builder weighs the translator)."""
         return Motor(pole_pitch=self.pole_pitch, lever_arms=self.lever_arms, k=self.k_hat, zeta=self.zeta_hat,
-                     mu=self.mu_hat, sample_time=self.sample_time, current_limit=self.current_limit)
+                     mu=self.mu_hat, sample_time=self.sample_time, current_limit=self.current_limit,
+                     mass=self.mass)
 
     def without(self, *effects: str) -> "ZooMotor":
         """Copy with the named effects (see :data:`EFFECTS`) switched off; ``without(*EFFECTS)`` is ideal.

@@ -1,5 +1,8 @@
 """``pgcomm check``: do logs persistently excite the PGNN of every coil set (paper, Remark on excitation)?
 
+The criterion needs positions and currents (or drive inputs) only, so logs without force
+columns (a rig without a force sensor) are checked alike.
+
 Exit code 0 when they do, 1 when they do not (a finding), 2 for bad input.
 """
 
@@ -57,9 +60,10 @@ def run(args, out, progress) -> None:
         progress.info(f"{len(logs)} log(s), {sum(lg.n_samples for lg in logs)} samples")
     with progress.stage("excitation per coil set and position bin"):
         report = excitation.excitation_report(logs, motor, n_bins=n_bins, y_range=args.range)
+    without = [lg.source for lg in logs if not lg.has_force]  # no force sensor: checked alike
     if args.report_dir is not None:
         results = {"command": "check", "motor": str(args.motor) if args.motor else "twin (default)",
-                   "logs": [lg.source for lg in logs], "check": report.to_dict(),
+                   "logs": [lg.source for lg in logs], "logs_without_force": without, "check": report.to_dict(),
                    "runtime_s": time.perf_counter() - t0}
         # staged here (not by cli.main) so that the report is kept when the data fail the check
         with staged_output(args.report_dir, args.overwrite) as tmp:
@@ -67,6 +71,10 @@ def run(args, out, progress) -> None:
             write_results(tmp / "results.json", results)
     if not args.quiet:
         print(format_check(report))
+        if without:
+            print(f"{len(without)} of {len(logs)} log(s) have no force columns (no force sensor): the criterion needs "
+                  "positions and currents only; pgcomm identify uses the motion for them (--no-force-sensor, "
+                  "with the motor's mass)")
         if args.report_dir is not None:
             print(f"wrote {args.report_dir}/results.json, coverage.png")
     if not report.ok:

@@ -1,11 +1,20 @@
-"""``pgcomm identify``: Algorithm 2 on data sets generated on the plant, or on logs (``--data``)."""
+"""``pgcomm identify``: Algorithm 2 on data sets generated on the plant, or on logs (``--data``).
+
+With ``--no-force-sensor`` (automatic when the logs have no force columns) the y row of every
+coil set's PGNN is identified from the motion, jointly with the translator's friction
+(:mod:`pgcomm.sensorless`); the x and z rows are the classical model with the motor's nominal
+``k̂``, ``ζ̂``, ``μ̂`` and lever arms. The moving mass comes from the motor TOML (key ``mass``;
+the built-in twin's is known).
+"""
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, add_data_options, read_data_logs, setup_from_args
+from pgcomm.errors import ConfigError, DataError
 
 HELP = ("Algorithm 2: identify the PGNN (and the physics-only model) of every coil set; "
         "writes model.json/.npz, results.json and figures.")
@@ -16,10 +25,17 @@ def configure(p) -> None:
     add_common_options(p)
     add_data_options(p)
     p.add_argument("--force", action="store_true", help="identify even if the excitation check fails (warn only)")
+    p.add_argument("--no-force-sensor", action="store_true",
+                   help="identify without force measurements: the y row from the motion (m ÿ + friction, the "
+                        "moving mass from the motor TOML key mass), x/z rows classical with the motor's nominal "
+                        "k, zeta; automatic when the logs have no Fy, Fx, Tz. Without --data the generated data "
+                        "lose their force columns")
 
 
 def run(args, out: Path, progress) -> None:
     """Identify; write ``model.json/.npz``, ``results.json``, ``cogging.png`` and ``gain_coilset{l}.png``."""
+    import dataclasses
+
     import jax.numpy as jnp
     import numpy as np
 
@@ -31,39 +47,89 @@ def run(args, out: Path, progress) -> None:
     from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
-    setup = setup_from_args(args)
+    setup = _setup(args)
+    sensorless = bool(args.no_force_sensor)
+    logs = None
     if args.data:
         with progress.stage(f"read {len(args.data)} log pattern(s)"):
             logs = read_data_logs(args)
-            data = coil_set_data_from_logs(logs, setup.motor)
-            progress.info(f"{len(logs)} log(s), {sum(d.n for d in data)} samples")
+            progress.info(f"{len(logs)} log(s), {sum(lg.n_samples for lg in logs)} samples")
+        without = [lg.source for lg in logs if not lg.has_force]
+        if without and not sensorless:
+            if len(without) < len(logs):
+                shown = ", ".join(without[:3]) + (", ..." if len(without) > 3 else "")
+                raise DataError(f"{len(without)} of {len(logs)} logs have no force columns Fy, Fx, Tz ({shown}); "
+                                "pass --no-force-sensor to identify all of them from the motion, or drop them")
+            sensorless = True
+            if not args.quiet:
+                print("pgcomm: the logs have no force columns (Fy, Fx, Tz): identifying without a force sensor "
+                      "(y row from the motion, x/z rows classical)", file=sys.stderr)
+    mass = _mass(args, setup) if sensorless else None
+    if logs is not None:
+        with progress.stage("group logs by coil set"):
+            data = coil_set_data_from_logs(logs, setup.motor, force=not sensorless)
         source = "logs"
+        sample_time = _common_sample_time(logs) if sensorless else None
     else:
         ref = experiment.data_generation_reference(setup)
         with progress.stage(f"data generation on {setup.plant_name}: {setup.motor.n_coil_sets} coil sets x 2 data "
                             f"sets, {len(ref.r)} samples each"):
             data = coil_set_data_from_runs(experiment.generate(setup, ref, setup.motor.k, setup.motor.zeta,
                                                                seed=args.seed))
+        if sensorless:  # what a rig without a force sensor records: the force columns are dropped
+            data = [dataclasses.replace(d, force=np.zeros_like(d.force)) for d in data]
         source = setup.plant_name
-    problems = {d.name: check_excitation(d, setup.motor.pole_pitch) for d in data}
+        sample_time = setup.motor.sample_time
+    if sensorless:
+        # the drive's motor with the mass and the data's sample time (the acceleration scales with its square)
+        setup = dataclasses.replace(setup, motor=dataclasses.replace(setup.motor, mass=mass, sample_time=sample_time))
+        # first: logs too short or slow, without acceleration or saturated get their own one-line message
+        from pgcomm.sensorless import sensorless_data
+
+        ic = setup.config.identification
+        with progress.stage("filtered acceleration windows per coil set"):
+            sl = [sensorless_data(d, sample_time, setup.motor.pole_pitch, mass,
+                                  current_limit=setup.motor.current_limit, friction_velocity=ic.direction_velocity)
+                  for d in data]
+            progress.info(", ".join(f"{d.name.split(' (')[0]}: {d.n} windows of {d.filt.length} samples" for d in sl))
+    problems = {d.name: check_excitation(d, setup.motor.pole_pitch) for d in data}  # positions and currents only
     bad = {k: v for k, v in problems.items() if v}
     if bad:
         msg = "; ".join(f"{k}: {', '.join(v)}" for k, v in bad.items())
         if not args.force:
             raise ExcitationError(f"data do not persistently excite the model ({msg}); use --force to identify anyway")
         progress.info(f"warning: {msg}")
-    with progress.stage("identification (Algorithm 2) per coil set"):
-        t_id = time.perf_counter()
-        # the check above already ran (and, with --force, only warned)
-        pgnn, _, res = experiment.identify_models(setup, data, args.seed, progress, check_data=False)
-        t_id = time.perf_counter() - t_id
+    mechanics = feedforward = None
+    if sensorless:
+        with progress.stage("identification without a force sensor (y row and friction) per coil set"):
+            t_id = time.perf_counter()
+            # x/z rows: the classical model with the motor's nominal (calibrated) k, zeta
+            pgnn, res = experiment.identify_sensorless_models(setup, data, setup.motor.k, setup.motor.zeta, args.seed,
+                                                              progress, check_data=False)
+            t_id = time.perf_counter() - t_id
+        mechanics, feedforward = combined_mechanics(res)
+        fy_abs_max = max(float(np.max(np.abs(np.asarray(r.model.force(jnp.asarray(d.y),
+                                                                      jnp.asarray(d.currents)))[:, 0])))
+                         for r, d in zip(res, data))
+    else:
+        with progress.stage("identification (Algorithm 2) per coil set"):
+            t_id = time.perf_counter()
+            # the check above already ran (and, with --force, only warned)
+            pgnn, _, res = experiment.identify_models(setup, data, args.seed, progress, check_data=False)
+            t_id = time.perf_counter() - t_id
+        fy_abs_max = max(float(np.max(np.abs(d.force[:, 0]))) for d in data)
     results = {"command": "identify", "plant": setup.plant_name, "data": source, "version": __version__,
-               "seed": args.seed, "identification": experiment.identification_results(res, t_id)}
-    save_model(out / "model", pgnn, {"seed": args.seed, "plant": setup.plant_name, "data": source,
-                                     "fy_abs_max": max(float(np.max(np.abs(d.force[:, 0]))) for d in data),
-                                     "identification": results["identification"]})
+               "seed": args.seed, "force_sensor": not sensorless,
+               "identification": experiment.identification_results(res, t_id)}
+    metadata = {"seed": args.seed, "plant": setup.plant_name, "data": source, "fy_abs_max": fy_abs_max,
+                "force_sensor": not sensorless}
+    if sensorless:
+        results["mechanics"] = metadata["mechanics"] = mechanics
+        results["feedforward"] = metadata["feedforward"] = feedforward
+    metadata["identification"] = results["identification"]
+    save_model(out / "model", pgnn, metadata, identification="force_sensor" if not sensorless else "no_force_sensor")
     y = np.linspace(*pgnn.training_range, 2001)
-    known = source != "logs" or args.plant is None
+    known = setup.plant is not None and (source != "logs" or args.plant is None)
     truth_cog = np.asarray(setup.plant.cogging(jnp.asarray(y))) if known else None
     plots.save(plots.plot_cogging(y, np.asarray(pgnn.cogging(jnp.asarray(y))), truth_cog), out / "cogging.png")
     gm = np.asarray(pgnn.gain(jnp.asarray(y)))
@@ -74,8 +140,86 @@ def run(args, out: Path, progress) -> None:
     results["runtime_s"] = time.perf_counter() - t0
     write_results(out / "results.json", results)
     if not args.quiet:
+        if sensorless:
+            print("without a force sensor: costs of the y row on filtered windows, (m ÿ - F^y - friction)^2 [N^2]")
         print(f"{'coil set':24s} {'V physics':>10s} {'V PGNN':>10s} {'V phys val':>10s} {'V PGNN val':>10s} {'s':>6s}")
         for r in res:
             print(f"{r.name[:24]:24s} {r.cost_physics:10.4g} {r.cost_pgnn:10.4g} {r.cost_physics_validation:10.4g} "
                   f"{r.cost_pgnn_validation:10.4g} {r.seconds:6.1f}")
+        if sensorless:
+            print(format_feedforward(feedforward))
         print(f"wrote {args.out}/model.json, model.npz, results.json, cogging.png, gain_coilset*.png")
+
+
+def _setup(args):
+    """The set-up; logs with ``--motor`` but no ``--plant`` are a rig's: its motor description, no plant."""
+    if args.data and args.motor is not None and args.plant is None:
+        from pgcomm.experiment import ExperimentConfig, Setup, load_experiment
+        from pgcomm.io.config import load_motor
+
+        motor = load_motor(args.motor)
+        config = load_experiment(args.config) if args.config else ExperimentConfig()
+        return Setup(plant=None, motor=motor, config=config, true_k=None, true_zeta=None, plant_name=str(args.motor))
+    return setup_from_args(args)
+
+
+def _mass(args, setup) -> float:
+    """The moving mass (kg) for identification without a force sensor: the motor TOML's ``mass``
+    (on the built-in twin its mechanics mass)."""
+    mass = setup.motor.mass
+    if mass is None:
+        where = f"--motor {args.motor}" if args.motor is not None else "the motor description"
+        raise ConfigError(f"{where}: key 'mass' missing: identification without a force sensor needs the moving "
+                          "mass of the translator (kg); add e.g. mass = 30.0 at the top of the motor TOML")
+    return float(mass)
+
+
+def _common_sample_time(logs) -> float:
+    """The one sample time (s) of all logs (the acceleration scales with its square)."""
+    ts = logs[0].sample_time
+    for lg in logs[1:]:
+        if abs(lg.sample_time - ts) > 1e-6 * ts:
+            raise DataError(f"{lg.source}: sample time {lg.sample_time:g} s differs from {ts:g} s of {logs[0].source}; "
+                            "identification without a force sensor needs one sample time")
+    return float(ts)
+
+
+def combined_mechanics(res) -> tuple[dict, dict]:
+    """The translator's mechanics from every coil set's identification, and the feedforward's parameters.
+
+    Every coil set's experiments move the same translator, so its friction is estimated once per
+    coil set; the combination is their mean weighted by the number of filtered windows: viscous
+    ``f_v``, the Coulomb table ``F_c(y)`` (each coil set's piecewise-linear table on common knots
+    over the union of their spans, held constant beyond a table's own span) and its stroke mean
+    ``f_c``. The mass is the given one.
+
+    Returns:
+        ``(mechanics, feedforward)``: ``{"mass", "coulomb", "viscous", "friction_velocity",
+        "coulomb_knots", "coulomb_table", "coil_sets": [per coil set]}`` and ``{"mass" (kg),
+        "viscous" (N s/m), "coulomb" (N)}`` (the fields of :class:`pgcomm.control.Feedforward`).
+    """
+    import numpy as np
+
+    mech = [r.mechanics for r in res]
+    w = np.array([m["windows"] for m in mech], float)
+    coulomb = float(np.average([m["coulomb"] for m in mech], weights=w))
+    viscous = float(np.average([m["viscous"] for m in mech], weights=w))
+    mass = float(mech[0]["mass"])
+    mechanics = {"mass": mass, "coulomb": coulomb, "viscous": viscous,
+                 "friction_velocity": float(mech[0]["friction_velocity"])}
+    if all("coulomb_table" in m and "coulomb_knots" in m for m in mech):
+        lo = min(m["coulomb_knots"][0] for m in mech)
+        hi = max(m["coulomb_knots"][-1] for m in mech)
+        n = max(len(m["coulomb_knots"]) for m in mech)
+        knots = np.linspace(lo, hi, n)
+        table = np.average([np.interp(knots, m["coulomb_knots"], m["coulomb_table"]) for m in mech], axis=0,
+                           weights=w)
+        mechanics.update(coulomb_knots=[float(x) for x in knots], coulomb_table=[float(x) for x in table])
+    mechanics["coil_sets"] = [dict(m, name=r.name) for m, r in zip(mech, res)]
+    return mechanics, {"mass": mass, "viscous": viscous, "coulomb": coulomb}
+
+
+def format_feedforward(ff: dict) -> str:
+    """One line: the identified mechanics as the feedforward's parameters."""
+    return (f"feedforward: m = {ff['mass']:.4g} kg, f_v = {ff['viscous']:.4g} N s/m, f_c = {ff['coulomb']:.4g} N "
+            "(identified with the y row; offered as the feedforward's parameters)")

@@ -146,6 +146,10 @@ def format_summary(info: dict) -> str:
     for k, v in info["metadata"].items():
         if isinstance(v, (str, int, float, bool)) or v is None:
             lines.append(f"  {k + ':':15s} {v}")
+    ff = info["metadata"].get("feedforward")
+    if isinstance(ff, dict) and all(isinstance(ff.get(k), (int, float)) for k in ("mass", "viscous", "coulomb")):
+        lines.append(f"  feedforward:    m = {ff['mass']:.4g} kg, f_v = {ff['viscous']:.4g} N s/m, "
+                     f"f_c = {ff['coulomb']:.4g} N (mechanics identified without a force sensor)")
     return "\n".join(lines)
 
 

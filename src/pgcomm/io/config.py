@@ -5,6 +5,8 @@ Motor config (DESIGN, "Formats")::
     pole_pitch = 0.03         # d_m (m)
     sample_time = 0.001       # controller sample time (s)
     current_limit = 10.0      # optional, peak phase current (A); absent = no limit
+    mass = 30.0               # optional, moving mass of the translator (kg); needed by
+                              # identification without a force sensor (identify --no-force-sensor)
 
     [nominal]
     k = [67.0, 67.0, 67.0]    # k̂ (N/A): one number for all coil sets or one per coil set
@@ -373,6 +375,7 @@ PLAUSIBLE = {
     "k": (0.01, 1e4, "N/A"),
     "zeta": (-2.0 * math.pi, 2.0 * math.pi, "rad"),
     "mu": (-10.0, 10.0, "-"),
+    "mass": (1e-3, 1e4, "kg"),
 }
 
 _UNIT_HINTS = {
@@ -381,6 +384,7 @@ _UNIT_HINTS = {
     "s": [(1e-3, "ms"), (1e-6, "µs")],
     "rad": [(math.pi / 180.0, "degrees")],
     "A": [(1e-3, "mA")],
+    "kg": [(1e-3, "g")],
 }
 
 
@@ -439,7 +443,9 @@ def load_motor(path) -> Motor:
         path: TOML file.
 
     Returns:
-        :class:`pgcomm.motor.Motor` with ``L`` = number of ``[[coil_set]]`` tables.
+        :class:`pgcomm.motor.Motor` with ``L`` = number of ``[[coil_set]]`` tables; ``mass``
+        (kg) is ``None`` when the file has no top-level ``mass`` (only identification without a
+        force sensor needs it; a value in g is refused with a hint).
 
     Raises:
         ConfigError: syntax error, unknown or missing key, wrong type, an
@@ -448,11 +454,12 @@ def load_motor(path) -> Motor:
     """
     file = str(path)
     doc = load_toml(path)
-    top = ("pole_pitch", "sample_time", "current_limit", "nominal", "coil_set")
+    top = ("pole_pitch", "sample_time", "current_limit", "mass", "nominal", "coil_set")
     _check_keys(doc, top, _Where(file))
     pole_pitch = _number(doc, "pole_pitch", file)
     sample_time = _number(doc, "sample_time", file)
     current_limit = _number(doc, "current_limit", file, required=False)
+    mass = _number(doc, "mass", file, required=False)
 
     coil_sets = doc.get("coil_set")
     if coil_sets is None:
@@ -486,6 +493,7 @@ def load_motor(path) -> Motor:
         zeta=zeta,
         sample_time=sample_time,
         current_limit=current_limit,
+        mass=mass,
         **kwargs,
     )
 
@@ -513,6 +521,8 @@ def motor_to_toml(motor: Motor) -> str:
     ]
     if motor.current_limit is not None:
         lines.append(f"current_limit = {_toml_float(motor.current_limit)}  # peak phase current of the drive (A)")
+    if motor.mass is not None:
+        lines.append(f"mass = {_toml_float(motor.mass)}  # moving mass of the translator (kg)")
     lines += [
         "",
         "[nominal]",

@@ -3,7 +3,10 @@
 Log format (DESIGN, "Formats"): one row per controller sample, columns
 
 * ``t`` (s), uniformly sampled; may be absent if the sample time is given;
-* ``y`` (m), ``Fy``, ``Fx`` (N), ``Tz`` (N·m): position and measured force;
+* ``y`` (m): position;
+* ``Fy``, ``Fx`` (N), ``Tz`` (N·m): measured force, all three or none: a log without them
+  is a log of a rig without a force sensor (:attr:`Log.has_force`; identification then uses
+  the motion, ``pgcomm identify --no-force-sensor``); a log with only some of them is refused;
 * per coil set ``l = 1..L`` either the star currents ``ia_{l}``, ``ib_{l}`` (A)
   or the drive inputs ``Fy_ref_{l}`` (N), ``delta_{l}`` (rad), or both;
 * optional ``r`` (m, reference), ``Fy_star``, ``Fx_star``, ``Tz_star`` (N, N,
@@ -81,12 +84,16 @@ __all__ = [
     "is_log_column",
     "UNITS",
     "REQUIRED",
+    "FORCE_COLUMNS",
     "KNOWN_COLUMNS",
     "TIME_TOLERANCE",
 ]
 
 #: Columns a log must have (``t`` may be replaced by a given sample time).
-REQUIRED = ("y", "Fy", "Fx", "Tz")
+REQUIRED = ("y",)
+
+#: The measured force: a log has all of them (force sensor) or none (no force sensor).
+FORCE_COLUMNS = ("Fy", "Fx", "Tz")
 
 #: Log-format column names that are not per coil set.
 KNOWN_COLUMNS = ("t", "y", "Fy", "Fx", "Tz", "r", "Fy_star", "Fx_star", "Tz_star", "experiment", "active_coil_set")
@@ -339,8 +346,21 @@ class Log:
         """Drive inputs ``(Fy_ref (N, L) in N, delta (N, L) in rad)``, or ``None`` if a coil set has none."""
         return self._stack("Fy_ref", "delta")
 
+    @property
+    def has_force(self) -> bool:
+        """Whether the log holds the measured force ``Fy, Fx, Tz`` (False: a rig without a force sensor)."""
+        return all(c in self.columns for c in FORCE_COLUMNS)
+
     def force(self) -> np.ndarray:
-        """Measured force ``(N, 3)`` = ``[Fy, Fx, Tz]`` (N, N, N·m)."""
+        """Measured force ``(N, 3)`` = ``[Fy, Fx, Tz]`` (N, N, N·m).
+
+        Raises:
+            DataError: the log has no force columns (no force sensor); check :attr:`has_force` first.
+        """
+        if not self.has_force:
+            missing = ", ".join(c for c in FORCE_COLUMNS if c not in self.columns)
+            raise DataError(f"{self.source}: no measured force (column(s) {missing} missing): a log without a "
+                            "force sensor; this needs the force Fy, Fx, Tz")
         return np.stack([self.columns["Fy"], self.columns["Fx"], self.columns["Tz"]], axis=-1)
 
     def desired_force(self) -> np.ndarray | None:
@@ -526,6 +546,15 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
             raise DataError(
                 f"{src}: {kind} '{name}' missing; found {list_names(found) or 'nothing'}{closest_hint(name, unused)}"
             )
+
+    # The force: all of Fy, Fx, Tz (force sensor) or none (no force sensor), never some.
+    missing_force = [c for c in FORCE_COLUMNS if c not in cols]
+    if 0 < len(missing_force) < len(FORCE_COLUMNS):
+        names = ", ".join(f"'{c}'" for c in missing_force)
+        raise DataError(
+            f"{src}: {kind}{'s' if len(missing_force) > 1 else ''} {names} missing (a log has all of the force columns Fy, Fx, Tz, or none of them "
+            f"without a force sensor); found {list_names(found) or 'nothing'}{closest_hint(missing_force[0], unused)}"
+        )
 
     # Coil sets 1..L, each with both currents or both drive inputs.
     coil = {}
