@@ -423,19 +423,16 @@ def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first
 
 
 def sensorless_mass(setup: Setup) -> float:
-    """The moving mass (kg) identification without a force sensor is given: the motor's ``mass``,
-    defaulted only on the built-in twin (its mechanics' mass).
+    """The moving mass (kg) identification without a force sensor is given: the motor's ``mass``
+    (motor TOML key ``mass``; :func:`build_setup` sets it to the mechanics' mass on the built-in twin).
 
     Raises:
-        ConfigError: no mass in the motor description of a force-map plant.
+        ConfigError: a motor description without a mass.
     """
-    mass = getattr(setup.motor, "mass", None)
-    if mass is not None:
-        return float(mass)
-    if setup.plant_name == "twin":
-        return float(setup.config.mechanics.mass)
-    raise ConfigError("identification without a force sensor needs the moving mass: set mass (kg) in the motor "
-                      "TOML")
+    if setup.motor.mass is None:
+        raise ConfigError("identification without a force sensor needs the moving mass: set mass (kg) in the motor "
+                          "TOML")
+    return float(setup.motor.mass)
 
 
 def tune_feedforward(setup: Setup, laws: list, reference, seed: int = 0) -> list[Feedforward]:
