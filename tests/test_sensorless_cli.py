@@ -166,3 +166,17 @@ def test_evaluate_reconstructs_the_force(logs, identified, capsys, tmp_path):
     assert rec["model_mse"]["y"]["filtered"] < 0.05 * y_rec
     assert (tmp_path / "e" / "evaluation.png").stat().st_size > 10_000
     assert (tmp_path / "e" / "model_error.png").stat().st_size > 10_000
+
+
+def test_calibrate_without_force_sensor(tmp_path, capsys):
+    """Algorithm 1 from the motion on the default twin: the issue-8 calibration bar (0.5 %, 5 mrad) holds
+    without force data too; results.json says how it was calibrated."""
+    out = tmp_path / "out"
+    code, _, err = run(["calibrate", "--out", str(out), "--quiet", "--no-force-sensor"], capsys)
+    assert code == 0, err
+    res = json.loads((out / "results.json").read_text())
+    cal = res["calibration"]
+    assert res["force_sensor"] is False and cal["method"] == "sensorless" and cal["mass"] == 30.0
+    k_true, z_true = np.asarray(cal["true"]["k"]), np.asarray(cal["true"]["zeta"])
+    assert np.all(np.abs(np.asarray(cal["calibrated"]["k"]) / k_true - 1) < 0.005)
+    assert np.all(np.abs(np.asarray(cal["calibrated"]["zeta"]) - z_true) < 0.005)

@@ -14,6 +14,8 @@ def configure(p) -> None:
     """Options of ``pgcomm calibrate``."""
     add_common_options(p)
     p.add_argument("--save-data", action="store_true", help="also write the data sets Z_i^l as logs (CSV)")
+    p.add_argument("--no-force-sensor", action="store_true",
+                   help="calibrate from the motion (m d2y/dt2 with the motor's mass), no force data")
 
 
 def run(args, out: Path, progress) -> None:
@@ -28,9 +30,13 @@ def run(args, out: Path, progress) -> None:
     cc = setup.config.calibration
     with progress.stage(f"Algorithm 1 on {setup.plant_name}: {setup.motor.n_coil_sets} coil sets x 2 data sets, "
                         f"{len(reference.r)} samples each, up to {cc.iterations} pass(es)"):
-        cal, data = experiment.run_calibration(setup, reference, seed=args.seed, progress=progress)
-    results = {"command": "calibrate", "plant": setup.plant_name,
-               "calibration": experiment.calibration_results(setup, cal), "runtime_s": time.perf_counter() - t0}
+        cal, data = experiment.run_calibration(setup, reference, seed=args.seed, progress=progress,
+                                               sensorless=args.no_force_sensor)
+    calibration = experiment.calibration_results(setup, cal)
+    if args.no_force_sensor:
+        calibration.update(method="sensorless", mass=experiment.sensorless_mass(setup))
+    results = {"command": "calibrate", "plant": setup.plant_name, "calibration": calibration,
+               "force_sensor": not args.no_force_sensor, "runtime_s": time.perf_counter() - t0}
     plots.save(plots.plot_calibration(cal.k_initial, cal.zeta_initial, cal.k, cal.zeta, setup.true_k,
                                       setup.true_zeta), out / "calibration.png")
     if args.save_data:
