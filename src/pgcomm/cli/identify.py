@@ -131,7 +131,10 @@ def run(args, out: Path, progress) -> None:
     y = np.linspace(*pgnn.training_range, 2001)
     known = setup.plant is not None and (source != "logs" or args.plant is None)
     truth_cog = np.asarray(setup.plant.cogging(jnp.asarray(y))) if known else None
-    plots.save(plots.plot_cogging(y, np.asarray(pgnn.cogging(jnp.asarray(y))), truth_cog), out / "cogging.png")
+    title = ("identified cogging force (x, z: not observable without a force sensor)" if sensorless
+             else "identified cogging force")
+    plots.save(plots.plot_cogging(y, np.asarray(pgnn.cogging(jnp.asarray(y))), truth_cog, title=title),
+               out / "cogging.png")
     gm = np.asarray(pgnn.gain(jnp.asarray(y)))
     gt = np.asarray(setup.plant.gain(jnp.asarray(y))) if known else None
     for l in range(pgnn.n_coil_sets):
