@@ -106,8 +106,6 @@ def bench_c(cc, n, reps) -> None:
 def bench_sensorless(full: bool) -> None:
     from pgcomm import reproduce
     from pgcomm.experiment import ExperimentConfig, build_setup
-    from pgcomm.metrics import lowpass
-
     cfg = ExperimentConfig() if full else reproduce.quick_config(ExperimentConfig())
     setup = build_setup(cfg)
     t0 = time.perf_counter()
@@ -115,18 +113,13 @@ def bench_sensorless(full: bool) -> None:
     wall = time.perf_counter() - t0
     d = res.to_dict()
     cm = d["commutation_mse"]
-    lp = cfg.evaluation.lowpass_hz
     print(f"\nwithout a force sensor, default twin ({'full' if full else 'quick'} settings, reproduce {wall:.0f} s)")
     print(f"  {'row':26s} {'y MSE [N^2]':>12s} {'y MSE without the direction force':>34s}")
+    rest = d["sensorless"]["y_mse_without_direction_force"]
     for row in ("classical", "pgnn", "pgnn_sensorless", "cogging_table", "cogging_table_sensorless", "oracle"):
-        r = res.runs["long"][row]
-        v = np.gradient(r.y, r.sample_time)
-        e = r.f_true[:, :1] - r.f_star[:, :1] - np.asarray(setup.plant.direction_force(jnp.asarray(r.y),
-                                                                                       jnp.asarray(v)))[:, :1]
-        rest = float(np.mean(lowpass(e, r.sample_time, lp) ** 2))
         # only for rows that leave the direction force alone (the others compensate some or all of it)
-        rest_s = f"{rest:34.4g}" if row in ("classical", "pgnn_sensorless", "cogging_table",
-                                              "cogging_table_sensorless") else f"{'-':>34s}"
+        rest_s = f"{rest[row]:34.4g}" if row in ("classical", "pgnn_sensorless", "cogging_table",
+                                                 "cogging_table_sensorless") else f"{'-':>34s}"
         print(f"  {row:26s} {cm[row]['y']['filtered']:12.4g} {rest_s}")
     sl = d["sensorless"]
     print(f"  sensorless / force-sensor improvement (classical -> row): {sl['share_of_pgnn_reduction_y']:.3f} "

@@ -79,7 +79,8 @@ def run_motor(folder: str, seed: int, quick: bool, twin_type: bool = False) -> d
                                                             "stop_reason", "iterations")}
                                          for c in res["identification"]["coil_sets"]]},
         "model_error": res["model_error"],
-        "sensorless": {k: res["sensorless"][k] for k in ("share_of_pgnn_reduction_y", "model_error")}
+        "sensorless": {k: res["sensorless"][k] for k in ("share_of_pgnn_reduction_y", "model_error",
+                                                          "y_mse_without_direction_force")}
         if "sensorless" in res else None,
         "seconds": time.perf_counter() - t0,
     }
@@ -133,6 +134,14 @@ def summarise(motors: list[dict]) -> dict:
                              "target": 0.8, "missed_by": [n for n, v in ratio if v is not None and v < 0.8],
                              "beats_cogging_table_sensorless_on": sum(b for _, b in beats),
                              "does_not_beat_on": [n for n, b in beats if not b]}
+        # the same comparisons with the plant's direction force taken out of the error (no sensorless
+        # row can compensate it: it is Coulomb friction as far as the motion tells)
+        wo = [(m["motor"], m["sensorless"]["y_mse_without_direction_force"]) for m in sl]
+        out["sensorless"]["without_direction_force"] = {
+            "beats_cogging_table_sensorless_on": sum(w["pgnn_sensorless"] <= w["cogging_table_sensorless"] for _, w in wo),
+            "does_not_beat_on": [n for n, w in wo if w["pgnn_sensorless"] > w["cogging_table_sensorless"]],
+            "pgnn_sensorless_over_classical_median": float(np.median([w["pgnn_sensorless"] / w["classical"]
+                                                                      for _, w in wo]))}
     return out
 
 

@@ -68,3 +68,23 @@ def test_report_matches_results(quick):
         assert re.search(rf"<th>{row}</th>.*?{re.escape(cell)}", html), (row, cell)
     assert f"{res['tracking_mse']['pgnn']:.3g}" in html
     assert (out / "model.json").exists() and (out / "model.npz").exists()
+
+
+def test_sensorless_rows(quick):
+    """Issue 10 part 3 on the twin: calibration without force within the issue-8 bars; pgnn_sensorless removes
+    >= 80 % of what the force-sensor PGNN removes in y; with the plant's direction-dependent force (which no
+    sensorless law can tell from friction) taken out, it beats the drives' sensorless anti-cogging table."""
+    res, _ = quick
+    sl = res["sensorless"]
+    err = sl["calibration"]["error"]
+    assert np.all(np.abs(err["k_relative"]) < 0.005) and np.all(np.abs(err["zeta_rad"]) < 0.005)
+    assert sl["share_of_pgnn_reduction_y"] >= 0.8
+    wo = sl["y_mse_without_direction_force"]
+    assert wo["pgnn_sensorless"] < wo["cogging_table_sensorless"]
+    assert wo["pgnn_sensorless"] < 0.01 * wo["classical"]
+    for c in sl["coil_sets"]:
+        assert c["force_sensor"] is False
+        me = c["mechanics"]  # the twin's translator: 12 N Coulomb minus its 3 N direction force, 80 N s/m
+        assert me["viscous"] == pytest.approx(80.0, rel=0.05)
+        assert 0 < me["coulomb"] < 12.0
+    assert sl["cogging_table"]["samples"]["positive"] > 0
