@@ -16,7 +16,7 @@ from pgcomm.identify.layout import _Layout, _physics_columns
 from pgcomm.models import CoilSetModel
 from pgcomm.sensorless import (AccelerationFilter, filter_windows, filtered_acceleration, sensorless_data,
                                window_starts, with_classical_rows)
-from test_identify import D_M, _fd_normal_equations, synthetic_coil_set
+from test_identify import D_M, assert_normal_equations_match_fd, synthetic_coil_set
 
 TS = 1e-3
 
@@ -110,13 +110,7 @@ def test_proposition1_matches_lstsq_on_the_filtered_regressor(sdata):
 @pytest.mark.parametrize("gain,cog,method", [((2,), (3,), "structured"), ((2, 2), (3,), "generic")])
 def test_projected_jacobian_matches_finite_differences(sdata, gain, cog, method):
     sub = sdata.take(slice(None, None, 4))
-    model = _model(sub, seed=3, gain=gain, cog=cog)
-    star = idf.theta_phy(*idf.fit_physics(sub, D_M))
-    f, jtj, jtr, _ = idf.projected_normal_equations(model, sub, theta_phy_star=star, method=method)
-    f_fd, jtj_fd, jtr_fd = _fd_normal_equations(model, sub, star)
-    assert f == pytest.approx(f_fd, rel=1e-10)
-    np.testing.assert_allclose(jtj, jtj_fd, rtol=0, atol=1e-5 * np.abs(jtj_fd).max())
-    np.testing.assert_allclose(jtr, jtr_fd, rtol=0, atol=1e-5 * np.abs(jtr_fd).max())
+    assert_normal_equations_match_fd(_model(sub, seed=3, gain=gain, cog=cog), sub, method)
 
 
 def test_direction_term_is_refused_without_force_sensor(sdata):

@@ -47,6 +47,7 @@ import numpy as np
 import scipy.linalg
 
 from pgcomm.errors import DataError
+from pgcomm.interp import hat_basis
 
 
 @dataclass(frozen=True)
@@ -132,7 +133,7 @@ def _offset_design(y, v, fs, first, lo, hi, pole_pitch, n_bins, gain_bins):
     # Position-resolved gain c_i(y) on a coarse grid (the field varies along the stroke; its
     # mean is the fundamental) and current-proportional ripple at the 2nd (winding imbalance)
     # and 6th (5th/7th field harmonics) electrical harmonics, separately per data set.
-    gain = _hat_basis(y, lo, hi, gain_bins)
+    gain = hat_basis(y, lo, hi, gain_bins)
     cols = [gain]
     if pole_pitch:
         w = 4 * np.pi / pole_pitch
@@ -140,7 +141,7 @@ def _offset_design(y, v, fs, first, lo, hi, pole_pitch, n_bins, gain_bins):
     per_set = np.hstack(cols) * fs[:, None]
     # Shared nuisance: one offset table per direction of motion (cogging, direction-dependent
     # force, and the ripple of the friction force the loop demands).
-    hats = _hat_basis(y, lo, hi, n_bins)
+    hats = hat_basis(y, lo, hi, n_bins)
     nuisance = np.hstack([hats * (v > 0)[:, None], hats * (v < 0)[:, None]])
     return np.hstack([per_set * first[:, None], per_set * ~first[:, None], nuisance]), per_set.shape[1]
 
@@ -326,17 +327,3 @@ def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1
             break
     return CalibrationResult(k=k, zeta=zeta, k_initial=np.asarray(k0, float), zeta_initial=np.asarray(zeta0, float),
                              iterations=it, history=history)
-
-
-def _hat_basis(y, lo: float, hi: float, n_bins: int):
-    """Piecewise-linear ("hat") basis on ``n_bins + 1`` uniform knots over ``[lo, hi]``: ``(N, n_bins + 1)``."""
-    knots = np.linspace(lo, hi, n_bins + 1)
-    h = knots[1] - knots[0] if n_bins > 0 else 1.0
-    u = np.clip((y - lo) / h, 0, n_bins)
-    j = np.minimum(np.floor(u).astype(int), n_bins - 1)
-    w = u - j
-    b = np.zeros((y.shape[0], n_bins + 1))
-    rows = np.arange(y.shape[0])
-    b[rows, j] = 1 - w
-    b[rows, j + 1] += w
-    return b

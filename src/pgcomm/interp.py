@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-__all__ = ["interp_linear"]
+import numpy as np
+
+__all__ = ["interp_linear", "hat_basis"]
 
 
 def interp_linear(grid, table, y, uniform: bool = True):
@@ -44,3 +46,21 @@ def interp_linear(grid, table, y, uniform: bool = True):
     w = jnp.clip((y - g0) / (g[i + 1] - g0), 0.0, 1.0)
     w = w.reshape(w.shape + (1,) * (table.ndim - 1))
     return (1.0 - w) * table[i] + w * table[i + 1]
+
+
+def hat_basis(y, lo: float, hi: float, n_bins: int):
+    """Piecewise-linear ("hat") basis on ``n_bins + 1`` uniform knots over ``[lo, hi]``: ``(N, n_bins + 1)``.
+
+    Row ``t`` holds the weights with which :func:`interp_linear` on those knots reads position ``y[t]``
+    (m; clamped to the ends), so a least-squares fit in this basis is a table the interpolator reads.
+    """
+    knots = np.linspace(lo, hi, n_bins + 1)
+    h = knots[1] - knots[0] if n_bins > 0 else 1.0
+    u = np.clip((y - lo) / h, 0, n_bins)
+    j = np.minimum(np.floor(u).astype(int), n_bins - 1)
+    w = u - j
+    b = np.zeros((y.shape[0], n_bins + 1))
+    rows = np.arange(y.shape[0])
+    b[rows, j] = 1 - w
+    b[rows, j + 1] += w
+    return b

@@ -54,6 +54,7 @@ import numpy as np
 
 from pgcomm.data import CoilSetData, split_indices
 from pgcomm.errors import DataError
+from pgcomm.interp import hat_basis
 
 #: Window length in pole pitches travelled at the fast speed ``v_95`` (see the module docstring).
 WINDOW_POLE_SHARE = 0.1
@@ -242,10 +243,8 @@ class SensorlessData:
 
     def friction_columns(self) -> np.ndarray:
         """``(N, B + 2)`` raw friction regressors ``[tanh(ẏ/v_ε) φ_0(y) … φ_B(y), ẏ]`` (-, m/s)."""
-        from pgcomm.calibration import _hat_basis
-
         v, k = self.raw.velocity, self.friction_knots
-        hats = _hat_basis(self.raw.y, float(k[0]), float(k[-1]), k.shape[0] - 1)
+        hats = hat_basis(self.raw.y, float(k[0]), float(k[-1]), k.shape[0] - 1)
         return np.column_stack([hats * np.tanh(v / self.friction_velocity)[:, None], v])
 
     def filtered_friction(self) -> np.ndarray:
@@ -354,14 +353,23 @@ def with_classical_rows(model, k: float, zeta: float, mu: float, lever_arm: floa
     with the calibrated ``k`` (N/A), ``ζ`` (rad), nominal ``μ`` (-) and lever arm (m)
     (:func:`pgcomm.models.physics_from_ideal`): no network, cogging, harmonic or direction part.
     """
-    from pgcomm.identify.layout import theta_L_of, with_theta_L
     from pgcomm.models import physics_from_ideal
 
     a, b = physics_from_ideal(model.pole_pitch, k, zeta, mu, lever_arm)
-    th = np.array(theta_L_of(model))
-    th[:, 1:] = 0.0
-    th[0, 1:], th[1, 1:], th[2, 1:], th[3, 1:] = a[1:, 0], a[1:, 1], b[1:, 0], b[1:, 1]
-    return with_theta_L(model, th)
+
+    def y_row_only(w, axis=-1):  # output columns / rows are the directions [Fy, Fx, Tz]
+        w = np.array(w, float)
+        w[(slice(None),) * (w.ndim + axis if axis < 0 else axis) + (slice(1, None),)] = 0.0
+        return w
+
+    A, B = np.array(model.A, float), np.array(model.B, float)
+    A[1:], B[1:] = a[1:], b[1:]
+    gain = None if model.gain_nets is None else tuple((y_row_only(n.W_out), y_row_only(n.b_out))
+                                                      for n in model.gain_nets)
+    cog = None if model.cog_net is None else (y_row_only(model.cog_net.W_out), y_row_only(model.cog_net.b_out))
+    H = None if model.H is None else y_row_only(model.H, axis=1)
+    C = None if model.C is None else y_row_only(model.C)
+    return model.with_outputs(A, B, gain, cog, H, C)
 
 
 __all__ = ["AccelerationFilter", "SensorlessData", "sensorless_data", "window_starts", "filter_windows",

@@ -17,8 +17,8 @@ import numpy as np
 from jax import lax
 
 from pgcomm._pytree import pytree_dataclass
-from pgcomm.calibration import _hat_basis
 from pgcomm.data import CoilSetData
+from pgcomm.interp import hat_basis
 from pgcomm.identify.layout import (
     DEFAULT_LAMBDA,
     _Layout,
@@ -470,7 +470,7 @@ def fit_physics(data, pole_pitch: float) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = float(raw.y.min()), float(raw.y.max())
         bins = int(np.clip((hi - lo) / (pole_pitch / 4), 4, 200))
         x = np.column_stack([data.filtered(np.column_stack([c * ia, c * ib, s * ia, s * ib,
-                                                            _hat_basis(raw.y, lo, hi, bins)])),
+                                                            hat_basis(raw.y, lo, hi, bins)])),
                              data.filtered_friction()])
         coef = np.zeros((4, 3))
         coef[:, 0] = np.linalg.lstsq(x, data.target, rcond=None)[0][:4]
