@@ -72,3 +72,17 @@ def test_report_states_this_plants_facts(run):
         assert twin_only not in html, twin_only
     k0 = json.loads((out / "results.json").read_text())["calibration"]["initial"]["k"][0]
     assert re.search(rf"k̂ = {k0:.4g}", html)
+
+
+def test_sensorless_pgnn_holds_on_motors_we_did_not_design(run):
+    """Issue 10 part 3 on force maps (no direction-dependent force, so the motion tells everything the
+    y row needs): calibration from the motion within the same bars, and pgnn_sensorless removes >= 80 %
+    of what the force-sensor PGNN removes of the y error."""
+    res, _, folder = run
+    truth = json.loads((folder / "truth.json").read_text())
+    sl = res["sensorless"]
+    k = np.asarray(sl["calibration"]["calibrated"]["k"])
+    dz = np.angle(np.exp(1j * (np.asarray(sl["calibration"]["calibrated"]["zeta"]) - np.asarray(truth["zeta"]))))
+    assert np.abs(k / np.asarray(truth["k"]) - 1).max() <= 5e-3
+    assert np.abs(dz).max() <= 5e-3
+    assert sl["share_of_pgnn_reduction_y"] >= 0.8
