@@ -24,6 +24,11 @@ Measured 2026-11-22 on 2 cores: cold cache ~107 s; warm cache 17-19 s on an idle
 with other jobs running). What is left is JAX tracing/lowering (not cached), imports (~5 s)
 and matplotlib (~4 s). The full run: 166 s.
 
+Re-measured 2026-11-23 with the sensorless rows (issue 10 part 3: a sensorless calibration, three
+more identifications, the effort table and two more rows to evaluate): warm cache 28.9-31.5 s on an
+idle machine (the sensorless stage ~4 s of it), i.e. at the 30 s target, not under it; the full
+run 115 s warm, 189 s with an empty cache.
+
 Usage::
 
     python bench/bench_quick.py [--cold] [--full out/results.json]

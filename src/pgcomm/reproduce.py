@@ -13,7 +13,10 @@ Steps (each a stage of the progress display):
    harmonic_cogging (classical plus a drive-style force offset learned from the classical
    residual), oracle (the plant's exact inverse with its true state, direction force included);
    beyond the paper (issue 10): pgnn_direction (the PGNN with the direction term ``C^l s(ẏ)``,
-   fed the controller's velocity);
+   fed the controller's velocity); without a force sensor (the same data sets, force columns
+   unused): pgnn_sensorless (calibration and the PGNN's y rows from the motion,
+   :mod:`pgcomm.sensorless`; x, z rows classical) and cogging_table_sensorless (classical calibrated
+   from the motion plus an anti-cogging table from the controller's effort at slow constant speed);
 6. metrics: 50 Hz-filtered and unfiltered commutation-error MSE per direction, tracking-
    error MSE, and each row's share of the reducible error
    ``(classical - row) / (classical - oracle)``.
