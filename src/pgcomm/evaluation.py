@@ -102,11 +102,8 @@ def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedF
     y = log["y"]
     v = velocity_from_positions(y, ts)
     filt = sl.AccelerationFilter.for_motion(v, ts, pole_pitch)
-    speed = np.abs(v)
-    v95 = float(np.percentile(speed, 95))
     v_eps = float(mechanics["friction_velocity"])
-    v_min = max(sl.MIN_SPEED_VEPS * v_eps, sl.MIN_SPEED_SHARE * v95)
-    starts = sl.window_starts(filt, np.zeros(y.shape[0], int), speed > v_min)
+    starts, v_min = sl.moving_windows(filt, v, np.zeros(y.shape[0], int), v_eps)
     if starts.size == 0:
         raise DataError(f"{log.source}: no window of {filt.span} samples in which the translator moves faster than "
                         f"{1e3 * v_min:.3g} mm/s; the force cannot be reconstructed from the motion")

@@ -422,16 +422,17 @@ def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first
     return cal, last["data"]
 
 
-def sensorless_mass(setup: Setup) -> float:
+def sensorless_mass(setup: Setup, motor_path=None) -> float:
     """The moving mass (kg) identification without a force sensor is given: the motor's ``mass``
     (motor TOML key ``mass``; :func:`build_setup` sets it to the mechanics' mass on the built-in twin).
 
     Raises:
-        ConfigError: a motor description without a mass.
+        ConfigError: a motor description without a mass (naming ``motor_path`` when given).
     """
     if setup.motor.mass is None:
-        raise ConfigError("identification without a force sensor needs the moving mass: set mass (kg) in the motor "
-                          "TOML")
+        where = f"--motor {motor_path}" if motor_path is not None else "the motor description"
+        raise ConfigError(f"{where}: key 'mass' missing: identification without a force sensor needs the moving "
+                          "mass of the translator (kg); add e.g. mass = 30.0 at the top of the motor TOML")
     return float(setup.motor.mass)
 
 

@@ -166,6 +166,21 @@ def window_starts(filt: AccelerationFilter, segments, keep=None) -> np.ndarray:
     return starts[offset % filt.stride == 0]
 
 
+def moving_windows(filt: AccelerationFilter, velocity, segments, friction_velocity: float, keep=None):
+    """``(starts, v_min)``: the windows (:func:`window_starts`) in which the translator moves faster than
+    ``v_min = max(MIN_SPEED_VEPS · v_ε, MIN_SPEED_SHARE · v_95)`` (m/s) throughout (and ``keep`` holds).
+
+    Args:
+        velocity: ``(N,)`` m/s; segments: ``(N,)`` labels; friction_velocity: ``v_ε`` (m/s);
+        keep: ``(N,)`` bool or ``None``.
+    """
+    speed = np.abs(np.asarray(velocity, float))
+    v95 = float(np.percentile(speed, 95)) if speed.size else 0.0
+    v_min = max(MIN_SPEED_VEPS * friction_velocity, MIN_SPEED_SHARE * v95)
+    moving = speed > v_min
+    return window_starts(filt, segments, moving if keep is None else moving & keep), v_min
+
+
 def filter_windows(filt: AccelerationFilter, starts, columns) -> np.ndarray:
     """``Σ_m g'_m x[s_j + m]`` for columns ``x`` ``(N,)`` or ``(N, k)``: ``(J,)`` or ``(J, k)``."""
     x = np.asarray(columns, float)
@@ -316,11 +331,7 @@ def sensorless_data(data: CoilSetData, sample_time: float, pole_pitch: float, ma
     else:
         sat = np.zeros(data.n, bool)
     filt = filt or AccelerationFilter.for_motion(data.velocity, sample_time, pole_pitch)
-    speed = np.abs(data.velocity)
-    v95 = float(np.percentile(speed, 95)) if data.n else 0.0
-    v_min = max(MIN_SPEED_VEPS * friction_velocity, MIN_SPEED_SHARE * v95)
-    keep = (speed > v_min) & ~sat
-    starts = window_starts(filt, data.experiment, keep)
+    starts, v_min = moving_windows(filt, data.velocity, data.experiment, friction_velocity, ~sat)
     if starts.size == 0:
         raise DataError(f"{name}: no window of {filt.span} samples ({1e3 * filt.span * sample_time:.0f} ms) in "
                         f"which the translator moves faster than {1e3 * v_min:.3g} mm/s; the logs are too short "

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, add_data_options, read_data_logs, setup_from_args
-from pgcomm.errors import ConfigError, DataError
+from pgcomm.errors import DataError
 
 HELP = ("Algorithm 2: identify the PGNN (and the physics-only model) of every coil set; "
         "writes model.json/.npz, results.json and figures.")
@@ -64,7 +64,7 @@ def run(args, out: Path, progress) -> None:
             if not args.quiet:
                 print("pgcomm: the logs have no force columns (Fy, Fx, Tz): identifying without a force sensor "
                       "(y row from the motion, x/z rows classical)", file=sys.stderr)
-    mass = _mass(args, setup) if sensorless else None
+    mass = experiment.sensorless_mass(setup, args.motor) if sensorless else None
     if logs is not None:
         with progress.stage("group logs by coil set"):
             data = coil_set_data_from_logs(logs, setup.motor, force=not sensorless)
@@ -164,17 +164,6 @@ def _setup(args):
         config = load_experiment(args.config) if args.config else ExperimentConfig()
         return Setup(plant=None, motor=motor, config=config, true_k=None, true_zeta=None, plant_name=str(args.motor))
     return setup_from_args(args)
-
-
-def _mass(args, setup) -> float:
-    """The moving mass (kg) for identification without a force sensor: the motor TOML's ``mass``
-    (on the built-in twin its mechanics mass)."""
-    mass = setup.motor.mass
-    if mass is None:
-        where = f"--motor {args.motor}" if args.motor is not None else "the motor description"
-        raise ConfigError(f"{where}: key 'mass' missing: identification without a force sensor needs the moving "
-                          "mass of the translator (kg); add e.g. mass = 30.0 at the top of the motor TOML")
-    return float(mass)
 
 
 def _common_sample_time(logs) -> float:
