@@ -53,11 +53,26 @@ class PID:
 
 @dataclass(frozen=True)
 class Feedforward:
-    """Feedforward parameters: mass ``m`` (kg), viscous ``f_v`` (N·s/m), Coulomb ``f_c`` (N)."""
+    """Feedforward parameters: mass ``m`` (kg), viscous ``f_v`` (N·s/m), Coulomb ``f_c`` (N).
+
+    Optionally a Coulomb term that varies along the stroke, ``D(r)`` (N) at ``coulomb_knots``
+    (m, increasing; linearly interpolated, held at the ends), added to ``f_c``: the direction-
+    dependent force of guides and cable slab is not one constant
+    (:class:`pgcomm.identify.mechanics.MechanicsFit`).
+    """
 
     mass: float = 0.0
     viscous: float = 0.0
     coulomb: float = 0.0
+    coulomb_knots: tuple[float, ...] = ()
+    coulomb_table: tuple[float, ...] = ()
+
+    def coulomb_at(self, r):
+        """``f_c + D(r)`` (N) at reference positions ``r`` (m), shape of ``r``."""
+        r = np.asarray(r, float)
+        if not self.coulomb_knots:
+            return np.full(r.shape, float(self.coulomb))
+        return self.coulomb + np.interp(r, self.coulomb_knots, self.coulomb_table)
 
 
 def feedforward_regressor(v_ref, a_ref):
@@ -71,9 +86,19 @@ def feedforward_regressor(v_ref, a_ref):
     return 0.5 * (g + nxt)
 
 
-def feedforward_signal(ff: Feedforward, v_ref, a_ref):
-    """``u_ff[k]`` (N), shape ``(N,)``, of eq. FeedforwardController."""
-    return feedforward_regressor(v_ref, a_ref) @ np.array([ff.mass, ff.viscous, ff.coulomb])
+def feedforward_signal(ff: Feedforward, v_ref, a_ref, r=None):
+    """``u_ff[k]`` (N), shape ``(N,)``, of eq. FeedforwardController.
+
+    With a Coulomb table (``ff.coulomb_knots``) the Coulomb term is ``(f_c + D(r)) sign(v_r)``
+    at the reference positions ``r`` (m, required then).
+    """
+    if not ff.coulomb_knots:
+        return feedforward_regressor(v_ref, a_ref) @ np.array([ff.mass, ff.viscous, ff.coulomb])
+    if r is None:
+        raise ValueError("a feedforward with a Coulomb table needs the reference positions r")
+    g = (ff.mass * np.asarray(a_ref) + ff.viscous * np.asarray(v_ref)
+         + ff.coulomb_at(r) * np.sign(np.asarray(v_ref)))
+    return 0.5 * (g + np.concatenate([g[1:], g[-1:]]))
 
 
 def identify_feedforward(v_ref, a_ref, force_demand) -> Feedforward:

@@ -189,7 +189,7 @@ def simulate_many(plant, laws, reference, *, drive: Motor, pid: PID | None = Non
     n_max = max(lengths)
     r = np.stack([_pad(np.asarray(ref.r, float), n_max) for ref in refs])
     v_ref = np.stack([_pad(np.asarray(ref.v, float), n_max) for ref in refs])
-    u_ff = np.stack([_pad(feedforward_signal(ff, np.asarray(ref.v), np.asarray(ref.a)), n_max)
+    u_ff = np.stack([_pad(feedforward_signal(ff, np.asarray(ref.v), np.asarray(ref.a), np.asarray(ref.r)), n_max)
                      for ff, ref in zip(feedforwards, refs)])
     y0s = np.array([float(rr[0] if y0 is None else y0) for rr in r])
     kw = dict(pid=pid, mech=mechanics, sample_time=ts, resolution=float(sensors.encoder_resolution),
