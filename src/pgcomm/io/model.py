@@ -23,6 +23,27 @@ files (before the extensions) still load: they are the paper's model, identified
 force sensor. Floats in the JSON are written with Python's shortest round-trip ``repr``, so a
 loaded model gives bit-identical outputs.
 
+Spline models (:class:`pgcomm.spline_model.SplineModel`) are written with schema
+``"pgcomm-model/3"`` and ``"family": "spline"``::
+
+    {"schema": "pgcomm-model/3", "family": "spline", "kind": "SplineModel", "arrays": "NAME.npz",
+     "n_coil_sets": L, "pole_pitch": d_m, "training_range": {...} | null,
+     "direction": {"velocity": v_eps} | null,
+     "knots": {"gain": M_g, "cog": M_c, "dir": M_d, "coulomb": M_f | null},
+     "mechanics": {"mass": m, "viscous": f_v, "direction_velocity": v_eps} | null,
+     "identification": ..., "array_shapes": {...}, "package_version": ..., "created": ..., "metadata": {...}}
+
+with arrays ``gain_table`` ``(M_g, L, 2, 3, 2)`` (N/A), ``H`` ``(L, 4, 3, 2)`` (N/A),
+``cog_table`` ``(M_c, 3)`` (N, N, N·m), ``dir_table`` ``(M_d, 3)`` (only with a direction
+term), the uniform knot vectors ``gain_knots`` ``(M_g,)``, ``cog_knots`` ``(M_c,)``,
+``dir_knots`` ``(M_d,)`` (m) and, with mechanics, ``coulomb_knots`` ``(M_f,)`` (m) and
+``coulomb_table`` ``(M_f,)`` (N): the feedforward's Coulomb table ``D(r)``
+(:class:`pgcomm.identify.mechanics.MechanicsFit`). Knots must be strictly increasing and
+uniform (the exported C reads the tables by index arithmetic). :func:`load_model` puts the
+mechanics into the returned document as ``document["mechanics"]`` (plain dict: ``mass`` kg,
+``viscous`` N s/m, ``coulomb_knots`` m, ``coulomb_table`` N, ``direction_velocity`` m/s);
+:func:`feedforward_from_metadata` turns it into a :class:`pgcomm.control.Feedforward`.
+
 Both files are written to temporary names in the target directory and renamed into place
 (the ``.json`` last), so an interrupted save never leaves a half-written model.
 """
@@ -44,10 +65,12 @@ from pgcomm.errors import DataError, PgcommError
 from pgcomm.io.atomic import atomic_open, atomic_write_text
 from pgcomm.models import MLP, CombinedModel, activation_fn
 
-#: Schema identifier written to every model file.
+#: Schema identifier written to every PGNN model file (:class:`CombinedModel`).
 SCHEMA = "pgcomm-model/2"
-#: Schemas this version reads (``/1``: no extensions; loaded as the paper's model).
-READABLE_SCHEMAS = ("pgcomm-model/1", SCHEMA)
+#: Schema identifier of spline model files (:class:`pgcomm.spline_model.SplineModel`, ``"family": "spline"``).
+SPLINE_SCHEMA = "pgcomm-model/3"
+#: Schemas this version reads (``/1``: no extensions; loaded as the paper's model; ``/3``: spline family).
+READABLE_SCHEMAS = ("pgcomm-model/1", SCHEMA, SPLINE_SCHEMA)
 #: Values of the header field ``identification``.
 IDENTIFICATION_MODES = ("force_sensor", "no_force_sensor")
 
@@ -56,6 +79,10 @@ MAX_JSON_BYTES = 16 * 2**20
 #: Most coil sets and hidden-layer width a model file may declare (bounds what a header can make us allocate).
 MAX_COIL_SETS = 64
 MAX_WIDTH = 4096
+#: Most knots of one table of a spline model file (a real one has tens to hundreds).
+MAX_KNOTS = 100_000
+#: Relative tolerance on the uniformity of a knot vector (the C export and interp_linear assume uniform knots).
+KNOT_UNIFORMITY = 1e-9
 
 
 def model_paths(path) -> tuple[Path, Path]:
@@ -66,24 +93,40 @@ def model_paths(path) -> tuple[Path, Path]:
     return p.with_name(p.name + ".json"), p.with_name(p.name + ".npz")
 
 
-def save_model(path, model: CombinedModel, metadata: dict | None = None,
-               identification: str = "force_sensor") -> tuple[Path, Path]:
+def save_model(path, model, metadata: dict | None = None,
+               identification: str = "force_sensor", mechanics=None) -> tuple[Path, Path]:
     """Write ``model`` to ``NAME.json`` + ``NAME.npz`` (see the module docstring).
 
     Args:
         path: ``NAME``, ``NAME.json`` or ``NAME.npz``; the directory must exist.
-        model: :class:`CombinedModel` (wrap a single coil set with ``CombinedModel.from_coil_sets``).
+        model: :class:`CombinedModel` (wrap a single coil set with ``CombinedModel.from_coil_sets``;
+            schema ``/2``) or :class:`pgcomm.spline_model.SplineModel` (schema ``/3``).
         metadata: JSON-serialisable dict (costs, seed, ...) stored under ``"metadata"``; numpy
             scalars and arrays are converted, non-finite floats become ``null``.
         identification: ``"force_sensor"`` or ``"no_force_sensor"`` (how the model was identified).
+        mechanics: spline models only: the translator's mechanics for the feedforward, a
+            :class:`pgcomm.identify.mechanics.MechanicsFit` (``mass`` kg, ``viscous`` N s/m,
+            ``knots`` m, ``coulomb`` N, ``direction_velocity`` m/s) or a dict with ``mass``,
+            ``viscous``, ``coulomb_knots``, ``coulomb_table``, ``direction_velocity``; or ``None``.
 
     Returns:
         ``(json_path, npz_path)``.
+
+    Raises:
+        TypeError: another model type, or mechanics with a PGNN model.
+        ValueError: bad ``identification``, non-finite or non-uniform spline tables or mechanics.
     """
-    if not isinstance(model, CombinedModel):
-        raise TypeError(f"save_model needs a CombinedModel, got {type(model).__name__}")
+    from pgcomm.spline_model import SplineModel
+
     if identification not in IDENTIFICATION_MODES:
         raise ValueError(f"identification must be one of {IDENTIFICATION_MODES}, got {identification!r}")
+    if isinstance(model, SplineModel):
+        return _save_spline(path, model, metadata, identification, mechanics)
+    if not isinstance(model, CombinedModel):
+        raise TypeError(f"save_model needs a CombinedModel or a SplineModel, got {type(model).__name__}")
+    if mechanics is not None:
+        # schema /2 has no mechanics block; the sensorless path keeps its mechanics in the metadata
+        raise TypeError("mechanics can only be stored with a SplineModel (schema pgcomm-model/3)")
     json_path, npz_path = model_paths(path)
     arrays = _arrays_of(model)
     document = {
@@ -112,15 +155,18 @@ def save_model(path, model: CombinedModel, metadata: dict | None = None,
     return json_path, npz_path
 
 
-def load_model(path) -> tuple[CombinedModel, dict]:
+def load_model(path) -> tuple:
     """Read a model written by :func:`save_model`: the one loader of model files, used by every command.
 
     Args:
         path: ``NAME``, ``NAME.json`` or ``NAME.npz``.
 
     Returns:
-        ``(model, document)``: the model and the file's JSON document (header fields such as
-        ``schema``, ``package_version``, ``created``, and the user metadata under ``"metadata"``).
+        ``(model, document)``: the model (:class:`CombinedModel` for schemas ``/1``, ``/2``;
+        :class:`pgcomm.spline_model.SplineModel` for ``/3``) and the file's JSON document (header
+        fields such as ``schema``, ``package_version``, ``created``, the user metadata under
+        ``"metadata"``; for a spline file with mechanics, ``"mechanics"`` as a plain dict with the
+        Coulomb table's lists, see :func:`feedforward_from_metadata`).
 
     Raises:
         DataError: one line naming the file and the problem (missing or unreadable file, wrong
@@ -137,7 +183,7 @@ def load_model(path) -> tuple[CombinedModel, dict]:
                         f"{' '.join(str(e).split())})") from None
 
 
-def _load_model(path) -> tuple[CombinedModel, dict]:
+def _load_model(path) -> tuple:
     """:func:`load_model` without the last-resort guard."""
     json_path, _ = model_paths(path)
     try:
@@ -156,6 +202,8 @@ def _load_model(path) -> tuple[CombinedModel, dict]:
     if not isinstance(document, dict) or document.get("schema") not in READABLE_SCHEMAS:
         found = document.get("schema") if isinstance(document, dict) else None
         raise DataError(f"{json_path}: schema {found!r} is not supported (expected one of {list(READABLE_SCHEMAS)})")
+    if document["schema"] == SPLINE_SCHEMA:
+        return _load_spline(json_path, document)
     try:
         n_l = int(document["n_coil_sets"])
         pole_pitch = float(document["pole_pitch"])
@@ -348,3 +396,247 @@ def _jsonable(obj):
     if obj is None or isinstance(obj, (str, int, float, bool)):
         return obj
     raise TypeError(f"metadata value of type {type(obj).__name__} is not JSON-serialisable")
+
+
+# --------------------------------------------------------------------------------------------
+# spline family (schema pgcomm-model/3)
+# --------------------------------------------------------------------------------------------
+
+#: Keys of the plain mechanics dict in a loaded document (``document["mechanics"]``).
+MECHANICS_KEYS = ("mass", "viscous", "coulomb_knots", "coulomb_table", "direction_velocity")
+
+
+def _uniform_knots_problem(knots: np.ndarray) -> str | None:
+    """Why ``knots`` (m) is not a usable uniform knot vector, or ``None``."""
+    if knots.ndim != 1 or knots.shape[0] < 2:
+        return f"needs at least 2 knots, got shape {knots.shape}"
+    if not np.isfinite(knots).all():
+        return "holds NaN or inf"
+    d = np.diff(knots)
+    if not (d > 0).all():
+        i = int(np.argmax(~(d > 0)))
+        return f"must be strictly increasing (knot {i + 1} = {knots[i + 1]!r} follows {knots[i]!r})"
+    h = (knots[-1] - knots[0]) / (knots.shape[0] - 1)
+    if np.max(np.abs(d - h)) > KNOT_UNIFORMITY * max(abs(knots[0]), abs(knots[-1]), h):
+        return f"must be uniformly spaced (spacings {d.min():.6g} to {d.max():.6g} m)"
+    return None
+
+
+def _mechanics_dict(mechanics) -> dict:
+    """The plain mechanics dict (keys :data:`MECHANICS_KEYS`) of a MechanicsFit-like object or a dict."""
+    if isinstance(mechanics, dict):
+        try:
+            d = {k: mechanics[k] for k in MECHANICS_KEYS}
+        except KeyError as err:
+            raise ValueError(f"mechanics needs the keys {list(MECHANICS_KEYS)}; missing {err}") from None
+    else:
+        d = {"mass": mechanics.mass, "viscous": mechanics.viscous, "coulomb_knots": mechanics.knots,
+             "coulomb_table": mechanics.coulomb, "direction_velocity": mechanics.direction_velocity}
+    out = {"mass": float(d["mass"]), "viscous": float(d["viscous"]),
+           "coulomb_knots": np.asarray(d["coulomb_knots"], dtype=np.float64),
+           "coulomb_table": np.asarray(d["coulomb_table"], dtype=np.float64),
+           "direction_velocity": float(d["direction_velocity"])}
+    if not all(math.isfinite(out[k]) for k in ("mass", "viscous", "direction_velocity")):
+        raise ValueError(f"mechanics: mass, viscous and direction_velocity must be finite, got "
+                         f"{out['mass']}, {out['viscous']}, {out['direction_velocity']}")
+    if not out["direction_velocity"] > 0:
+        raise ValueError(f"mechanics: direction_velocity must be positive, got {out['direction_velocity']}")
+    problem = _uniform_knots_problem(out["coulomb_knots"])
+    if problem:
+        raise ValueError(f"mechanics: coulomb_knots {problem}")
+    if out["coulomb_table"].shape != out["coulomb_knots"].shape or not np.isfinite(out["coulomb_table"]).all():
+        raise ValueError(f"mechanics: coulomb_table must be finite with the shape of coulomb_knots "
+                         f"{out['coulomb_knots'].shape}, got {out['coulomb_table'].shape}")
+    return out
+
+
+def _spline_arrays(model) -> dict:
+    """The npz arrays of a :class:`SplineModel` (float64), tables and knots."""
+    arrays = {"gain_table": model.gain_table, "H": model.H, "cog_table": model.cog_table,
+              "gain_knots": model.gain_knots, "cog_knots": model.cog_knots, "dir_knots": model.dir_knots}
+    if model.dir_table is not None:
+        arrays["dir_table"] = model.dir_table
+    return {k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()}
+
+
+def _save_spline(path, model, metadata, identification, mechanics) -> tuple[Path, Path]:
+    """:func:`save_model` for a :class:`SplineModel` (schema ``/3``, module docstring)."""
+    json_path, npz_path = model_paths(path)
+    arrays = _spline_arrays(model)
+    for k, a in arrays.items():
+        if not np.isfinite(a).all():
+            raise ValueError(f"SplineModel array {k!r} holds NaN or inf; refusing to save it")
+    for k in ("gain_knots", "cog_knots", "dir_knots"):
+        problem = _uniform_knots_problem(arrays[k])
+        if problem:
+            raise ValueError(f"SplineModel {k} {problem}")
+    mech = None if mechanics is None else _mechanics_dict(mechanics)
+    if mech is not None:
+        arrays["coulomb_knots"] = mech["coulomb_knots"]
+        arrays["coulomb_table"] = mech["coulomb_table"]
+    document = {
+        "schema": SPLINE_SCHEMA,
+        "family": "spline",
+        "kind": "SplineModel",
+        "arrays": npz_path.name,
+        "n_coil_sets": model.n_coil_sets,
+        "pole_pitch": float(model.pole_pitch),
+        "training_range": None if model.y_min is None else {"y_min": [float(v) for v in model.y_min],
+                                                            "y_max": [float(v) for v in model.y_max]},
+        "direction": None if model.dir_table is None else {"velocity": float(model.direction_velocity)},
+        "knots": {"gain": int(arrays["gain_knots"].shape[0]), "cog": int(arrays["cog_knots"].shape[0]),
+                  "dir": int(arrays["dir_knots"].shape[0]),
+                  "coulomb": None if mech is None else int(mech["coulomb_knots"].shape[0])},
+        "mechanics": None if mech is None else {k: mech[k] for k in ("mass", "viscous", "direction_velocity")},
+        "identification": identification,
+        "array_shapes": {k: list(v.shape) for k, v in arrays.items()},
+        "package_version": pgcomm.__version__,
+        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "metadata": _jsonable(dict(metadata or {})),
+    }
+    text = json.dumps(document, indent=2, allow_nan=False) + "\n"
+    with atomic_open(npz_path, "wb") as f:
+        np.savez(f, **arrays)
+    atomic_write_text(json_path, text)
+    return json_path, npz_path
+
+
+def _load_spline(json_path: Path, document: dict):
+    """:func:`load_model` for a schema ``/3`` document (header already parsed)."""
+    from pgcomm.spline_model import SplineModel
+
+    if document.get("family") != "spline":
+        raise DataError(f"{json_path}: schema {SPLINE_SCHEMA!r} needs \"family\": \"spline\", "
+                        f"found {document.get('family')!r}")
+    try:
+        n_l = int(document["n_coil_sets"])
+        pole_pitch = float(document["pole_pitch"])
+        rng = document["training_range"]
+        npz_name = str(document["arrays"])
+        direction = document["direction"]
+        v_eps = None if direction is None else float(direction["velocity"])
+        knots = document["knots"]
+        counts = {k: int(knots[k]) for k in ("gain", "cog", "dir")}
+        mech_hdr = document.get("mechanics")
+        n_coulomb = None
+        if mech_hdr is not None:
+            n_coulomb = int(knots["coulomb"])
+            mech_scalars = {k: float(mech_hdr[k]) for k in ("mass", "viscous", "direction_velocity")}
+        document.setdefault("identification", "force_sensor")
+    except (KeyError, TypeError, ValueError) as err:
+        raise DataError(f"{json_path}: missing or invalid header field {err}") from None
+    if Path(npz_name).name != npz_name or npz_name in ("", ".", "..") or not npz_name.endswith(".npz"):
+        raise DataError(f"{json_path}: \"arrays\": {npz_name!r} must be the plain name of a .npz file in the same "
+                        f"folder (no folders, no absolute path), e.g. {json_path.with_suffix('.npz').name!r}")
+    if document.get("metadata") is not None and not isinstance(document["metadata"], dict):
+        raise DataError(f"{json_path}: \"metadata\" must be a JSON object (or null), found "
+                        f"{type(document['metadata']).__name__}")
+    if not 1 <= n_l <= MAX_COIL_SETS:
+        raise DataError(f"{json_path}: n_coil_sets = {n_l}: expected 1 to {MAX_COIL_SETS}")
+    if not (math.isfinite(pole_pitch) and pole_pitch > 0):
+        raise DataError(f"{json_path}: pole_pitch must be a positive length in m, got {pole_pitch}")
+    if v_eps is not None and not (math.isfinite(v_eps) and v_eps > 0):
+        raise DataError(f"{json_path}: direction velocity must be positive, got {v_eps}")
+    for k, n in list(counts.items()) + ([("coulomb", n_coulomb)] if mech_hdr is not None else []):
+        if not 2 <= n <= MAX_KNOTS:
+            raise DataError(f"{json_path}: knots.{k} = {n}: expected 2 to {MAX_KNOTS}")
+    if mech_hdr is not None:
+        bad = [k for k, v in mech_scalars.items() if not math.isfinite(v)]
+        if bad or not mech_scalars["direction_velocity"] > 0:
+            raise DataError(f"{json_path}: mechanics: {', '.join(bad) or 'direction_velocity'} must be finite"
+                            f"{'' if bad else ' and positive'}, got {mech_scalars}")
+    m_g, m_c, m_d = counts["gain"], counts["cog"], counts["dir"]
+    expected = {"gain_table": (m_g, n_l, 2, 3, 2), "H": (n_l, 4, 3, 2), "cog_table": (m_c, 3),
+                "gain_knots": (m_g,), "cog_knots": (m_c,), "dir_knots": (m_d,)}
+    if v_eps is not None:
+        expected["dir_table"] = (m_d, 3)
+    if mech_hdr is not None:
+        expected["coulomb_knots"] = (n_coulomb,)
+        expected["coulomb_table"] = (n_coulomb,)
+
+    npz_path = json_path.with_name(npz_name)
+    try:
+        arrays = _read_npz(npz_path, expected)
+    except FileNotFoundError:
+        raise DataError(f"{npz_path}: array file not found") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
+        raise DataError(f"{npz_path}: cannot read arrays ({' '.join(str(err).split())})") from None
+    for k, shape in expected.items():
+        a = arrays[k]
+        if a.shape != shape:
+            raise DataError(f"{npz_path}: array {k!r} has shape {a.shape}, expected {shape}")
+        if a.dtype != np.float64:
+            raise DataError(f"{npz_path}: array {k!r} has dtype {a.dtype}, expected float64")
+        if not np.isfinite(a).all():
+            raise DataError(f"{npz_path}: array {k!r} holds NaN or inf")
+    for k in ("gain_knots", "cog_knots", "dir_knots") + (("coulomb_knots",) if mech_hdr is not None else ()):
+        problem = _uniform_knots_problem(arrays[k])
+        if problem:
+            raise DataError(f"{npz_path}: array {k!r} {problem}")
+    y_min = y_max = None
+    if rng is not None:
+        try:
+            y_min = tuple(float(v) for v in rng["y_min"])
+            y_max = tuple(float(v) for v in rng["y_max"])
+        except (KeyError, TypeError, ValueError) as err:
+            raise DataError(f"{json_path}: invalid training_range ({err!r})") from None
+        if len(y_min) != n_l or len(y_max) != n_l:
+            raise DataError(f"{json_path}: training_range needs {n_l} values per bound")
+    model = SplineModel(
+        gain_table=jnp.asarray(arrays["gain_table"]), H=jnp.asarray(arrays["H"]),
+        cog_table=jnp.asarray(arrays["cog_table"]),
+        dir_table=jnp.asarray(arrays["dir_table"]) if v_eps is not None else None,
+        gain_knots=jnp.asarray(arrays["gain_knots"]), cog_knots=jnp.asarray(arrays["cog_knots"]),
+        dir_knots=jnp.asarray(arrays["dir_knots"]), pole_pitch=pole_pitch, y_min=y_min, y_max=y_max,
+        **({"direction_velocity": v_eps} if v_eps is not None else {}))
+    if mech_hdr is not None:
+        document["mechanics"] = {**mech_scalars,
+                                 "coulomb_knots": [float(x) for x in arrays["coulomb_knots"]],
+                                 "coulomb_table": [float(x) for x in arrays["coulomb_table"]]}
+    return model, document
+
+
+def feedforward_from_metadata(metadata):
+    """The feedforward stored with a model, or ``None``.
+
+    Args:
+        metadata: the document of :func:`load_model` (mechanics under ``"mechanics"``, as a spline
+            file has them, or under ``"metadata" -> "mechanics"``, as identification without a
+            force sensor records them), or such a mechanics dict itself: ``mass`` (kg),
+            ``viscous`` (N s/m) and either ``coulomb_knots`` (m, increasing) with
+            ``coulomb_table`` (N) or a constant ``coulomb`` (N).
+
+    Returns:
+        :class:`pgcomm.control.Feedforward` (``u_ff[k] = (g[k] + g[k+1]) / 2`` with
+        ``g = m a_r + f_v v_r + (f_c + D(r)) sign(v_r)``, :func:`pgcomm.control.feedforward_signal`),
+        or ``None`` when there are no mechanics.
+
+    Raises:
+        DataError: mechanics present but incomplete or not finite (one line).
+    """
+    from pgcomm.control import Feedforward
+
+    if not isinstance(metadata, dict):
+        return None
+    mech = metadata.get("mechanics")
+    if mech is None and isinstance(metadata.get("metadata"), dict):
+        mech = metadata["metadata"].get("mechanics")
+    if mech is None and "mass" in metadata and "viscous" in metadata:
+        mech = metadata
+    if not isinstance(mech, dict):
+        return None
+    try:
+        mass, viscous = float(mech["mass"]), float(mech["viscous"])
+        knots = tuple(float(x) for x in mech.get("coulomb_knots") or ())
+        table = tuple(float(x) for x in mech.get("coulomb_table") or ())
+        # with a table the constant f_c is its mean (identify --no-force-sensor records both): not added again
+        coulomb = 0.0 if knots else float(mech.get("coulomb", 0.0))
+    except (KeyError, TypeError, ValueError) as err:
+        raise DataError(f"mechanics: missing or invalid field {err}") from None
+    values = (mass, viscous, coulomb) + knots + table
+    if not all(math.isfinite(v) for v in values):
+        raise DataError("mechanics: mass, viscous and the Coulomb table must be finite")
+    if len(knots) != len(table) or (knots and (len(knots) < 2 or not all(np.diff(knots) > 0))):
+        raise DataError(f"mechanics: coulomb_knots ({len(knots)}) must increase and match coulomb_table "
+                        f"({len(table)})")
+    return Feedforward(mass=mass, viscous=viscous, coulomb=coulomb, coulomb_knots=knots, coulomb_table=table)
