@@ -88,3 +88,25 @@ def test_sensorless_rows(quick):
         assert me["viscous"] == pytest.approx(80.0, rel=0.05)
         assert 0 < me["coulomb"] < 12.0
     assert sl["cogging_table"]["samples"]["positive"] > 0
+
+
+def test_spline_row_tracks_and_merges_the_mechanics(quick):
+    """Issue 15 on the twin (quick run): the spline row's own identification recovers the simulated translator
+    (mass 1 %, viscous 2 %, Coulomb table mean 2 %: the data are noise-light windows of ~5000 moving samples);
+    it removes >= 97 % of the reducible y error and tracks at most half as badly as the drives' anti-cogging
+    table on every reference; the recommended row is the realisable row with the least long-reference tracking."""
+    res, _ = quick
+    me, sim = res["mechanics"]["identified"], res["mechanics"]["simulated"]
+    assert me["mass"] == pytest.approx(sim["mass"], rel=0.01)
+    assert me["viscous"] == pytest.approx(sim["viscous"], rel=0.02)
+    assert me["coulomb_mean"] == pytest.approx(sim["coulomb"], rel=0.02)
+    assert res["reducible_share"]["spline"]["y"] >= 0.97
+    for rname, ref in res["references"].items():
+        assert ref["tracking_mse"]["spline"] <= 0.5 * ref["tracking_mse"]["cogging_table"], rname
+    rec = res["recommended"]
+    tm = res["tracking_mse"]
+    assert rec["row"] != "oracle" and rec["tracking_mse"] == min(v for r, v in tm.items() if r != "oracle")
+    assert res["tracking_order"] == sorted(tm, key=tm.get)
+    assert rec["table_bytes"] > 0
+    ident = res["identification"]["spline"]
+    assert ident["parameters"] > 0 and all(c["y"] > 0 for c in ident["cost_validation"])

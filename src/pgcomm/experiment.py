@@ -548,6 +548,23 @@ def _lm_progress(progress):
     return show
 
 
+def identify_spline_models(setup: Setup, data: list[CoilSetData], progress=None):
+    """The physics-guided spline model of all coil sets and the mechanics from the same data (issue 15).
+
+    Returns:
+        ``(SplineFit, MechanicsFit)``: :func:`pgcomm.identify.spline.identify_spline` with the direction
+        table's ``v_ε`` of ``[identification] direction_velocity``, and
+        :func:`pgcomm.identify.mechanics.identify_mechanics` on the model's force.
+    """
+    from pgcomm.identify.mechanics import identify_mechanics
+    from pgcomm.identify.spline import SplineOptions, identify_spline
+
+    ic, motor = setup.config.identification, setup.motor
+    fit = identify_spline(data, motor.pole_pitch, SplineOptions(direction_velocity=ic.direction_velocity), progress)
+    mech = identify_mechanics(data, fit.model, motor.sample_time, motor.pole_pitch, ic.direction_velocity)
+    return fit, mech
+
+
 def identify_direction_models(setup: Setup, data: list[CoilSetData], start_models, seed: int, progress=None):
     """The PGNN with the direction term ``C^l s(ẏ)`` (and the harmonics if configured) per coil set.
 

@@ -16,7 +16,7 @@ from pgcomm.metrics import lowpass  # noqa: E402
 
 #: One colour per comparison row, stable across figures.
 ROW_COLORS = {"original": "#9e9e9e", "classical": "#d62728", "physics": "#ff7f0e", "pgnn": "#1f77b4",
-              "pgnn_direction": "#17becf", "pgnn_sensorless": "#9467bd", "cogging_table": "#8c564b",
+              "pgnn_direction": "#17becf", "spline": "#2ca02c", "pgnn_sensorless": "#9467bd", "cogging_table": "#8c564b",
               "cogging_table_sensorless": "#bcbd22", "harmonic_cogging": "#e377c2", "oracle": "#2ca02c"}
 _DIR_LABEL = ("$F_y - F_y^*$ [N]", "$F_x - F_x^*$ [N]", "$T_z - T_z^*$ [N m]")
 

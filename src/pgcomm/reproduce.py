@@ -41,8 +41,11 @@ from pgcomm.identify import IdentifyResult
 from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se, reducible_share
 from pgcomm.models import CombinedModel
 
-ROWS = ("original", "classical", "physics", "pgnn", "pgnn_direction", "pgnn_sensorless", "cogging_table",
+ROWS = ("original", "classical", "physics", "pgnn", "pgnn_direction", "spline", "pgnn_sensorless", "cogging_table",
         "cogging_table_sensorless", "harmonic_cogging", "oracle")
+
+#: Rows a user can deploy (every row but the oracle, which needs the plant's truth).
+REALISABLE = tuple(r for r in ROWS if r != "oracle")
 
 #: The paper's Table Commutation_Performance (filtered, unfiltered) and tracking-error MSE.
 PAPER = {
@@ -177,6 +180,8 @@ class ReproduceResult:
     identification_direction: tuple = ()
     pgnn_direction: CombinedModel | None = None
     sensorless: SensorlessResult | None = None
+    spline: object = None
+    mechanics: object = None
 
     @property
     def rows(self) -> tuple:
@@ -240,6 +245,43 @@ class ReproduceResult:
             out[row] = float(np.mean(lowpass(e, r.sample_time, lp) ** 2))
         return out
 
+    def tracking_order(self) -> list:
+        """Rows by tracking-error MSE on the long reference, best first (the report's first table)."""
+        return sorted(self.rows, key=lambda r: self.tracking_mse[r])
+
+    def deployment_cost(self, row: str) -> dict:
+        """What deploying ``row`` stores: ``table_bytes`` (float32 tables or weights a controller holds, bytes)
+        and ``c_ns_per_call`` (``None``: measured by ``bench/bench_export.py``, not in this run)."""
+        n_params = {"original": 0, "classical": 0}
+        if row in n_params:
+            size = 0
+        elif row in ("cogging_table", "cogging_table_sensorless"):
+            size = self.tables[row].nbytes
+        elif row == "harmonic_cogging":
+            size = 4 * int(self.tables[row].coef.shape[0])
+        elif row == "spline":
+            size = self.spline.model.nbytes + 4 * (2 + len(self.mechanics.knots))
+        else:
+            model = {"pgnn": self.pgnn, "physics": self.physics, "pgnn_direction": self.pgnn_direction,
+                     "pgnn_sensorless": None if self.sensorless is None else self.sensorless.model}.get(row)
+            size = None if model is None else 4 * sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(model))
+        return {"table_bytes": size, "c_ns_per_call": None}
+
+    def recommended(self) -> dict:
+        """The realisable row (not the oracle) with the least tracking error on the long reference, checked on
+        the others: ``{row, reason, tracking_mse, tracking_mse_by_reference, best_on, c_ns_per_call, table_bytes}``."""
+        cands = [r for r in self.rows if r in REALISABLE]
+        best = min(cands, key=lambda r: self.tracking_mse[r])
+        by_ref = {rn: m[best]["tracking_mse"] for rn, m in self.metrics.items()}
+        best_on = [rn for rn, m in self.metrics.items()
+                   if min((r for r in cands if r in m), key=lambda r: m[r]["tracking_mse"]) == best]
+        second = min((r for r in cands if r != best), key=lambda r: self.tracking_mse[r], default=None)
+        reason = (f"least tracking-error MSE on the long reference ({self.tracking_mse[best]:.3g} m²"
+                  + (f", next {second} {self.tracking_mse[second]:.3g} m²" if second else "")
+                  + f"); also the least on {', '.join(best_on) if best_on else 'no other reference'}")
+        return {"row": best, "reason": reason, "tracking_mse": self.tracking_mse[best],
+                "tracking_mse_by_reference": by_ref, "best_on": best_on, **self.deployment_cost(best)}
+
     def improvement_over_classical(self) -> dict:
         """Row -> direction (and ``tracking``) -> classical MSE / row MSE (filtered)."""
         cm, tm = self.commutation_mse, self.tracking_mse
@@ -263,15 +305,27 @@ class ReproduceResult:
         out["reducible_share"] = self.reducible_share()
         out["reducible_standard_error"] = self.reducible_standard_errors()
         out["improvement_over_classical"] = self.improvement_over_classical()
-        out["feedforward"] = {row: {"mass": ff.mass, "viscous": ff.viscous, "coulomb": ff.coulomb}
+        out["feedforward"] = {row: {"mass": ff.mass, "viscous": ff.viscous, "coulomb": ff.coulomb,
+                                    **({"coulomb_knots": list(ff.coulomb_knots), "coulomb_table": list(ff.coulomb_table)}
+                                       if ff.coulomb_knots else {})}
                               for row, ff in self.feedforward.items()}
         out["tables"] = {name: {"entries": int(self.tables[name].values.shape[0]), "bytes": self.tables[name].nbytes}
                          for name in ("cogging_table", "cogging_table_sensorless") if name in self.tables}
         out["tables"].update({
                          "harmonic_cogging": {"harmonics": (int(self.tables["harmonic_cogging"].coef.shape[0]) - 1)
                                               // 2}})
+        models = [("pgnn", self.pgnn), ("physics", self.physics)]
+        if self.spline is not None:
+            models.append(("spline", self.spline.model))
+            out["identification"]["spline"] = self.spline.to_dict()
+            out["mechanics"] = {"identified": self.mechanics.to_dict(),
+                                "simulated": {"mass": self.setup.config.mechanics.mass,
+                                              "viscous": self.setup.config.mechanics.viscous,
+                                              "coulomb": self.setup.config.mechanics.coulomb}}
         out["model_error"] = {name: model_error(model, self.setup.plant, self.setup.config.reference.span)
-                              for name, model in (("pgnn", self.pgnn), ("physics", self.physics))}
+                              for name, model in models}
+        out["tracking_order"] = self.tracking_order()
+        out["recommended"] = self.recommended()
         if self.sensorless is not None:
             sl = self.sensorless.to_dict(self.setup)
             cm = self.commutation_mse
@@ -332,6 +386,17 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
             progress.info(f"{r.name}: y cost (mean (Fy - Fy_hat)^2) PGNN {r0.cost_y:.4g} -> with direction term "
                           f"{r.cost_y:.4g} N^2, C_y = {float(r.model.C[0]):.3g} N, {r.seconds:.1f} s")
 
+    with progress.stage("spline model (capacity along the stroke, knots by cross-validation) and the mechanics "
+                        "(mass, friction, Coulomb table) from the same data sets"):
+        spline, mech = experiment.identify_spline_models(setup, coil_set_data_from_runs(data0), progress)
+        sp = spline.spacing
+        progress.info(f"knots every {1e3 * sp['gain']:.3g} mm (gain), {1e3 * sp['cogging']:.3g} mm (cogging), "
+                      f"{1e3 * sp['direction']:.3g} mm (direction); y cost "
+                      + ", ".join(f"{c['y']:.3g}" for c in spline.cost) + f" N^2; {spline.seconds:.1f} s")
+        progress.info(f"mechanics: m = {mech.mass:.4g} kg, f_v = {mech.viscous:.4g} N s/m, Coulomb "
+                      f"{float(np.min(mech.coulomb)):.3g} .. {float(np.max(mech.coulomb)):.3g} N along the stroke "
+                      f"({len(mech.knots)} knots); {mech.seconds:.1f} s")
+
     with progress.stage("without a force sensor: calibration (Algorithm 1 on m d2y/dt2) and identification of "
                         "the y row with friction"):
         t_sl = time.perf_counter()
@@ -355,6 +420,8 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
             "pgnn_direction": ModelLaw(pgnn_dir, current_limit=limit, velocity_source=ic.law_velocity),
             "pgnn_sensorless": ModelLaw(pgnn_sl, current_limit=limit),
             "oracle": oracle_law(setup.plant, current_limit=limit)}
+    # the spline row's feedforward is its own identification's, never tuned in closed loop
+    spline_law = ModelLaw(spline.model, current_limit=limit, velocity_source=ic.law_velocity)
 
     with progress.stage(f"feedforward identification per law ({cfg.controller.ff_iterations} closed-loop passes)"):
         names = list(laws)
@@ -379,6 +446,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         sensorless = replace(sensorless, table_info=info)
         extra = ["cogging_table", "harmonic_cogging", "cogging_table_sensorless"]
         ffs.update(zip(extra, experiment.tune_feedforward(setup, [laws[n] for n in extra], long_ref, seed=seed + 70)))
+    laws["spline"], ffs["spline"] = spline_law, mech.feedforward()
 
     rows = [row for row in ROWS if row in laws]
     runs: dict = {k: {} for k in refs}
@@ -394,7 +462,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     return ReproduceResult(setup=setup, calibration=cal, identification=tuple(id_res), identification_seconds=t_id,
                            pgnn=pgnn, physics=physics, references=refs, runs=runs, feedforward=ffs, tables=tables,
                            metrics=metrics, identification_direction=tuple(id_dir), pgnn_direction=pgnn_dir,
-                           sensorless=sensorless)
+                           sensorless=sensorless, spline=spline, mechanics=mech)
 
 
-__all__ = ["ROWS", "PAPER", "ReproduceResult", "run", "quick_config", "paper_improvement"]
+__all__ = ["ROWS", "REALISABLE", "PAPER", "ReproduceResult", "run", "quick_config", "paper_improvement"]

@@ -170,7 +170,8 @@ class SplineModel:
     @property
     def nbytes(self) -> int:
         """Size of the tables a controller stores, as float32 (bytes)."""
-        return 4 * (self.n_parameters + self.gain_knots.shape[0] * 0 + 3 * 2)
+        # the coefficients plus (first knot, spacing) of each of the three grids
+        return 4 * (self.n_parameters + 6)
 
 
 #: Orders of the fixed harmonic columns (shared with :mod:`pgcomm.models`).

@@ -215,15 +215,20 @@ def user_error_line(e: Exception) -> str:
 
 
 def print_mse(results: dict, rows, stream=sys.stdout) -> None:
-    """Table of filtered (unfiltered) commutation MSE per direction and tracking MSE."""
+    """Table of tracking MSE (with its reducible share, when known) and filtered (unfiltered) commutation MSE
+    per direction, one line per row in the order of ``rows``."""
     cm = results.get("commutation_mse", {})
     tm = results.get("tracking_mse", {})
-    print(f"{'row':18s} {'y [N^2]':>18s} {'x [N^2]':>18s} {'z [N^2m^2]':>18s} {'tracking [m^2]':>15s}", file=stream)
+    share = results.get("reducible_share", {})
+    print(f"{'row':25s} {'tracking [m^2]':>15s} {'share':>6s} {'y [N^2]':>18s} {'x [N^2]':>18s} {'z [N^2m^2]':>18s}",
+          file=stream)
     for r in rows:
         if r not in cm:
             continue
         cells = [f"{cm[r][d]['filtered']:.3g} ({cm[r][d]['unfiltered']:.3g})" for d in ("y", "x", "z")]
-        print(f"{r:18s} {cells[0]:>18s} {cells[1]:>18s} {cells[2]:>18s} {tm.get(r, float('nan')):>15.3g}",
+        sh = share.get(r, {}).get("tracking")
+        sh = "" if sh is None else f"{100 * sh:5.1f}%"
+        print(f"{r:25s} {tm.get(r, float('nan')):>15.3g} {sh:>6s} {cells[0]:>18s} {cells[1]:>18s} {cells[2]:>18s}",
               file=stream)
 
 

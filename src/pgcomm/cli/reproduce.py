@@ -76,6 +76,17 @@ def run(args, out: Path, progress) -> None:
                                                       setup.true_zeta),
             "Table Parameters_CLM: initial, calibrated and true k, zeta per coil set.")
         fy_max = float(np.max(np.abs(o.runs["long"]["pgnn"].f_star[:, 0])))
+        if o.spline is not None:
+            ys = np.asarray(o.spline.model.gain_knots)
+            yy = np.linspace(ys[0], ys[-1], 2001)
+            truth_c = np.asarray(setup.plant.cogging(jnp.asarray(yy)))
+            fig("cogging_spline.png", plots.plot_cogging(yy, np.asarray(o.spline.model.cogging(jnp.asarray(yy))),
+                                                         truth_c),
+                "Cogging force of the spline model (table chosen by cross-validation) against the plant's truth.")
+            gs = np.asarray(o.spline.model.gain(jnp.asarray(yy)))
+            gts = np.asarray(setup.plant.gain(jnp.asarray(yy)))
+            fig("gain_spline_coilset1.png", plots.plot_gain_columns(yy, gs[:, 0], gts[:, 0], 0),
+                "Gain-matrix columns of coil set 1: spline model against the plant's truth.")
         save_model(out / "model", o.pgnn, {"seed": args.seed, "plant": setup.plant_name, "fy_abs_max": fy_max,
                                            "identification": results["identification"]})
         results["runtime_s"] = time.perf_counter() - t0
@@ -83,7 +94,11 @@ def run(args, out: Path, progress) -> None:
         write_report(out / "report.html", o, figs, version=__version__, runtime_s=results["runtime_s"])
     if not args.quiet:
         print_calibration(results["calibration"])
-        print_mse(results, o.rows)
+        print_mse(results, results["tracking_order"])
+        rec = results["recommended"]
+        print(f"recommended: {rec['row']} — {rec['reason']}; tracking MSE long/slow/fast "
+              + "/".join(f"{v:.3g}" for v in rec["tracking_mse_by_reference"].values())
+              + f" m²; tables {rec['table_bytes']} bytes")
         imp = results["improvement_over_classical"]["pgnn"]
         paper = reproduce.paper_improvement("pgnn")
         print(f"classical -> pgnn: y {imp['y']:.1f}x, x {imp['x']:.1f}x, z {imp['z']:.1f}x, "

@@ -225,6 +225,8 @@ class _Gen:
         # the velocity argument of the law functions (direction term only)
         self.vdecl = f"{num.ctype} v, " if self.dir else ""
         self.varg = "v, " if self.dir else ""
+        # arguments of NAME_direction inside the law (a spline's direction force depends on y too)
+        self.dir_args = "v"
         self.T = num.ctype
         # the solve runs in double even in single precision (see the module docstring)
         self.S = "double"
@@ -285,14 +287,7 @@ class _Gen:
             f"Exported:     {now}, precision {'single (float)' if self.num.single else 'double'}",
             f"Coil sets:    L = {self.L}; pole pitch d_m = {m.pole_pitch:.9g} m",
             f"Training range: y in {rng}",
-            f"Networks:     gain columns: {self._net_desc(m.gain_nets)};",
-            f"              cogging:      {self._net_desc(m.cog_nets)};",
-            "              input s = (y - y_center_l) / y_scale_l per coil set l.",
-            "",
-            "Law (paper eq. Commutation_Model_Currents), minimum copper loss:",
-            "  i = Khat(y)^+ (F* - Fcog(y)),  Khat = [Khat^1 .. Khat^L] (3 x 2L),",
-            "  Khat^l(y) = A^l cos(2 pi y/d_m) + B^l sin(2 pi y/d_m) + [f_1^l(s), f_2^l(s)],",
-            "  Fcog(y) = (1/L) sum_l f_cog^l(s) (mean over coil sets).",
+            *self._banner_model_lines(),
             "  Khat^+ minimises sum_l (ia^2 + ib^2 + ic^2), ic = -ia - ib, i.e. i^T W i with",
             "  W = blockdiag([[2,1],[1,2]]): i = W^-1 K^T D (D A D + eps2 I)^-1 D F,",
             "  A = K W^-1 K^T (3 x 3), D = diag(A)^(-1/2) (row normalisation).",
@@ -306,8 +301,27 @@ class _Gen:
             "Units:        y in m; F* = [Fy N, Fx N, Tz N m]; currents in A (star: ia, ib);",
             "              k_hat in N/A, zeta_hat and Delta in rad, Fy^l* in N.",
             "Return codes: 0 = y inside the training range, 1 = outside (still computed).",
+            *self._banner_extra_lines(),
         ]
         return "/*\n" + "".join((" * " + _ascii(s)).rstrip() + "\n" for s in lines) + " */\n"
+
+    def _banner_model_lines(self) -> list[str]:
+        """The banner's description of the model (PGNN: networks and the law's terms)."""
+        m = self.m
+        return [
+            f"Networks:     gain columns: {self._net_desc(m.gain_nets)};",
+            f"              cogging:      {self._net_desc(m.cog_nets)};",
+            "              input s = (y - y_center_l) / y_scale_l per coil set l.",
+            "",
+            "Law (paper eq. Commutation_Model_Currents), minimum copper loss:",
+            "  i = Khat(y)^+ (F* - Fcog(y)),  Khat = [Khat^1 .. Khat^L] (3 x 2L),",
+            "  Khat^l(y) = A^l cos(2 pi y/d_m) + B^l sin(2 pi y/d_m) + [f_1^l(s), f_2^l(s)],",
+            "  Fcog(y) = (1/L) sum_l f_cog^l(s) (mean over coil sets).",
+        ]
+
+    def _banner_extra_lines(self) -> list[str]:
+        """Lines after the common banner (none for a PGNN)."""
+        return []
 
     # --- header ----------------------------------------------------------------------------
 
@@ -342,15 +356,20 @@ class _Gen:
                " * columns ia, ib) and the mean cogging force [Fy, Fx, Tz] (N, N, N m).\n"
                " */\n",
                f"void {P}_model({T} y, {T} gain[{P.upper()}_L][3][2], {T} cogging[3]);\n\n"]
-        if self.dir:
-            out.append("/** The direction force mean_l C^l tanh(v / v_eps) [Fy, Fx, Tz] (N, N, N m), v in m/s. */\n"
-                       f"void {P}_direction({T} v, {T} force[3]);\n\n")
+        out += self._header_model_decls()
         if self.drive is not None:
             out.append(f"/** The drive's fixed commutation at export: k_hat (N/A), zeta_hat (rad) per coil set. */\n"
                        f"extern const {T} {P}_drive_k_hat[{P.upper()}_L];\n"
                        f"extern const {T} {P}_drive_zeta_hat[{P.upper()}_L];\n\n")
         out.append(f"#ifdef __cplusplus\n}}\n#endif\n\n#endif /* {guard} */\n")
         return "".join(out)
+
+    def _header_model_decls(self) -> list[str]:
+        """Declarations of the model-specific functions (PGNN: the direction force)."""
+        if not self.dir:
+            return []
+        return ["/** The direction force mean_l C^l tanh(v / v_eps) [Fy, Fx, Tz] (N, N, N m), v in m/s. */\n"
+                f"void {self.P}_direction({self.T} v, {self.T} force[3]);\n\n"]
 
     # --- source ----------------------------------------------------------------------------
 
@@ -450,9 +469,9 @@ class _Gen:
                     f"        out[q] = acc + {P}_{which}_bo{idx}[q];\n    }}\n}}\n\n")
         return "".join(arrays), self._act(which, net.activation) + "".join(code)
 
-    def source(self) -> str:
-        m, P, T, S, L, lit, f = self.m, self.P, self.T, self.S, self.L, self.lit, self.f
-        Lm = P.upper() + "_L"
+    def _model_arrays(self) -> tuple[list[str], list[str]]:
+        """``(arrays, functions)``: the model's ``static const`` tables and helper functions (PGNN)."""
+        m, P = self.m, self.P
         arrays = ["/* ---- model parameters (rows Fy, Fx, Tz; columns ia, ib) ---- */\n",
                   self.array(f"{P}_A", m.A), self.array(f"{P}_B", m.B)]
         if self.harm:
@@ -476,6 +495,13 @@ class _Gen:
             a, c = self._mlp("cog", m.cog_nets, "int l", "[l]", "cogging force of coil set l, [Fy, Fx, Tz] (N)")
             arrays += ["\n/* cogging networks, indexed [coil set] */\n", a]
             funcs.append(c)
+        return arrays, funcs
+
+    def source(self) -> str:
+        """The ``.c`` text: constants, tables, the model, the law (:meth:`_assemble`)."""
+        m, P, T, lit = self.m, self.P, self.T, self.lit
+        Lm = P.upper() + "_L"
+        arrays, funcs = self._model_arrays()
         if self.drive is not None:
             arrays.append("\n/* the drive's fixed commutation at export (see the header) */\n")
             for nm, v in (("k_hat", self.drive[0]), ("zeta_hat", self.drive[1])):
@@ -513,6 +539,23 @@ class _Gen:
                           f"#define {P.upper()}_CURRENT_LIMIT {_m(self.dlit(self.limit))}\n")
 
         U = P.upper()
+        consts += self._model_consts()
+        model_fn = self._model_fn()
+        extra_fn = self._extra_fns()
+        return self._assemble(consts, arrays, funcs, model_fn, extra_fn)
+
+    def _model_consts(self) -> list[str]:
+        """Model-specific ``#define``s (none for a PGNN)."""
+        return []
+
+    def _extra_fns(self) -> list[str]:
+        """Functions after the law (none for a PGNN)."""
+        return []
+
+    def _model_fn(self) -> list[str]:
+        """``NAME_model`` (and ``NAME_direction``) of a PGNN."""
+        m, P, T, L, lit, f = self.m, self.P, self.T, self.L, self.lit, self.f
+        Lm, U = P.upper() + "_L", P.upper()
         # ---- the model ----
         # in single precision the harmonic argument is reduced by the pole pitch first (see _reduce)
         yh = f"{P}_reduce(y)" if self.num.single else "y"
@@ -553,8 +596,14 @@ class _Gen:
             model_fn.append(f"void {P}_direction({T} v, {T} force[3])\n{{\n"
                             f"    const {T} sg = {f('tanh')}(v / {U}_V_EPS);\n    int q;\n\n"
                             f"    for (q = 0; q < 3; ++q)\n        force[q] = {P}_C_MEAN[q] * sg;\n}}\n\n")
+        return model_fn
 
+    def _assemble(self, consts, arrays, funcs, model_fn, extra_fn) -> str:
+        """The source text: the shared law (solve, drive inputs) around the model's parts."""
+        P, T, f = self.P, self.T, self.f
+        Lm, U = P.upper() + "_L", P.upper()
         # ---- the solve (double: see the module docstring) ----
+
         dl = self.dlit
         cast = "(double)" if self.num.single else ""
         limit_code = ""
@@ -582,7 +631,8 @@ class _Gen:
             "    double peak, sc;\n" if self.limit is not None else "",
             "    int l, q, r, j, ret;\n\n",
             range_check,
-            f"    {P}_model(y, gain, cog);\n" + (f"    {P}_direction(v, dirf);\n" if self.dir else "") + "\n",
+            f"    {P}_model(y, gain, cog);\n" + (f"    {P}_direction({self.dir_args}, dirf);\n" if self.dir else "")
+            + "\n",
             "    /* kw = K^l Q^-1 and A = sum_l K^l Q^-1 K^lT (upper triangle, as _inv3_sym reads it) */\n",
             f"    for (l = 0; l < {Lm}; ++l)\n        for (q = 0; q < 3; ++q) {{\n",
             f"            kw[l][q][0] = {cast}gain[l][q][0] * {U}_QI_D + {cast}gain[l][q][1] * {U}_QI_O;\n",
@@ -663,7 +713,7 @@ class _Gen:
 
         reduce_fn = [self._reduce()] if self.num.single else []
         return "".join([self.banner("c"), "\n#include <math.h>\n\n", f"#include \"{P}.h\"\n\n", *consts, "\n",
-                        *arrays, "\n", *reduce_fn, *funcs, *model_fn, *solve, *drive_fn])
+                        *arrays, "\n", *reduce_fn, *funcs, *model_fn, *solve, *drive_fn, *extra_fn])
 
     def _reduce(self) -> str:
         """Single precision only: ``y - n d_m`` with ``|.| <= d_m/2`` (Cody-Waite reduction).

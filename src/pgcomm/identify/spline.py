@@ -382,6 +382,7 @@ def identify_spline(data: list[CoilSetData], pole_pitch: float, options: SplineO
                               f"(CV y MSE {score(choice) / len(data):.4g} N^2)")
         if not changed:
             break
+    score(choice)  # fills the cache also when every family has a single candidate
     _, normals, grids = cache[tuple(choice[k] for k in ("gain", "cogging", "direction"))]
     off, _ = _layout(grids)
     lambdas, costs, cv = [], [], []
