@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
 import sys
 import time
@@ -130,7 +131,8 @@ def main(argv=None) -> int:
         folders = [f for f in folders if Path(f).name in args.only.split(",")]
     motors = []
     t0 = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+    # spawn: the parent imported JAX (multithreaded), which a fork would copy mid-state
+    with ProcessPoolExecutor(max_workers=args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
         futs = [pool.submit(_safe, str(f), args.seed, args.twin_type) for f in folders]
         for fut in as_completed(futs):
             m = fut.result()

@@ -13,9 +13,9 @@ import jax
 import numpy as np
 import pytest
 
-import pgcomm  # noqa: F401  (enables x64 at import)
+import pgcomm.models  # noqa: F401  (a computing module: enables x64 at import)
 
-assert jax.config.jax_enable_x64, "pgcomm must enable JAX x64 at import"
+assert jax.config.jax_enable_x64, "pgcomm's computing modules must enable JAX x64 at import"
 jax.config.update("jax_numpy_dtype_promotion", "strict")
 
 

@@ -27,6 +27,7 @@ matrix of eq. Commutation_Model_Currents.
 
 from __future__ import annotations
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax.numpy as jnp
 import numpy as np
 

@@ -22,6 +22,7 @@ velocity, one pass in each direction, into a :class:`CoggingTable`
 
 from __future__ import annotations
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax.numpy as jnp
 import numpy as np
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import numpy as np
 

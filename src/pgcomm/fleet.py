@@ -72,8 +72,7 @@ COLUMNS = ("motor", "coil_set", "status", "error", "k", "zeta", "cost_physics", 
 #: Quantities whose fleet distribution ``fleet.html`` shows and whose outliers it flags.
 QA_QUANTITIES = ("k", "zeta", "cogging_pp", "improvement")
 
-#: Robust z-score above which a value is an outlier (Iglewicz & Hoaglin's 3.5).
-DEFAULT_OUTLIER_Z = 3.5
+from pgcomm.defaults import DEFAULT_OUTLIER_Z  # noqa: E402  (re-exported)
 
 #: File inside a finished motor's output folder holding its fleet rows (its presence = finished).
 ROWS_FILE = "fleet_rows.json"

@@ -23,6 +23,7 @@ bounds.
 
 from __future__ import annotations
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import jax.numpy as jnp
 import numpy as np

@@ -7,6 +7,7 @@ Force maps (:class:`pgcomm.forcemap.ForceMapPlant`), the drive-style anti-coggin
 
 from __future__ import annotations
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax.numpy as jnp
 
 import numpy as np

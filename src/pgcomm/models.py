@@ -40,6 +40,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import replace
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import jax.numpy as jnp
 import numpy as np

@@ -17,6 +17,7 @@ effects) and :class:`pgcomm.forcemap.ForceMapPlant` (a tabulated force map).
 
 from __future__ import annotations
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import jax.numpy as jnp
 import numpy as np

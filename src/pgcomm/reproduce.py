@@ -28,6 +28,7 @@ import time
 import zlib
 from dataclasses import dataclass, replace
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import numpy as np
 

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax.numpy as jnp
 import numpy as np
 

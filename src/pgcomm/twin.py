@@ -45,6 +45,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax.numpy as jnp
 import numpy as np
 

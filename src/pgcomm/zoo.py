@@ -71,6 +71,7 @@ import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -96,8 +97,7 @@ __all__ = [
     "MAX_MOTORS",
 ]
 
-#: Most motors :func:`write_zoo` writes in one call (with logs a motor takes 20-150 MB of CSV).
-MAX_MOTORS = 1000
+from pgcomm.defaults import MAX_MOTORS  # noqa: E402  (re-exported)
 
 #: Parasitic effects a zoo motor may have (each absent with some probability).
 EFFECTS = ("imbalance", "field", "end_effects", "harmonics", "out_of_plane", "magnets", "cable", "cogging",

@@ -15,9 +15,16 @@ stays fast. The front end imports the library, never the reverse.
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import threading
+
+# Process-wide settings belong to the program, not the library; set before NumPy or JAX load.
+# OpenBLAS worker threads busy-wait against XLA's thread pool on small machines, which made
+# NumPy/SciPy least squares ~20x slower next to JAX work: one BLAS thread is faster here.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
 from pgcomm.cli import calibrate, check, evaluate, export, fleet, identify, inspect, reproduce, simulate, zoo
 from pgcomm.cli._common import staged_output, user_error_line

@@ -25,7 +25,7 @@ DEFAULT_F_MAX = 100.0
 
 def configure(p) -> None:
     """Options of ``pgcomm export``."""
-    from pgcomm.export.lut import DEFAULT_RESOLUTION
+    from pgcomm.defaults import DEFAULT_RESOLUTION
 
     p.add_argument("--model", required=True, type=Path, metavar="MODEL.json", help="model file (pgcomm identify)")
     p.add_argument("--format", required=True, choices=("c", "lut"),

@@ -22,7 +22,7 @@ STAGED_OUT = False
 
 def configure(p) -> None:
     """Options of ``pgcomm fleet``."""
-    from pgcomm.fleet import DEFAULT_OUTLIER_Z
+    from pgcomm.defaults import DEFAULT_OUTLIER_Z
 
     p.add_argument("--data", required=True, type=Path, metavar="DIR", help="fleet directory: one folder per motor")
     p.add_argument("--out", required=True, type=Path,

@@ -25,6 +25,10 @@ def configure(p) -> None:
     add_common_options(p)
     add_data_options(p)
     p.add_argument("--force", action="store_true", help="identify even if the excitation check fails (warn only)")
+    p.add_argument("--family", choices=("pgnn", "spline"), default="pgnn",
+                   help="model family: pgnn (the paper's, default) or spline (the fundamental's coefficients, "
+                        "cogging and direction force tabulated along the stroke, knots by cross-validation; the "
+                        "file also carries the mass, viscous friction and Coulomb table for the feedforward)")
     p.add_argument("--no-force-sensor", action="store_true",
                    help="identify without force measurements: the y row from the motion (m ÿ + friction, the "
                         "moving mass from the motor TOML key mass), x/z rows classical with the motor's nominal "
@@ -100,6 +104,12 @@ def run(args, out: Path, progress) -> None:
             raise ExcitationError(f"data do not persistently excite the model ({msg}); use --force to identify anyway")
         progress.info(f"warning: {msg}")
     mechanics = feedforward = None
+    if args.family == "spline":
+        if sensorless:
+            raise DataError("--family spline needs force measurements (Fy, Fx, Tz); without a force sensor use "
+                            "--family pgnn")
+        _identify_spline(args, out, progress, setup, data, source, t0)
+        return
     if sensorless:
         with progress.stage("identification without a force sensor (y row and friction) per coil set"):
             t_id = time.perf_counter()
@@ -151,6 +161,51 @@ def run(args, out: Path, progress) -> None:
                   f"{r.cost_pgnn_validation:10.4g} {r.seconds:6.1f}")
         if sensorless:
             print(format_feedforward(feedforward))
+        print(f"wrote {args.out}/model.json, model.npz, results.json, cogging.png, gain_coilset*.png")
+
+
+def _identify_spline(args, out, progress, setup, data, source, t0) -> None:
+    """``--family spline``: the spline model and the mechanics; model file with both, results, figures."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    from pgcomm import __version__, experiment, plots
+    from pgcomm.io.model import save_model
+    from pgcomm.io.results import write_results
+
+    with progress.stage("spline model (knots by cross-validation) and mechanics from the same data"):
+        fit, mech = experiment.identify_spline_models(setup, data, progress)
+    fy_abs_max = max(float(np.max(np.abs(d.force[:, 0]))) for d in data)
+    ident = {"spline": fit.to_dict(), "seconds_total": fit.seconds + mech.seconds}
+    results = {"command": "identify", "family": "spline", "plant": setup.plant_name, "data": source,
+               "version": __version__, "seed": args.seed, "force_sensor": True, "identification": ident,
+               "mechanics": mech.to_dict()}
+    save_model(out / "model", fit.model, {"seed": args.seed, "plant": setup.plant_name, "data": source,
+                                          "fy_abs_max": fy_abs_max, "force_sensor": True, "identification": ident,
+                                          "current_limit": setup.motor.current_limit}, mechanics=mech)
+    y = np.linspace(*fit.model.training_range, 2001)
+    known = setup.plant is not None and (source != "logs" or args.plant is None)
+    truth = np.asarray(setup.plant.cogging(jnp.asarray(y))) if known else None
+    plots.save(plots.plot_cogging(y, np.asarray(fit.model.cogging(jnp.asarray(y))), truth,
+                                  title="identified cogging force (spline model)"), out / "cogging.png")
+    gm = np.asarray(fit.model.gain(jnp.asarray(y)))
+    gt = np.asarray(setup.plant.gain(jnp.asarray(y))) if known else None
+    for l in range(fit.model.n_coil_sets):
+        plots.save(plots.plot_gain_columns(y, gm[:, l], None if gt is None else gt[:, l], l),
+                   out / f"gain_coilset{l + 1}.png")
+    results["runtime_s"] = time.perf_counter() - t0
+    write_results(out / "results.json", results)
+    if not args.quiet:
+        sp = fit.spacing
+        print(f"spline model: knots every {1e3 * sp['gain']:.3g} mm (gain), {1e3 * sp['cogging']:.3g} mm (cogging), "
+              f"{1e3 * sp['direction']:.3g} mm (direction), {fit.model.n_parameters} coefficients")
+        print(f"{'coil set':10s} {'MSE y':>10s} {'x':>10s} {'z':>10s} {'CV y':>10s} {'x':>10s} {'z':>10s}")
+        for l, (c, v) in enumerate(zip(fit.cost, fit.cost_validation)):
+            print(f"{l + 1:<10d} " + " ".join(f"{c[d]:10.4g}" for d in "yxz") + " "
+                  + " ".join(f"{v[d]:10.4g}" for d in "yxz"))
+        print(f"feedforward: m = {mech.mass:.4g} kg, f_v = {mech.viscous:.4g} N s/m, Coulomb "
+              f"{float(np.min(mech.coulomb)):.3g} .. {float(np.max(mech.coulomb)):.3g} N along the stroke "
+              f"(in the model file)")
         print(f"wrote {args.out}/model.json, model.npz, results.json, cogging.png, gain_coilset*.png")
 
 

@@ -87,6 +87,12 @@ def run(args, out: Path, progress) -> None:
             gts = np.asarray(setup.plant.gain(jnp.asarray(yy)))
             fig("gain_spline_coilset1.png", plots.plot_gain_columns(yy, gs[:, 0], gts[:, 0], 0),
                 "Gain-matrix columns of coil set 1: spline model against the plant's truth.")
+        if o.spline is not None:
+            save_model(out / "spline_model", o.spline.model,
+                       {"seed": args.seed, "plant": setup.plant_name, "fy_abs_max": fy_max,
+                        "current_limit": setup.motor.current_limit,
+                        "identification": {"spline": results["identification"].get("spline")}},
+                       mechanics=o.mechanics)
         save_model(out / "model", o.pgnn, {"seed": args.seed, "plant": setup.plant_name, "fy_abs_max": fy_max,
                                            "identification": results["identification"]})
         results["runtime_s"] = time.perf_counter() - t0
@@ -104,7 +110,8 @@ def run(args, out: Path, progress) -> None:
         print(f"classical -> pgnn: y {imp['y']:.1f}x, x {imp['x']:.1f}x, z {imp['z']:.1f}x, "
               f"tracking {imp['tracking']:.1f}x  (paper: {paper['y']:.1f}x, {paper['x']:.1f}x, {paper['z']:.1f}x, "
               f"{paper['tracking']:.1f}x)")
-        print(f"wrote {args.out}/report.html, results.json, model.json/.npz and figures "
+        print(f"wrote {args.out}/report.html, results.json, model.json/.npz (PGNN), spline_model.json/.npz "
+              "(spline model with its mechanics) and figures "
               f"({results['runtime_s']:.0f} s)", file=sys.stdout)
 
 

@@ -13,7 +13,7 @@ HELP = ("Write N random zoo motors (force map, motor.toml, config.toml, truth.js
 
 def configure(p) -> None:
     """Options of ``pgcomm zoo``."""
-    from pgcomm.zoo import MAX_MOTORS
+    from pgcomm.defaults import MAX_MOTORS
 
     p.add_argument("--motors", type=int, required=True, metavar="N", help=f"number of motors (1 to {MAX_MOTORS})")
     p.add_argument("--seed", type=int, default=0, help="zoo seed, also the noise seed of --logs (default 0)")

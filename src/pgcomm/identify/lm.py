@@ -8,6 +8,7 @@ from __future__ import annotations
 import sys
 import time
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import jax.numpy as jnp
 import numpy as np

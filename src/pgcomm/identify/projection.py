@@ -11,6 +11,7 @@ import dataclasses
 from dataclasses import dataclass
 from functools import partial
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import jax.numpy as jnp
 import numpy as np
