@@ -344,14 +344,33 @@ class ModelLaw:
     velocity_cutoff_hz: float = static_field(default=100.0)
 
     def currents(self, y, f_star, v=None):
-        """Star currents ``(..., L, 2)`` (A) for ``y`` (m), ``F*`` ``(..., 3)`` and velocity ``v`` (m/s, or ``None``)."""
+        """Star currents ``(..., L, 2)`` (A) for ``y`` (m), ``F*`` ``(..., 3)`` and velocity ``v`` (m/s, or ``None``).
+
+        Safe for every input a controller can pass: beyond the model's training range
+        (``model.training_range``, where it has one) the position is held at the range's end (the
+        model was not identified there; a network extrapolates without bound); a sample with a
+        non-finite position, force demand or velocity gets zero currents; the current limit bounds
+        every phase current.
+        """
+        y = jnp.asarray(y, dtype=float)
+        f_star = jnp.asarray(f_star, dtype=float)
+        ok = jnp.isfinite(y) & jnp.all(jnp.isfinite(f_star), axis=-1)
+        if v is not None:
+            v = jnp.asarray(v, dtype=float)
+            ok = ok & jnp.isfinite(v)
+            v = jnp.where(ok, v, 0.0)
+        rng = getattr(self.model, "training_range", None)
+        y = jnp.where(ok, y, 0.0 if rng is None else 0.5 * (rng[0] + rng[1]))
+        if rng is not None:
+            y = jnp.clip(y, rng[0], rng[1])
+        f_star = jnp.where(ok[..., None], f_star, 0.0)
         gain = self.model.gain(y)
         winv = metric_inverse(gain.shape[-3], self.metric)
         target = f_star - self.model.cogging(y)
         if v is not None and hasattr(self.model, "direction_force"):
             target = target - self.model.direction_force(y, v)
         i = min_energy_currents(gain, target, winv, det_min=self.det_min)
-        return limit_currents(i, self.current_limit)
+        return jnp.where(ok[..., None, None], limit_currents(i, self.current_limit), 0.0)
 
 
 def oracle_law(plant, current_limit: float | None = None) -> ModelLaw:
