@@ -60,8 +60,9 @@ LAMBDAS = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
 #: Cross-validation folds and block length (samples).
 CV_FOLDS = 5
 CV_BLOCK = 500
-#: Most knots of one table: bounds the normal equations (``4 · 256 + ...`` columns) on long strokes.
-MAX_KNOTS = 256
+#: Most knots of one table: bounds the normal equations (``4 · 128 + 8 + 2 · 128`` columns) on long strokes,
+#: and with them the cost of every cross-validation solve (``O(p³)``).
+MAX_KNOTS = 128
 #: Ridge relative to the mean diagonal of ``MᵀM``.
 RIDGE = 1e-10
 
@@ -364,8 +365,8 @@ def identify_spline(data: list[CoilSetData], pole_pitch: float, options: SplineO
         if key not in cache:
             grids = _grids(lo, hi, pole_pitch, ch, options.direction)
             normals = [_normal_equations(d, pole_pitch, grids, options) for d in data]
-            # y row: best λ per coil set, summed
-            total = sum(min(n.cv_mse(lam)[0] for lam in options.lambdas) for n in normals)
+            # y row: best λ per coil set, summed (every other λ of the grid: the search compares grids)
+            total = sum(min(n.cv_mse(lam)[0] for lam in options.lambdas[::2]) for n in normals)
             cache[key] = (total, normals, grids)
             search.append({"spacing_m": {k: ch[k] * pole_pitch for k in ch}, "cv_mse_y": total / len(data)})
         return cache[key][0]
@@ -375,7 +376,17 @@ def identify_spline(data: list[CoilSetData], pole_pitch: float, options: SplineO
         for fam in ("gain", "cogging", "direction"):
             if len(cands[fam]) < 2:
                 continue
-            best = min(cands[fam], key=lambda s, fam=fam: score({**choice, fam: s}))
+            # coarse to fine, stopping at the first candidate worse than the one before: the validation
+            # error falls while the grid resolves the data and rises once it fits noise
+            ordered = sorted(cands[fam], reverse=True)
+            best, prev = None, None
+            for sp_ in ordered:
+                sc = score({**choice, fam: sp_})
+                if prev is not None and sc > prev:
+                    break
+                if best is None or sc < score({**choice, fam: best}):
+                    best = sp_
+                prev = sc
             if best != choice[fam]:
                 choice[fam], changed = best, True
             if progress is not None:
