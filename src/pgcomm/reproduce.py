@@ -352,6 +352,12 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     from pgcomm.progress import Progress
 
     progress = progress or Progress(enabled=False)
+    if setup.motor.mass is None:
+        # the run simulates the translator, so its mass is known: the sensorless rows use it (said), and a motor
+        # description without one is not found out minutes later
+        setup = replace(setup, motor=replace(setup.motor, mass=float(setup.config.mechanics.mass)))
+        progress.info(f"the motor description has no mass: the simulated translator's {setup.motor.mass:g} kg "
+                      "([mechanics] mass) is given to identification without a force sensor")
     cfg = setup.config
     ic = cfg.identification
     motor = setup.motor
