@@ -110,14 +110,17 @@ def _export_c(args, out, progress, model, metadata, name, results):
     meta = {**metadata, "source": str(args.model)}
     with progress.stage(f"generate C ({args.precision} precision)"):
         try:
+            # a spline file's mechanics travel with it: the feedforward is exported beside the law
             paths = write_c(model, out, name=name, precision=args.precision, metadata=meta,
-                            current_limit=args.current_limit)
+                            current_limit=args.current_limit, mechanics=metadata.get("mechanics"))
         except ValueError as e:
             raise ConfigError(f"{args.model}: {e}") from None
-    results.update(files=[p.name for p in paths], precision=args.precision)
+    results.update(files=[p.name for p in paths], precision=args.precision,
+                   feedforward=metadata.get("mechanics") is not None)
     if not args.quiet:
         limit = "none" if args.current_limit is None else f"{args.current_limit:g} A"
-        print(f"C law {name}: L = {model.n_coil_sets}, {args.precision} precision, current limit {limit}")
+        print(f"C law {name}: L = {model.n_coil_sets}, {args.precision} precision, current limit {limit}"
+              + (f"; feedforward {name}_feedforward (mechanics of the model file)" if metadata.get("mechanics") else ""))
         print(f"wrote {args.out}/{paths[0].name}, {paths[1].name}, results.json")
 
 

@@ -57,6 +57,8 @@ def model_summary(model, document: dict, path) -> dict:
     ``identification``), ``seed``, ``version`` (package that wrote the file), ``date``,
     ``schema`` and the remaining ``metadata``.
     """
+    if getattr(model, "gain_table", None) is not None:
+        return spline_summary(model, document, path)
     L = model.n_coil_sets
     per_gain = _n_params(model.gain_nets) // L if model.gain_nets is not None else 0
     per_cog = _n_params(model.cog_nets) // L if model.cog_nets is not None else 0
@@ -99,6 +101,95 @@ def model_summary(model, document: dict, path) -> dict:
     }
 
 
+def _grid(knots) -> dict:
+    """``{"knots", "lo", "hi", "spacing"}`` (m) of a uniform knot vector."""
+    k = np.asarray(knots, float)
+    return {"knots": int(k.size), "lo": float(k[0]), "hi": float(k[-1]),
+            "spacing": float((k[-1] - k[0]) / (k.size - 1))}
+
+
+def spline_summary(model, document: dict, path) -> dict:
+    """JSON-ready description of a spline model file (schema ``pgcomm-model/3``).
+
+    Keys: ``file``, ``files``, ``schema``, ``family`` (``"spline"``), ``structure`` (``coil_sets``,
+    ``grids``: per table ``gain``, ``cogging``, ``direction`` its knots, ends and spacing (m),
+    ``parameters`` per table and ``parameters_total``), ``pole_pitch`` (m), ``training_range``
+    (m), ``direction_velocity`` (m/s, or ``None``), ``mechanics`` (mass kg, viscous N s/m, Coulomb
+    table knots and spacing m, mean/min/max N; or ``None``), ``identification``, ``version``,
+    ``date`` and ``metadata``.
+    """
+    grids = {"gain": _grid(model.gain_knots), "cogging": _grid(model.cog_knots)}
+    params = {"gain": int(np.size(model.gain_table)), "harmonics": int(np.size(model.H)),
+              "cogging": int(np.size(model.cog_table)), "direction": 0}
+    if model.dir_table is not None:
+        grids["direction"] = _grid(model.dir_knots)
+        params["direction"] = int(np.size(model.dir_table))
+    mech = document.get("mechanics")
+    mech_info = None
+    if isinstance(mech, dict):
+        table = np.asarray(mech.get("coulomb_table") or [0.0], float)
+        mech_info = {"mass": mech.get("mass"), "viscous": mech.get("viscous"),
+                     "direction_velocity": mech.get("direction_velocity"),
+                     "coulomb": {**_grid(mech["coulomb_knots"]), "mean": float(table.mean()),
+                                 "min": float(table.min()), "max": float(table.max())}
+                     if mech.get("coulomb_knots") else None}
+    meta = document.get("metadata") or {}
+    return {
+        "file": str(path),
+        "files": _file_sizes(path, document.get("arrays")),
+        "schema": document.get("schema"),
+        "family": "spline",
+        "structure": {"coil_sets": model.n_coil_sets, "grids": grids, "parameters": params,
+                      "parameters_total": int(model.n_parameters)},
+        "pole_pitch": float(model.pole_pitch),
+        "training_range": None if model.training_range is None else list(model.training_range),
+        "direction_velocity": float(model.direction_velocity) if model.dir_table is not None else None,
+        "mechanics": mech_info,
+        "identification": document.get("identification", "force_sensor"),
+        "version": document.get("package_version"),
+        "date": document.get("created"),
+        "metadata": meta,
+    }
+
+
+def format_spline_summary(info: dict) -> str:
+    """Readable text of :func:`spline_summary`."""
+    s = info["structure"]
+    lines = [f"model {info['file']}",
+             f"  files:          {', '.join(f'{k} ({_bytes(v)})' for k, v in info['files'].items()) or '-'}",
+             f"  schema:         {_or_dash(info['schema'])}",
+             "  family:         spline (physics-guided tables on uniform knots)",
+             f"  coil sets L:    {s['coil_sets']}"]
+    for name, g in s["grids"].items():
+        lines.append(f"  {name + ' knots:':15s} {g['knots']} on [{g['lo']:.4g}, {g['hi']:.4g}] m, "
+                     f"spacing {1e3 * g['spacing']:.4g} mm")
+    p = s["parameters"]
+    lines.append(f"  parameters:     {s['parameters_total']} (gain {p['gain']}, harmonics {p['harmonics']}, "
+                 f"cogging {p['cogging']}, direction {p['direction']})")
+    lines.append(f"  pole pitch:     {info['pole_pitch']:.6g} m")
+    dv = info["direction_velocity"]
+    lines.append("  direction term: " + ("off" if dv is None else
+                                          f"C(y) s(v), s = tanh(v / {dv:g} m/s); the law needs a velocity"))
+    tr = info["training_range"]
+    lines.append("  training range: " + ("unknown" if tr is None else f"[{tr[0]:.4g}, {tr[1]:.4g}] m (all coil sets)"))
+    m = info["mechanics"]
+    if m is None:
+        lines.append("  mechanics:      not stored (no feedforward in the file)")
+    else:
+        c = m["coulomb"]
+        lines.append(f"  mechanics:      m = {m['mass']:.4g} kg, f_v = {m['viscous']:.4g} N s/m"
+                     + ("" if c is None else f", Coulomb table D(r) {c['knots']} knots every "
+                        f"{1e3 * c['spacing']:.4g} mm, {c['min']:.3g} .. {c['max']:.3g} N (mean {c['mean']:.3g} N)"))
+        lines.append("  feedforward:    u_ff[k] = (g[k] + g[k+1]) / 2, g = m a_r + f_v v_r + D(r) sign(v_r)")
+    lines += [f"  identified:     {info['identification'].replace('_', ' ')}",
+              f"  version:        {_or_dash(info['version'])}",
+              f"  date:           {_or_dash(info['date'])}"]
+    for k, v in info["metadata"].items():
+        if isinstance(v, (str, int, float, bool)) or v is None:
+            lines.append(f"  {k + ':':15s} {v}")
+    return "\n".join(lines)
+
+
 def _file_sizes(path, arrays_name) -> dict:
     """Bytes of the model's JSON and of the array file it names (name -> bytes)."""
     from pgcomm.io.model import model_paths
@@ -110,6 +201,8 @@ def _file_sizes(path, arrays_name) -> dict:
 
 def format_summary(info: dict) -> str:
     """Readable text of :func:`model_summary`."""
+    if info.get("family") == "spline":
+        return format_spline_summary(info)
     s = info["structure"]
     pc = s["parameters_per_coil_set"]
     lines = [f"model {info['file']}",

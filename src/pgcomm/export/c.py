@@ -1,6 +1,7 @@
 """C99 export of the model-based commutation law (eq. Commutation_Model_Currents).
 
-:func:`write_c` turns a :class:`~pgcomm.models.CombinedModel` into two files, ``NAME.h``
+:func:`write_c` turns a :class:`~pgcomm.models.CombinedModel` (or a
+:class:`~pgcomm.spline_model.SplineModel`, below) into two files, ``NAME.h``
 and ``NAME.c``, that a real-time controller compiles as they are: C99, only ``<math.h>``,
 no dynamic allocation, no global mutable state (the weights are ``static const``
 arrays, every function is reentrant). The generated functions are:
@@ -31,6 +32,21 @@ Extensions (issue 10), present only when the model has them:
   the law subtracts ``mean_l C^l · tanh(v / v_ε)`` after the cogging force (as
   :class:`pgcomm.commutation.ModelLaw` does), and ``void NAME_direction(T v, T force[3])``
   returns that force. ``NAME_HAS_VELOCITY`` is 1 in the header then, else 0.
+
+Spline models (:class:`pgcomm.spline_model.SplineModel`): the same functions and return codes; the
+tables ``A^l(y), B^l(y)`` (gain), ``F̂_cog(y)`` and ``C(y)`` (direction) are ``static const`` arrays
+on their uniform knots, read by index arithmetic (``i = floor((y - k_0)/h)``, clamped to the grid,
+``(1 - w) t[i] + w t[i+1]``), exactly as :func:`pgcomm.interp.interp_linear`, so outside the grid
+the end rows are held while the harmonics go on. With a direction table the velocity argument is
+as above and ``void NAME_direction(T y, T v, T force[3])`` returns ``C(y) tanh(v / v_ε)``. A NaN
+position reads the first knot (the index conversion must not see a NaN) and returns 1.
+
+Feedforward (``mechanics=``, any model family; ``pgcomm export`` passes a spline file's mechanics):
+``T NAME_feedforward_g(T r, T v, T a)`` returns ``g = m a + f_v v + (f_c + D(r)) sign(v)`` (N) for
+one reference sample (position m, velocity m/s, acceleration m/s²), ``D`` the Coulomb table on
+uniform knots read as above; the controller applies ``u_ff[k] = (g[k] + g[k+1]) / 2``
+(:func:`pgcomm.control.feedforward_signal`), which ``T NAME_feedforward(r, v, a, r_next, v_next,
+a_next)`` computes.
 
 ``T`` is ``double`` or ``float`` (``precision="single"``: float literals with an ``f``
 suffix and the float functions ``sinf``, ``tanhf`` ...). In single precision the
@@ -114,12 +130,13 @@ def check_c_name(name: str) -> str:
 
 def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,
              drive=None, current_limit: float | None = None, det_min: float = DEFAULT_DET_MIN,
-             damping: float = DEFAULT_DAMPING) -> tuple[str, str]:
+             damping: float = DEFAULT_DAMPING, mechanics=None) -> tuple[str, str]:
     """Header and source text of the exported law (see the module docstring).
 
     Args:
         model: :class:`~pgcomm.models.CombinedModel` (any ``L``, any hidden widths and
-            depth, any activation of :data:`pgcomm.models.ACTIVATIONS`).
+            depth, any activation of :data:`pgcomm.models.ACTIVATIONS`) or
+            :class:`~pgcomm.spline_model.SplineModel` (tables on uniform knots).
         name: C identifier used as file name and function prefix.
         precision: ``"double"`` or ``"single"``.
         metadata: the model file's metadata (named in the comment block: source file,
@@ -130,12 +147,17 @@ def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadat
             ``k_hat``, ``zeta_hat`` or a pair ``(k_hat, zeta_hat)`` (scalars or ``(L,)``).
         current_limit: peak phase current (A) embedded in the law, or ``None`` (no limit).
         det_min, damping: damping rule of :func:`pgcomm.commutation.min_energy_currents`.
+        mechanics: optional feedforward to export beside the law as ``NAME_feedforward_g`` and
+            ``NAME_feedforward`` (module docstring): a :class:`pgcomm.control.Feedforward`, a
+            :class:`pgcomm.identify.mechanics.MechanicsFit`, or the plain mechanics dict of a model
+            file (``document["mechanics"]`` of :func:`pgcomm.io.model.load_model`). Its Coulomb
+            knots (m) must be uniform.
 
     Returns:
         ``(header_text, source_text)``.
 
     Raises:
-        ValueError: bad name, precision, limit or non-finite weights.
+        ValueError: bad name, precision, limit, non-finite weights or non-uniform knots.
     """
     check_c_name(name)
     if precision not in PRECISIONS:
@@ -144,14 +166,17 @@ def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadat
         raise ValueError(f"current_limit must be a positive number of amperes or None, got {current_limit}")
     if not (det_min > 0 and damping >= 0):
         raise ValueError(f"need det_min > 0 and damping >= 0, got {det_min}, {damping}")
-    g = _Gen(model, name, _SINGLE if precision == "single" else _DOUBLE, metadata or {}, drive,
-             current_limit, float(det_min), float(damping))
+    from pgcomm.spline_model import SplineModel
+
+    gen = _SplineGen if isinstance(model, SplineModel) else _Gen
+    g = gen(model, name, _SINGLE if precision == "single" else _DOUBLE, metadata or {}, drive,
+            current_limit, float(det_min), float(damping), _feedforward_of(mechanics))
     return g.header(), g.source()
 
 
 def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,
             drive=None, current_limit: float | None = None, det_min: float = DEFAULT_DET_MIN,
-            damping: float = DEFAULT_DAMPING) -> list[Path]:
+            damping: float = DEFAULT_DAMPING, mechanics=None) -> list[Path]:
     """Write ``NAME.h`` and ``NAME.c`` into ``out_dir`` (created if missing).
 
     Both texts are generated before anything is written, and each file is written
@@ -163,7 +188,7 @@ def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double",
     """
     from pgcomm.io.atomic import atomic_write_text
 
-    header, source = c_source(model, name, precision, metadata, drive, current_limit, det_min, damping)
+    header, source = c_source(model, name, precision, metadata, drive, current_limit, det_min, damping, mechanics)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / f"{name}.h", out / f"{name}.c"]
@@ -207,12 +232,55 @@ def _drive_params(drive, n: int):
     return k, z
 
 
+def _feedforward_of(mechanics):
+    """A :class:`pgcomm.control.Feedforward` from the accepted ``mechanics`` forms, or ``None``.
+
+    Its Coulomb knots must be uniform: the C reads the table by index arithmetic.
+    """
+    if mechanics is None:
+        return None
+    from pgcomm.control import Feedforward
+
+    if isinstance(mechanics, Feedforward):
+        ff = mechanics
+    elif hasattr(mechanics, "feedforward") and callable(mechanics.feedforward):  # MechanicsFit
+        ff = mechanics.feedforward()
+    elif isinstance(mechanics, dict):
+        from pgcomm.io.model import feedforward_from_metadata
+
+        ff = feedforward_from_metadata(mechanics)
+        if ff is None:
+            raise ValueError(f"mechanics {sorted(mechanics)} hold no mass and viscous friction")
+    else:
+        raise ValueError(f"mechanics must be a Feedforward, a MechanicsFit or a dict, got {type(mechanics).__name__}")
+    _arr([ff.mass, ff.viscous, ff.coulomb])
+    if ff.coulomb_knots:
+        knots, table = _arr(ff.coulomb_knots), _arr(ff.coulomb_table)
+        if knots.shape != table.shape or knots.shape[0] < 2:
+            raise ValueError(f"feedforward Coulomb table: {knots.shape[0]} knots and {table.shape[0]} values; "
+                             "need the same number, at least 2")
+        _check_uniform("feedforward coulomb_knots", knots)
+    return ff
+
+
+def _check_uniform(what: str, knots: np.ndarray) -> None:
+    """``ValueError`` unless ``knots`` (m) increase strictly with one spacing (relative 1e-9)."""
+    d = np.diff(knots)
+    if knots.ndim != 1 or knots.shape[0] < 2 or not np.all(d > 0):
+        raise ValueError(f"{what}: knots must increase strictly (at least 2)")
+    h = (knots[-1] - knots[0]) / (knots.shape[0] - 1)
+    if np.max(np.abs(d - h)) > 1e-9 * max(abs(knots[0]), abs(knots[-1]), h):
+        raise ValueError(f"{what}: knots must be uniform for the exported index arithmetic "
+                         f"(spacings {d.min():.6g} to {d.max():.6g} m)")
+
+
 class _Gen:
     """Builds the C texts of one model (private; see :func:`c_source`)."""
 
-    def __init__(self, model, name, num: _Num, metadata, drive, current_limit, det_min, damping):
+    def __init__(self, model, name, num: _Num, metadata, drive, current_limit, det_min, damping, ff=None):
         from pgcomm import __version__
 
+        self.ff = ff  # pgcomm.control.Feedforward to export beside the law, or None
         self.m, self.name, self.num, self.meta = model, name, num, metadata
         self.version = __version__
         self.L = int(model.n_coil_sets)
@@ -226,7 +294,7 @@ class _Gen:
         self.vdecl = f"{num.ctype} v, " if self.dir else ""
         self.varg = "v, " if self.dir else ""
         # arguments of NAME_direction inside the law (a spline's direction force depends on y too)
-        self.dir_args = "v"
+        self.dir_args = "v"  # the law's call of NAME_direction
         self.T = num.ctype
         # the solve runs in double even in single precision (see the module docstring)
         self.S = "double"
@@ -302,6 +370,7 @@ class _Gen:
             "              k_hat in N/A, zeta_hat and Delta in rad, Fy^l* in N.",
             "Return codes: 0 = y inside the training range, 1 = outside (still computed).",
             *self._banner_extra_lines(),
+            *self._ff_lines(),
         ]
         return "/*\n" + "".join((" * " + _ascii(s)).rstrip() + "\n" for s in lines) + " */\n"
 
@@ -356,7 +425,7 @@ class _Gen:
                " * columns ia, ib) and the mean cogging force [Fy, Fx, Tz] (N, N, N m).\n"
                " */\n",
                f"void {P}_model({T} y, {T} gain[{P.upper()}_L][3][2], {T} cogging[3]);\n\n"]
-        out += self._header_model_decls()
+        out += self._header_model_decls() + self._header_ff_decls()
         if self.drive is not None:
             out.append(f"/** The drive's fixed commutation at export: k_hat (N/A), zeta_hat (rad) per coil set. */\n"
                        f"extern const {T} {P}_drive_k_hat[{P.upper()}_L];\n"
@@ -499,6 +568,7 @@ class _Gen:
 
     def source(self) -> str:
         """The ``.c`` text: constants, tables, the model, the law (:meth:`_assemble`)."""
+        self._locate_done = False  # NAME_locate is emitted once per source text
         m, P, T, lit = self.m, self.P, self.T, self.lit
         Lm = P.upper() + "_L"
         arrays, funcs = self._model_arrays()
@@ -548,9 +618,110 @@ class _Gen:
         """Model-specific ``#define``s (none for a PGNN)."""
         return []
 
+    # --- feedforward (any model family, only with mechanics) ----------------------------------
+
+    def _ff_knots(self):
+        """``(knots, table)`` of the feedforward's Coulomb table ``D(r)``, or ``None`` (constant only)."""
+        ff = self.ff
+        if ff is None or not ff.coulomb_knots:
+            return None
+        return _arr(ff.coulomb_knots), _arr(ff.coulomb_table)
+
+    def _ff_lines(self) -> list[str]:
+        """Banner lines of the feedforward."""
+        if self.ff is None:
+            return []
+        ff, kt = self.ff, self._ff_knots()
+        tab = ([] if kt is None else
+               [f"  D(r): Coulomb table, {kt[0].shape[0]} uniform knots on [{kt[0][0]:.6g}, {kt[0][-1]:.6g}] m,",
+                "  linear, held at the ends;"])
+        return ["",
+                "Feedforward (eq. FeedforwardController with a Coulomb table along the stroke):",
+                f"  g(r, v, a) = m a + f_v v + (f_c{' + D(r)' if kt is not None else ''}) sign(v),",
+                *tab,
+                f"  m = {ff.mass:.9g} kg, f_v = {ff.viscous:.9g} N s/m, f_c = {ff.coulomb:.9g} N;",
+                "  r, v, a: reference position (m), velocity (m/s), acceleration (m/s^2) of sample k.",
+                "  The controller applies u_ff[k] = (g[k] + g[k+1]) / 2 (the zero-order hold's half-sample",
+                f"  average, pgcomm.control.feedforward_signal): {self.P}_feedforward takes both samples."]
+
+    def _header_ff_decls(self) -> list[str]:
+        """Declarations of the feedforward functions (only with mechanics)."""
+        if self.ff is None:
+            return []
+        P, T = self.P, self.T
+        return ["/**\n"
+                " * Feedforward force g = m a + f_v v + (f_c + D(r)) sign(v) (N) of one reference sample:\n"
+                " * r position (m), v velocity (m/s), a acceleration (m/s^2); sign(0) = 0.\n"
+                f" * The controller applies u_ff[k] = (g[k] + g[k+1]) / 2 (see {P}_feedforward).\n"
+                " */\n"
+                f"{T} {P}_feedforward_g({T} r, {T} v, {T} a);\n\n"
+                "/**\n"
+                " * Feedforward u_ff[k] = (g(r[k], v[k], a[k]) + g(r[k+1], v[k+1], a[k+1])) / 2 (N), with g of\n"
+                f" * {P}_feedforward_g: the reference of this sample and of the next one.\n"
+                " */\n"
+                f"{T} {P}_feedforward({T} r, {T} v, {T} a, {T} r_next, {T} v_next, {T} a_next);\n\n"]
+
+    def _ff_fns(self) -> list[str]:
+        """Tables, constants and functions of the feedforward (only with mechanics)."""
+        if self.ff is None:
+            return []
+        P, T, U, lit, ff = self.P, self.T, self.P.upper(), self.lit, self.ff
+        kt = self._ff_knots()
+        out = ["\n/* ---- feedforward (see the header) ---- */\n",
+               f"#define {U}_FF_MASS {_m(lit(ff.mass))}\n#define {U}_FF_VISCOUS {_m(lit(ff.viscous))}\n"
+               f"#define {U}_FF_COULOMB {_m(lit(ff.coulomb))}\n"]
+        d_expr = ""
+        if kt is not None:
+            knots, table = kt
+            out += [self._grid_consts("FF", knots),
+                    "/* Coulomb table D(r) (N) at its knots (m) */\n",
+                    self.array(f"{P}_ff_knots", knots), self.array(f"{P}_ff_coulomb", table), "\n",
+                    self._locate_fn()]
+            d_expr = " + d"
+        out.append(f"{T} {P}_feedforward_g({T} r, {T} v, {T} a)\n{{\n")
+        if kt is not None:
+            out.append(f"    {T} w, d;\n    const int i = {P}_locate(r, {P}_ff_knots, {U}_FF_M, {U}_FF_H, &w);\n"
+                       f"    const {T} sg = (v > {lit(0)}) ? {lit(1)} : ((v < {lit(0)}) ? {lit(-1)} : {lit(0)});\n\n"
+                       f"    d = ({lit(1)} - w) * {P}_ff_coulomb[i] + w * {P}_ff_coulomb[i + 1];\n")
+        else:
+            out.append(f"    const {T} sg = (v > {lit(0)}) ? {lit(1)} : ((v < {lit(0)}) ? {lit(-1)} : {lit(0)});\n\n")
+        out.append(f"    /* as pgcomm.control.feedforward_signal: m a + f_v v + (f_c + D(r)) sign(v) */\n"
+                   f"    return {U}_FF_MASS * a + {U}_FF_VISCOUS * v + ({U}_FF_COULOMB{d_expr}) * sg;\n}}\n\n"
+                   f"{T} {P}_feedforward({T} r, {T} v, {T} a, {T} r_next, {T} v_next, {T} a_next)\n{{\n"
+                   f"    return {lit(0.5)} * ({P}_feedforward_g(r, v, a) + {P}_feedforward_g(r_next, v_next, a_next));\n"
+                   "}\n")
+        return out
+
+    def _grid_consts(self, tag: str, knots: np.ndarray) -> str:
+        """``#define``s of one uniform knot grid: number of knots ``M`` and spacing ``H`` (m)."""
+        U, m = self.P.upper(), int(knots.shape[0])
+        # the spacing exactly as pgcomm.interp.interp_linear computes it: (g[-1] - g[0]) / (m - 1)
+        h = (float(knots[-1]) - float(knots[0])) / (m - 1)
+        return f"#define {U}_{tag}_M {m}\n#define {U}_{tag}_H {_m(self.lit(h))}\n"
+
+    def _locate_fn(self) -> str:
+        """``static int NAME_locate(...)``: cell and weight on a uniform grid, as interp_linear (once per file)."""
+        if getattr(self, "_locate_done", False):
+            return ""
+        self._locate_done = True
+        P, T, lit, f = self.P, self.T, self.lit, self.f
+        return (f"/* Cell i and weight w of y on uniform knots (m knots, spacing h), exactly as\n"
+                f"   pgcomm.interp.interp_linear: y clamped to the grid (NaN -> first knot), i = floor((y - k0) / h)\n"
+                f"   clamped to [0, m - 2], w = (y - k[i]) / (k[i + 1] - k[i]) clamped to [0, 1]; the caller forms\n"
+                f"   (1 - w) t[i] + w t[i + 1], exact at the knots. O(1): no search. */\n"
+                f"static int {P}_locate({T} y, const {T} *knots, int m, {T} h, {T} *w)\n{{\n"
+                f"    int i;\n    {T} g0, t;\n\n"
+                f"    if (!(y >= knots[0]))\n        y = knots[0];\n"
+                f"    if (y > knots[m - 1])\n        y = knots[m - 1];\n"
+                f"    i = (int){f('floor')}((y - knots[0]) / h);\n"
+                f"    if (i > m - 2)\n        i = m - 2;\n    if (i < 0)\n        i = 0;\n"
+                f"    g0 = knots[i];\n    t = (y - g0) / (knots[i + 1] - g0);\n"
+                f"    *w = t < {lit(0)} ? {lit(0)} : (t > {lit(1)} ? {lit(1)} : t);\n"
+                f"    return i;\n}}\n\n")
+
     def _extra_fns(self) -> list[str]:
-        """Functions after the law (none for a PGNN)."""
-        return []
+        """Functions after the law: the feedforward when mechanics were given."""
+        return self._ff_fns()
 
     def _model_fn(self) -> list[str]:
         """``NAME_model`` (and ``NAME_direction``) of a PGNN."""
@@ -621,9 +792,19 @@ class _Gen:
                 f"    for (l = 0; l < {Lm}; ++l)\n        for (j = 0; j < 2; ++j)\n            i[l][j] *= sc;\n")
         range_check = (f"    ret = (y >= {U}_Y_MIN && y <= {U}_Y_MAX) ? 0 : 1; /* NaN y -> 1 */\n"
                        if self.rng is not None else "    ret = 0; /* training range unknown at export */\n")
+        finite = " && ".join(["isfinite(y)"] + [f"isfinite(f_star[{q}])" for q in range(3)]
+                             + (["isfinite(v)"] if self.dir else []))
+        safe = ("    /* safe for every input, as pgcomm.commutation.ModelLaw: a non-finite position, demand"
+                + (" or velocity" if self.dir else "") + "\n"
+                "       gives zero currents; beyond the training range the model is read at the range's end */\n"
+                f"    if (!({finite})) {{\n"
+                f"        for (l = 0; l < {Lm}; ++l)\n            for (j = 0; j < 2; ++j)\n"
+                f"                currents[l][j] = {self.lit(0)};\n        return ret;\n    }}\n"
+                + (f"    yc = y < {U}_Y_MIN ? {U}_Y_MIN : (y > {U}_Y_MAX ? {U}_Y_MAX : y);\n\n"
+                   if self.rng is not None else "    yc = y;\n\n"))
         solve = [
             f"int {P}_currents({T} y, {self.vdecl}const {T} f_star[3], {T} currents[{Lm}][2])\n{{\n",
-            f"    {T} gain[{Lm}][3][2], cog[3];\n",
+            f"    {T} gain[{Lm}][3][2], cog[3], yc;\n",
             f"    {T} dirf[3];\n" if self.dir else "",
             f"    double kw[{Lm}][3][2], i[{Lm}][2], a[3][3], dinv[3], fs[3], z[3];\n",
             "    double scale, c00, c01, c02, c11, c12, c22, det, t, eps2;\n",
@@ -631,7 +812,8 @@ class _Gen:
             "    double peak, sc;\n" if self.limit is not None else "",
             "    int l, q, r, j, ret;\n\n",
             range_check,
-            f"    {P}_model(y, gain, cog);\n" + (f"    {P}_direction({self.dir_args}, dirf);\n" if self.dir else "")
+            safe,
+            f"    {P}_model(yc, gain, cog);\n" + (f"    {P}_direction({self.dir_args}, dirf);\n" if self.dir else "")
             + "\n",
             "    /* kw = K^l Q^-1 and A = sum_l K^l Q^-1 K^lT (upper triangle, as _inv3_sym reads it) */\n",
             f"    for (l = 0; l < {Lm}; ++l)\n        for (q = 0; q < 3; ++q) {{\n",
@@ -737,3 +919,108 @@ class _Gen:
                 f"static float {P}_reduce(float y)\n{{\n"
                 f"    const float n = floorf(y * {U}_INV_DM + 0.5f);\n"
                 f"    return (y - n * {U}_DM_HI) - n * {U}_DM_LO;\n}}\n\n")
+
+
+class _SplineGen(_Gen):
+    """Builds the C texts of a :class:`~pgcomm.spline_model.SplineModel` (private; see :func:`c_source`).
+
+    Only the model differs from the PGNN export: the tables ``A^l(y), B^l(y)`` (gain), ``F̂_cog(y)``
+    and ``C(y)`` (direction) are ``static const`` arrays on uniform knots, read by :func:`_locate_fn`'s
+    index arithmetic exactly as :func:`pgcomm.interp.interp_linear` reads them (clamped to the
+    grid, ``(1 - w) t[i] + w t[i+1]``); the 5th/7th harmonic columns ``H^l`` are always there. The
+    law (solve, damping, current limit, drive inputs, return codes) is the shared one.
+    """
+
+    def __init__(self, model, *args):
+        super().__init__(model, *args)
+        self.dir = model.dir_table is not None
+        self.harm = True
+        self.vdecl = f"{self.T} v, " if self.dir else ""
+        self.varg = "v, " if self.dir else ""
+        self.dir_args = "yc, v"  # C(y) depends on the (held) position too
+        self.tables = {"GAIN": _arr(model.gain_knots), "COG": _arr(model.cog_knots)}
+        if self.dir:
+            self.tables["DIR"] = _arr(model.dir_knots)
+        for tag, knots in self.tables.items():
+            _check_uniform(f"{tag.lower()}_knots", knots)
+
+    def _grid_desc(self, tag: str) -> str:
+        k = self.tables[tag]
+        return f"{k.shape[0]} knots on [{k[0]:.6g}, {k[-1]:.6g}] m, spacing {(k[-1] - k[0]) / (k.shape[0] - 1):.6g} m"
+
+    def _banner_model_lines(self) -> list[str]:
+        lines = [
+            "Family:       physics-guided spline (pgcomm.spline_model.SplineModel), tables on uniform knots:",
+            f"              gain A^l(y), B^l(y): {self._grid_desc('GAIN')};",
+            f"              cogging Fcog(y):      {self._grid_desc('COG')};",
+        ]
+        if self.dir:
+            lines.append(f"              direction C(y):       {self._grid_desc('DIR')};")
+        return lines + [
+            "              read by linear interpolation, held at the grid's ends (pgcomm.interp.interp_linear).",
+            "",
+            "Law (paper eq. Commutation_Model_Currents), minimum copper loss:",
+            "  i = Khat(y)^+ (F* - Fcog(y)" + (" - C(y) tanh(v / v_eps)" if self.dir else "")
+            + "),  Khat = [Khat^1 .. Khat^L] (3 x 2L),",
+            "  Khat^l(y) = A^l(y) cos t + B^l(y) sin t + H^l_0 cos 5t + H^l_1 sin 5t + H^l_2 cos 7t",
+            "              + H^l_3 sin 7t,  t = 2 pi y / d_m.",
+        ]
+
+    def _header_model_decls(self) -> list[str]:
+        if not self.dir:
+            return []
+        return ["/** The direction force C(y) tanh(v / v_eps) [Fy, Fx, Tz] (N, N, N m); y in m, v in m/s. */\n"
+                f"void {self.P}_direction({self.T} y, {self.T} v, {self.T} force[3]);\n\n"]
+
+    def _model_consts(self) -> list[str]:
+        return ["/* uniform knot grids: number of knots and spacing (m) */\n"
+                + "".join(self._grid_consts(tag, k) for tag, k in self.tables.items())]
+
+    def _model_arrays(self) -> tuple[list[str], list[str]]:
+        m, P = self.m, self.P
+        arrays = ["/* ---- model tables (rows Fy, Fx, Tz; columns ia, ib) ---- */\n",
+                  "/* gain knots (m) and [knot][coil set][A: cos t, B: sin t][row][column] (N/A, N m/A) */\n",
+                  self.array(f"{P}_gain_knots", m.gain_knots), self.array(f"{P}_gain_table", m.gain_table),
+                  "/* higher harmonics [coil set][cos 5t, sin 5t, cos 7t, sin 7t][row][column] (N/A) */\n",
+                  self.array(f"{P}_H", m.H),
+                  "/* cogging knots (m) and force [knot][Fy, Fx, Tz] (N, N, N m) */\n",
+                  self.array(f"{P}_cog_knots", m.cog_knots), self.array(f"{P}_cog_table", m.cog_table)]
+        if self.dir:
+            arrays += ["/* direction knots (m) and C(y) [knot][Fy, Fx, Tz] (N, N, N m) */\n",
+                       self.array(f"{P}_dir_knots", m.dir_knots), self.array(f"{P}_dir_table", m.dir_table)]
+        return arrays, [self._locate_fn()]
+
+    def _model_fn(self) -> list[str]:
+        P, T, lit, f = self.P, self.T, self.lit, self.f
+        Lm, U = P.upper() + "_L", P.upper()
+        single = self.num.single
+        yy = "yh" if single else "y"  # single: the harmonic argument reduced by whole pole pitches (_reduce)
+        one = lit(1)
+        out = [f"void {P}_model({T} y, {T} gain[{Lm}][3][2], {T} cogging[3])\n{{\n",
+               f"    const {T} yh = {P}_reduce(y);\n" if single else "",
+               f"    const {T} c = {f('cos')}({U}_OMEGA * {yy}), sn = {f('sin')}({U}_OMEGA * {yy});\n",
+               f"    const {T} c5 = {f('cos')}({U}_OMEGA5 * {yy}), s5 = {f('sin')}({U}_OMEGA5 * {yy});\n",
+               f"    const {T} c7 = {f('cos')}({U}_OMEGA7 * {yy}), s7 = {f('sin')}({U}_OMEGA7 * {yy});\n",
+               f"    {T} w, u;\n    int i, l, q, j;\n\n",
+               "    /* gain: A^l(y) cos t + B^l(y) sin t (SplineModel.gain), then the harmonics in the order of\n"
+               "       pgcomm.models.harmonic_gain */\n",
+               f"    i = {P}_locate(y, {P}_gain_knots, {U}_GAIN_M, {U}_GAIN_H, &w);\n",
+               f"    u = {one} - w;\n",
+               f"    for (l = 0; l < {Lm}; ++l)\n        for (q = 0; q < 3; ++q)\n            for (j = 0; j < 2; ++j)\n",
+               f"                gain[l][q][j] = (u * {P}_gain_table[i][l][0][q][j] + w * {P}_gain_table[i + 1][l][0][q][j]) * c\n"
+               f"                    + (u * {P}_gain_table[i][l][1][q][j] + w * {P}_gain_table[i + 1][l][1][q][j]) * sn\n"
+               f"                    + ({P}_H[l][0][q][j] * c5 + {P}_H[l][1][q][j] * s5 + {P}_H[l][2][q][j] * c7\n"
+               f"                       + {P}_H[l][3][q][j] * s7);\n\n",
+               "    /* cogging: one table for the combined model */\n",
+               f"    i = {P}_locate(y, {P}_cog_knots, {U}_COG_M, {U}_COG_H, &w);\n",
+               f"    u = {one} - w;\n",
+               f"    for (q = 0; q < 3; ++q)\n        cogging[q] = u * {P}_cog_table[i][q] + w * {P}_cog_table[i + 1][q];\n"
+               "}\n\n"]
+        if self.dir:
+            out.append(f"void {P}_direction({T} y, {T} v, {T} force[3])\n{{\n"
+                       f"    const {T} sg = {f('tanh')}(v / {U}_V_EPS);\n    {T} w, u;\n    int q;\n"
+                       f"    const int i = {P}_locate(y, {P}_dir_knots, {U}_DIR_M, {U}_DIR_H, &w);\n\n"
+                       f"    u = {one} - w;\n"
+                       f"    for (q = 0; q < 3; ++q)\n"
+                       f"        force[q] = (u * {P}_dir_table[i][q] + w * {P}_dir_table[i + 1][q]) * sg;\n}}\n\n")
+        return out

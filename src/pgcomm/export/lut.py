@@ -48,6 +48,12 @@ Direction term (issue 10). A model with ``C^l s(ẏ)`` gives the table law an of
 stored as ``NAME_direction.csv`` (rows ``direction = +1, -1`` with the offsets ``±C̄`` and
 ``v_eps``), and the C function then takes the velocity ``v`` (m/s) as its second argument.
 
+Spline models (:class:`pgcomm.spline_model.SplineModel`) tabulate like any model (only ``gain`` and
+``cogging`` are read); their direction force ``C(y) s(ẏ)`` varies along the stroke, so the table then
+holds ``C(y)`` per row (``Lut.direction`` ``(n, 3)``, interpolated like ``F̂_cog``; ``NAME_direction.csv``
+has columns ``y, Fy_dir, Fx_dir, Tz_dir, v_eps``), and the drive's classical ``k̂, ζ̂`` of the
+anti-cogging table come from the mean of its fundamental tables (:func:`classical_parameters`).
+
 Files (:func:`write_lut`): ``NAME.csv`` with columns ``y``, ``P_{l}{a|b}_{y|x|z}`` (``l``
 1-based: the current ``ia`` or ``ib`` of coil set ``l`` per newton of ``Fy``, ``Fx`` or per
 N·m of ``Tz``), ``Fy_cog, Fx_cog, Tz_cog``; and ``NAME.h``, a header-only C99 table of
@@ -63,6 +69,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -86,8 +93,7 @@ __all__ = [
     "classical_parameters", "f_star_set",
 ]
 
-#: Default grid spacing (m): worst case 0.030 % of f_max on paper-like models (d_m = 0.03 m), 134 kB for ±0.1 m.
-DEFAULT_RESOLUTION = 8e-5
+from pgcomm.defaults import DEFAULT_RESOLUTION  # noqa: E402  (re-exported)
 
 #: Fx and Tz of the test forces relative to |Fy| = f_max.
 SIDE_FRACTION = 0.05
@@ -111,7 +117,8 @@ class Lut:
             A/(N·m)).
         cogging: ``(n, 3)`` mean cogging force ``F̂_cog`` (N, N, N·m).
         current_limit: peak phase current (A) applied after interpolation, or ``None``.
-        direction: ``(3,)`` the direction offset ``C̄`` (N, N, N·m; see the module docstring) or ``None``.
+        direction: ``(3,)`` the direction offset ``C̄`` (N, N, N·m; see the module docstring), or ``(n, 3)``
+            one per grid point (a spline model's ``C(y)``, interpolated like the rest), or ``None``.
         direction_velocity: its ``v_ε`` (m/s).
     """
 
@@ -220,6 +227,10 @@ def build_lut(model, resolution: float = DEFAULT_RESOLUTION, y_range=None, curre
     if getattr(model, "C", None) is not None:
         c = np.asarray(model.C, dtype=float)
         direction = sum(c[l] for l in range(c.shape[0])) / c.shape[0]
+    elif getattr(model, "dir_table", None) is not None:
+        # a spline model's direction force C(y) varies along the stroke: one row per grid point
+        direction = np.asarray(interp_linear(jnp.asarray(model.dir_knots), jnp.asarray(model.dir_table),
+                                             jnp.asarray(y)))
     return Lut(y, P, cog, None if current_limit is None else float(current_limit), direction,
                float(getattr(model, "direction_velocity", 1e-3)))
 
@@ -236,8 +247,10 @@ def lut_currents(lut: Lut, y, f_star, v=None):
     """
     f_star = jnp.asarray(f_star, dtype=float)
     if lut.direction is not None and v is not None:
-        f_star = f_star - jnp.asarray(lut.direction) * jnp.tanh(jnp.asarray(v, dtype=float) /
-                                                                lut.direction_velocity)[..., None]
+        c = jnp.asarray(lut.direction)
+        if c.ndim == 2:  # along the stroke (spline model)
+            c = interp_linear(jnp.asarray(lut.y), c, jnp.asarray(y, dtype=float))
+        f_star = f_star - c * jnp.tanh(jnp.asarray(v, dtype=float) / lut.direction_velocity)[..., None]
     return _lut_currents(jnp.asarray(lut.y), jnp.asarray(lut.P), jnp.asarray(lut.cogging), lut.current_limit,
                          jnp.asarray(y, dtype=float), f_star)
 
@@ -377,7 +390,14 @@ def write_lut(lut: Lut, out_dir, name: str = "pgcomm_lut") -> list[Path]:
     paths = [out / f"{name}.csv", out / f"{name}.h"]
     atomic_write_text(paths[0], buf.getvalue())
     atomic_write_text(paths[1], header)
-    if lut.direction is not None:
+    if lut.direction is not None and np.ndim(lut.direction) == 2:
+        # along the stroke (spline model): C(y) per grid row, applied as C(y) tanh(v / v_eps)
+        rows = ["y,Fy_dir,Fx_dir,Tz_dir,v_eps"]
+        for yv, c in zip(lut.y, np.asarray(lut.direction)):
+            rows.append(",".join(["%.17g" % yv] + ["%.17g" % x for x in c] + ["%.17g" % lut.direction_velocity]))
+        paths.append(out / f"{name}_direction.csv")
+        atomic_write_text(paths[2], "\n".join(rows) + "\n")
+    elif lut.direction is not None:
         rows = ["direction,Fy_dir,Fx_dir,Tz_dir,v_eps"]
         for sgn in (1.0, -1.0):
             rows.append(",".join(["%+d" % sgn] + ["%.17g" % (sgn * c) for c in lut.direction]
@@ -462,10 +482,18 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
     limit = (f"{lut.current_limit:.6g} A peak phase current (one factor for all coil sets)"
              if lut.current_limit is not None else "none")
     vdecl = "float v, " if lut.direction is not None else ""
+    dir_rows = lut.direction is not None and np.ndim(lut.direction) == 2
+    # the direction offset of row k: a constant, or interpolated along the stroke like Fcog
+    dir_term = ("" if lut.direction is None else
+                f" - ({name}_dir[k][j] * (1.0f - t) + {name}_dir[k + 1][j] * t) * sg" if dir_rows else
+                f" - {name}_dir[j] * sg")
     lines = [
         f"{name}.h -- lookup table of the model-based commutation law, generated by pgcomm {__version__}.",
         *(["Direction term: F* - Fcog(y) - Cdir tanh(v / V_EPS), v the controller's velocity (m/s)",
-           "(offset pair +-Cdir when moving forwards / backwards)."] if lut.direction is not None else []),
+           "(offset pair +-Cdir when moving forwards / backwards)."] if lut.direction is not None and not dir_rows
+          else []),
+        *(["Direction term: F* - Fcog(y) - C(y) tanh(v / V_EPS), v the controller's velocity (m/s),",
+           "C(y) tabulated per row and interpolated like Fcog (spline model)."] if dir_rows else []),
         "Law (eq. Commutation_Model_Currents): i^l = P^l(y) (F* - Fcog(y)), minimum copper loss,",
         "damped where Khat loses rank; P and Fcog interpolated linearly between grid rows.",
         f"Grid: {lut.n} rows, y from {lut.y[0]:.9g} to {lut.y[-1]:.9g} m, spacing {lut.dy:.9g} m;",
@@ -483,7 +511,11 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
            f"static const float {name}_cog[{lut.n}][3] = {_c_rows(lut.cogging, '    ')};\n\n",
            *([f"/* direction offset Cdir [Fy, Fx, Tz] (N, N, N m) and v_eps (m/s) */\n",
               f"static const float {name}_dir[3] = {_c_rows(np.asarray(lut.direction), '')};\n",
-              f"#define {U}_V_EPS {_m(lit(lut.direction_velocity))}\n\n"] if lut.direction is not None else []),
+              f"#define {U}_V_EPS {_m(lit(lut.direction_velocity))}\n\n"] if lut.direction is not None and not dir_rows
+             else []),
+           *([f"/* direction force C(y) [Fy, Fx, Tz] (N, N, N m) at row k, and v_eps (m/s) */\n",
+              f"static const float {name}_dir[{lut.n}][3] = {_c_rows(np.asarray(lut.direction), '    ')};\n",
+              f"#define {U}_V_EPS {_m(lit(lut.direction_velocity))}\n\n"] if dir_rows else []),
            f"static inline int {name}_currents(float y, {vdecl}const float f_star[3], float currents[{U}_L][2])\n{{\n",
            f"    float u = (y - {U}_Y0) * {U}_INV_DY, t, f[3];\n    int k, l, a, j, ret = 0;\n",
            *([f"    const float sg = tanhf(v / {U}_V_EPS);\n"] if lut.direction is not None else []),
@@ -492,7 +524,7 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
            f"    k = (int)u;\n    if (k > {U}_N - 2)\n        k = {U}_N - 2;\n    t = u - (float)k;\n",
            "    /* a (1 - t) + b t is exact at grid rows, including the last one */\n",
            f"    for (j = 0; j < 3; ++j)\n        f[j] = f_star[j] - ({name}_cog[k][j] * (1.0f - t) + "
-           f"{name}_cog[k + 1][j] * t){f' - {name}_dir[j] * sg' if lut.direction is not None else ''};\n",
+           f"{name}_cog[k + 1][j] * t){dir_term};\n",
            f"    for (l = 0; l < {U}_L; ++l)\n        for (a = 0; a < 2; ++a) {{\n",
            "            float s = 0.0f;\n            for (j = 0; j < 3; ++j)\n",
            f"                s += ({name}_P[k][l][a][j] * (1.0f - t) + {name}_P[k + 1][l][a][j] * t) * f[j];\n",
@@ -547,11 +579,33 @@ class CoggingTableError:
                 "k_hat": self.k_hat.tolist(), "zeta_hat": self.zeta_hat.tolist(), "f_max": self.f_max}
 
 
+def _fundamental(model) -> tuple[np.ndarray, np.ndarray]:
+    """``(A, B)``, each ``(L, 3, 2)`` (N/A): the model's fundamental ``A cos θ + B sin θ``.
+
+    A PGNN has constant ``A, B``; a :class:`pgcomm.spline_model.SplineModel` tabulates them along
+    the stroke, and a drive with one fixed commutation can only follow their mean: the mean over
+    the gain knots inside the training range (all knots if none lie there, or without a range).
+    """
+    if hasattr(model, "A") and hasattr(model, "B"):
+        return np.asarray(model.A), np.asarray(model.B)
+    table = np.asarray(model.gain_table)             # (M_g, L, 2, 3, 2)
+    knots = np.asarray(model.gain_knots)
+    inside = np.ones(knots.shape, bool)
+    if model.training_range is not None:
+        lo, hi = model.training_range
+        inside = (knots >= lo) & (knots <= hi)
+        if not inside.any():
+            inside[:] = True
+    mean = table[inside].mean(axis=0)                # (L, 2, 3, 2)
+    return mean[:, 0], mean[:, 1]
+
+
 def classical_parameters(model) -> tuple[np.ndarray, np.ndarray]:
     """Classical ``k̂^l`` (N/A) and ``ζ̂^l`` (rad) fitted to the Fy rows of the model's physics part.
 
     The ideal star-reduced Fy row (eq. Electromagnetics_GainMatrix with ``ic = -ia - ib``) is
-    ``(2/√3) k [sin(θ + ζ + π/6), sin(θ + ζ + π/2)]``, ``θ = 2πy/d_m``. Writing each column
+    ``(2/√3) k [sin(θ + ζ + π/6), sin(θ + ζ + π/2)]``, ``θ = 2πy/d_m``. For a spline model ``A, B``
+    are the means of its tables over the training range (:func:`_fundamental`). Writing each column
     ``A_j cos θ + B_j sin θ`` as ``R_j sin(θ + ψ_j)``, i.e. ``B_j + i A_j = R_j e^{iψ_j}``, the
     least-squares fit over both columns is ``w = mean_j (B_j + i A_j) e^{-iφ_j}`` with
     ``φ = (π/6, π/2)``, ``k̂ = (√3/2)|w|``, ``ζ̂ = arg w``. Exact for an ideal motor
@@ -560,8 +614,8 @@ def classical_parameters(model) -> tuple[np.ndarray, np.ndarray]:
     Returns:
         ``(k_hat, zeta_hat)``, each ``(L,)``.
     """
-    A = np.asarray(model.A)[:, 0, :]
-    B = np.asarray(model.B)[:, 0, :]
+    A, B = _fundamental(model)
+    A, B = A[:, 0, :], B[:, 0, :]
     phi = np.array([np.pi / 6, np.pi / 2])
     w = np.mean((B + 1j * A) * np.exp(-1j * phi), axis=-1)
     return np.sqrt(3.0) / 2.0 * np.abs(w), np.angle(w)

@@ -57,6 +57,7 @@ import math
 import zipfile
 from pathlib import Path
 
+import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax.numpy as jnp
 import numpy as np
 
@@ -596,6 +597,11 @@ def _load_spline(json_path: Path, document: dict):
     return model, document
 
 
+def _or_empty(v):
+    """``v``, or an empty tuple for ``None``."""
+    return () if v is None else v
+
+
 def feedforward_from_metadata(metadata):
     """The feedforward stored with a model, or ``None``.
 
@@ -627,8 +633,9 @@ def feedforward_from_metadata(metadata):
         return None
     try:
         mass, viscous = float(mech["mass"]), float(mech["viscous"])
-        knots = tuple(float(x) for x in mech.get("coulomb_knots") or ())
-        table = tuple(float(x) for x in mech.get("coulomb_table") or ())
+        # lists (a loaded document) or arrays (a dict built in Python)
+        knots = tuple(float(x) for x in np.ravel(_or_empty(mech.get("coulomb_knots"))))
+        table = tuple(float(x) for x in np.ravel(_or_empty(mech.get("coulomb_table"))))
         # with a table the constant f_c is its mean (identify --no-force-sensor records both): not added again
         coulomb = 0.0 if knots else float(mech.get("coulomb", 0.0))
     except (KeyError, TypeError, ValueError) as err:
