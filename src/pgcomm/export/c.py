@@ -999,8 +999,12 @@ class _SplineGen(_Gen):
         out = [f"void {P}_model({T} y, {T} gain[{Lm}][3][2], {T} cogging[3])\n{{\n",
                f"    const {T} yh = {P}_reduce(y);\n" if single else "",
                f"    const {T} c = {f('cos')}({U}_OMEGA * {yy}), sn = {f('sin')}({U}_OMEGA * {yy});\n",
-               f"    const {T} c5 = {f('cos')}({U}_OMEGA5 * {yy}), s5 = {f('sin')}({U}_OMEGA5 * {yy});\n",
-               f"    const {T} c7 = {f('cos')}({U}_OMEGA7 * {yy}), s7 = {f('sin')}({U}_OMEGA7 * {yy});\n",
+               # 5θ and 7θ from e^{iθ} by complex products (e^{2iθ}, e^{4iθ}, e^{5iθ}, e^{7iθ}) instead of four
+               # more sin/cos calls: a third of the call's time; a few ulp of the harmonics' 1 % share of the gain
+               f"    const {T} c2 = c * c - sn * sn, s2 = {lit(2)} * c * sn;\n",
+               f"    const {T} c4 = c2 * c2 - s2 * s2, s4 = {lit(2)} * c2 * s2;\n",
+               f"    const {T} c5 = c4 * c - s4 * sn, s5 = s4 * c + c4 * sn;\n",
+               f"    const {T} c7 = c5 * c2 - s5 * s2, s7 = s5 * c2 + c5 * s2;\n",
                f"    {T} w, u;\n    int i, l, q, j;\n\n",
                "    /* gain: A^l(y) cos t + B^l(y) sin t (SplineModel.gain), then the harmonics in the order of\n"
                "       pgcomm.models.harmonic_gain */\n",
