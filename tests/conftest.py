@@ -9,11 +9,19 @@ raises instead of silently promoting.
 
 from __future__ import annotations
 
-import jax
-import numpy as np
-import pytest
+import os
 
-import pgcomm.models  # noqa: F401  (a computing module: enables x64 at import)
+# The tests run the command line in-process (pgcomm.cli.main), so they set what the `pgcomm` program sets before
+# NumPy loads (pgcomm.cli): one BLAS thread, as in the fleet's workers, so that in-process and worker results are
+# summed in the same order.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
+
+import jax  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import pgcomm.models  # noqa: F401, E402  (a computing module: enables x64 at import)
 
 assert jax.config.jax_enable_x64, "pgcomm's computing modules must enable JAX x64 at import"
 jax.config.update("jax_numpy_dtype_promotion", "strict")
