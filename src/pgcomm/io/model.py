@@ -142,18 +142,8 @@ def save_model(path, model, metadata: dict | None = None,
         "training_range": None if model.y_min is None else {"y_min": list(model.y_min), "y_max": list(model.y_max)},
         "harmonics": model.H is not None,
         "direction": None if model.C is None else {"velocity": float(model.direction_velocity)},
-        "identification": identification,
-        "array_shapes": {k: list(v.shape) for k, v in arrays.items()},
-        "package_version": pgcomm.__version__,
-        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "metadata": _jsonable(dict(metadata or {})),
     }
-    text = json.dumps(document, indent=2, allow_nan=False) + "\n"
-    # Arrays first, the JSON (which names them) last: a reader never sees a JSON without its arrays.
-    with atomic_open(npz_path, "wb") as f:
-        np.savez(f, **arrays)
-    atomic_write_text(json_path, text)
-    return json_path, npz_path
+    return _write(json_path, npz_path, document, arrays, identification, metadata)
 
 
 def load_model(path) -> tuple:
@@ -489,13 +479,19 @@ def _save_spline(path, model, metadata, identification, mechanics) -> tuple[Path
                   "dir": int(arrays["dir_knots"].shape[0]),
                   "coulomb": None if mech is None else int(mech["coulomb_knots"].shape[0])},
         "mechanics": None if mech is None else {k: mech[k] for k in ("mass", "viscous", "direction_velocity")},
-        "identification": identification,
-        "array_shapes": {k: list(v.shape) for k, v in arrays.items()},
-        "package_version": pgcomm.__version__,
-        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "metadata": _jsonable(dict(metadata or {})),
     }
+    return _write(json_path, npz_path, document, arrays, identification, metadata)
+
+
+def _write(json_path: Path, npz_path: Path, document: dict, arrays: dict, identification: str, metadata) -> tuple:
+    """Add the keys every model file has to ``document`` and write both files (arrays first)."""
+    document = {**document, "identification": identification,
+                "array_shapes": {k: list(v.shape) for k, v in arrays.items()},
+                "package_version": pgcomm.__version__,
+                "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                "metadata": _jsonable(dict(metadata or {}))}
     text = json.dumps(document, indent=2, allow_nan=False) + "\n"
+    # Arrays first, the JSON (which names them) last: a reader never sees a JSON without its arrays.
     with atomic_open(npz_path, "wb") as f:
         np.savez(f, **arrays)
     atomic_write_text(json_path, text)
