@@ -210,14 +210,7 @@ def _load_model(path) -> tuple:
         document.setdefault("identification", "force_sensor")
     except (KeyError, TypeError, ValueError) as err:
         raise DataError(f"{json_path}: missing or invalid header field {err}") from None
-    if Path(npz_name).name != npz_name or npz_name in ("", ".", "..") or not npz_name.endswith(".npz"):
-        raise DataError(f"{json_path}: \"arrays\": {npz_name!r} must be the plain name of a .npz file in the same "
-                        f"folder (no folders, no absolute path), e.g. {json_path.with_suffix('.npz').name!r}")
-    if document.get("metadata") is not None and not isinstance(document["metadata"], dict):
-        raise DataError(f"{json_path}: \"metadata\" must be a JSON object (or null), found "
-                        f"{type(document['metadata']).__name__}")
-    if not 1 <= n_l <= MAX_COIL_SETS:
-        raise DataError(f"{json_path}: n_coil_sets = {n_l}: expected 1 to {MAX_COIL_SETS}")
+    _check_header(json_path, document, npz_name, n_l)
     for w in (gain_widths or ()) + (cog_widths or ()):
         if not 1 <= w <= MAX_WIDTH:
             raise DataError(f"{json_path}: network width {w}: expected 1 to {MAX_WIDTH}")
@@ -498,6 +491,18 @@ def _write(json_path: Path, npz_path: Path, document: dict, arrays: dict, identi
     return json_path, npz_path
 
 
+def _check_header(json_path: Path, document: dict, npz_name: str, n_l: int) -> None:
+    """The header checks every model file shares: the arrays file's plain name, metadata, coil-set count."""
+    if Path(npz_name).name != npz_name or npz_name in ("", ".", "..") or not npz_name.endswith(".npz"):
+        raise DataError(f"{json_path}: \"arrays\": {npz_name!r} must be the plain name of a .npz file in the same "
+                        f"folder (no folders, no absolute path), e.g. {json_path.with_suffix('.npz').name!r}")
+    if document.get("metadata") is not None and not isinstance(document["metadata"], dict):
+        raise DataError(f"{json_path}: \"metadata\" must be a JSON object (or null), found "
+                        f"{type(document['metadata']).__name__}")
+    if not 1 <= n_l <= MAX_COIL_SETS:
+        raise DataError(f"{json_path}: n_coil_sets = {n_l}: expected 1 to {MAX_COIL_SETS}")
+
+
 def _load_spline(json_path: Path, document: dict):
     """:func:`load_model` for a schema ``/3`` document (header already parsed)."""
     from pgcomm.spline_model import SplineModel
@@ -522,14 +527,7 @@ def _load_spline(json_path: Path, document: dict):
         document.setdefault("identification", "force_sensor")
     except (KeyError, TypeError, ValueError) as err:
         raise DataError(f"{json_path}: missing or invalid header field {err}") from None
-    if Path(npz_name).name != npz_name or npz_name in ("", ".", "..") or not npz_name.endswith(".npz"):
-        raise DataError(f"{json_path}: \"arrays\": {npz_name!r} must be the plain name of a .npz file in the same "
-                        f"folder (no folders, no absolute path), e.g. {json_path.with_suffix('.npz').name!r}")
-    if document.get("metadata") is not None and not isinstance(document["metadata"], dict):
-        raise DataError(f"{json_path}: \"metadata\" must be a JSON object (or null), found "
-                        f"{type(document['metadata']).__name__}")
-    if not 1 <= n_l <= MAX_COIL_SETS:
-        raise DataError(f"{json_path}: n_coil_sets = {n_l}: expected 1 to {MAX_COIL_SETS}")
+    _check_header(json_path, document, npz_name, n_l)
     if not (math.isfinite(pole_pitch) and pole_pitch > 0):
         raise DataError(f"{json_path}: pole_pitch must be a positive length in m, got {pole_pitch}")
     if v_eps is not None and not (math.isfinite(v_eps) and v_eps > 0):
