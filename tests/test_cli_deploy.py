@@ -222,6 +222,32 @@ def test_evaluate_with_model_reports_model_error_and_range(tmp_path, capsys, mod
     assert ev["logs"][0]["range_warning"] in lines[0] and len(ev["warnings"]) == 2
 
 
+
+def test_evaluate_with_model_names_logs_by_folder_and_takes_logs_without_desired_force(tmp_path, capsys, model_file):
+    """Two log.csv from different folders keep apart (results.json, table); with --model the one without
+    Fy_star, Fx_star, Tz_star gets its model error and a note instead of a refusal."""
+    from pgcomm.io.logs import write_log
+
+    for folder, log in (("day1", synthetic_log(0, -np.pi / 4, force_offset=(0.5, 0.0, 0.0))),
+                        ("day2", synthetic_log(2, np.pi / 4, force_offset=(0.5, 0.0, 0.0), star=False))):
+        (tmp_path / folder).mkdir()
+        write_log(tmp_path / folder / "log.csv", log)
+    out = tmp_path / "ev"
+    code, stdout, err = run(["evaluate", "--data", tmp_path / "day1" / "log.csv", tmp_path / "day2" / "log.csv",
+                             "--model", model_file, "--out", out], capsys)
+    assert code == 0, err
+    assert (f"pgcomm: note: {tmp_path}/day2/log.csv: no desired force (Fy_star, Fx_star, Tz_star missing): "
+            "commutation error F - F* skipped") in err
+    ev = json.loads((out / "results.json").read_text())["evaluation"]
+    assert [lg["name"] for lg in ev["logs"]] == ["day1/log", "day2/log"]
+    assert ev["logs"][1]["commutation_mse"]["y"] == {"filtered": None, "unfiltered": None}
+    for lg in ev["logs"]:
+        assert lg["model_mse"]["y"]["unfiltered"] == pytest.approx(0.25, rel=1e-9)
+    rows = [ln for ln in stdout.splitlines() if ln.startswith(("day1/log ", "day2/log "))]
+    assert len(rows) == 4  # commutation and model error, each log once
+    assert sorted(p.name for p in out.iterdir()) == ["evaluation.png", "model_error.png", "results.json"]
+
+
 def test_inspect_text_and_json(capsys, model_file):
     code, stdout, err = run(["inspect", "--model", model_file], capsys)
     assert code == 0, err

@@ -11,6 +11,7 @@ from pgcomm.evaluation import (
     evaluate_logs,
     evaluation_results,
     format_table,
+    log_names,
     plot_logs,
     plot_model_error,
 )
@@ -127,3 +128,84 @@ def test_log_without_currents_needs_a_motor_for_the_model():
     log = synthetic_log(0, np.pi / 4, drive_inputs=True)
     with pytest.raises(DataError, match="no currents ia_l, ib_l"):
         evaluate_log(log, model=truth_model())
+
+
+# ------------------------------------------------------------------ names of logs and logs without F* (issue 16.6)
+
+
+@pytest.mark.parametrize("files, names", [
+    (["a/log.csv", "b/log.csv"], ["a/log", "b/log"]),
+    (["x/a/log.csv", "y/a/log.csv", "y/b/run.csv"], ["x/a/log", "y/a/log", "run"]),
+    (["rig/run1.csv", "rig/run2.parquet"], ["run1", "run2"]),
+    (["rig/log.csv", "rig/log.parquet"], ["log.csv", "log.parquet"]),
+    (["a/log.csv", "a/log.csv"], ["log", "log (2)"]),
+])
+def test_log_names_are_the_shortest_distinct_path_ends(files, names):
+    assert log_names(files) == names
+
+
+def test_logs_of_the_same_file_name_in_different_folders_keep_apart():
+    import matplotlib.pyplot as plt
+
+    logs = [synthetic_log(0, -np.pi / 4, name="day1/log.csv"), synthetic_log(1, np.pi / 4, name="day2/log.csv")]
+    evs = evaluate_logs(logs)
+    assert [ev.label for ev in evs] == ["day1/log", "day2/log"]
+    res = evaluation_results(evs)
+    assert [lg["name"] for lg in res["logs"]] == ["day1/log", "day2/log"]
+    assert [lg["file"] for lg in res["logs"]] == ["day1/log.csv", "day2/log.csv"]
+    fig = plot_logs(evs)
+    assert [ln.get_label() for ln in fig.get_axes()[1].get_lines()] == ["day1/log", "day2/log"]
+    plt.close(fig)
+    rows = format_table(evs).splitlines()[1:]
+    assert rows[0].startswith("day1/log ") and rows[1].startswith("day2/log ")
+
+
+def test_long_names_are_not_cut_in_the_table():
+    # two names that differ only beyond 24 characters from their start
+    logs = [synthetic_log(0, -np.pi / 4, name=f"rig/a_very_long_experiment_name_{k}.csv") for k in (1, 2)]
+    rows = format_table(evaluate_logs(logs)).splitlines()[1:]
+    assert rows[0].split()[0] == "a_very_long_experiment_name_1"
+    assert rows[1].split()[0] == "a_very_long_experiment_name_2"
+
+
+def test_model_error_of_logs_without_desired_force():
+    """With a model, a log without F* is evaluated: its model error is the unmodelled force, its commutation
+    error is skipped (every entry None) and a note says why; a log with F* in the same call is unchanged."""
+    import matplotlib.pyplot as plt
+
+    with_star = synthetic_log(0, -np.pi / 4, force_offset=OFFSET)
+    without = synthetic_log(1, np.pi / 4, force_offset=OFFSET, star=False)
+    evs = evaluate_logs([with_star, without], model=truth_model(), motor=MOTOR)
+    assert evs[0].commutation_mse == evaluate_log(with_star).commutation_mse
+    ev = evs[1]
+    assert ev.commutation_error is None
+    assert all(ev.commutation_mse[d] == {"filtered": None, "unfiltered": None} for d in "yxz")
+    for q, d in enumerate("yxz"):
+        assert ev.model_mse[d]["unfiltered"] == pytest.approx(OFFSET[q] ** 2, rel=1e-9)
+    assert ev.tracking_mse == pytest.approx(np.mean((without["r"] - without["y"]) ** 2), rel=1e-12)
+    assert any("(Fy_star, Fx_star, Tz_star missing): commutation error F - F* skipped" in n for n in ev.notes)
+    res = evaluation_results(evs)
+    assert res["logs"][1]["commutation_mse"]["y"]["filtered"] is None
+    assert any(n.startswith("Zp_coilset2.csv: no desired force") for n in res["notes"])
+    table = format_table(evs)
+    assert "n/a" in table.splitlines()[2] and "commutation error skipped" in table
+    fig = plot_logs(evs)  # the log without F* has a tracking line but no commutation-error line
+    axes = fig.get_axes()
+    assert [ln.get_label() for ln in axes[1].get_lines()] == ["Zm_coilset1"]
+    assert len(axes[4].get_lines()) == 2
+    plt.close(fig)
+    # without a model there is nothing to compute for such a log: refused before any work
+    with pytest.raises(DataError, match=r"^Zp_coilset2.csv: column\(s\) Fy_star, Fx_star, Tz_star missing: .*--model"):
+        evaluate_logs([with_star, without])
+
+
+def test_inputs_a_model_needs_are_checked_before_any_log_is_evaluated(monkeypatch):
+    import pgcomm.evaluation as evaluation
+
+    calls = []
+    monkeypatch.setattr(evaluation, "commutation_mse", lambda *a, **k: calls.append(1))
+    good = synthetic_log(0, -np.pi / 4)
+    no_currents = synthetic_log(1, np.pi / 4, drive_inputs=True)
+    with pytest.raises(DataError, match=r"^Zp_coilset2.csv: no currents ia_l, ib_l; converting drive inputs needs"):
+        evaluate_logs([good, no_currents], model=truth_model())
+    assert calls == []

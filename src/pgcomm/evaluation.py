@@ -3,9 +3,11 @@
 For each log (:class:`pgcomm.io.logs.Log`):
 
 * the commutation error ``F − F*`` (N, N, N·m) from the measured force ``Fy, Fx, Tz`` and
-  the desired force ``Fy_star, Fx_star, Tz_star`` (required), its MSE per direction
-  unfiltered and filtered by the paper's 50 Hz ZOH low-pass ``H(z)``
-  (:func:`pgcomm.metrics.commutation_mse`), as in Table Commutation_Performance;
+  the desired force ``Fy_star, Fx_star, Tz_star``, its MSE per direction unfiltered and
+  filtered by the paper's 50 Hz ZOH low-pass ``H(z)`` (:func:`pgcomm.metrics.commutation_mse`),
+  as in the paper's table of commutation performance. The desired force is required unless a
+  model is given: the model error needs only ``y``, the currents and ``F``, so a log without
+  ``F*`` then gets the model error and a note that its commutation error was skipped;
 * the tracking-error MSE of ``e = r − y`` (m²) when the reference ``r`` is logged (with the
   logged, i.e. measured, position ``y``); skipped otherwise, with a note;
 * with a model ``F̂``: the model error ``F − F̂(y, i)`` (how well the model explains the
@@ -22,10 +24,12 @@ error is then ``F_y,f − F_y,f*`` on those filtered windows (``commutation_mse.
 ``F_y,f − F̂_y,f``, and the evaluation says so (``force_reconstructed``, a note). Windows in
 which the translator is slower than the identification's speed bound are left out, as there.
 
-Figures (:func:`plot_logs`, :func:`plot_model_error`) overlay all logs, one line per log
-labelled by its file stem, in the layout of the paper's Figs. CommutationError_Ref1/2
-(:func:`pgcomm.plots.plot_comparison`). Logs may have different lengths, so every log is
-drawn against its own time axis.
+Every log is named by the shortest end of its path that no other log shares (:func:`log_names`:
+``a/log.csv`` and ``b/log.csv`` become ``a/log`` and ``b/log``); figures, the text table and
+results.json use that name. Figures (:func:`plot_logs`, :func:`plot_model_error`) overlay all
+logs, one line per log, in the layout of the paper's commutation-error figures
+(:func:`pgcomm.plots.plot_comparison`). Logs may have different lengths, so every log is drawn
+against its own time axis.
 """
 
 from __future__ import annotations
@@ -39,7 +43,8 @@ from pgcomm.errors import DataError
 from pgcomm.metrics import DIRECTIONS, commutation_mse, lowpass, tracking_mse
 
 __all__ = ["LogEvaluation", "evaluate_log", "evaluate_logs", "evaluation_results", "plot_logs", "plot_model_error",
-           "format_table", "require_desired_force", "reconstruct_force", "ReconstructedForce", "STAR_COLUMNS"]
+           "format_table", "require_desired_force", "missing_desired_force", "reconstruct_force", "ReconstructedForce",
+           "STAR_COLUMNS", "log_names"]
 
 #: Desired-force columns a log needs to be evaluated (a log without a force sensor: ``Fy_star`` only).
 STAR_COLUMNS = ("Fy_star", "Fx_star", "Tz_star")
@@ -52,7 +57,7 @@ class ReconstructedForce:
     Attributes:
         starts: ``(J,)`` window starts (samples); t: ``(J,)`` window centres (s).
         force: ``(J,)`` ``m ÿ_f + f_v ẏ_f + F_c(y) s(ẏ)_f`` (N).
-        demanded: ``(J,)`` the filtered demand ``Fy*_f`` (N).
+        demanded: ``(J,)`` the filtered demand ``Fy*_f`` (N), or ``None`` for a log without ``Fy_star``.
         filt: the :class:`pgcomm.sensorless.AccelerationFilter`.
         mechanics: ``{"mass", "viscous", "coulomb", "friction_velocity"}`` used (kg, N s/m, N, m/s).
     """
@@ -60,14 +65,14 @@ class ReconstructedForce:
     starts: np.ndarray
     t: np.ndarray
     force: np.ndarray
-    demanded: np.ndarray
+    demanded: np.ndarray | None
     filt: object
     mechanics: dict
 
     @property
-    def error(self) -> np.ndarray:
-        """``(J,)`` ``F_y,f − Fy*_f`` (N)."""
-        return self.force - self.demanded
+    def error(self) -> np.ndarray | None:
+        """``(J,)`` ``F_y,f − Fy*_f`` (N); ``None`` without a logged demand."""
+        return None if self.demanded is None else self.force - self.demanded
 
     def filtered(self, columns) -> np.ndarray:
         """Raw columns ``(N,)``/``(N, k)`` filtered as the force (:func:`pgcomm.sensorless.filter_windows`)."""
@@ -86,7 +91,8 @@ def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedF
     bound of :func:`pgcomm.sensorless.sensorless_data` throughout.
 
     Args:
-        log: :class:`pgcomm.io.logs.Log` with ``y`` and ``Fy_star``.
+        log: :class:`pgcomm.io.logs.Log` with ``y`` (and ``Fy_star`` for the demand; without it
+            ``demanded`` is ``None``).
         mechanics: ``mass`` (kg), ``viscous`` (N s/m), ``coulomb`` (N), ``friction_velocity`` (m/s)
             and, if identified so, the Coulomb table ``F_c(y)``: ``coulomb_knots`` (m), ``coulomb_table``
             (N), piecewise linear (held beyond its ends); else ``F_c = coulomb`` everywhere.
@@ -115,7 +121,7 @@ def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedF
     mass = float(mechanics["mass"])
     frame = sl.SensorlessData(raw, starts, mass * acc, filt, mass, v_eps, knots)
     force = mass * acc + frame.filtered_friction() @ np.concatenate([table, [float(mechanics["viscous"])]])
-    demanded = sl.filter_windows(filt, starts, log["Fy_star"])
+    demanded = sl.filter_windows(filt, starts, log["Fy_star"]) if "Fy_star" in log else None
     t = log.t[starts] + 0.5 * (filt.length + 1) * ts
     mech = {k: float(mechanics[k]) for k in ("mass", "viscous", "coulomb", "friction_velocity")}
     if "coulomb_table" in mechanics:
@@ -144,6 +150,49 @@ def _mse_y_only(value: float | None) -> dict:
             "z": {"filtered": None, "unfiltered": None}}
 
 
+def _mse_unknown() -> dict:
+    """``{dir: {"filtered": None, "unfiltered": None}}``: the schema of an MSE that could not be computed."""
+    return {d: {"filtered": None, "unfiltered": None} for d in DIRECTIONS}
+
+
+def log_names(files) -> list[str]:
+    """A distinct short name per log file: the shortest end of its path that no other file shares.
+
+    The last part is the file's stem (``run.csv`` -> ``run``), or its full name where two files
+    differ only in their extension; parent folders are added from the right until the name is
+    unique (``a/log.csv``, ``b/log.csv`` -> ``a/log``, ``b/log``). Paths are made absolute first
+    (without resolving links), so ``log.csv`` and ``../x/log.csv`` are told apart by their folders.
+    A file given twice gets `` (2)``, `` (3)``, ... after its second and later occurrences.
+
+    Args:
+        files: ``(n,)`` paths (str or Path).
+
+    Returns:
+        ``(n,)`` names, in the order of ``files``.
+    """
+    import os
+    from collections import Counter
+
+    paths = [Path(os.path.abspath(str(f))) for f in files]
+    stems = [p.parent / p.stem for p in paths]
+    # files that differ only in their extension keep it; a file given twice is no clash
+    clash = {s for s, n in Counter(p.parent / p.stem for p in set(paths)).items() if n > 1}
+    keys = [tuple((p.parent / (p.name if s in clash else p.stem)).parts) for p, s in zip(paths, stems)]
+    names = []
+    for i, key in enumerate(keys):
+        others = [k for j, k in enumerate(keys) if j != i and k != key]
+        n = 1
+        while n < len(key) and any(k[-n:] == key[-n:] for k in others):
+            n += 1
+        names.append("/".join(key[-n:]).lstrip("/") or str(files[i]))
+    seen: Counter = Counter()
+    out = []
+    for name, key in zip(names, keys):
+        seen[key] += 1
+        out.append(name if seen[key] == 1 else f"{name} ({seen[key]})")
+    return out
+
+
 @dataclass(frozen=True)
 class LogEvaluation:
     """Evaluation of one log.
@@ -152,10 +201,12 @@ class LogEvaluation:
     :class:`pgcomm.simulate.SimResult`.
 
     Attributes:
-        file: the log's file name; label: its stem (figure legend).
+        file: the log's file name; label: its name in figures, tables and results.json (its stem;
+            :func:`evaluate_logs` makes the names of several logs distinct, :func:`log_names`).
         t: ``(N,)`` s; y: ``(N,)`` logged position (m); r: ``(N,)`` reference (m) or ``None``.
         e: ``(N,)`` tracking error ``r − y`` (m) or ``None`` without ``r``.
-        commutation_error: ``(N, 3)`` ``F − F*`` (N, N, N·m); ``None`` when the force is reconstructed.
+        commutation_error: ``(N, 3)`` ``F − F*`` (N, N, N·m); ``None`` when the force is reconstructed
+            or the log has no desired force (then every entry of ``commutation_mse`` is ``None``).
         sample_time: s; lowpass_hz: cut-off of ``H(z)`` (Hz).
         commutation_mse: ``{dir: {"filtered", "unfiltered"}}`` (N², N²m² for z).
         tracking_mse: m², or ``None`` without ``r``.
@@ -200,7 +251,7 @@ class LogEvaluation:
 
     def to_dict(self) -> dict:
         """``evaluation.logs[i]`` of results.json."""
-        out = {"file": self.file, "samples": self.samples, "sample_time": self.sample_time,
+        out = {"file": self.file, "name": self.label, "samples": self.samples, "sample_time": self.sample_time,
                "commutation_mse": self.commutation_mse, "tracking_mse": self.tracking_mse, "notes": list(self.notes),
                "force_reconstructed": self.force_reconstructed}
         if self.reconstructed is not None:
@@ -222,7 +273,8 @@ def evaluate_log(log, lowpass_hz: float = 50.0, model=None, motor=None, mechanic
 
     Args:
         log: :class:`pgcomm.io.logs.Log` with ``y, Fy, Fx, Tz`` and ``Fy_star, Fx_star, Tz_star``,
-            or without a force sensor ``y`` and ``Fy_star``.
+            or without a force sensor ``y`` and ``Fy_star``. With a ``model`` the desired force may be
+            missing: the commutation error is then skipped (``commutation_mse`` all ``None``, a note).
         lowpass_hz: cut-off ``f_lp`` of ``H(z)`` (Hz); the paper uses 50 Hz.
         model: a combined model (``force(y, currents (N, L, 2)) -> (N, 3)``, ``n_coil_sets``,
             training range), or ``None``.
@@ -232,40 +284,89 @@ def evaluate_log(log, lowpass_hz: float = 50.0, model=None, motor=None, mechanic
         pole_pitch: ``d_m`` (m) for the reconstruction's window; default the model's, else the motor's.
 
     Raises:
-        DataError: the desired-force columns are missing (names the file and the columns), a log
-            without a force sensor and no ``mechanics``, or the log's coil sets do not match the model's.
+        DataError: without a model, the desired-force columns are missing (names the file and the
+            columns); a log without a force sensor and no ``mechanics``; the log's coil sets do not
+            match the model's.
     """
-    require_desired_force(log)
+    _check_inputs(log, model, motor, mechanics)
     if not log.has_force:
         return _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch)
-    f, f_star = log.force(), log.desired_force()
+    f = log.force()
     ts = log.sample_time
     notes = []
     r = log["r"] if "r" in log else None
     e = None if r is None else r - log["y"]
     if r is None:
         notes.append("no column r (reference): tracking error skipped")
+    missing = missing_desired_force(log)
+    if missing:
+        notes.append(_skipped_note(missing))
+        err, mse = None, _mse_unknown()
+    else:
+        f_star = log.desired_force()
+        err, mse = f - f_star, commutation_mse(f, f_star, ts, lowpass_hz)
     ev = dict(file=log.source, label=Path(log.source).stem, t=log.t, y=log["y"], r=r, e=e,
-              commutation_error=f - f_star, sample_time=ts, lowpass_hz=float(lowpass_hz),
-              commutation_mse=commutation_mse(f, f_star, ts, lowpass_hz),
+              commutation_error=err, sample_time=ts, lowpass_hz=float(lowpass_hz), commutation_mse=mse,
               tracking_mse=None if e is None else tracking_mse(e), notes=tuple(notes))
     if model is not None:
         ev.update(_model_fit(log, model, motor, lowpass_hz))
     return LogEvaluation(**ev)
 
 
+def missing_desired_force(log) -> list[str]:
+    """The desired-force columns ``log`` lacks for its commutation error: of ``Fy_star, Fx_star, Tz_star``
+    with a force sensor, of ``Fy_star`` without one (only ``Fy`` is reconstructed). Empty when complete."""
+    need = STAR_COLUMNS if log.has_force else STAR_COLUMNS[:1]
+    return [c for c in need if c not in log]
+
+
+def _skipped_note(missing) -> str:
+    return (f"no desired force ({', '.join(missing)} missing): commutation error F - F* skipped; "
+            "the model error F - F^(y, i) does not need it")
+
+
 def require_desired_force(log) -> None:
     """Raise :class:`DataError` naming the file and the missing columns if ``log`` has no ``F*``
-    (a log without a force sensor needs ``Fy_star`` only)."""
-    if not log.has_force:
-        if "Fy_star" not in log:
-            raise DataError(f"{log.source}: column Fy_star missing: a log without a force sensor is evaluated by "
-                            "comparing the force reconstructed from the motion with the demanded force Fy_star (N)")
+    (a log without a force sensor needs ``Fy_star`` only). Used where no model is given: the
+    commutation error is then all there is to compute."""
+    missing = missing_desired_force(log)
+    if not missing:
         return
-    missing = [c for c in STAR_COLUMNS if c not in log]
-    if missing:
-        raise DataError(f"{log.source}: column(s) {', '.join(missing)} missing: evaluating the commutation error "
-                        "F - F* needs the desired force Fy_star, Fx_star, Tz_star (N, N, N m) in every log")
+    if not log.has_force:
+        raise DataError(f"{log.source}: column Fy_star missing: a log without a force sensor is evaluated by "
+                        "comparing the force reconstructed from the motion with the demanded force Fy_star (N); "
+                        "with --model its model error needs no Fy_star")
+    raise DataError(f"{log.source}: column(s) {', '.join(missing)} missing: evaluating the commutation error "
+                    "F - F* needs the desired force Fy_star, Fx_star, Tz_star (N, N, N m) in every log; "
+                    "with --model the model error F - F^(y, i) is computed without it")
+
+
+def _check_inputs(log, model, motor, mechanics) -> None:
+    """Everything :func:`evaluate_log` needs from ``log`` that can be checked without computing (columns,
+    coil sets, the motor for drive inputs, the mechanics for a log without a force sensor).
+
+    Raises:
+        DataError: naming the log and what is missing.
+    """
+    if model is None:
+        require_desired_force(log)
+    if not log.has_force and mechanics is None:
+        raise DataError(f"{log.source}: no force columns Fy, Fx, Tz: evaluating it reconstructs the force from "
+                        "the motion, which needs the mass and the friction identified without a force sensor "
+                        "(a model of pgcomm identify --no-force-sensor)")
+    if model is None:
+        return
+    n = log.n_coil_sets
+    if log.currents() is None:
+        if log.drive_inputs() is None:
+            raise DataError(f"{log.source}: no currents ia_l, ib_l (or drive inputs Fy_ref_l, delta_l) for every coil "
+                            "set: the model error F - F^(y, i) needs the currents")
+        if motor is None:
+            raise DataError(f"{log.source}: no currents ia_l, ib_l; converting drive inputs needs the drive's motor")
+        if n != motor.n_coil_sets:
+            raise DataError(f"{log.source}: {n} coil sets in the log, the motor has {motor.n_coil_sets}")
+    if n != model.n_coil_sets:
+        raise DataError(f"{log.source}: {n} coil sets in the log, the model has {model.n_coil_sets}")
 
 
 def _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch) -> LogEvaluation:
@@ -280,16 +381,19 @@ def _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch
         raise ValueError("evaluate_log: a log without a force sensor needs pole_pitch, a model or a motor")
     rc = reconstruct_force(log, mechanics, float(pole_pitch))
     m = rc.mechanics
+    compared = ("compared with the demanded Fy*" if rc.demanded is not None else "compared with the model's Fy")
     notes = [f"no force columns: Fy reconstructed from the motion as m ÿ + f_v ẏ + F_c(y) s(ẏ) (m = {m['mass']:.4g} "
-             f"kg, f_v = {m['viscous']:.4g} N s/m, F_c of mean {m['coulomb']:.4g} N) and compared with the demanded Fy* "
+             f"kg, f_v = {m['viscous']:.4g} N s/m, F_c of mean {m['coulomb']:.4g} N) and {compared} "
              f"on {rc.starts.shape[0]} filtered windows of {rc.filt.length} samples; x, z not observable (n/a)"]
+    if rc.demanded is None:
+        notes.append(_skipped_note(missing_desired_force(log)))
     r = log["r"] if "r" in log else None
     e = None if r is None else r - log["y"]
     if r is None:
         notes.append("no column r (reference): tracking error skipped")
     ev = dict(file=log.source, label=Path(log.source).stem, t=log.t, y=log["y"], r=r, e=e, commutation_error=None,
               sample_time=log.sample_time, lowpass_hz=float(lowpass_hz),
-              commutation_mse=_mse_y_only(float(np.mean(rc.error ** 2))),
+              commutation_mse=_mse_y_only(None if rc.error is None else float(np.mean(rc.error ** 2))),
               tracking_mse=None if e is None else tracking_mse(e), notes=tuple(notes), reconstructed=rc)
     if model is not None:
         import jax.numpy as jnp
@@ -335,22 +439,26 @@ def _model_fit(log, model, motor, lowpass_hz) -> dict:
 
 def evaluate_logs(logs, lowpass_hz: float = 50.0, model=None, motor=None, mechanics: dict | None = None,
                   pole_pitch: float | None = None) -> list[LogEvaluation]:
-    """:func:`evaluate_log` for each log; every log is checked for ``F*`` (and, without a force
-    sensor, ``mechanics``) before any work is done."""
+    """:func:`evaluate_log` for each log, each named distinctly (:func:`log_names`).
+
+    Every log is checked before any work is done: ``F*`` where no model is given, the mechanics
+    for a log without a force sensor, with a model its currents (or drive inputs and ``motor``)
+    and coil sets.
+    """
+    from dataclasses import replace
+
     logs = list(logs)
     for log in logs:  # refuse before any work: a bad last log should not cost the first ones' time
-        require_desired_force(log)
-        if not log.has_force and mechanics is None:
-            raise DataError(f"{log.source}: no force columns Fy, Fx, Tz: evaluating it reconstructs the force from "
-                            "the motion, which needs the mass and the friction identified without a force sensor "
-                            "(a model of pgcomm identify --no-force-sensor)")
-    return [evaluate_log(log, lowpass_hz, model, motor, mechanics, pole_pitch) for log in logs]
+        _check_inputs(log, model, motor, mechanics)
+    names = log_names([log.source for log in logs])
+    return [replace(evaluate_log(log, lowpass_hz, model, motor, mechanics, pole_pitch), label=name)
+            for log, name in zip(logs, names)]
 
 
 def evaluation_results(evaluations, lowpass_hz: float = 50.0, model: str | None = None) -> dict:
     """The ``evaluation`` block of results.json.
 
-    ``logs[i]`` holds ``file``, ``samples``, ``commutation_mse.{y,x,z}.{filtered,unfiltered}``,
+    ``logs[i]`` holds ``file``, ``name`` (distinct, :func:`log_names`), ``samples``, ``commutation_mse.{y,x,z}.{filtered,unfiltered}``,
     ``tracking_mse`` (``null`` without ``r``) and, with a model, ``model_mse`` and
     ``range_warning``; ``warnings`` lists every range warning and note with its file. A log
     without a force sensor has ``force_reconstructed: true``, its ``reconstruction`` (mechanics,
@@ -379,9 +487,10 @@ def _colors(n):
 def plot_logs(evaluations, title: str = ""):
     """All logs overlaid: position, filtered commutation error in y, x, z, tracking error.
 
-    The layout of :func:`pgcomm.plots.plot_comparison`, one line per log (legend: file stem);
-    the first panel shows ``r`` where logged, else the logged position ``y`` (dashed).
-    Returns a Matplotlib figure.
+    The layout of :func:`pgcomm.plots.plot_comparison`, one line per log (legend: its name,
+    :attr:`LogEvaluation.label`); the first panel shows ``r`` where logged, else the logged position
+    ``y`` (dashed). Logs without a desired force have no commutation-error line (said in the panel
+    when none has one). Returns a Matplotlib figure.
     """
     from pgcomm import plots  # selects the Agg backend
     import matplotlib.pyplot as plt
@@ -394,7 +503,12 @@ def plot_logs(evaluations, title: str = ""):
             ax[0].plot(ev.t, ev.y * 1e3, "--", lw=0.9, color=c, label=f"{ev.label} (y)")
         if ev.reconstructed is not None:  # y only, on the reconstruction's windows
             rc = ev.reconstructed
-            ax[1].plot(rc.t, rc.error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
+            if rc.error is not None:
+                ax[1].plot(rc.t, rc.error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
+            if ev.e is not None:
+                ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
+            continue
+        if ev.commutation_error is None:  # no desired force logged: tracking only
             if ev.e is not None:
                 ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
             continue
@@ -404,6 +518,9 @@ def plot_logs(evaluations, title: str = ""):
         for q in (2, 3):
             ax[q].text(0.5, 0.9, "force reconstructed from the motion: x, z not observable (n/a)",
                        transform=ax[q].transAxes, ha="center", va="top", fontsize=8)
+    if evaluations and all(ev.commutation_mse["y"]["filtered"] is None for ev in evaluations):
+        ax[1].text(0.5, 0.5, "no desired force F* logged: commutation error not available (see the model error)",
+                   transform=ax[1].transAxes, ha="center", va="center")
     ax[0].set_ylabel("$y^*$ [mm]")
     if not any(ev.e is not None for ev in evaluations):
         ax[4].text(0.5, 0.5, "no reference r logged: tracking error not available", transform=ax[4].transAxes,
@@ -448,19 +565,24 @@ def plot_model_error(evaluations, title: str = "model error F - F̂(y, i)"):
 def format_table(evaluations) -> str:
     """Text table: per log, filtered (unfiltered) MSE per direction, tracking MSE and, with a model, model MSE."""
     with_model = any(ev.model_mse is not None for ev in evaluations)
-    head = f"{'log':24s} {'y [N^2]':>19s} {'x [N^2]':>19s} {'z [N^2m^2]':>19s} {'tracking [m^2]':>15s}"
+    # the whole name, never cut: two logs whose names differ only at the start must stay apart
+    w = max([24] + [len(ev.label) for ev in evaluations])
+    head = f"{'log':{w}s} {'y [N^2]':>19s} {'x [N^2]':>19s} {'z [N^2m^2]':>19s} {'tracking [m^2]':>15s}"
     lines = [head]
     for ev in evaluations:
         cells = [_cell(ev.commutation_mse[d], ev.force_reconstructed) for d in DIRECTIONS]
         tr = "-" if ev.tracking_mse is None else f"{ev.tracking_mse:.3g}"
-        lines.append(f"{ev.label[:24]:24s} {cells[0]:>19s} {cells[1]:>19s} {cells[2]:>19s} {tr:>15s}")
+        lines.append(f"{ev.label:{w}s} {cells[0]:>19s} {cells[1]:>19s} {cells[2]:>19s} {tr:>15s}")
     if with_model:
         lines.append("model error F - F^(y, i), filtered (unfiltered):")
         for ev in evaluations:
             if ev.model_mse is None:
                 continue
             cells = [_cell(ev.model_mse[d], ev.force_reconstructed) for d in DIRECTIONS]
-            lines.append(f"{ev.label[:24]:24s} {cells[0]:>19s} {cells[1]:>19s} {cells[2]:>19s}")
+            lines.append(f"{ev.label:{w}s} {cells[0]:>19s} {cells[1]:>19s} {cells[2]:>19s}")
+    if any(ev.commutation_mse["y"]["filtered"] is None for ev in evaluations):
+        lines.append("n/a: no desired force F* in the log, commutation error skipped (the model error does not "
+                     "need it)")
     if any(ev.force_reconstructed for ev in evaluations):
         lines.append("(rec.): no force sensor; Fy reconstructed from the motion (m ÿ + f_v ẏ + F_c(y) s(ẏ)) and compared "
                      "on zero-phase filtered windows; x, z not observable")

@@ -48,7 +48,8 @@ def run(args, out: Path, progress) -> None:
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         logs = read_data_logs(args)
         for log in logs:
-            evaluation.require_desired_force(log)
+            if not args.model:  # with a model, a log without F* still has a model error
+                evaluation.require_desired_force(log)
             if args.lowpass_hz >= 0.5 / log.sample_time:
                 raise ConfigError(f"--lowpass-hz {args.lowpass_hz:g}: at or above the Nyquist frequency "
                                   f"{0.5 / log.sample_time:g} Hz of {log.source}")
