@@ -219,8 +219,9 @@ FILE_CASES = [
 # identification without a force sensor: logs too short, without acceleration, saturated, partial force
 # columns, no mass; refused before any identification
 SENSORLESS_CASES = [
-    (["identify", "--plant", "map", "--motor", "motor_nomass", "--no-force-sensor"],
-     r"--motor .*motor_nomass\.toml: key 'mass' missing: identification without a force sensor needs the moving mass"),
+    (["identify", "--plant", "map", "--motor", "motor_nomass", "--no-force-sensor", "--family", "spline"],
+     r"--family spline needs force measurements \(Fy, Fx, Tz\); without a force sensor use --family pgnn"),
+    (["identify", "--data", "sl_ok", "--motor", "rig", "--family", "spline"], r"--family spline needs force measurements"),
     (["identify", "--data", "sl_ok", "--motor", "rig_nomass"],
      r"--motor .*rig_nomass\.toml: key 'mass' missing"),
     (["identify", "--data", "sl_short", "--motor", "rig"],
@@ -235,6 +236,65 @@ SENSORLESS_CASES = [
     (["evaluate", "--data", "sl_ok", "--model", "model"], r"--model .*model\.json: no identified mechanics"),
     (["check", "--data", "sl_fyonly", "--motor", "rig"], r"sl_fyonly\.csv: columns 'Fx', 'Tz' missing"),
 ]
+
+
+# issue 16, point 4: a run that simulates its plant knows the translator's mass; every other input is checked
+# before the first computation (here: the first data generation is replaced by a stop)
+
+
+class _Stop(Exception):
+    pass
+
+
+@pytest.fixture
+def stop_at_first_simulation(monkeypatch):
+    """``pgcomm.experiment.generate`` records the set-up it is given and stops the command (exit 2)."""
+    from pgcomm import experiment
+    from pgcomm.errors import DataError
+
+    seen = []
+
+    def generate(setup, *a, **k):
+        seen.append(setup)
+        raise DataError("stopped at the first simulation")
+
+    monkeypatch.setattr(experiment, "generate", generate)
+    return seen
+
+
+@pytest.mark.parametrize("command", [["reproduce", "--quick"], ["identify", "--no-force-sensor"]])
+def test_simulated_runs_give_a_motor_without_mass_the_simulated_translators(tmp_path, capsys, files,
+                                                                            stop_at_first_simulation, command):
+    # a mass that is not the default 30 kg: the value comes from these settings, and is said
+    config = _config(tmp_path, "[mechanics]\nmass = 24.5\n")
+    out = tmp_path / "out"
+    code = main([*command, "--plant", str(files["map"]), "--motor", str(files["motor_nomass"]), "--config", str(config),
+                 "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.strip().splitlines()[-1] == "pgcomm: error: stopped at the first simulation", err
+    assert [s.motor.mass for s in stop_at_first_simulation] == [24.5]
+    assert "24.5 kg from the simulated mechanics ([mechanics] mass; the motor description has none)" in err
+    assert not out.exists()
+
+
+def test_simulated_mass_names_a_motor_mass_that_differs():
+    from pgcomm.experiment import ExperimentConfig, build_setup, simulated_mass
+
+    setup = build_setup(ExperimentConfig())
+    same, source = simulated_mass(setup)
+    assert same is setup and source == "30 kg from the simulated mechanics ([mechanics] mass)"
+    other = dataclasses.replace(setup, motor=dataclasses.replace(setup.motor, mass=28.0), plant_name="map.csv")
+    assert simulated_mass(other)[1] == "28 kg from the motor description; the simulated translator has 30 kg"
+
+
+def test_reproduce_refuses_a_stroke_too_short_for_the_sensorless_table_before_any_work(tmp_path, capsys,
+                                                                                       stop_at_first_simulation):
+    # the drives' sensorless table needs settled constant-speed samples in both directions: found out minutes
+    # into the run before, now before the first simulation
+    _check_refused(["reproduce", "--quick", "--config", _config(tmp_path, "[reference]\nstroke = 0.004\n")],
+                   tmp_path / "out", capsys, r"sensorless cogging table: the stroke \[-0\.004, 0\.004\] m at "
+                   r"[\d.]+ m/s leaves no positions passed in both directions", tmp_path)
+    assert stop_at_first_simulation == []
 
 
 @pytest.mark.parametrize("argv,pattern", SENSORLESS_CASES, ids=[" ".join(c[0][:3]) + f" {i}"

@@ -436,6 +436,30 @@ def sensorless_mass(setup: Setup, motor_path=None) -> float:
     return float(setup.motor.mass)
 
 
+def simulated_mass(setup: Setup) -> tuple[Setup, str]:
+    """The moving mass for a run that simulates its plant, and where it comes from.
+
+    A run that simulates the translator knows its mass (``[mechanics] mass``): a motor
+    description without ``mass`` takes it, so identification without a force sensor is not
+    refused after minutes of computation. Call it before the first computation, and only where
+    the data are simulated (logs from a rig have no simulated translator).
+
+    Returns:
+        ``(setup, source)``: ``setup`` with ``motor.mass`` set (kg), and one phrase saying where the
+        mass comes from, e.g. ``"30 kg from the simulated mechanics ([mechanics] mass; the motor
+        description has none)"``; it names a motor mass that differs from the simulated one.
+    """
+    sim = float(setup.config.mechanics.mass)
+    if setup.motor.mass is None:
+        return (replace(setup, motor=replace(setup.motor, mass=sim)),
+                f"{sim:g} kg from the simulated mechanics ([mechanics] mass; the motor description has none)")
+    m = float(setup.motor.mass)
+    if setup.plant_name == "twin" and m == sim:
+        return setup, f"{m:g} kg from the simulated mechanics ([mechanics] mass)"
+    differs = "" if abs(m - sim) <= 1e-9 * sim else f"; the simulated translator has {sim:g} kg"
+    return setup, f"{m:g} kg from the motor description{differs}"
+
+
 def tune_feedforward(setup: Setup, laws: list, reference, seed: int = 0) -> list[Feedforward]:
     """Feedforward ``m, f_v, f_c`` per law, identified from closed-loop data with that law.
 
@@ -679,6 +703,36 @@ def sensorless_cogging_table(setup: Setup, classical_law, feedforward: Feedforwa
     from pgcomm.compensation import fit_effort_table
 
     t0 = time.perf_counter()
+    ref, speed, pos, neg, settle = effort_reference(setup, speed)
+    lo, hi = setup.config.reference.span
+    res = run_laws(setup, [classical_law], ref, [feedforward], seeds=[seed])[0]
+    fy = res.f_star[:, 0]
+    try:
+        table = fit_effort_table(res.y_meas[pos], fy[pos], res.y_meas[neg], fy[neg],
+                                 setup.config.evaluation.cogging_table_entries, (lo, hi))
+    except ValueError as err:
+        raise ConfigError(f"sensorless cogging table at {speed:.4g} m/s: {err}") from None
+    info = {"speed": speed, "samples": {"positive": int(pos.sum()), "negative": int(neg.sum())},
+            "duration": ref.duration, "settling_time": settle, "y_range": (lo, hi),
+            "seconds": time.perf_counter() - t0}
+    return table, info
+
+
+def effort_reference(setup: Setup, speed: float | None = None):
+    """The reference of :func:`sensorless_cogging_table` and the samples it keeps, checked without simulating.
+
+    Args:
+        setup: the resolved experiment; speed: cruise speed (m/s) or ``None`` for the default
+            (:func:`sensorless_cogging_table`).
+
+    Returns:
+        ``(reference, speed (m/s), positive (N,) bool, negative (N,) bool, settling time (s))``: the
+        settled constant-velocity samples of each direction.
+
+    Raises:
+        ConfigError: a speed that is not > 0, a reference outside the plant, or a stroke too short to
+            leave settled samples in both directions at the same positions.
+    """
     rc = setup.config.reference
     lo, hi = rc.span
     if speed is None:
@@ -706,14 +760,4 @@ def sensorless_cogging_table(setup: Setup, classical_law, feedforward: Feedforwa
                           "no positions passed in both directions at settled constant velocity "
                           f"({int(pos.sum())} positive, {int(neg.sum())} negative samples after the loop's "
                           f"settling time {settle:.3g} s); lower the speed or lengthen the stroke")
-    res = run_laws(setup, [classical_law], ref, [feedforward], seeds=[seed])[0]
-    fy = res.f_star[:, 0]
-    try:
-        table = fit_effort_table(res.y_meas[pos], fy[pos], res.y_meas[neg], fy[neg],
-                                 setup.config.evaluation.cogging_table_entries, (lo, hi))
-    except ValueError as err:
-        raise ConfigError(f"sensorless cogging table at {speed:.4g} m/s: {err}") from None
-    info = {"speed": speed, "samples": {"positive": int(pos.sum()), "negative": int(neg.sum())},
-            "duration": ref.duration, "settling_time": settle, "y_range": (lo, hi),
-            "seconds": time.perf_counter() - t0}
-    return table, info
+    return ref, speed, pos, neg, settle

@@ -211,11 +211,12 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     motor = load_motor(folder / "motor.toml")
     config = load_experiment(folder / "config.toml") if (folder / "config.toml").is_file() else ExperimentConfig()
     logs = read_logs([str(folder / "logs" / "*.csv")])
+    # every log grouped (and so checked: force, currents or drive inputs, one active coil set) before any work
+    data = coil_set_data_from_logs(logs, motor)
     cc = config.calibration
     cal = calibrate_from_logs(logs, motor, method=cc.method, n_bins=cc.n_bins)
     # identification exactly as `pgcomm identify --data` (plant unused with logs)
     setup = Setup(plant=None, motor=motor, config=config, true_k=None, true_zeta=None, plant_name=folder.name)
-    data = coil_set_data_from_logs(logs, motor)
     t_id = time.perf_counter()
     pgnn, _, res = identify_models(setup, data, seed, None, check_data=True)
     t_id = time.perf_counter() - t_id

@@ -131,6 +131,8 @@ class SensorlessResult:
         model: the combined model (x, z rows classical with ``calibration``'s ``k``, ``ζ``).
         seconds: wall time of calibration and identification (s).
         mass: the given moving mass (kg).
+        mass_source: where that mass comes from (:func:`pgcomm.experiment.simulated_mass`), e.g.
+            ``"30 kg from the simulated mechanics ([mechanics] mass; the motor description has none)"``.
         table_info: the run of the ``cogging_table_sensorless`` row
             (:func:`pgcomm.experiment.sensorless_cogging_table`'s ``info``).
     """
@@ -141,12 +143,14 @@ class SensorlessResult:
     seconds: float
     mass: float
     table_info: dict | None = None
+    mass_source: str = ""
 
     def to_dict(self, setup: Setup) -> dict:
         mech = setup.config.mechanics
         return {"calibration": experiment.calibration_results(setup, self.calibration),
                 "coil_sets": [r.to_dict() for r in self.identification],
-                "mass": self.mass, "seconds": self.seconds, "cogging_table": self.table_info,
+                "mass": self.mass, "mass_source": self.mass_source, "seconds": self.seconds,
+                "cogging_table": self.table_info,
                 "simulated_mechanics": {"mass": mech.mass, "viscous": mech.viscous, "coulomb": mech.coulomb}}
 
 
@@ -352,12 +356,9 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     from pgcomm.progress import Progress
 
     progress = progress or Progress(enabled=False)
-    if setup.motor.mass is None:
-        # the run simulates the translator, so its mass is known: the sensorless rows use it (said), and a motor
-        # description without one is not found out minutes later
-        setup = replace(setup, motor=replace(setup.motor, mass=float(setup.config.mechanics.mass)))
-        progress.info(f"the motor description has no mass: the simulated translator's {setup.motor.mass:g} kg "
-                      "([mechanics] mass) is given to identification without a force sensor")
+    # the run simulates the translator, so its mass is known: a motor description without one takes it (said)
+    setup, mass_source = experiment.simulated_mass(setup)
+    progress.info(f"moving mass for the rows without a force sensor: {mass_source}")
     cfg = setup.config
     ic = cfg.identification
     motor = setup.motor
@@ -368,6 +369,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         refs["user"] = extra_reference
     for name, ref in refs.items():  # before any work: a reference off the plant fails now, not after minutes
         experiment.check_reference(setup, ref, f"the {name} reference")
+    experiment.effort_reference(setup)  # the sensorless table's stroke and speed, needed minutes later
     long_ref = refs["long"]
 
     with progress.stage(f"data generation: {motor.n_coil_sets} coil sets x 2 data sets (Delta = -/+"
@@ -412,7 +414,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         pgnn_sl, id_sl = experiment.identify_sensorless_models(setup, coil_set_data_from_runs(data0), cal_sl.k,
                                                                cal_sl.zeta, seed, progress)
         sensorless = SensorlessResult(cal_sl, tuple(id_sl), pgnn_sl, time.perf_counter() - t_sl,
-                                      experiment.sensorless_mass(setup))
+                                      experiment.sensorless_mass(setup), mass_source=mass_source)
         for r in id_sl:
             me = r.mechanics
             progress.info(f"{r.name}: y cost {r.cost_y:.4g} N^2 on {me['windows']} filtered windows "

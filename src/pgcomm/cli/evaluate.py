@@ -45,6 +45,10 @@ def run(args, out: Path, progress) -> None:
     require_data(args)
     if not (math.isfinite(args.lowpass_hz) and args.lowpass_hz > 0):
         raise ConfigError(f"--lowpass-hz {args.lowpass_hz:g}: must be a positive frequency (Hz)")
+    model = motor = document = None
+    if args.model:  # before the logs: a bad model file or motor is named before any log is read
+        model, document = load_model(args.model)
+        motor = motor_from_args(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         logs = read_data_logs(args)
         for log in logs:
@@ -54,10 +58,6 @@ def run(args, out: Path, progress) -> None:
                 raise ConfigError(f"--lowpass-hz {args.lowpass_hz:g}: at or above the Nyquist frequency "
                                   f"{0.5 / log.sample_time:g} Hz of {log.source}")
         progress.info(f"{len(logs)} log(s), {sum(lg.n_samples for lg in logs)} samples")
-    model = motor = document = None
-    if args.model:
-        model, document = load_model(args.model)
-        motor = motor_from_args(args)
     mechanics = None
     without = [lg.source for lg in logs if not lg.has_force]
     if without:

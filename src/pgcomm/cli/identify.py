@@ -3,8 +3,9 @@
 With ``--no-force-sensor`` (automatic when the logs have no force columns) the y row of every
 coil set's PGNN is identified from the motion, jointly with the translator's friction
 (:mod:`pgcomm.sensorless`); the x and z rows are the classical model with the motor's nominal
-``k̂``, ``ζ̂``, ``μ̂`` and lever arms. The moving mass comes from the motor TOML (key ``mass``;
-the built-in twin's is known).
+``k̂``, ``ζ̂``, ``μ̂`` and lever arms. The moving mass comes from the motor TOML (key ``mass``);
+where the data are simulated (no ``--data``) the simulated translator's mass is known and used
+when the motor TOML has none (said).
 """
 
 from __future__ import annotations
@@ -53,6 +54,7 @@ def run(args, out: Path, progress) -> None:
     t0 = time.perf_counter()
     setup = _setup(args)
     sensorless = bool(args.no_force_sensor)
+    _refuse_spline_without_force(args, sensorless)
     logs = None
     if args.data:
         with progress.stage(f"read {len(args.data)} log pattern(s)"):
@@ -65,9 +67,16 @@ def run(args, out: Path, progress) -> None:
                 raise DataError(f"{len(without)} of {len(logs)} logs have no force columns Fy, Fx, Tz ({shown}); "
                                 "pass --no-force-sensor to identify all of them from the motion, or drop them")
             sensorless = True
+            _refuse_spline_without_force(args, sensorless)
             if not args.quiet:
                 print("pgcomm: the logs have no force columns (Fy, Fx, Tz): identifying without a force sensor "
                       "(y row from the motion, x/z rows classical)", file=sys.stderr)
+    mass_source = None
+    if sensorless and logs is None:
+        # the data are simulated: the simulated translator's mass is known (used, and said, if the motor has none)
+        setup, mass_source = experiment.simulated_mass(setup)
+        if not args.quiet:
+            print(f"pgcomm: moving mass for identification without a force sensor: {mass_source}", file=sys.stderr)
     mass = experiment.sensorless_mass(setup, args.motor) if sensorless else None
     if logs is not None:
         with progress.stage("group logs by coil set"):
@@ -105,9 +114,6 @@ def run(args, out: Path, progress) -> None:
         progress.info(f"warning: {msg}")
     mechanics = feedforward = None
     if args.family == "spline":
-        if sensorless:
-            raise DataError("--family spline needs force measurements (Fy, Fx, Tz); without a force sensor use "
-                            "--family pgnn")
         _identify_spline(args, out, progress, setup, data, source, t0)
         return
     if sensorless:
@@ -136,6 +142,8 @@ def run(args, out: Path, progress) -> None:
     if sensorless:
         results["mechanics"] = metadata["mechanics"] = mechanics
         results["feedforward"] = metadata["feedforward"] = feedforward
+        results["mass_source"] = mass_source or (f"{mass:g} kg from --motor {args.motor}" if args.motor else
+                                                 f"{mass:g} kg of the built-in twin's translator (no --motor)")
     metadata["identification"] = results["identification"]
     save_model(out / "model", pgnn, metadata, identification="force_sensor" if not sensorless else "no_force_sensor")
     y = np.linspace(*pgnn.training_range, 2001)
@@ -207,6 +215,13 @@ def _identify_spline(args, out, progress, setup, data, source, t0) -> None:
               f"{float(np.min(mech.coulomb)):.3g} .. {float(np.max(mech.coulomb)):.3g} N along the stroke "
               f"(in the model file)")
         print(f"wrote {args.out}/model.json, model.npz, results.json, cogging.png, gain_coilset*.png")
+
+
+def _refuse_spline_without_force(args, sensorless: bool) -> None:
+    """``--family spline`` fits the measured force: refuse it without a force sensor before any work."""
+    if sensorless and args.family == "spline":
+        raise DataError("--family spline needs force measurements (Fy, Fx, Tz); without a force sensor use "
+                        "--family pgnn")
 
 
 def _setup(args):
