@@ -40,6 +40,9 @@ class Motor:
         current_limit: peak phase current limit of the drive (A), or ``None``.
         mass: moving mass ``m`` of the translator (kg), or ``None`` (unknown). Needed only to
             identify without a force sensor (``m ÿ`` is then the measured force).
+        travel: ``(lo, hi)`` (m), the positions a reference may cover on the rig (the usable travel
+            less a few mm for the following error at reversals), or ``None`` (unknown).
+            :mod:`pgcomm.plan` spans the experiments' reference over it.
     """
 
     pole_pitch: float = 0.03
@@ -50,8 +53,14 @@ class Motor:
     sample_time: float = 1e-3
     current_limit: float | None = 10.0
     mass: float | None = None
+    travel: tuple[float, float] | None = None
 
     def __post_init__(self):
+        if self.travel is not None:
+            lo, hi = (float(x) for x in self.travel)
+            if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+                raise ValueError(f"travel = {self.travel} m: expected [lo, hi] with lo < hi")
+            object.__setattr__(self, "travel", (lo, hi))
         if self.mass is not None:
             m = float(self.mass)
             if not (np.isfinite(m) and m > 0):

@@ -26,13 +26,14 @@ import threading
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
-from pgcomm.cli import calibrate, check, evaluate, export, fleet, identify, inspect, reproduce, simulate, zoo
+from pgcomm.cli import calibrate, check, evaluate, export, fleet, identify, inspect, plan, reproduce, simulate, zoo
 from pgcomm.cli._common import staged_output, user_error_line
 from pgcomm.errors import PgcommError
 
 #: Every subcommand in the order ``pgcomm --help`` lists them: name -> command module.
 COMMANDS = {
     "simulate": simulate,
+    "plan": plan,
     "calibrate": calibrate,
     "identify": identify,
     "reproduce": reproduce,

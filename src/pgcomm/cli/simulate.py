@@ -23,10 +23,60 @@ def configure(p) -> None:
     p.add_argument("--no-feedforward", action="store_true",
                    help="feedback only (default: feedforward m, f_v, f_c identified in closed loop first)")
     p.add_argument("--format", choices=("csv", "parquet"), default="csv", help="log file format")
+    p.add_argument("--plan", type=Path, metavar="DIR",
+                   help="run a plan's experiments (pgcomm plan) as a rig would, with the drive at the plan's k, "
+                        "zeta: one log per experiment, named as the plan names it")
+
+
+def _run_plan(args, out: Path, progress) -> None:
+    """``--plan``: every experiment of the plan on the plant, logs ``out/<experiment>.csv``."""
+    from pgcomm import experiment
+    from pgcomm.data import generate_datasets
+    from pgcomm.errors import ConfigError
+    from pgcomm.io.logs import Log, write_log
+    from pgcomm.io.plan import read_plan
+    from pgcomm.io.results import write_results
+
+    for opt, given in (("--model", args.model), ("--reference", args.reference),
+                       ("--law", args.law != "nominal"), ("--no-feedforward", args.no_feedforward)):
+        if given:
+            raise ConfigError(f"{opt} does not go with --plan: a plan sets the reference and the commutation "
+                              "(its drive values, no feedforward)")
+    t0 = time.perf_counter()
+    setup = setup_from_args(args)
+    plan = read_plan(args.plan)
+    m, drive = setup.motor, plan.motor
+    for what, a, b in (("coil sets", m.n_coil_sets, drive.n_coil_sets), ("pole pitch (m)", m.pole_pitch,
+                       drive.pole_pitch), ("sample time (s)", m.sample_time, drive.sample_time)):
+        if abs(a - b) > 1e-9 * abs(a):
+            raise ConfigError(f"--plan {args.plan}: {what} {b:g} in its motor.toml, but the plant "
+                              f"({setup.plant_name}) has {a:g}")
+    experiment.check_reference(setup, plan.reference, f"--plan {args.plan}")
+    n = len(plan.experiments)
+    with progress.stage(f"{n} experiments of the plan on {setup.plant_name} ({plan.duration:.1f} s each)"):
+        runs = generate_datasets(setup.plant, drive, plan.reference, delta=plan.delta, pid=setup.pid,
+                                 mechanics=setup.config.mechanics, sensors=setup.config.sensors, seed=args.seed)
+    by_key = {(ds.coil_set, ds.delta > 0): ds.result for pair in runs for ds in pair}
+    force_cols = () if plan.force_sensor else ("Fy", "Fx", "Tz")
+    summary = {}
+    for e in plan.experiments:
+        res = by_key[(e.coil_set, e.delta > 0)]
+        cols = {k: v for k, v in res.columns().items() if k not in force_cols}
+        write_log(out / f"{e.name}.{args.format}", Log(cols, res.sample_time, source=e.name))
+        summary[e.name] = {"tracking_rms_m": float((res.e ** 2).mean() ** 0.5), "samples": int(res.t.shape[0])}
+    write_results(out / "results.json", {"command": "simulate", "plant": setup.plant_name, "plan": str(args.plan),
+                                         "force_sensor": plan.force_sensor, "experiments": summary,
+                                         "runtime_s": time.perf_counter() - t0})
+    if not args.quiet:
+        print(f"wrote {n} logs ({', '.join(f'{e.name}.{args.format}' for e in plan.experiments)}) "
+              f"and results.json to {args.out}")
 
 
 def run(args, out: Path, progress) -> None:
-    """Simulate, write ``log.csv|parquet``, ``run.png`` and ``results.json`` into ``out``."""
+    """Simulate, write ``log.csv|parquet``, ``run.png`` and ``results.json`` into ``out`` (with ``--plan``:
+    one log per experiment, :func:`_run_plan`)."""
+    if args.plan is not None:
+        return _run_plan(args, out, progress)
     from pgcomm import experiment, plots
     from pgcomm.commutation import ClassicalLaw, ModelLaw, oracle_law
     from pgcomm.control import Feedforward

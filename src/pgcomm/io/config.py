@@ -7,6 +7,8 @@ Motor config (DESIGN, "Formats")::
     current_limit = 10.0      # optional, peak phase current (A); absent = no limit
     mass = 30.0               # optional, moving mass of the translator (kg); needed by
                               # identification without a force sensor (identify --no-force-sensor)
+    travel = [-0.1, 0.1]      # optional, positions a reference may cover (m): the usable travel
+                              # less a few mm; pgcomm plan spans its experiments over it
 
     [nominal]
     k = [67.0, 67.0, 67.0]    # k̂ (N/A): one number for all coil sets or one per coil set
@@ -454,12 +456,13 @@ def load_motor(path) -> Motor:
     """
     file = str(path)
     doc = load_toml(path)
-    top = ("pole_pitch", "sample_time", "current_limit", "mass", "nominal", "coil_set")
+    top = ("pole_pitch", "sample_time", "current_limit", "mass", "travel", "nominal", "coil_set")
     _check_keys(doc, top, _Where(file))
     pole_pitch = _number(doc, "pole_pitch", file)
     sample_time = _number(doc, "sample_time", file)
     current_limit = _number(doc, "current_limit", file, required=False)
     mass = _number(doc, "mass", file, required=False)
+    travel = _travel(doc, file)
 
     coil_sets = doc.get("coil_set")
     if coil_sets is None:
@@ -494,8 +497,27 @@ def load_motor(path) -> Motor:
         sample_time=sample_time,
         current_limit=current_limit,
         mass=mass,
+        travel=travel,
         **kwargs,
     )
+
+
+def _travel(doc: dict, file: str):
+    """Top-level ``travel = [lo, hi]`` (m) as a tuple, ``None`` when absent."""
+    if "travel" not in doc:
+        return None
+    v = doc["travel"]
+    if not (isinstance(v, list) and len(v) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                        for x in v)):
+        raise ConfigError(f"{file}: travel = {_fmt(v) if not isinstance(v, dict) else 'a table'} must be two numbers "
+                          "[lo, hi] in m, e.g. travel = [-0.12, 0.12]")
+    lo, hi = (float(x) for x in v)
+    for name, x in (("travel[0]", lo), ("travel[1]", hi)):
+        if not (math.isfinite(x) and abs(x) <= 100.0):
+            raise ConfigError(f"{file}: {name} = {x:g} m is implausible (expected |value| ≤ 100 m; did you give mm?)")
+    if not hi > lo:
+        raise ConfigError(f"{file}: travel = [{lo:g}, {hi:g}] m: the first entry must be below the second")
+    return (lo, hi)
 
 
 def _toml_float(x) -> str:
@@ -523,6 +545,8 @@ def motor_to_toml(motor: Motor) -> str:
         lines.append(f"current_limit = {_toml_float(motor.current_limit)}  # peak phase current of the drive (A)")
     if motor.mass is not None:
         lines.append(f"mass = {_toml_float(motor.mass)}  # moving mass of the translator (kg)")
+    if motor.travel is not None:
+        lines.append(f"travel = {_toml_list(motor.travel)}  # positions a reference may cover (m)")
     lines += [
         "",
         "[nominal]",
