@@ -331,10 +331,12 @@ def test_c_matches_python(tmp_path, cc, L, direction, limit):
     # single coil set: always damped (eps2 = 1e-6); its rounding noise is amplified, as in test_export_c
     _close(c["currents"], i, i_scale * (100 if L == 1 else 1), "currents")
     _close(c["fy"], fy, float(np.abs(fy).max()) * (100 if L == 1 else 1), "Fy*")
-    # Δ is an angle: compare on the circle, scaled by π; where Fy* ~ 0 the angle is undefined
-    big = fy > 1e-6 * np.abs(fy).max()
+    # Δ is an angle: compare on the circle, scaled by π; where Fy* ~ 0 the angle is undefined. Both sides
+    # use one convention (signed Fy*, Δ in (-π/2, π/2]), so the signs of Fy* agree too (checked above)
+    big = np.abs(fy) > 1e-6 * np.abs(fy).max()
     d = np.angle(np.exp(1j * (c["delta"] - delta)))[big]
     _close(d, 0.0 * d, np.pi * (100 if L == 1 else 1) * 10, "delta")
+    assert np.all((c["delta"] > -np.pi / 2) & (c["delta"] <= np.pi / 2)) and np.any(c["fy"][big] < 0)
     if limit is not None:
         ph = np.concatenate([c["currents"], -c["currents"].sum(-1, keepdims=True)], axis=-1)
         assert np.abs(ph).max() <= limit * (1 + 1e-12)

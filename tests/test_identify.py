@@ -278,6 +278,7 @@ def test_drive_input_front_end(data):
     y = data.y[:50]
     cur = data.currents[:50]
     fy, delta = (np.asarray(v)[:, 0] for v in currents_to_drive_inputs(y, cur[:, None], K_HAT, ZETA_HAT, D_M))
+    assert np.all((delta > -np.pi / 2) & (delta <= np.pi / 2))  # the sign convention of the logs
     d2 = pdata.CoilSetData.from_drive_inputs(y, fy, delta, data.force[:50], K_HAT, ZETA_HAT, D_M)
     np.testing.assert_allclose(d2.currents, cur, rtol=0, atol=1e-12)
 

@@ -7,7 +7,8 @@
 * The drive with fixed commutation: ``Γ(y)`` (eq. Commutation_Rewritten1_Gamma),
   ``T`` / ``T^{-1}`` (eq. Input_Transformation, ``atan2``), the drive law
   (eq. Commutation_Solution_With_PhaseOffset) and currents -> ``(Fy^l*, Δ^l)``
-  (eq. Current_To_ForceDelta).
+  (eq. Current_To_ForceDelta). Sign convention of the drive inputs: ``Fy^l*`` signed,
+  ``Δ^l ∈ (-π/2, π/2]`` (:func:`transform_T_inverse`).
 
 Every law is a pytree with a method ``currents(y, F_star, v=None)`` taking positions of
 shape ``S`` (m), desired forces ``S + (3,)`` (``[Fy, Fx, Tz]`` in N, N, N·m) and the
@@ -240,14 +241,30 @@ def transform_T(fy, delta):
 
 
 def transform_T_inverse(f12):
-    """``T^{-1}``: ``(F1*, F2*) -> (Fy*, Δ) = (|F|, atan2(F2*, F1*))``; ``Δ ∈ (-π, π]``, ``Fy* >= 0``.
+    """``T^{-1}``: ``(F1*, F2*) -> (Fy*, Δ)`` with the sign kept in the force: ``Δ ∈ (-π/2, π/2]``, ``Fy*`` signed.
+
+    ``(Fy*, Δ)`` and ``(-Fy*, Δ ± π)`` make the same currents, so the pair is not unique; the one
+    convention of the package (logs ``Fy_ref_l``, ``delta_l``, the C law's ``NAME_drive_inputs``) is
+    ``Δ = atan2(F2*, F1*)`` folded by π onto ``(-π/2, π/2]``, flipping the sign of ``Fy* = ±|F|`` when
+    it is folded. A data set ``Z_i^l`` driven at one ``Δ`` then logs that ``Δ`` throughout while
+    ``Fy_ref_l`` follows the sign of the demand (no jump of ``Δ`` by π when the force reverses).
+    The boundary belongs to the positive side: ``F1* = 0``, ``F2* > 0`` gives ``Δ = π/2``, ``Fy* > 0``;
+    ``F1* = 0``, ``F2* < 0`` gives ``Δ = π/2``, ``Fy* < 0``. Zero force gives ``Fy* = 0``, ``Δ = 0``.
 
     Args:
-        f12: ``S + (2,)`` (N). Returns ``(fy, delta)`` each of shape ``S``.
+        f12: ``S + (2,)`` (N). Returns ``(fy, delta)`` each of shape ``S`` (N, rad).
     """
-    delta = jnp.arctan2(f12[..., 1], f12[..., 0])
-    # atan2(-0.0, x < 0) is -π; fold it onto π to keep the documented range (-π, π]
-    return jnp.hypot(f12[..., 0], f12[..., 1]), jnp.where(delta <= -jnp.pi, jnp.pi, delta)
+    f1, f2 = f12[..., 0], f12[..., 1]
+    mag = jnp.hypot(f1, f2)
+    d = jnp.arctan2(f2, f1)
+    half = jnp.pi / 2
+    # the same operations as the exported C (NAME_drive_inputs), so both agree to rounding
+    up, down = d > half, d <= -half
+    flip = up | down
+    d = jnp.where(up, d - jnp.pi, jnp.where(down, d + jnp.pi, d))
+    fy = jnp.where(flip, -mag, mag)
+    zero = mag == 0.0  # atan2 of (±0, ±0) is 0, ±π: no direction, report Δ = 0 and +0 N
+    return jnp.where(zero, 0.0, fy), jnp.where(zero, 0.0, d)
 
 
 def drive_currents(y, fy, delta, k_hat, zeta_hat, pole_pitch):
@@ -256,7 +273,8 @@ def drive_currents(y, fy, delta, k_hat, zeta_hat, pole_pitch):
     ``i^l = (1/k̂) [sin(η̂ + Δ^l), sin(η̂ + Δ^l + 2π/3)] Fy^l* = Γ(y) T(Fy^l*, Δ^l)``.
 
     Args:
-        y: ``S`` (m); fy, delta: ``S + (L,)`` (N, rad); k_hat, zeta_hat: drive's fixed
+        y: ``S`` (m); fy, delta: ``S + (L,)`` (N, rad; any sign of ``fy``, any ``Δ``: the convention of
+            :func:`transform_T_inverse` is one of the equivalent pairs); k_hat, zeta_hat: drive's fixed
             ``k̂`` (N/A), ``ζ̂`` (rad), scalars or ``(L,)``.
 
     Returns:
@@ -270,11 +288,15 @@ def drive_currents(y, fy, delta, k_hat, zeta_hat, pole_pitch):
 def currents_to_drive_inputs(y, currents, k_hat, zeta_hat, pole_pitch):
     """Drive inputs ``(Fy^l*, Δ^l) = T^{-1}(Γ(y)^{-1} i^l)`` (eq. Current_To_ForceDelta).
 
+    ``drive_currents(y, fy, delta, ...)`` gives the currents back. Convention of
+    :func:`transform_T_inverse`: ``Fy^l*`` signed, ``Δ^l ∈ (-π/2, π/2]``.
+
     Args:
-        y: ``S`` (m); currents: ``S + (L, 2)`` (A).
+        y: ``S`` (m); currents: ``S + (L, 2)`` (A); k_hat, zeta_hat: the drive's ``k̂`` (N/A),
+            ``ζ̂`` (rad), scalars or ``(L,)``; pole_pitch: ``d_m`` (m).
 
     Returns:
-        ``(fy, delta)`` each ``S + (L,)`` in N and rad.
+        ``(fy, delta)`` each ``S + (L,)`` in N (signed) and rad (in ``(-π/2, π/2]``).
     """
     ginv = gamma_inverse(jnp.asarray(y)[..., None], k_hat, zeta_hat, pole_pitch)
     f12 = jnp.sum(ginv * currents[..., None, :], axis=-1)
@@ -350,7 +372,9 @@ class ModelLaw:
         (``model.training_range``, where it has one) the position is held at the range's end (the
         model was not identified there; a network extrapolates without bound); a sample with a
         non-finite position, force demand or velocity gets zero currents; the current limit bounds
-        every phase current.
+        every phase current; a demand so large that the currents overflow gets zero currents. The
+        exported C law (:mod:`pgcomm.export.c`) does the same and tells the cases apart by its return
+        code (0 inside the range, 1 held at its end, 2 non-finite input: zero currents).
         """
         y = jnp.asarray(y, dtype=float)
         f_star = jnp.asarray(f_star, dtype=float)
@@ -369,8 +393,11 @@ class ModelLaw:
         target = f_star - self.model.cogging(y)
         if v is not None and hasattr(self.model, "direction_force"):
             target = target - self.model.direction_force(y, v)
-        i = min_energy_currents(gain, target, winv, det_min=self.det_min)
-        return jnp.where(ok[..., None, None], limit_currents(i, self.current_limit), 0.0)
+        i = limit_currents(min_energy_currents(gain, target, winv, det_min=self.det_min), self.current_limit)
+        # a finite demand so large that the solve overflows (|F*| near 1e308) gets zero currents too, as
+        # the exported C law does (its return code 2)
+        ok = ok & jnp.all(jnp.isfinite(i), axis=(-2, -1))
+        return jnp.where(ok[..., None, None], i, 0.0)
 
 
 def oracle_law(plant, current_limit: float | None = None) -> ModelLaw:

@@ -289,9 +289,12 @@ def _bin_stats(data: CoilSetData, pole_pitch: float, zeta: float, edges, min_sam
     lo, hi = float(edges[0]), float(edges[-1])
     # Current direction ψ relative to the electrical angle (k̂ = 1, ζ̂ = 0).
     amp, ang = _drive_inputs(y, data.currents[:, None, :], 1.0, 0.0, pole_pitch)
-    amp, ang = np.asarray(amp)[:, 0], np.asarray(ang)[:, 0]
+    # the drive inputs are signed (Fy*, Δ ∈ (-π/2, π/2]): the amplitude is |Fy*|, and ψ (mod π), Δ
+    # below and the vector p do not depend on which of the two equivalent pairs is returned
+    famp, ang = np.asarray(amp)[:, 0], np.asarray(ang)[:, 0]
+    amp = np.abs(famp)
     psi = np.mod(ang, np.pi)
-    p = np.stack([amp * np.cos(ang), amp * np.sin(ang)], axis=-1)  # Γ0^{-1} i: (F1*, F2*) per ampere
+    p = np.stack([famp * np.cos(ang), famp * np.sin(ang)], axis=-1)  # Γ0^{-1} i: (F1*, F2*) per ampere
     # Δ relative to the drive's commutation angle, folded onto (-π/2, π/2].
     delta = np.pi / 2 - np.mod(np.pi / 2 - (ang - zeta), np.pi)
     which = np.clip(np.searchsorted(edges, y, side="right") - 1, 0, n_bins - 1)

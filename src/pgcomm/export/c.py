@@ -13,13 +13,24 @@ arrays, every function is reentrant). The generated functions are:
   :mod:`pgcomm.commutation`, operation by operation: the gain ``K̂^l(y)`` and the mean
   cogging force from the networks, the minimum-copper-loss solve with row
   normalisation, determinant-based Tikhonov damping below ``det_min``, and the
-  current-limit scaling. Returns 0, or 1 if ``y`` is outside the model's training range
-  (the currents are still computed: the caller decides what to do).
+  current-limit scaling. Safe for every input (as ``ModelLaw``): beyond the training range
+  the model is read at the range's end, a non-finite input gives zero currents, and the
+  limit (when exported) bounds every phase current ``ia, ib, ic = -ia - ib``. Return codes:
+
+  - ``0``: ``y`` inside the training range;
+  - ``1``: ``y`` outside it: the currents are those of the range's end (``y`` held there);
+  - ``2``: a non-finite input (NaN or ±inf in ``y``, ``f_star`` or ``v``), or a finite demand
+    so large that the currents overflow: all currents are zero.
+
 * ``int NAME_drive_inputs(T y, const T f_star[3], const T k_hat[L], const T zeta_hat[L],
   T fy[L], T delta[L])`` — the drive inputs ``(Fy^l*, Δ^l) = T^{-1}(Γ(y)^{-1} i^l)``
   (eq. Current_To_ForceDelta) for a drive with fixed commutation ``k̂^l`` (N/A),
-  ``ζ̂^l`` (rad); ``Δ`` from ``atan2`` in ``(-π, π]`` like
-  :func:`pgcomm.commutation.transform_T_inverse`. Same return code.
+  ``ζ̂^l`` (rad), in the package's one convention (:func:`pgcomm.commutation.transform_T_inverse`):
+  ``Fy^l*`` signed, ``Δ^l = atan2(F2, F1)`` folded by π onto ``(-π/2, π/2]`` (flipping the sign of
+  ``Fy^l*``), zero force as ``(0, 0)``. ``y`` is the drive's actual position (not held: the drive
+  commutates where the translator is). The return code of ``NAME_currents``; with code 2 (also
+  for a non-finite ``k_hat``/``zeta_hat`` or a position so large that its commutation phase
+  overflows) every ``fy`` and ``delta`` is zero.
 * ``void NAME_model(T y, T gain[L][3][2], T cogging[3])`` — the model itself
   (``K̂^l(y)`` in N/A, N·m/A and the mean ``F̂_cog(y)`` in N, N, N·m), for verification.
 
@@ -38,8 +49,9 @@ tables ``A^l(y), B^l(y)`` (gain), ``F̂_cog(y)`` and ``C(y)`` (direction) are ``
 on their uniform knots, read by index arithmetic (``i = floor((y - k_0)/h)``, clamped to the grid,
 ``(1 - w) t[i] + w t[i+1]``), exactly as :func:`pgcomm.interp.interp_linear`, so outside the grid
 the end rows are held while the harmonics go on. With a direction table the velocity argument is
-as above and ``void NAME_direction(T y, T v, T force[3])`` returns ``C(y) tanh(v / v_ε)``. A NaN
-position reads the first knot (the index conversion must not see a NaN) and returns 1.
+as above and ``void NAME_direction(T y, T v, T force[3])`` returns ``C(y) tanh(v / v_ε)``. The law
+never reads the tables at a NaN position (return code 2 first); ``NAME_model`` itself, called with
+one, reads the first knot (the index conversion must not see a NaN).
 
 Feedforward (``mechanics=``, any model family; ``pgcomm export`` passes a spline file's mechanics):
 ``T NAME_feedforward_g(T r, T v, T a)`` returns ``g = m a + f_v v + (f_c + D(r)) sign(v)`` (N) for
@@ -130,7 +142,8 @@ def check_c_name(name: str) -> str:
 
 def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,
              drive=None, current_limit: float | None = None, det_min: float = DEFAULT_DET_MIN,
-             damping: float = DEFAULT_DAMPING, mechanics=None) -> tuple[str, str]:
+             damping: float = DEFAULT_DAMPING, mechanics=None, limit_source: str | None = None,
+             drive_source: str | None = None) -> tuple[str, str]:
     """Header and source text of the exported law (see the module docstring).
 
     Args:
@@ -147,6 +160,9 @@ def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadat
             ``k_hat``, ``zeta_hat`` or a pair ``(k_hat, zeta_hat)`` (scalars or ``(L,)``).
         current_limit: peak phase current (A) embedded in the law, or ``None`` (no limit).
         det_min, damping: damping rule of :func:`pgcomm.commutation.min_energy_currents`.
+        limit_source: where the limit (or its absence) came from, written after it in the comment
+            block, e.g. ``"from the model file"``; ``None``: not said.
+        drive_source: where ``drive`` came from (comment block), e.g. ``"--drive-k, --drive-zeta"``.
         mechanics: optional feedforward to export beside the law as ``NAME_feedforward_g`` and
             ``NAME_feedforward`` (module docstring): a :class:`pgcomm.control.Feedforward`, a
             :class:`pgcomm.identify.mechanics.MechanicsFit`, or the plain mechanics dict of a model
@@ -171,12 +187,14 @@ def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadat
     gen = _SplineGen if isinstance(model, SplineModel) else _Gen
     g = gen(model, name, _SINGLE if precision == "single" else _DOUBLE, metadata or {}, drive,
             current_limit, float(det_min), float(damping), _feedforward_of(mechanics))
+    g.limit_source, g.drive_source = limit_source, drive_source
     return g.header(), g.source()
 
 
 def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,
             drive=None, current_limit: float | None = None, det_min: float = DEFAULT_DET_MIN,
-            damping: float = DEFAULT_DAMPING, mechanics=None) -> list[Path]:
+            damping: float = DEFAULT_DAMPING, mechanics=None, limit_source: str | None = None,
+            drive_source: str | None = None) -> list[Path]:
     """Write ``NAME.h`` and ``NAME.c`` into ``out_dir`` (created if missing).
 
     Both texts are generated before anything is written, and each file is written
@@ -188,7 +206,8 @@ def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double",
     """
     from pgcomm.io.atomic import atomic_write_text
 
-    header, source = c_source(model, name, precision, metadata, drive, current_limit, det_min, damping, mechanics)
+    header, source = c_source(model, name, precision, metadata, drive, current_limit, det_min, damping, mechanics,
+                              limit_source, drive_source)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / f"{name}.h", out / f"{name}.c"]
@@ -281,6 +300,7 @@ class _Gen:
         from pgcomm import __version__
 
         self.ff = ff  # pgcomm.control.Feedforward to export beside the law, or None
+        self.limit_source = self.drive_source = None  # said in the comment block when set (c_source)
         self.m, self.name, self.num, self.meta = model, name, num, metadata
         self.version = __version__
         self.L = int(model.n_coil_sets)
@@ -341,9 +361,10 @@ class _Gen:
 
     def banner(self, kind: str) -> str:
         m = self.m
-        rng = (f"[{self.rng[0]:.6g}, {self.rng[1]:.6g}] m (outside it the functions return 1)"
-               if self.rng is not None else "unknown (the functions always return 0)")
-        limit = f"{self.limit:.6g} A peak phase current" if self.limit is not None else "none"
+        rng = (f"[{self.rng[0]:.6g}, {self.rng[1]:.6g}] m (outside it y is held at the range's end and the "
+               "functions return 1)" if self.rng is not None else "unknown (y is not held; the functions return 0)")
+        src = f" ({self.limit_source})" if self.limit_source else ""
+        limit = f"{self.limit:.6g} A peak phase current{src}" if self.limit is not None else "none"
         now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
         lines = [
             f"{self.name}.{kind} -- model-based commutation law, generated by pgcomm {self.version}.",
@@ -363,16 +384,32 @@ class _Gen:
             f"              when c < {self.det_min:g}, else 0 (bounded where Khat loses rank, e.g. L = 1).",
             *([f"Current limit: {limit}; all coil sets are scaled by one factor",
                "              so that max(|ia|, |ib|, |ic|) <= limit (force direction kept)."]
-              if self.limit is not None else ["Current limit: none (the currents are not limited)."]),
+              if self.limit is not None else
+              [f"Current limit: none ({self.limit_source or 'the currents are not limited'})."]),
             "Drive inputs: (Fy^l*, Delta^l) = T^-1(Gamma(y)^-1 i^l) (eq. Current_To_ForceDelta),",
-            "              Delta = atan2(F2, F1) in (-pi, pi], Fy^l* >= 0.",
+            "              Fy^l* signed, Delta = atan2(F2, F1) folded by pi onto (-pi/2, pi/2]",
+            "              (the sign of Fy^l* flipped when folded); zero force gives (0, 0).",
+            *self._banner_drive_lines(),
             "Units:        y in m; F* = [Fy N, Fx N, Tz N m]; currents in A (star: ia, ib);",
             "              k_hat in N/A, zeta_hat and Delta in rad, Fy^l* in N.",
-            "Return codes: 0 = y inside the training range, 1 = outside (still computed).",
+            "Return codes: 0 = y inside the training range;",
+            "              1 = y outside it: the currents of the range's end (y held there);",
+            "              2 = a non-finite input (NaN or inf in y, f_star" + (", v" if self.dir else "")
+            + "), or a demand so large",
+            "                  that the currents overflow: all currents (and drive inputs) are zero.",
             *self._banner_extra_lines(),
             *self._ff_lines(),
         ]
         return "/*\n" + "".join((" * " + _ascii(s)).rstrip() + "\n" for s in lines) + " */\n"
+
+    def _banner_drive_lines(self) -> list[str]:
+        """The drive's fixed commutation embedded as constants (only with ``drive``)."""
+        if self.drive is None:
+            return []
+        k, z = self.drive
+        src = f" ({self.drive_source})" if self.drive_source else ""
+        return [f"Drive:        {self.P}_drive_k_hat = {', '.join(f'{x:.6g}' for x in k)} N/A,",
+                f"              {self.P}_drive_zeta_hat = {', '.join(f'{x:.6g}' for x in z)} rad{src}."]
 
     def _banner_model_lines(self) -> list[str]:
         """The banner's description of the model (PGNN: networks and the law's terms)."""
@@ -410,13 +447,15 @@ class _Gen:
                " * y: position (m); " + ("v: velocity (m/s) the controller has (reference velocity);\n * "
                                          if self.dir else "") + "f_star: desired [Fy (N), Fx (N), Tz (N m)];\n"
                " * currents: output, currents[l] = {ia, ib} of coil set l (A), ic = -ia - ib.\n"
-               " * Returns 0, or 1 if y is outside the training range (currents still computed).\n"
+               " * Returns 0 (y inside the training range), 1 (y outside: the currents of the range's end,\n"
+               " * y held there) or 2 (a non-finite input, or currents that would overflow: all zero).\n"
                " */\n",
                f"int {P}_currents({T} y, {self.vdecl}const {T} f_star[3], {T} currents[{P.upper()}_L][2]);\n\n",
                "/**\n"
-               " * Drive inputs (Fy^l* (N), Delta^l (rad) in (-pi, pi]) that make a fixed-commutation\n"
-               " * drive with k_hat[l] (N/A), zeta_hat[l] (rad) produce the currents of\n"
-               f" * {P}_currents (eq. Current_To_ForceDelta). Same return code.\n"
+               " * Drive inputs (Fy^l* (N, signed), Delta^l (rad) in (-pi/2, pi/2]) that make a\n"
+               " * fixed-commutation drive with k_hat[l] (N/A), zeta_hat[l] (rad) produce the currents of\n"
+               f" * {P}_currents at the actual position y (eq. Current_To_ForceDelta). The return code of\n"
+               f" * {P}_currents; 2 (all fy, delta zero) also for a non-finite k_hat or zeta_hat.\n"
                " */\n",
                f"int {P}_drive_inputs({T} y, {self.vdecl}const {T} f_star[3], const {T} k_hat[{P.upper()}_L],\n"
                f"    const {T} zeta_hat[{P.upper()}_L], {T} fy[{P.upper()}_L], {T} delta[{P.upper()}_L]);\n\n",
@@ -585,6 +624,7 @@ class _Gen:
             f"#define {P.upper()}_TWO_PI {_m(lit(2.0 * np.pi))}\n"
             f"#define {P.upper()}_POLE_PITCH {_m(lit(m.pole_pitch))}\n"
             f"#define {P.upper()}_TWO_PI_3 {_m(lit(2 * np.pi / 3))}\n#define {P.upper()}_PI {_m(lit(np.pi))}\n"
+            f"#define {P.upper()}_HALF_PI {_m(lit(np.pi / 2))}\n"
             f"/* det of [[sin e, cos e], [sin(e + 2pi/3), cos(e + 2pi/3)]] = -sin(2 pi/3) */\n"
             f"#define {P.upper()}_GAMMA_DET {_m(lit(-np.sin(2 * np.pi / 3)))}\n",
             f"/* inverse copper-loss metric Q^-1 = [[2, -1], [-1, 2]] / 3 (Q: ia^2 + ib^2 + ic^2) */\n"
@@ -790,7 +830,7 @@ class _Gen:
                 f"    sc = {U}_CURRENT_LIMIT / (peak > {dl(1e-300)} ? peak : {dl(1e-300)});\n"
                 "    if (sc > 1.0)\n        sc = 1.0;\n"
                 f"    for (l = 0; l < {Lm}; ++l)\n        for (j = 0; j < 2; ++j)\n            i[l][j] *= sc;\n")
-        range_check = (f"    ret = (y >= {U}_Y_MIN && y <= {U}_Y_MAX) ? 0 : 1; /* NaN y -> 1 */\n"
+        range_check = (f"    ret = (y >= {U}_Y_MIN && y <= {U}_Y_MAX) ? 0 : 1;\n"
                        if self.rng is not None else "    ret = 0; /* training range unknown at export */\n")
         finite = " && ".join(["isfinite(y)"] + [f"isfinite(f_star[{q}])" for q in range(3)]
                              + (["isfinite(v)"] if self.dir else []))
@@ -799,7 +839,7 @@ class _Gen:
                 "       gives zero currents; beyond the training range the model is read at the range's end */\n"
                 f"    if (!({finite})) {{\n"
                 f"        for (l = 0; l < {Lm}; ++l)\n            for (j = 0; j < 2; ++j)\n"
-                f"                currents[l][j] = {self.lit(0)};\n        return ret;\n    }}\n"
+                f"                currents[l][j] = {self.lit(0)};\n        return 2;\n    }}\n"
                 + (f"    yc = y < {U}_Y_MIN ? {U}_Y_MIN : (y > {U}_Y_MAX ? {U}_Y_MAX : y);\n\n"
                    if self.rng is not None else "    yc = y;\n\n"))
         solve = [
@@ -862,6 +902,13 @@ class _Gen:
             "    z[2] = (d02 * fs[0] + d12 * fs[1] + d22 * fs[2]) * dinv[2];\n",
             f"    for (l = 0; l < {Lm}; ++l)\n        for (j = 0; j < 2; ++j)\n",
             "            i[l][j] = kw[l][0][j] * z[0] + kw[l][1][j] * z[1] + kw[l][2][j] * z[2];\n\n",
+            "    /* a finite demand so large that the solve overflows (|F*| near the largest double) must not\n"
+            "       reach the amplifier either: zero currents, code 2 (ModelLaw does the same) */\n",
+            f"    for (l = 0; l < {Lm}; ++l)\n        for (j = 0; j < 2; ++j)\n"
+            "            if (!isfinite(i[l][j])) {\n"
+            f"                for (l = 0; l < {Lm}; ++l)\n                    for (j = 0; j < 2; ++j)\n"
+            f"                        currents[l][j] = {self.lit(0)};\n"
+            "                return 2;\n            }\n\n",
             limit_code,
             f"    for (l = 0; l < {Lm}; ++l)\n        for (j = 0; j < 2; ++j)\n",
             f"            currents[l][j] = {'(float)' if self.num.single else ''}i[l][j];\n",
@@ -872,25 +919,39 @@ class _Gen:
             solve = self._solve_single_coil_set(solve, cast, dl)
 
         # ---- drive inputs ----
+        # the drive's phase is taken at the actual y (the drive commutates where the translator is)
+        finite_drive = " && ".join(f"isfinite({a}[l])" for a in ("k_hat", "zeta_hat"))
         drive_fn = [
             f"int {P}_drive_inputs({T} y, {self.vdecl}const {T} f_star[3], const {T} k_hat[{Lm}],\n"
             f"    const {T} zeta_hat[{Lm}], {T} fy[{Lm}], {T} delta[{Lm}])\n{{\n",
-            f"    {T} i[{Lm}][2], eta, e2, kd, f1, f2, d;\n    int l;\n",
-            f"    const int ret = {P}_currents(y, {self.varg}f_star, i);\n",
+            f"    {T} i[{Lm}][2], eta, e2, kd, f1, f2, d, m;\n    int l;\n",
+            f"    int ret = {P}_currents(y, {self.varg}f_star, i);\n",
             f"    const {T} yh = {P}_reduce(y);\n" if self.num.single else "",
             "\n",
-            f"    for (l = 0; l < {Lm}; ++l) {{\n",
+            f"    for (l = 0; l < {Lm}; ++l)\n",
+            f"        if (!({finite_drive}))\n            ret = 2;\n",
+            f"    for (l = 0; l < {Lm} && ret != 2; ++l) {{\n",
             "        /* Gamma(y)^-1 = (k_hat / det) [[cos e2, -cos eta], [-sin e2, sin eta]], e2 = eta + 2pi/3 */\n",
             f"        eta = {U}_TWO_PI * {'yh' if self.num.single else 'y'} / {U}_POLE_PITCH + zeta_hat[l];\n",
+            "        if (!isfinite(eta)) {  /* |y| so large that the phase overflows */\n"
+            "            ret = 2;\n            break;\n        }\n",
             f"        e2 = eta + {U}_TWO_PI_3;\n",
             f"        kd = k_hat[l] / {U}_GAMMA_DET;\n",
             f"        f1 = {f('cos')}(e2) * kd * i[l][0] - {f('cos')}(eta) * kd * i[l][1];\n",
             f"        f2 = {f('sin')}(eta) * kd * i[l][1] - {f('sin')}(e2) * kd * i[l][0];\n",
-            "        /* T^-1 with atan2 (never a bare atan); fold -pi onto pi: Delta in (-pi, pi] */\n",
-            f"        fy[l] = {f('hypot')}(f1, f2);\n",
+            "        /* T^-1 with atan2 (never a bare atan), then the one sign convention of pgcomm\n"
+            "           (transform_T_inverse): Delta folded by pi onto (-pi/2, pi/2], the sign kept in Fy, so a\n"
+            "           reversing force keeps its Delta; zero force is (0, 0) */\n",
+            f"        m = {f('hypot')}(f1, f2);\n",
             f"        d = {f('atan2')}(f2, f1);\n",
-            f"        delta[l] = d <= -{U}_PI ? {U}_PI : d;\n",
-            "    }\n    return ret;\n}\n",
+            f"        if (d > {U}_HALF_PI) {{\n            d -= {U}_PI;\n            m = -m;\n        }}"
+            f" else if (d <= -{U}_HALF_PI) {{\n            d += {U}_PI;\n            m = -m;\n        }}\n",
+            f"        if (m == {self.lit(0)})\n            d = m = {self.lit(0)};\n",
+            "        fy[l] = m;\n        delta[l] = d;\n",
+            "    }\n",
+            "    if (ret == 2)\n",
+            f"        for (l = 0; l < {Lm}; ++l)\n            fy[l] = delta[l] = {self.lit(0)};\n",
+            "    return ret;\n}\n",
         ]
 
         reduce_fn = [self._reduce()] if self.num.single else []

@@ -8,7 +8,13 @@ Log format (DESIGN, "Formats"): one row per controller sample, columns
   is a log of a rig without a force sensor (:attr:`Log.has_force`; identification then uses
   the motion, ``pgcomm identify --no-force-sensor``); a log with only some of them is refused;
 * per coil set ``l = 1..L`` either the star currents ``ia_{l}``, ``ib_{l}`` (A)
-  or the drive inputs ``Fy_ref_{l}`` (N), ``delta_{l}`` (rad), or both;
+  or the drive inputs ``Fy_ref_{l}`` (N), ``delta_{l}`` (rad), or both. Sign convention of
+  the drive inputs (the one of :func:`pgcomm.commutation.transform_T_inverse`, of the exported
+  C law and of every log pgcomm writes): ``Fy_ref_{l}`` is signed (it follows the force) and
+  ``delta_{l}`` lies in ``(-π/2, π/2]``, so a data set driven at ``Δ = -π/4`` logs
+  ``delta_{l} = -0.785`` throughout while ``Fy_ref_{l}`` changes sign with the demand. Logs
+  from elsewhere may use the other equivalent pair ``(|Fy_ref|, Δ ± π)``: the readers accept
+  both (the currents ``Γ(y) T(Fy_ref, Δ)`` are the same);
 * optional ``r`` (m, reference), ``Fy_star``, ``Fx_star``, ``Tz_star`` (N, N,
   N·m, desired force), ``experiment`` and ``active_coil_set`` (integers stored
   as floats).
