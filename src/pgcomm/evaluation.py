@@ -429,9 +429,13 @@ def _model_fit(log, model, motor, lowpass_hz) -> dict:
 
     from pgcomm.models import warn_outside_training_range
 
+    from pgcomm.data import velocity_from_positions
+
     cur, source = _currents(log, model, motor)
     y = log["y"]
-    f_hat = np.asarray(model.force(jnp.asarray(y), jnp.asarray(cur)))
+    # a model with a direction term predicts C(y) s(ẏ) too: give it the velocity, as identification did
+    v = velocity_from_positions(y, log.sample_time)
+    f_hat = np.asarray(model.force(jnp.asarray(y), jnp.asarray(cur), jnp.asarray(v)))
     f = log.force()
     return {"model_error": f - f_hat, "model_mse": commutation_mse(f, f_hat, log.sample_time, lowpass_hz),
             "currents": source, "range_warning": warn_outside_training_range(model, y)}

@@ -563,10 +563,11 @@ class CombinedModel:
 def warn_outside_training_range(model, y) -> str | None:
     """A warning if positions ``y`` (m) leave the model's training range, else ``None``.
 
-    Works for :class:`CoilSetModel` (``y_min, y_max``) and :class:`CombinedModel` (the range
-    covered by every coil set). Models without a stored range give ``None``.
+    Works for :class:`CoilSetModel` (``y_min, y_max``) and any model with ``training_range`` (a
+    :class:`CombinedModel` or a :class:`~pgcomm.spline_model.SplineModel`: the range covered by every
+    coil set). Models without a stored range give ``None``.
     """
-    if isinstance(model, CombinedModel):
+    if hasattr(model, "training_range"):
         rng = model.training_range
     else:
         rng = None if model.y_min is None or model.y_max is None else (model.y_min, model.y_max)

@@ -17,7 +17,8 @@ def configure(p) -> None:
     p.add_argument("--law", choices=("nominal", "true", "oracle"), default="nominal",
                    help="commutation: classical with the nominal k, zeta (default), classical with the twin's "
                         "true fundamental, or the oracle (exact static inverse)")
-    p.add_argument("--model", type=Path, help="PGNN model file: use its commutation law instead of --law")
+    p.add_argument("--model", type=Path,
+                   help="model file (PGNN or spline, pgcomm identify): use its commutation law instead of --law")
     add_reference_options(p, "reference file (CSV with r[,t], or .mat with r); "
                              "default: the paper's data-generation reference")
     p.add_argument("--no-feedforward", action="store_true",
@@ -97,7 +98,10 @@ def run(args, out: Path, progress) -> None:
         if abs(model.pole_pitch - setup.motor.pole_pitch) > 1e-9 * setup.motor.pole_pitch:
             raise ConfigError(f"{args.model}: pole pitch {model.pole_pitch:g} m differs from the motor's "
                               f"{setup.motor.pole_pitch:g} m; use a model identified on this motor")
-        law, name = ModelLaw(model, current_limit=setup.motor.current_limit), "pgnn"
+        from pgcomm.spline_model import SplineModel
+
+        name = "spline" if isinstance(model, SplineModel) else "pgnn"
+        law = ModelLaw(model, current_limit=setup.motor.current_limit)
     elif args.law == "nominal":
         law, name = ClassicalLaw.from_motor(setup.motor), "nominal"
     elif args.law == "true":
