@@ -119,9 +119,9 @@ def test_force_direction_and_range():
     yq = jnp.array([0.0, 0.013])
     i = jnp.ones((2, 2, 2))
     expected = np.einsum("sljk,slk->sj", np.asarray(_gain(plant, yq)), np.asarray(i)) + np.asarray(_cogging(plant, yq))
-    force = jax.jit(lambda p, y, v, i: p.force(y, v, i))
+    force = jax.jit(lambda p, y, v, i: p.force(y, i, v))
     np.testing.assert_allclose(np.asarray(force(plant, yq, jnp.ones(2), i)), expected, rtol=1e-12)
-    np.testing.assert_allclose(np.asarray(jax.jit(plant_force)(plant, yq, -jnp.ones(2), i)), expected, rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(jax.jit(plant_force)(plant, yq, i, -jnp.ones(2))), expected, rtol=1e-12)
     assert np.array_equal(np.asarray(jax.jit(lambda p, y: p.direction_force(y, y))(plant, yq)), np.zeros((2, 3)))
     inside = np.asarray(jax.jit(plant.in_range)(jnp.array([-0.05, 0.0, 0.05, 0.0501, -1.0, jnp.nan])))
     assert inside.tolist() == [True, True, True, False, False, False]

@@ -40,7 +40,7 @@ def _grid(plant):
 
 @pytest.fixture(scope="module")
 def force_jit():
-    return jax.jit(lambda p, y, v, i: plant_force(p, y, v, i))
+    return jax.jit(lambda p, y, v, i: plant_force(p, y, i, v))
 
 
 @pytest.fixture(scope="module")

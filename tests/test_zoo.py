@@ -245,7 +245,7 @@ def test_twin_type_plant_adds_direction_force(draws):
     y = jnp.asarray(np.linspace(-0.01, 0.01, 5))
     v = jnp.asarray([-0.1, -1e-4, 0.0, 1e-4, 0.1])
     i = jnp.ones((5, m.n_coil_sets, 2))
-    f = jax.jit(lambda p, y, v, i: p.force(y, v, i))
+    f = jax.jit(lambda p, y, v, i: p.force(y, i, v))
     diff = np.asarray(f(plant, y, v, i) - f(static, y, v, i))
     expected = np.asarray(m.direction_force) * np.tanh(np.asarray(v) / m.direction_velocity)[:, None]
     np.testing.assert_allclose(diff, expected, rtol=1e-12, atol=1e-12 * max(m.direction_force))

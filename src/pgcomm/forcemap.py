@@ -147,9 +147,9 @@ class ForceMapPlant:
         """Direction-dependent force: a force map has none, ``S + (3,)`` zeros."""
         return zeros3(jnp.asarray(y))
 
-    def force(self, y, v, currents):
+    def force(self, y, currents, v=None):
         """``F = Σ_l K^l(y) i^l + F_cog(y)`` (N, N, N·m), ``S + (3,)``; currents ``S + (L, 2)`` (A)."""
-        return plant_force(self, y, v, currents)
+        return plant_force(self, y, currents, v)
 
     def in_range(self, y):
         """``S`` booleans: position inside ``[y_min, y_max]`` of the map (NaN is outside). Jittable."""

@@ -8,7 +8,8 @@ and jittable):
 * ``gain(y) -> S + (L, 3, 2)``: the same reduced to star currents ``(ia, ib)``;
 * ``cogging(y) -> S + (3,)``: current-independent force (N, N, N·m);
 * ``direction_force(y, v) -> S + (3,)``: velocity-direction-dependent force (N, N, N·m);
-* ``force(y, v, currents) -> S + (3,)``: ``Σ_l K^l(y) i^l + F_cog(y) + F_dir(y, v)``;
+* ``force(y, currents, v) -> S + (3,)``: ``Σ_l K^l(y) i^l + F_cog(y) + F_dir(y, v)`` (the
+  argument order of the force models', :class:`pgcomm.protocols.ForceModel`);
 * ``y_range -> (y_min, y_max)`` in m, the positions where it is defined.
 
 Two implementations: :class:`pgcomm.twin.TwinPlant` (parametric motor with parasitic
@@ -25,16 +26,18 @@ import numpy as np
 from pgcomm.motor import PHASE_OFFSETS, total_force
 
 
-def plant_force(plant, y, v, currents):
+def plant_force(plant, y, currents, v=None):
     """``F = Σ_l K^l(y) i^l + F_cog(y) + F_dir(y, v)`` for any plant.
 
     Args:
-        y: ``S`` position (m); v: ``S`` velocity (m/s); currents: ``S + (L, 2)`` (A).
+        y: ``S`` position (m); currents: ``S + (L, 2)`` (A); v: ``S`` velocity (m/s), or ``None``
+            for the static force (no direction-dependent term).
 
     Returns:
         ``S + (3,)`` force ``[Fy, Fx, Tz]`` (N, N, N·m).
     """
-    return total_force(plant.gain(y), currents) + plant.cogging(y) + plant.direction_force(y, v)
+    f = total_force(plant.gain(y), currents) + plant.cogging(y)
+    return f if v is None else f + plant.direction_force(y, v)
 
 
 def static_force(plant, y, currents):

@@ -108,7 +108,7 @@ def _run(plant, law, r, v_ref, u_ff, y0, *, pid: PID, mech: Mechanics, sample_ti
         f_star = jnp.stack([uff_k + u_fb, 0.0, 0.0])
         i = limit_currents(law.currents(y, f_star, v) if true_state else law.currents(ym, f_star, v_law),
                            current_limit)
-        f = plant_force(plant, y, v, i)
+        f = plant_force(plant, y, i, v)
         y_next, v_next = mech_mod.step(mech, y, v, f[0], ts)
         return (y_next, v_next, integ, e, u_fb, ym, v_f), (y, ym, f_star, f, i)
 

@@ -266,6 +266,13 @@ class TwinPlant:
         ripple = 1.0 + self.direction_ripple * jnp.sin(2 * jnp.pi * y / self.direction_ripple_length + 0.5)
         return self.direction * ripple * jnp.tanh(jnp.asarray(v, dtype=float)[..., None] / self.direction_velocity)
 
+    def force(self, y, currents, v=None):
+        """``S + (3,)`` total force (N, N, N·m) for star currents ``S + (L, 2)`` (A) at velocity ``v`` (m/s;
+        ``None``: without the direction-dependent force)."""
+        from pgcomm.plant import plant_force
+
+        return plant_force(self, y, currents, v)
+
     def in_range(self, y):
         """``True`` where ``y`` lies inside :attr:`y_range`."""
         lo, hi = self.y_range

@@ -454,9 +454,9 @@ class ZooPlant:
         return self.direction * jnp.tanh(jnp.asarray(v, dtype=self.direction.dtype)[..., None]
                                          / self.direction_velocity)
 
-    def force(self, y, v, currents):
+    def force(self, y, currents, v=None):
         """``S + (3,)`` total force for star currents ``S + (L, 2)`` (A)."""
-        return plant_force(self, y, v, currents)
+        return plant_force(self, y, currents, v)
 
     def in_range(self, y):
         """``S`` booleans: ``y`` inside the map."""
