@@ -1,7 +1,5 @@
 """``python -m pgcomm``: the same command line as the ``pgcomm`` console script."""
 
-import sys
+from pgcomm.cli import entry
 
-from pgcomm.cli import main
-
-sys.exit(main())
+entry()

@@ -84,6 +84,19 @@ class Interrupted(KeyboardInterrupt):
 _PENDING: list[int] = []
 
 
+def _in_import(frame) -> bool:
+    """Whether ``frame`` runs inside an ``import`` (a module body under :mod:`importlib`)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+#: Seconds between retries of an interrupt that arrived during an import.
+_RETRY_S = 0.1
+
+
 def _on_signal(signum, frame):
     # Further signals would interrupt the clean-up; the first one decides the exit code.
     for s in (signal.SIGINT, signal.SIGTERM):
@@ -91,7 +104,22 @@ def _on_signal(signum, frame):
     _PENDING.append(signum)
     if frame is not None and frame.f_code.co_name in ("_xla_gc_callback", "__del__"):
         return  # an exception here would be printed and dropped; the next checkpoint raises it
+    if _in_import(frame):
+        # An exception thrown through a module body that an extension (pybind11, XLA) is
+        # initialising aborted the process (exit -6, once in 20 interrupts); retry after the import.
+        signal.signal(signal.SIGALRM, _retry_interrupt)
+        signal.setitimer(signal.ITIMER_REAL, _RETRY_S)
+        return
     raise Interrupted(signum)
+
+
+def _retry_interrupt(signum, frame):
+    """SIGALRM after an interrupt deferred by :func:`_on_signal`: raise it once outside any import."""
+    if _in_import(frame):
+        signal.setitimer(signal.ITIMER_REAL, _RETRY_S)
+        return
+    signal.signal(signal.SIGALRM, signal.SIG_DFL)
+    raise Interrupted(_PENDING[0])
 
 
 def _raise_if_interrupted() -> None:
@@ -193,6 +221,9 @@ def main(argv=None) -> int:
         print(f"pgcomm: interrupted ({signal.Signals(signum).name}); --out left as it was", file=sys.stderr)
         return 128 + int(signum)
     finally:
+        if handlers:
+            signal.setitimer(signal.ITIMER_REAL, 0.0)
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
         for s, h in handlers.items():
             signal.signal(s, h)
 
@@ -232,4 +263,21 @@ def _main(argv, handlers) -> int:
     return 0
 
 
-__all__ = ["COMMANDS", "MAX_SEED", "build_parser", "main"]
+def entry() -> None:
+    """The ``pgcomm`` console script and ``python -m pgcomm``: :func:`main`, then end the process.
+
+    After SIGINT/SIGTERM (exit 130/143) :func:`main` has already removed the staging folder and
+    printed its line; the process then ends with :func:`os._exit`, without the interpreter's
+    teardown. That teardown runs into XLA's threads and crashed with SIGSEGV (exit −11 instead of
+    130) about once in two full test runs on a loaded 2-core machine (issue 17); nothing is left
+    to flush or close that ``os._exit`` would skip.
+    """
+    code = main()
+    if code in (128 + int(signal.SIGINT), 128 + int(signal.SIGTERM)):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
+__all__ = ["COMMANDS", "MAX_SEED", "build_parser", "entry", "main"]
