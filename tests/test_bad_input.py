@@ -316,9 +316,10 @@ def test_bad_files_refused(tmp_path, capsys, files, argv, pattern):
 
 def test_sizes_and_options_refused(tmp_path, capsys, files):
     cases = [
-        (["export", "--format", "lut", "--model", files["model"], "--resolution", "1e-9"],
+        (["export", "--format", "lut", "--model", files["model"], "--resolution", "1e-9", "--current-limit", "10"],
          r"--resolution 1e-09 m over the training range .* at most 200000 .*use --resolution"),
-        (["export", "--format", "lut", "--model", files["m_range"]], r"training range \[-1e\+06, 1e\+06\] m .*rows"),
+        (["export", "--format", "lut", "--model", files["m_range"], "--current-limit", "10"],
+         r"training range \[-1e\+06, 1e\+06\] m .*rows"),
         (["check", "--data", files["log_mm"], "--bins", "100000000"], r"--bins 100000000: expected 1 to 10000"),
         (["simulate", "--seed", "1000000000000000000000"], r"--seed: 1000000000000000000000 is outside 0 to 2\*\*32-1"),
         (["simulate", "--seed", "-1"], r"--seed: -1 is outside"),

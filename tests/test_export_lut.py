@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from pgcomm.commutation import ModelLaw
+from pgcomm.commutation import ModelLaw, classical_single_direction
 from pgcomm.errors import DataError
 from pgcomm.export.lut import (
     DEFAULT_RESOLUTION,
@@ -18,6 +18,7 @@ from pgcomm.export.lut import (
     build_lut,
     classical_parameters,
     cogging_table_error,
+    drive_gain,
     f_star_set,
     lut_currents,
     lut_error,
@@ -255,6 +256,61 @@ def test_cogging_table_on_a_pgnn_model_shows_what_the_full_law_corrects(model):
     assert e.law_abs[0] > 10 * full.abs[0]  # ... the gain mismatch of classical commutation is not
     d = e.as_dict()
     assert set(d["classical_plus_table"]) == {"y", "x", "z"} and len(d["k_hat"]) == 3
-    # explicit drive parameters are used as given
-    e2 = cogging_table_error(table, model, 100.0, k_hat=67.0, zeta_hat=-0.52)
-    assert np.all(e2.k_hat == 67.0) and e2.law_abs[0] > e.law_abs[0]
+    # explicit drive parameters are used as given (the table built for that drive)
+    t2 = build_cogging_table(model, k_hat=67.0, zeta_hat=-0.52)
+    e2 = cogging_table_error(t2, model, 100.0, k_hat=67.0, zeta_hat=-0.52)
+    assert np.all(e2.k_hat == 67.0) and e2.law_abs[0] > e.law_abs[0] and e2.interpolation < 1e-3
+
+
+@jax.jit
+def _standstill_force(model, y, offset, k_hat, zeta_hat):
+    """F̂_y when the drive commutates the demand 0 - offset(y) classically (N)."""
+    i = classical_single_direction(y, -offset, k_hat, zeta_hat, model.pole_pitch)
+    return jnp.sum(model.gain(y)[..., 0, :] * i, axis=(-2, -1)) + model.cogging(y)[..., 0]
+
+
+def test_cogging_table_for_the_drives_commutation_cancels_cogging_at_standstill():
+    """A drive whose k̂ is 10 % high and ζ̂ 0.05 rad off: the table built for it leaves only its interpolation error
+    at zero demand; the plain cogging table (built for a matched drive) leaves the gain mismatch's share."""
+    m = paper_model(4)
+    k_fit, z_fit = classical_parameters(m)
+    k_hat, zeta_hat = 1.1 * k_fit, z_fit + 0.05
+    y = np.linspace(-0.1, 0.1, 4001)
+    g = drive_gain(m, y, k_hat, zeta_hat)
+    want = np.cos(0.05) / 1.1                                       # (k/k̂) cos(ζ - ζ̂) plus the model's ripple
+    assert abs(np.mean(g) - want) < 0.05 * want
+    cog = np.asarray(m.cogging(jnp.asarray(y)))[:, 0]
+    cog_scale = np.abs(cog).max()
+    for_drive = build_cogging_table(m, 2.5e-4, k_hat=k_hat, zeta_hat=zeta_hat)
+    matched = build_cogging_table(m, 2.5e-4)                        # for the model's fitted k, zeta
+    e = cogging_table_error(for_drive, m, 100.0, k_hat, zeta_hat)
+    left = np.asarray(_standstill_force(m, jnp.asarray(y), for_drive.offset(jnp.asarray(y)), jnp.asarray(k_hat),
+                                        jnp.asarray(zeta_hat)))
+    left_matched = np.asarray(_standstill_force(m, jnp.asarray(y), matched.offset(jnp.asarray(y)),
+                                                jnp.asarray(k_hat), jnp.asarray(zeta_hat)))
+    assert e.interpolation < 1e-3 * cog_scale
+    assert np.max(np.abs(left)) <= 1.01 * e.interpolation * np.max(g) + 1e-12 * cog_scale
+    # the matched table under-compensates by about (1 - g) of the cogging force
+    assert np.max(np.abs(left_matched)) > 0.5 * (1 - np.mean(g)) * cog_scale > 50 * np.max(np.abs(left))
+
+
+def test_cogging_table_refuses_a_drive_that_makes_no_force():
+    m = paper_model(1)
+    k_fit, z_fit = classical_parameters(m)
+    with pytest.raises(ValueError, match=r"makes only .* N per N commanded at y = .*check the drive's zeta_hat"):
+        build_cogging_table(m, 1e-3, k_hat=k_fit, zeta_hat=z_fit + np.pi / 2)
+    with pytest.raises(ValueError, match="makes only -"):  # ζ̂ off by π: the table would push the wrong way
+        build_cogging_table(m, 1e-3, k_hat=k_fit, zeta_hat=z_fit + np.pi)
+    with pytest.raises(ValueError, match="must be positive"):
+        build_cogging_table(m, 1e-3, k_hat=-61.0, zeta_hat=z_fit)
+
+
+def test_cogging_table_file_states_its_drive(tmp_path):
+    m = paper_model(2)
+    table = build_cogging_table(m, 1e-3, k_hat=60.0, zeta_hat=-0.5)
+    path = write_cogging_table(table, tmp_path, "cog", comments=["drive k_hat = 60 N/A, zeta_hat = -0.5 rad",
+                                                                  "from\n--drive-k"])
+    text = path.read_text()
+    assert text.startswith("# drive k_hat = 60 N/A, zeta_hat = -0.5 rad\n# from --drive-k\ny,Fy_cog\n")
+    data = np.loadtxt(path, delimiter=",", skiprows=3)  # the two comment lines and the header
+    assert np.array_equal(data[:, 0], np.asarray(table.y)) and np.array_equal(data[:, 1], np.asarray(table.values))

@@ -425,7 +425,8 @@ def test_anti_cogging_table_of_a_spline_model():
 def test_cli_inspect_and_export_spline_file(tmp_path, capsys):
     from pgcomm.cli import main
 
-    save_model(tmp_path / "m", make_spline(), {"seed": 2}, mechanics=make_mechanics())
+    # as identify --family spline writes it: with the motor's current limit, which the exports apply
+    save_model(tmp_path / "m", make_spline(), {"seed": 2, "current_limit": 8.0}, mechanics=make_mechanics())
     assert main(["inspect", "--model", str(tmp_path / "m.json")]) == 0
     text = capsys.readouterr().out
     assert "family:         spline" in text and "gain knots:     9 on" in text and "parameters:     510" in text
@@ -434,6 +435,7 @@ def test_cli_inspect_and_export_spline_file(tmp_path, capsys):
                  "--name", "spl"]) == 0
     header = (tmp_path / "c" / "spl.h").read_text()
     assert "double spl_feedforward_g(double r, double v, double a);" in header
+    assert "Current limit: 8 A peak phase current (from the model file)" in header
     assert json.loads((tmp_path / "c" / "results.json").read_text())["feedforward"] is True
     assert main(["export", "--model", str(tmp_path / "m.json"), "--format", "lut", "--out", str(tmp_path / "lut"),
                  "--resolution", "1e-3", "--quiet"]) == 0

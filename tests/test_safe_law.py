@@ -1,8 +1,13 @@
-"""Issue 16, safe laws (Python side): ModelLaw never asks for more than the current limit, never returns NaN or
-inf, and holds the position at the end of the model's training range (fuzzed over ±10x the range, demands up to
-10x the motor's capacity, NaN/inf inputs)."""
+"""Issue 16, safe laws: ModelLaw never asks for more than the current limit, never returns NaN or inf, and holds
+the position at the end of the model's training range (fuzzed over ±10x the range, demands up to 10x the motor's
+capacity, NaN/inf inputs); the exported C laws (PGNN and spline model, double and single precision, and the
+lookup-table C) compiled with the system compiler and fuzzed alike: every current finite and within the limit on
+every phase, return codes 0 inside / 1 held at the range's end / 2 non-finite input with zero currents, and the
+currents those of the Python laws (skipped without a C compiler)."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -71,3 +76,272 @@ def test_model_law_holds_the_range_end(rng):
     np.testing.assert_array_equal(np.asarray(far[2]), np.asarray(far[0]))
     lo = law.currents(jnp.asarray([-0.1, -3.0]), f[:2])
     np.testing.assert_array_equal(np.asarray(lo[1]), np.asarray(lo[0]))
+
+
+# ---------------------------------------------------------------------------------------------
+# the exported C laws (PGNN, spline, lookup table) fuzzed the same way, against the Python laws
+# ---------------------------------------------------------------------------------------------
+
+#: the compiler flags of tests/test_export_c.py
+CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]
+
+LAW_HARNESS = r"""
+#include <stdio.h>
+#include "@NAME@.h"
+
+#define L @UNAME@_L
+#define NIN (5 + 2 * L)
+#define NOUT (2 + 4 * L)
+typedef @NAME@_real T;
+
+/* in:  int32 n, then n records of doubles (y, v, f_star[3], k_hat[L], zeta_hat[L])
+   out: n records of doubles (ret_currents, currents[L][2], ret_drive, fy[L], delta[L]) */
+int main(int argc, char **argv)
+{
+    FILE *in, *out;
+    int n, s, l, q;
+    if (argc != 3)
+        return 1;
+    in = fopen(argv[1], "rb");
+    out = fopen(argv[2], "wb");
+    if (!in || !out || fread(&n, sizeof n, 1, in) != 1)
+        return 2;
+    for (s = 0; s < n; ++s) {
+        double x[NIN], res[NOUT];
+        T y, v, f[3], k[L], z[L], cur[L][2], fy[L], de[L];
+        int m = 0, r1, r2;
+        if (fread(x, sizeof(double), NIN, in) != NIN)
+            return 3;
+        y = (T)x[0];
+        v = (T)x[1];
+        for (q = 0; q < 3; ++q)
+            f[q] = (T)x[2 + q];
+        for (l = 0; l < L; ++l) {
+            k[l] = (T)x[5 + l];
+            z[l] = (T)x[5 + L + l];
+        }
+#if @UNAME@_HAS_VELOCITY
+        r1 = @NAME@_currents(y, v, f, cur);
+        r2 = @NAME@_drive_inputs(y, v, f, k, z, fy, de);
+#else
+        (void)v;
+        r1 = @NAME@_currents(y, f, cur);
+        r2 = @NAME@_drive_inputs(y, f, k, z, fy, de);
+#endif
+        res[m++] = r1;
+        for (l = 0; l < L; ++l) {
+            res[m++] = cur[l][0];
+            res[m++] = cur[l][1];
+        }
+        res[m++] = r2;
+        for (l = 0; l < L; ++l)
+            res[m++] = fy[l];
+        for (l = 0; l < L; ++l)
+            res[m++] = de[l];
+        if (fwrite(res, sizeof(double), NOUT, out) != NOUT)
+            return 4;
+    }
+    fclose(in);
+    return fclose(out) != 0;
+}
+"""
+
+LUT_HARNESS = r"""
+#include <stdio.h>
+#include "@NAME@.h"
+
+#define L @UNAME@_L
+
+/* in: int32 n, then n records of doubles (y, v, f_star[3]); out: n records (ret, currents[L][2]) */
+int main(int argc, char **argv)
+{
+    FILE *in, *out;
+    int n, s, l, q;
+    if (argc != 3)
+        return 1;
+    in = fopen(argv[1], "rb");
+    out = fopen(argv[2], "wb");
+    if (!in || !out || fread(&n, sizeof n, 1, in) != 1)
+        return 2;
+    for (s = 0; s < n; ++s) {
+        double x[5], res[1 + 2 * L];
+        float y, v, f[3], cur[L][2];
+        if (fread(x, sizeof(double), 5, in) != 5)
+            return 3;
+        y = (float)x[0];
+        v = (float)x[1];
+        for (q = 0; q < 3; ++q)
+            f[q] = (float)x[2 + q];
+        (void)v;
+        res[0] = @CALL@;
+        for (l = 0; l < L; ++l) {
+            res[1 + 2 * l] = cur[l][0];
+            res[2 + 2 * l] = cur[l][1];
+        }
+        if (fwrite(res, sizeof(double), 1 + 2 * L, out) != (size_t)(1 + 2 * L))
+            return 4;
+    }
+    fclose(in);
+    return fclose(out) != 0;
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def cc():
+    """Path of the system C compiler; these tests are skipped only if there is none."""
+    import shutil
+
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path:
+            return path
+    pytest.skip("no C compiler (cc, gcc, clang) on PATH")
+
+
+def _compile(cc, directory, harness: str, source=None):
+    import subprocess
+
+    (directory / "harness.c").write_text(harness)
+    exe = directory / "harness"
+    files = [str(directory / "harness.c")] + ([str(source)] if source else [])
+    proc = subprocess.run([cc, *CFLAGS, "-o", str(exe), *files, "-lm"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    return exe
+
+
+def _run(exe, records: np.ndarray, n_out: int) -> np.ndarray:
+    import subprocess
+
+    inp, outp = exe.parent / "in.bin", exe.parent / "out.bin"
+    inp.write_bytes(np.int32(records.shape[0]).tobytes() + records.astype("<f8").tobytes())
+    subprocess.run([str(exe), str(inp), str(outp)], check=True)
+    return np.fromfile(outp, "<f8").reshape(records.shape[0], n_out)
+
+
+def _phases(i):
+    """``(N, L, 3)`` phase currents ia, ib, ic = -ia - ib (A)."""
+    return np.concatenate([i, -i.sum(-1, keepdims=True)], axis=-1)
+
+
+#: agreement of the C law with the Python law, as a share of the current limit (the scale every current
+#: is bounded by, whatever the demand): double precision to rounding of currents up to ~100 x the limit
+#: before the limit scales them; single precision to float rounding (~1e-7) amplified by the solve
+C_TOL = {"double": 1e-10, "single": 1e-5}
+
+
+@pytest.mark.parametrize("kind, precision", [("pgnn", "double"), ("pgnn", "single"), ("spline", "double")])
+def test_c_law_is_safe_and_agrees_with_model_law(cc, tmp_path, rng, kind, precision):
+    """Fuzz: y over ±10x the range, F* up to 10x the motor's capacity, NaN/inf; every current finite and
+    within the limit on every phase; codes 0 inside, 1 held at the end, 2 non-finite (zero currents); the
+    currents those of ModelLaw; the drive inputs in the convention and giving the currents back."""
+    from pgcomm.commutation import drive_currents
+    from pgcomm.export.c import write_c
+
+    model = _pgnn() if kind == "pgnn" else _spline(rng)
+    L = model.n_coil_sets
+    write_c(model, tmp_path, name="law", precision=precision, current_limit=LIMIT)
+    exe = _compile(cc, tmp_path, LAW_HARNESS.replace("@NAME@", "law").replace("@UNAME@", "LAW"), tmp_path / "law.c")
+    y, f, v = _fuzz_inputs(rng, 8000)
+    k_hat = K * rng.uniform(0.9, 1.1, (y.size, L))
+    zeta_hat = rng.uniform(-np.pi, np.pi, (y.size, L))
+    out = _run(exe, np.concatenate([y[:, None], v[:, None], f, k_hat, zeta_hat], axis=1), 2 + 4 * L)
+    ret, i_c = out[:, 0].astype(int), out[:, 1:1 + 2 * L].reshape(-1, L, 2)
+    ret_d, fy, delta = out[:, 1 + 2 * L].astype(int), out[:, 2 + 2 * L:2 + 3 * L], out[:, 2 + 3 * L:]
+
+    # what the C function received (float in single precision), and the codes it must return
+    cast = (lambda a: np.asarray(a, np.float32).astype(float)) if precision == "single" else np.asarray
+    yc, fc, vc, kc, zc = cast(y), cast(f), cast(v), cast(k_hat), cast(zeta_hat)
+    lo, hi = (float(cast(b)) for b in model.training_range)
+    uses_v = kind == "spline"  # the spline model has a direction term; the PGNN's law ignores v
+    bad = ~(np.isfinite(yc) & np.all(np.isfinite(fc), axis=1) & (np.isfinite(vc) if uses_v else True))
+    assert 0.02 < bad.mean() < 0.1
+    want = np.where(bad, 2, np.where((yc >= lo) & (yc <= hi), 0, 1))
+    assert np.array_equal(ret, want) and np.mean(want == 1) > 0.5
+    assert np.array_equal(ret_d, want)
+
+    assert np.all(np.isfinite(i_c)) and np.all(np.isfinite(fy)) and np.all(np.isfinite(delta))
+    assert np.max(np.abs(_phases(i_c))) <= LIMIT * (1 + 1e-6)
+    assert np.mean(np.max(np.abs(_phases(i_c)), axis=(1, 2)) > 0.999 * LIMIT) > 0.5  # the limit is working
+    assert np.all(i_c[bad] == 0.0) and np.all(fy[bad] == 0.0) and np.all(delta[bad] == 0.0)
+
+    law = ModelLaw(model, current_limit=LIMIT)
+    i_py = np.asarray(jax.jit(law.currents)(jnp.asarray(yc), jnp.asarray(fc), jnp.asarray(vc) if uses_v else None))
+    err = np.max(np.abs(i_c - i_py))
+    assert err <= C_TOL[precision] * LIMIT, f"C vs ModelLaw: {err:.3g} A"
+
+    # drive inputs: Fy* signed, Δ in (-π/2, π/2], and the drive makes the law's currents from them
+    assert np.all((delta > -np.pi / 2) & (delta <= np.pi / 2))
+    ok = ~bad  # (with a NaN position the drive has no phase: those give fy = delta = 0, checked above)
+    back = np.asarray(drive_currents(jnp.asarray(yc[ok]), jnp.asarray(fy[ok]), jnp.asarray(delta[ok]),
+                                     jnp.asarray(kc[ok]), jnp.asarray(zc[ok]), model.pole_pitch))
+    err = np.max(np.abs(back - i_c[ok]))
+    assert err <= C_TOL[precision] * LIMIT, f"drive inputs -> currents: {err:.3g} A"
+
+
+@pytest.mark.parametrize("kind", ["pgnn", "spline"])
+def test_c_lookup_table_is_safe_and_agrees_with_the_table_law(cc, tmp_path, rng, kind):
+    """The same fuzz on the lookup-table C (float): ends held (code 1), non-finite -> zeros and code 2, the limit
+    on every phase; the C table agrees with pgcomm.export.lut.lut_currents, and that with ModelLaw to the
+    table's interpolation error."""
+    from pgcomm.export.lut import build_lut, lut_currents, lut_header
+
+    model = _pgnn() if kind == "pgnn" else _spline(rng)
+    L = model.n_coil_sets
+    h = 2.5e-4  # m
+    lut = build_lut(model, h, current_limit=LIMIT)
+    (tmp_path / "tab.h").write_text(lut_header(lut, "tab", limit_source="test"))
+    uses_v = lut.direction is not None
+    call = "tab_currents(y, v, f, cur)" if uses_v else "tab_currents(y, f, cur)"
+    exe = _compile(cc, tmp_path, LUT_HARNESS.replace("@NAME@", "tab").replace("@UNAME@", "TAB").replace("@CALL@", call))
+    y, f, v = _fuzz_inputs(rng, 8000)
+    out = _run(exe, np.concatenate([y[:, None], v[:, None], f], axis=1), 1 + 2 * L)
+    ret, i_c = out[:, 0].astype(int), out[:, 1:].reshape(-1, L, 2)
+
+    f32 = lambda a: np.asarray(a, np.float32)  # noqa: E731  (what the float table function computes with)
+    yc, fc, vc = f32(y), f32(f), f32(v)
+    bad = ~(np.isfinite(yc) & np.all(np.isfinite(fc), axis=1) & (np.isfinite(vc) if uses_v else True))
+    with np.errstate(invalid="ignore"):
+        u = (yc - f32(lut.y[0])) * f32(1.0 / lut.dy)  # the table's float index, as the C computes it
+    want = np.where(bad, 2, np.where((u >= 0) & (u <= lut.n - 1), 0, 1))
+    assert np.array_equal(ret, want) and np.mean(want == 1) > 0.5
+
+    assert np.all(np.isfinite(i_c)) and np.all(i_c[bad] == 0.0)
+    assert np.max(np.abs(_phases(i_c))) <= LIMIT * (1 + 1e-6)
+    assert np.mean(np.max(np.abs(_phases(i_c)), axis=(1, 2)) > 0.999 * LIMIT) > 0.5
+
+    # C against the Python table law at the same (float-rounded) inputs, sample by sample within the float32
+    # rounding of the table law, scaled as the limit scales the currents: (a) 16 unit roundoffs u (entries,
+    # interpolation, differences, products, sums, the limit's factor) of sum_j |P_j(y)| (|F*_j| + |Fcog_j| + |C_j|);
+    # (b) the float row index u = (y - Y0) / dy, off by up to (n - 1) u rows plus Y0's rounding, times the
+    # largest change of the entries from one row to the next
+    yd, fd, vd = (jnp.asarray(a.astype(float)) for a in (yc, fc, vc))
+    i_tab = np.asarray(lut_currents(lut, yd, fd, vd if uses_v else None))
+    ok = ~bad
+    free = dataclasses.replace(lut, current_limit=None)
+    peak = np.max(np.abs(_phases(np.asarray(lut_currents(free, yd[ok], fd[ok], vd[ok] if uses_v else None)))),
+                  axis=(1, 2))
+    scale = np.minimum(1.0, LIMIT / peak)
+    offsets = np.abs(lut.cogging).max(axis=0) + (0.0 if lut.direction is None else np.abs(lut.direction).max(axis=0))
+    sums = dataclasses.replace(free, P=np.abs(lut.P), cogging=np.zeros_like(lut.cogging), direction=None)
+    size = np.max(np.asarray(lut_currents(sums, yd[ok], jnp.abs(fd[ok]) + offsets)), axis=(1, 2))
+    rows = (lut.n - 1) * 2.0**-24 + abs(float(np.float32(lut.y[0])) - lut.y[0]) / lut.dy
+    dP = np.abs(np.diff(lut.P, axis=0)).max(axis=0)                   # (L, 2, 3) per row
+    doff = np.abs(np.diff(lut.cogging, axis=0)).max(axis=0)
+    if lut.direction is not None and np.ndim(lut.direction) == 2:
+        doff = doff + np.abs(np.diff(lut.direction, axis=0)).max(axis=0)
+    f_all = np.abs(np.asarray(fd[ok])) + offsets                       # (n, 3)
+    slope = np.max(np.einsum("laj,nj->nla", dP, f_all) + np.abs(lut.P).max(axis=0) @ doff, axis=(1, 2))
+    bound = scale * (16 * 2.0**-24 * size + rows * slope)
+    err = np.max(np.abs(i_c[ok] - i_tab[ok]), axis=(1, 2))
+    j = int(np.argmax(err / bound))
+    assert np.all(err <= bound), f"C table vs Python table law: {err[j]:.3g} A > {bound[j]:.3g} A"
+    assert np.all(i_tab[bad] == 0.0)
+
+    # at its grid points the table law is the exact law (ModelLaw), for every demand: double rounding amplified
+    # by the damped solve (1/eps2 = 1e6 where Khat loses rank) of currents the limit scales to at most LIMIT
+    yg = jnp.asarray(np.resize(lut.y, y.size))
+    i_tab = np.asarray(lut_currents(lut, yg, fd, vd if uses_v else None))
+    i_exact = np.asarray(jax.jit(ModelLaw(model, current_limit=LIMIT).currents)(yg, fd, vd if uses_v else None))
+    err = np.max(np.abs(i_tab - i_exact))
+    assert err <= 1e-8 * LIMIT, f"table law vs ModelLaw at the grid points: {err:.3g} A"

@@ -203,7 +203,7 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     from pgcomm.export.lut import build_cogging_table, build_lut, write_cogging_table, write_lut
     from pgcomm.io.config import load_motor
     from pgcomm.io.logs import read_logs
-    from pgcomm.io.model import save_model
+    from pgcomm.io.model import drive_metadata, save_model
     from pgcomm.io.results import write_results
 
     folder, out = Path(folder), Path(out)
@@ -221,15 +221,24 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     pgnn, _, res = identify_models(setup, data, seed, None, check_data=True)
     t_id = time.perf_counter() - t_id
     ident = identification_results(res, t_id)
+    # the exports' defaults travel with the model: the motor's current limit and the calibrated commutation
+    # the drive runs from now on (the anti-cogging table below is computed for it)
     save_model(out / "model", pgnn, {"seed": seed, "plant": folder.name, "data": "logs",
                                      "fy_abs_max": max(float(np.max(np.abs(d.force[:, 0]))) for d in data),
-                                     "identification": ident})
+                                     "identification": ident, "current_limit": motor.current_limit,
+                                     "drive": drive_metadata(cal.k, cal.zeta, "calibrated from the logs "
+                                                             "(Algorithm 1, pgcomm fleet)")})
     lowpass = config.evaluation.lowpass_hz
     evals = evaluate_logs(logs, lowpass, model=pgnn, motor=motor)
+    limit_source = "motor.toml current_limit" if motor.current_limit else "motor.toml has no current_limit"
     write_c(pgnn, out, name="pgcomm_law", metadata={"motor": folder.name, "seed": seed},
-            current_limit=motor.current_limit)
-    write_lut(build_lut(pgnn, current_limit=motor.current_limit), out, "pgcomm_lut")
-    write_cogging_table(build_cogging_table(pgnn), out, "pgcomm_lut_cogging")
+            current_limit=motor.current_limit, limit_source=limit_source)
+    write_lut(build_lut(pgnn, current_limit=motor.current_limit), out, "pgcomm_lut", limit_source=limit_source)
+    write_cogging_table(build_cogging_table(pgnn, k_hat=cal.k, zeta_hat=cal.zeta), out, "pgcomm_lut_cogging",
+                        comments=[f"anti-cogging table for a drive with classical commutation k_hat = "
+                                  f"{', '.join(f'{k:.6g}' for k in cal.k)} N/A, zeta_hat = "
+                                  f"{', '.join(f'{z:.6g}' for z in cal.zeta)} rad (calibrated from the logs)",
+                                  "the drive commutates Fy* - Fy_cog(y); y in m, Fy_cog in N"])
     calibration = {"initial": {"k": cal.k_initial, "zeta": cal.zeta_initial},
                    "calibrated": {"k": cal.k, "zeta": cal.zeta}, "true": {"k": None, "zeta": None},
                    "iterations": cal.iterations, "method": cc.method}

@@ -6,6 +6,23 @@
 on the model. Both write ``results.json``. A model file that fails validation is refused
 by the loader (one line, exit code 2, nothing written: the output is staged by
 :func:`pgcomm.cli._common.staged_output`).
+
+Current limit. Every format applies a peak phase current limit (A) by default: the model file's
+(``pgcomm identify`` stores the motor description's ``current_limit``;
+:func:`pgcomm.io.model.current_limit_of`). ``--current-limit A`` replaces it, ``--current-limit none``
+turns it off; a model file without a limit and no ``--current-limit`` is refused with one line.
+The files' comment blocks, the printed line and ``results.json`` (``current_limit``,
+``current_limit_source``) say the limit and where it came from.
+
+Drive commutation. The anti-cogging table is computed for the drive's own classical commutation
+``k̂^l`` (N/A), ``ζ̂^l`` (rad) (:func:`pgcomm.export.lut.build_cogging_table`): ``--drive-k``,
+``--drive-zeta`` (one value, or one per coil set, comma-separated), else the model file's ``drive``
+entry (the motor description's ``[nominal]`` values the data were recorded with, or the calibrated
+values of ``pgcomm fleet``), else the fit to the model's fundamental
+(:func:`pgcomm.export.lut.classical_parameters`). The values and their source are written into the
+table's comment lines, printed and stored in ``results.json`` (``cogging_table.drive``). With
+``--format c`` the same values (when given or recorded) are embedded as ``NAME_drive_k_hat``,
+``NAME_drive_zeta_hat`` for ``NAME_drive_inputs``.
 """
 
 from __future__ import annotations
@@ -37,8 +54,16 @@ def configure(p) -> None:
                    help=f"table spacing in m for --format lut (default {DEFAULT_RESOLUTION:g} m)")
     p.add_argument("--name", help="C identifier for file names and symbols "
                                   "(default pgcomm_law for c, pgcomm_lut for lut)")
-    p.add_argument("--current-limit", type=float, metavar="A",
-                   help="peak phase current limit embedded in the law (default: none)")
+    p.add_argument("--current-limit", metavar="A|none",
+                   help="peak phase current limit (A) applied by the exported law; default: the model file's "
+                        "(the motor description's current_limit); 'none' exports without a limit")
+    p.add_argument("--drive-k", metavar="K[,K...]",
+                   help="the drive's classical commutation constant k_hat (N/A), one value or one per coil set: "
+                        "the anti-cogging table is computed for it (default: the model file's drive values, "
+                        "else the fit to the model's fundamental)")
+    p.add_argument("--drive-zeta", metavar="Z[,Z...]",
+                   help="the drive's commutation phase offset zeta_hat (rad), one value or one per coil set "
+                        "(default as --drive-k)")
     p.add_argument("--f-max", type=float, metavar="N",
                    help="driving force for the table error (default: the largest |Fy| of the model's "
                         f"training data if its metadata has it, else {DEFAULT_F_MAX:g} N)")
@@ -69,14 +94,96 @@ def f_max_from_metadata(metadata) -> float | None:
     return None
 
 
+def parse_current_limit(text: str | None) -> tuple[float | None, bool]:
+    """``--current-limit``: ``(limit in A or None, given)``; ``"none"`` turns the limit off.
+
+    Raises:
+        ConfigError: anything but a plausible positive current in A or ``none`` (one line naming the value).
+    """
+    if text is None:
+        return None, False
+    if text.strip().lower() == "none":
+        return None, True
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and 0 < v <= 1e4):
+        raise ConfigError(f"--current-limit {text}: expected a peak phase current in A (0 < A <= 10000, e.g. 10) "
+                          "or none to export without a limit")
+    return v, True
+
+
+def parse_per_coil_set(text: str | None, option: str, key: str, n_coil_sets: int):
+    """``--drive-k`` / ``--drive-zeta``: one value or ``n_coil_sets`` comma-separated values, as an ``(L,)`` array.
+
+    ``key`` is ``"k"`` (N/A, positive) or ``"zeta"`` (rad); values outside the motor TOML's plausible
+    range (:data:`pgcomm.io.config.PLAUSIBLE`, e.g. a ``zeta`` in degrees) are refused with a hint.
+    """
+    import numpy as np
+
+    from pgcomm.io.config import _plausible
+
+    if text is None:
+        return None
+    parts = [t.strip() for t in text.split(",")]
+    unit = "N/A" if key == "k" else "rad"
+    try:
+        values = [float(t) for t in parts]
+    except ValueError:
+        raise ConfigError(f"{option} {text}: expected numbers in {unit}, one or one per coil set "
+                          f"({n_coil_sets}), comma-separated") from None
+    if len(values) not in (1, n_coil_sets):
+        raise ConfigError(f"{option} {text}: {len(values)} values for a model with {n_coil_sets} coil sets "
+                          f"(give one value or {n_coil_sets})")
+    for l, v in enumerate(values):
+        _plausible(v, key, f"{option} {text}", f"coil set {l + 1}" if len(values) > 1 else "value")
+    return np.broadcast_to(np.asarray(values, dtype=float), (n_coil_sets,)).copy()
+
+
+def _fmt_values(a) -> str:
+    return ", ".join(f"{x:.6g}" for x in a)
+
+
+def drive_commutation(args, model, metadata) -> dict:
+    """The drive's ``k̂`` (N/A), ``ζ̂`` (rad) per coil set and where each came from (see the module docstring).
+
+    Returns:
+        ``{"k_hat": (L,), "zeta_hat": (L,), "source": str, "given": bool}``; ``given`` is true when the
+        values are the user's or the model file's (not the fit to the model's fundamental).
+    """
+    from pgcomm.export.lut import classical_parameters
+    from pgcomm.io.model import drive_of
+
+    L = model.n_coil_sets
+    k = parse_per_coil_set(args.drive_k, "--drive-k", "k", L)
+    z = parse_per_coil_set(args.drive_zeta, "--drive-zeta", "zeta", L)
+    recorded = drive_of(metadata, args.model, L)
+    if recorded is not None:
+        k0, z0, src0 = recorded[0], recorded[1], f"the model file: {recorded[2]}"
+    else:
+        k0, z0 = classical_parameters(model)
+        src0 = "fitted to the model's fundamental (the model file records no drive commutation)"
+    parts = []
+    if k is not None and z is not None:
+        parts = ["--drive-k, --drive-zeta"]
+    elif k is not None:
+        parts, z = [f"k_hat from --drive-k, zeta_hat {src0}"], z0
+    elif z is not None:
+        parts, k = [f"zeta_hat from --drive-zeta, k_hat {src0}"], k0
+    else:
+        k, z, parts = k0, z0, [src0]
+    return {"k_hat": k, "zeta_hat": z, "source": parts[0],
+            "given": recorded is not None or args.drive_k is not None or args.drive_zeta is not None}
+
+
 def run(args, out: Path, progress) -> None:
     """Export ``--model`` as C (``NAME.h/.c``) or lookup tables; write ``results.json``."""
-    from pgcomm.io.model import load_model
+    from pgcomm.io.model import current_limit_of, load_model
     from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
-    if args.current_limit is not None and not (math.isfinite(args.current_limit) and args.current_limit > 0):
-        raise ConfigError(f"--current-limit must be a positive current in A, got {args.current_limit}")
+    limit, limit_given = parse_current_limit(args.current_limit)
     if args.f_max is not None and not (math.isfinite(args.f_max) and args.f_max > 0):
         raise ConfigError(f"--f-max must be a positive force in N, got {args.f_max}")
     if not (math.isfinite(args.resolution) and args.resolution > 0):
@@ -92,39 +199,62 @@ def run(args, out: Path, progress) -> None:
     # no progress stage around the (fast) load: a refused file then prints exactly one line
     model, metadata = load_model(args.model)
     metadata = dict(metadata or {})
+    if limit_given:
+        limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"
+    else:
+        limit = current_limit_of(metadata, args.model)
+        if limit is None:
+            raise ConfigError(f"{args.model}: the model file records no current limit (its motor description "
+                              "had no current_limit); give --current-limit A, the motor's peak phase current, or "
+                              "--current-limit none to export a law without a limit")
+        limit_source = "from the model file"
+    drive = drive_commutation(args, model, metadata)
     results = {"command": "export", "format": args.format, "model": str(args.model), "name": name,
                "n_coil_sets": model.n_coil_sets, "pole_pitch": model.pole_pitch,
-               "training_range": model.training_range, "current_limit": args.current_limit}
+               "training_range": model.training_range, "current_limit": limit,
+               "current_limit_source": limit_source}
     if args.format == "c":
-        _export_c(args, out, progress, model, metadata, name, results)
+        _export_c(args, out, progress, model, metadata, name, results, limit, limit_source, drive)
     else:
-        _export_lut(args, out, progress, model, metadata, name, results)
+        _export_lut(args, out, progress, model, metadata, name, results, limit, limit_source, drive)
     results["runtime_s"] = time.perf_counter() - t0
     write_results(out / "results.json", results)
 
 
+def _limit_text(limit, source) -> str:
+    return f"{limit:g} A ({source})" if limit is not None else f"none ({source})"
 
-def _export_c(args, out, progress, model, metadata, name, results):
+
+def _export_c(args, out, progress, model, metadata, name, results, limit, limit_source, drive):
     from pgcomm.export.c import write_c
 
     meta = {**metadata, "source": str(args.model)}
+    # the drive's constants are embedded only when known (given or recorded), not the fit's
+    embed = (drive["k_hat"], drive["zeta_hat"]) if drive["given"] else None
     with progress.stage(f"generate C ({args.precision} precision)"):
         try:
             # a spline file's mechanics travel with it: the feedforward is exported beside the law
             paths = write_c(model, out, name=name, precision=args.precision, metadata=meta,
-                            current_limit=args.current_limit, mechanics=metadata.get("mechanics"))
+                            current_limit=limit, mechanics=metadata.get("mechanics"), limit_source=limit_source,
+                            drive=embed, drive_source=drive["source"] if embed else None)
         except ValueError as e:
             raise ConfigError(f"{args.model}: {e}") from None
     results.update(files=[p.name for p in paths], precision=args.precision,
-                   feedforward=metadata.get("mechanics") is not None)
+                   feedforward=metadata.get("mechanics") is not None,
+                   drive=None if embed is None else {"k_hat": drive["k_hat"].tolist(),
+                                                     "zeta_hat": drive["zeta_hat"].tolist(),
+                                                     "source": drive["source"]})
     if not args.quiet:
-        limit = "none" if args.current_limit is None else f"{args.current_limit:g} A"
-        print(f"C law {name}: L = {model.n_coil_sets}, {args.precision} precision, current limit {limit}"
+        print(f"C law {name}: L = {model.n_coil_sets}, {args.precision} precision, current limit "
+              f"{_limit_text(limit, limit_source)}"
               + (f"; feedforward {name}_feedforward (mechanics of the model file)" if metadata.get("mechanics") else ""))
+        if embed is not None:
+            print(f"drive constants {name}_drive_k_hat = {_fmt_values(drive['k_hat'])} N/A, {name}_drive_zeta_hat = "
+                  f"{_fmt_values(drive['zeta_hat'])} rad ({drive['source']})")
         print(f"wrote {args.out}/{paths[0].name}, {paths[1].name}, results.json")
 
 
-def _export_lut(args, out, progress, model, metadata, name, results):
+def _export_lut(args, out, progress, model, metadata, name, results, limit, limit_source, drive):
     from pgcomm.export.lut import (
         build_cogging_table,
         build_lut,
@@ -150,33 +280,44 @@ def _export_lut(args, out, progress, model, metadata, name, results):
                           f"{args.model} gives {(hi - lo) / args.resolution:.3g} rows; at most {MAX_ROWS} "
                           f"(the table and its 10x finer error check must fit a drive and this machine); "
                           f"use --resolution {(hi - lo) / (MAX_ROWS - 1):.3g} or more")
+    k_hat, zeta_hat = drive["k_hat"], drive["zeta_hat"]
+    drive_text = f"k_hat = {_fmt_values(k_hat)} N/A, zeta_hat = {_fmt_values(zeta_hat)} rad ({drive['source']})"
     with progress.stage(f"tabulate the law every {args.resolution:g} m over {model.training_range} m"):
         try:
-            lut = build_lut(model, args.resolution, current_limit=args.current_limit)
-            cog = build_cogging_table(model, args.resolution)
+            lut = build_lut(model, args.resolution, current_limit=limit)
         except ValueError as e:
             raise ConfigError(f"{args.model}: {e}") from None
+        try:
+            cog = build_cogging_table(model, args.resolution, k_hat=k_hat, zeta_hat=zeta_hat)
+        except ValueError as e:
+            raise ConfigError(f"anti-cogging table for the drive's commutation: {e}") from None
     with progress.stage(f"worst-case force error on a 10x finer grid at f_max = {f_max:g} N"):
         err = lut_error(lut, model, f_max)
-        cog_err = cogging_table_error(cog, model, f_max, current_limit=args.current_limit)
-    paths = write_lut(lut, out, name)
-    cog_path = write_cogging_table(cog, out, f"{name}_cogging")
+        cog_err = cogging_table_error(cog, model, f_max, k_hat=k_hat, zeta_hat=zeta_hat, current_limit=limit)
+    paths = write_lut(lut, out, name, limit_source=limit_source)
+    cog_path = write_cogging_table(cog, out, f"{name}_cogging", comments=[
+        f"anti-cogging table of {args.model} for a drive with classical commutation {drive_text}",
+        "the drive commutates Fy* - Fy_cog(y): Fy_cog = Fcog_y(y) / g(y), g the force the model makes per N the "
+        "drive commands",
+        f"y in m (uniform, {cog.n} rows, spacing {cog.dy:.9g} m; hold the end rows outside), Fy_cog in N",
+    ])
     results.update(
         files=[p.name for p in paths] + [cog_path.name], rows=lut.n, resolution=args.resolution, dy=lut.dy,
         entries=lut.entries, bytes=lut.nbytes, f_max=f_max, f_max_source=source,
         error={q: {"abs": float(err.abs[k]), "rel": float(err.rel[k]), "y_worst": float(err.y_worst[k])}
                for k, q in enumerate("yxz")},
         worst_rel=err.worst_rel,
-        cogging_table={"rows": cog.n, "bytes": cog.nbytes, **cog_err.as_dict()},
+        cogging_table={"rows": cog.n, "bytes": cog.nbytes, **cog_err.as_dict(),
+                       "drive": {"k_hat": k_hat.tolist(), "zeta_hat": zeta_hat.tolist(), "source": drive["source"]}},
     )
     if not args.quiet:
         print(f"LUT {name}: {lut.n} rows x {lut.entries // lut.n} entries = {lut.nbytes} bytes (float32), "
-              f"spacing {lut.dy:.4g} m")
+              f"spacing {lut.dy:.4g} m; current limit {_limit_text(limit, limit_source)}")
         print(f"f_max = {f_max:g} N from {source}")
         print("worst-case force error vs the exact law: "
               + ", ".join(f"{q} {err.abs[k]:.3g} {'N m' if q == 'z' else 'N'} ({100 * err.rel[k]:.3g} %)"
                           for k, q in enumerate("yxz")))
         ce = cog_err.law_abs
-        print(f"anti-cogging table: interpolation {cog_err.interpolation:.3g} N; classical + table leaves "
-              f"y {ce[0]:.3g} N, x {ce[1]:.3g} N, z {ce[2]:.3g} N m")
+        print(f"anti-cogging table for a drive with {drive_text}: interpolation {cog_err.interpolation:.3g} N; "
+              f"classical + table leaves y {ce[0]:.3g} N, x {ce[1]:.3g} N, z {ce[2]:.3g} N m")
         print(f"wrote {args.out}/{paths[0].name}, {paths[1].name}, {cog_path.name}, results.json")

@@ -138,7 +138,7 @@ def run(args, out: Path, progress) -> None:
                "seed": args.seed, "force_sensor": not sensorless,
                "identification": experiment.identification_results(res, t_id)}
     metadata = {"seed": args.seed, "plant": setup.plant_name, "data": source, "fy_abs_max": fy_abs_max,
-                "force_sensor": not sensorless}
+                "force_sensor": not sensorless, **law_metadata(args, setup)}
     if sensorless:
         results["mechanics"] = metadata["mechanics"] = mechanics
         results["feedforward"] = metadata["feedforward"] = feedforward
@@ -190,7 +190,7 @@ def _identify_spline(args, out, progress, setup, data, source, t0) -> None:
                "mechanics": mech.to_dict()}
     save_model(out / "model", fit.model, {"seed": args.seed, "plant": setup.plant_name, "data": source,
                                           "fy_abs_max": fy_abs_max, "force_sensor": True, "identification": ident,
-                                          "current_limit": setup.motor.current_limit}, mechanics=mech)
+                                          **law_metadata(args, setup)}, mechanics=mech)
     y = np.linspace(*fit.model.training_range, 2001)
     known = setup.plant is not None and (source != "logs" or args.plant is None)
     truth = np.asarray(setup.plant.cogging(jnp.asarray(y))) if known else None
@@ -234,6 +234,24 @@ def _setup(args):
         config = load_experiment(args.config) if args.config else ExperimentConfig()
         return Setup(plant=None, motor=motor, config=config, true_k=None, true_zeta=None, plant_name=str(args.motor))
     return setup_from_args(args)
+
+
+def law_metadata(args, setup) -> dict:
+    """What every export of the model needs from the motor: ``current_limit`` (A) and, with ``--motor``, ``drive``.
+
+    The limit is the motor description's ``current_limit`` (the twin's own limit without ``--motor``;
+    ``None`` when the description has none: ``pgcomm export`` then asks for ``--current-limit``). With a
+    motor description its ``[nominal]`` ``k``, ``zeta`` are the commutation the drive ran while the data
+    were recorded (on a rig, the last calibration round's values): the default drive of the exported
+    anti-cogging table (:func:`pgcomm.io.model.drive_metadata`).
+    """
+    from pgcomm.io.model import drive_metadata
+
+    meta = {"current_limit": setup.motor.current_limit}
+    if getattr(args, "motor", None) is not None:
+        meta["drive"] = drive_metadata(setup.motor.k, setup.motor.zeta,
+                                       f"{args.motor} [nominal]: the drive's commutation while the data were recorded")
+    return meta
 
 
 def _common_sample_time(logs) -> float:

@@ -34,13 +34,19 @@ float32 entries = 217 kB; 0.125 mm gave 0.135 % there (above the 0.1 % target), 
 Anti-cogging table
 ------------------
 Many drives accept only a position -> force-offset table on top of their own classical
-commutation. :func:`build_cogging_table` tabulates ``F̂_cog,y(y)`` (N) for them, and
-:func:`cogging_table_error` reports (a) its interpolation error against ``F̂_cog,y`` and
-(b) the force error left when the drive runs classical commutation
-(eq. Commutation_Solution_Ideal_SingleCoilset, ``Δ = 0``, force split ``k̂_l²/Σk̂_m²``) on
-``Fy* - table(y)`` instead of the full law — evaluated on the model. The drive's ``k̂, ζ̂``
-are arguments, or fitted to the Fy rows of the model's physics part
-(:func:`classical_parameters`).
+commutation. :func:`build_cogging_table` tabulates the offset for the drive's own commutation
+``k̂, ζ̂``: ``F̂_cog,y(y) / g(y)`` (N), ``g`` the driving force the model makes per newton the drive
+commands (:func:`drive_gain`; 1 for a drive matched to the motor). :func:`cogging_table_error` reports
+(a) its interpolation error against that target and (b) the force error left when the drive runs
+classical commutation (eq. Commutation_Solution_Ideal_SingleCoilset, ``Δ = 0``, force split
+``k̂_l²/Σk̂_m²``) on ``Fy* - table(y)`` instead of the full law — evaluated on the model. The drive's
+``k̂, ζ̂`` are arguments (``pgcomm export --drive-k/--drive-zeta``, or the model file's ``drive``), or
+fitted to the Fy rows of the model's fundamental (:func:`classical_parameters`).
+
+Drive families' own table formats (e.g. SINAMICS S120 cogging torque compensation, Kollmorgen AKD
+cogging compensation) are not written: no public manual section pins down their file layout, units,
+sign and point count well enough to write one that a drive would read correctly. The table here is a
+plain CSV on a uniform grid, to be converted with the drive's own tool.
 
 Direction term (issue 10). A model with ``C^l s(ẏ)`` gives the table law an offset pair:
 ``i = P̃(y) (F* - F̂̃_cog(y) - C̄ s(v))`` with ``C̄ = mean_l C^l`` and ``s(v) = tanh(v/v_ε)``, i.e.
@@ -90,7 +96,7 @@ __all__ = [
     "DEFAULT_RESOLUTION", "MAX_ROWS", "grid_rows", "Lut", "LutError", "CoggingTable", "CoggingTableError",
     "build_lut", "lut_currents", "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns",
     "build_cogging_table", "cogging_table_error", "write_cogging_table",
-    "classical_parameters", "f_star_set",
+    "classical_parameters", "drive_gain", "MIN_DRIVE_GAIN", "f_star_set",
 ]
 
 from pgcomm.defaults import DEFAULT_RESOLUTION  # noqa: E402  (re-exported)
@@ -236,31 +242,43 @@ def build_lut(model, resolution: float = DEFAULT_RESOLUTION, y_range=None, curre
 
 
 def lut_currents(lut: Lut, y, f_star, v=None):
-    """Star currents of the table law, ``S + (L, 2)`` (A).
+    """Star currents of the table law, ``S + (L, 2)`` (A), safe for every input as the generated C is.
 
     ``i = P̃(y) (F* - F̂̃_cog(y) [- C̄ tanh(v/v_ε)])`` with linearly interpolated entries
-    (clamped to the end rows outside the table), then the current limit.
+    (the end rows held outside the table), then the current limit. A sample with a non-finite
+    ``y``, ``F*`` or ``v`` (or currents that would overflow) gets zero currents.
 
     Args:
         y: ``S`` (m); f_star: ``S + (3,)`` desired ``[Fy, Fx, Tz]`` (N, N, N·m);
         v: ``S`` velocity (m/s), used with a direction offset.
     """
+    y = jnp.asarray(y, dtype=float)
     f_star = jnp.asarray(f_star, dtype=float)
-    if lut.direction is not None and v is not None:
+    ok = jnp.isfinite(y) & jnp.all(jnp.isfinite(f_star), axis=-1)
+    use_v = lut.direction is not None and v is not None
+    if use_v:
+        v = jnp.asarray(v, dtype=float)
+        ok = ok & jnp.isfinite(v)
+        v = jnp.where(ok, v, 0.0)
+    # held inputs for the refused samples: nothing non-finite enters the arithmetic
+    y = jnp.where(ok, y, float(lut.y[0]))
+    f_star = jnp.where(ok[..., None], f_star, 0.0)
+    if use_v:
         c = jnp.asarray(lut.direction)
         if c.ndim == 2:  # along the stroke (spline model)
-            c = interp_linear(jnp.asarray(lut.y), c, jnp.asarray(y, dtype=float))
-        f_star = f_star - c * jnp.tanh(jnp.asarray(v, dtype=float) / lut.direction_velocity)[..., None]
+            c = interp_linear(jnp.asarray(lut.y), c, y)
+        f_star = f_star - c * jnp.tanh(v / lut.direction_velocity)[..., None]
     return _lut_currents(jnp.asarray(lut.y), jnp.asarray(lut.P), jnp.asarray(lut.cogging), lut.current_limit,
-                         jnp.asarray(y, dtype=float), f_star)
+                         y, f_star, ok)
 
 
 @functools.partial(jax.jit, static_argnums=(3,))
-def _lut_currents(grid, P, cog, current_limit, y, f_star):
+def _lut_currents(grid, P, cog, current_limit, y, f_star, ok):
     p = interp_linear(grid, P, y)
     c = interp_linear(grid, cog, y)
-    i = jnp.sum(p * (f_star - c)[..., None, None, :], axis=-1)
-    return limit_currents(i, current_limit)
+    i = limit_currents(jnp.sum(p * (f_star - c)[..., None, None, :], axis=-1), current_limit)
+    ok = ok & jnp.all(jnp.isfinite(i), axis=(-2, -1))
+    return jnp.where(ok[..., None, None], i, 0.0)
 
 
 @dataclass(frozen=True)
@@ -366,11 +384,12 @@ def _lut_rows(lut: Lut) -> np.ndarray:
     return np.concatenate([lut.y[:, None], lut.P.reshape(lut.n, -1), lut.cogging], axis=1)
 
 
-def write_lut(lut: Lut, out_dir, name: str = "pgcomm_lut") -> list[Path]:
+def write_lut(lut: Lut, out_dir, name: str = "pgcomm_lut", limit_source: str | None = None) -> list[Path]:
     """Write ``NAME.csv`` (float64, round-trips) and ``NAME.h`` (float32 C table) into ``out_dir``.
 
     Each file is written atomically (:mod:`pgcomm.io.atomic`). The C table takes
-    :attr:`Lut.nbytes` bytes.
+    :attr:`Lut.nbytes` bytes; its comment block states the current limit and ``limit_source``
+    (:func:`lut_header`). The CSV stays a plain table (read back by :func:`read_lut`).
 
     Returns:
         ``[csv_path, header_path]``.
@@ -379,7 +398,7 @@ def write_lut(lut: Lut, out_dir, name: str = "pgcomm_lut") -> list[Path]:
     from pgcomm.io.atomic import atomic_write_text
 
     check_c_name(name)
-    header = lut_header(lut, name)
+    header = lut_header(lut, name, limit_source)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(lut_columns(lut.n_coil_sets))
@@ -466,12 +485,26 @@ def _c_rows(a: np.ndarray, indent: str) -> str:
     return rec(a, 0)
 
 
-def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
+def lut_header(lut: Lut, name: str = "pgcomm_lut", limit_source: str | None = None) -> str:
     """Text of the header-only C99 table (``static const float`` arrays, ``static inline`` lookup).
 
-    The function ``int NAME_currents(float y, const float f_star[3], float currents[L][2])``
-    interpolates like :func:`lut_currents`, clamps outside the table and returns 1 there
-    (0 inside).
+    The function ``int NAME_currents(float y, [float v,] const float f_star[3], float currents[L][2])``
+    interpolates like :func:`lut_currents` and is safe for every input, with the return codes of
+    the C law (:mod:`pgcomm.export.c`):
+
+    * ``0``: ``y`` (m) inside the table;
+    * ``1``: outside it: the end row is used (``y`` held at the table's end);
+    * ``2``: a non-finite input (NaN or ±inf in ``y``, ``f_star`` or ``v``), or currents that would
+      overflow: all currents are zero.
+
+    The current limit :attr:`Lut.current_limit` (A, one factor for all coil sets) bounds every
+    phase current ``ia, ib, ic = -ia - ib``.
+
+    Args:
+        lut: the table (:func:`build_lut`).
+        name: C identifier prefix.
+        limit_source: where the limit (or its absence) came from, written after it in the comment
+            block (e.g. ``"from the model file"``); ``None``: not said.
     """
     from pgcomm import __version__
     from pgcomm.export.c import _SINGLE, _m, check_c_name
@@ -479,9 +512,12 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
     check_c_name(name)
     U, L, lit = name.upper(), lut.n_coil_sets, _SINGLE.lit
     guard = f"{U}_H_INCLUDED"
-    limit = (f"{lut.current_limit:.6g} A peak phase current (one factor for all coil sets)"
-             if lut.current_limit is not None else "none")
+    src = f" ({limit_source})" if limit_source else ""
+    limit = (f"{lut.current_limit:.6g} A peak phase current{src}; one factor for all coil sets keeps "
+             "max(|ia|, |ib|, |ic|) <= limit" if lut.current_limit is not None else f"none{src}")
     vdecl = "float v, " if lut.direction is not None else ""
+    finite = " && ".join(["isfinite(y)"] + [f"isfinite(f_star[{q}])" for q in range(3)]
+                         + (["isfinite(v)"] if lut.direction is not None else []))
     dir_rows = lut.direction is not None and np.ndim(lut.direction) == 2
     # the direction offset of row k: a constant, or interpolated along the stroke like Fcog
     dir_term = ("" if lut.direction is None else
@@ -496,9 +532,12 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
            "C(y) tabulated per row and interpolated like Fcog (spline model)."] if dir_rows else []),
         "Law (eq. Commutation_Model_Currents): i^l = P^l(y) (F* - Fcog(y)), minimum copper loss,",
         "damped where Khat loses rank; P and Fcog interpolated linearly between grid rows.",
-        f"Grid: {lut.n} rows, y from {lut.y[0]:.9g} to {lut.y[-1]:.9g} m, spacing {lut.dy:.9g} m;",
-        "outside it the end rows are used and the function returns 1.",
-        f"Size: {lut.entries} float32 entries = {lut.nbytes} bytes. Current limit: {limit}.",
+        f"Grid: {lut.n} rows, y from {lut.y[0]:.9g} to {lut.y[-1]:.9g} m, spacing {lut.dy:.9g} m.",
+        f"Size: {lut.entries} float32 entries = {lut.nbytes} bytes.",
+        f"Current limit: {limit}.",
+        "Return codes: 0 = y inside the table; 1 = y outside it: the end row is used (y held there);",
+        "2 = a non-finite input (NaN or inf in y, f_star" + (", v" if lut.direction is not None else "")
+        + ") or currents that would overflow: all currents zero.",
         "Units: y m; F* = [Fy N, Fx N, Tz N m]; P in A/N (Fy, Fx columns) and A/(N m) (Tz);",
         "currents A (star: ia, ib; ic = -ia - ib).",
     ]
@@ -517,9 +556,15 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
               f"static const float {name}_dir[{lut.n}][3] = {_c_rows(np.asarray(lut.direction), '    ')};\n",
               f"#define {U}_V_EPS {_m(lit(lut.direction_velocity))}\n\n"] if dir_rows else []),
            f"static inline int {name}_currents(float y, {vdecl}const float f_star[3], float currents[{U}_L][2])\n{{\n",
-           f"    float u = (y - {U}_Y0) * {U}_INV_DY, t, f[3];\n    int k, l, a, j, ret = 0;\n",
-           *([f"    const float sg = tanhf(v / {U}_V_EPS);\n"] if lut.direction is not None else []),
-           "    if (!(u >= 0.0f)) { u = 0.0f; ret = 1; }  /* also NaN */\n",
+           f"    float u, t, f[3];\n    int k, l, a, j, ret = 0;\n",
+           *(["    float sg;\n"] if lut.direction is not None else []),
+           "\n    /* a non-finite input gives zero currents and code 2 (as the C law and pgcomm's ModelLaw) */\n",
+           f"    if (!({finite})) {{\n",
+           f"        for (l = 0; l < {U}_L; ++l)\n            currents[l][0] = currents[l][1] = 0.0f;\n",
+           "        return 2;\n    }\n",
+           *([f"    sg = tanhf(v / {U}_V_EPS);\n"] if lut.direction is not None else []),
+           f"    u = (y - {U}_Y0) * {U}_INV_DY;\n",
+           "    if (!(u >= 0.0f)) { u = 0.0f; ret = 1; }\n",
            f"    if (u > (float)({U}_N - 1)) {{ u = (float)({U}_N - 1); ret = 1; }}\n",
            f"    k = (int)u;\n    if (k > {U}_N - 2)\n        k = {U}_N - 2;\n    t = u - (float)k;\n",
            "    /* a (1 - t) + b t is exact at grid rows, including the last one */\n",
@@ -528,7 +573,12 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
            f"    for (l = 0; l < {U}_L; ++l)\n        for (a = 0; a < 2; ++a) {{\n",
            "            float s = 0.0f;\n            for (j = 0; j < 3; ++j)\n",
            f"                s += ({name}_P[k][l][a][j] * (1.0f - t) + {name}_P[k + 1][l][a][j] * t) * f[j];\n",
-           "            currents[l][a] = s;\n        }\n"]
+           "            currents[l][a] = s;\n        }\n",
+           "    /* demands so large that the float sums overflow: zero currents, code 2 */\n",
+           f"    for (l = 0; l < {U}_L; ++l)\n",
+           "        if (!(isfinite(currents[l][0]) && isfinite(currents[l][1]))) {\n",
+           f"            for (l = 0; l < {U}_L; ++l)\n                currents[l][0] = currents[l][1] = 0.0f;\n",
+           "            return 2;\n        }\n"]
     if lut.current_limit is not None:
         out += ["    {\n        float peak = 0.0f, sc;\n",
                 f"        for (l = 0; l < {U}_L; ++l) {{\n",
@@ -541,10 +591,8 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut") -> str:
                 "            currents[l][0] *= sc;\n            currents[l][1] *= sc;\n        }\n    }\n"]
     out += ["    return ret;\n}\n\n", f"#endif /* {guard} */\n"]
     text = "".join(out)
-    if lut.current_limit is not None or lut.direction is not None:
-        text = text.replace(f"#ifndef {guard}\n#define {guard}\n\n", f"#ifndef {guard}\n#define {guard}\n\n"
-                            "#include <math.h>\n\n", 1)
-    return text
+    return text.replace(f"#ifndef {guard}\n#define {guard}\n\n", f"#ifndef {guard}\n#define {guard}\n\n"
+                        "#include <math.h>\n\n", 1)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -626,14 +674,89 @@ def _cog_y(model, y):
     return model.cogging(y)[..., 0]
 
 
-def build_cogging_table(model, resolution: float = DEFAULT_RESOLUTION, y_range=None) -> CoggingTable:
-    """Tabulate the driving component ``F̂_cog,y(y)`` (N) of the model's mean cogging force.
+#: Smallest driving force per newton commanded (-) that a drive's classical commutation may make anywhere
+#: on the table's grid: below it the table ``F̂_cog,y / g`` would be a large multiple of the cogging force
+#: (near ``g = 0``, a ``ζ̂`` off by about π/2) or of the wrong sign (``g < 0``, ``ζ̂`` off by π).
+MIN_DRIVE_GAIN = 0.25
+
+
+@jax.jit
+def _drive_gain(model, y, k_hat, zeta_hat):
+    """``g(y) = Σ_l K̂^l_y(y) i_cl^l(y, 1 N)`` (-), shape of ``y``: see :func:`drive_gain`."""
+    i1 = classical_single_direction(y, jnp.ones_like(y), k_hat, zeta_hat, model.pole_pitch)  # S + (L, 2), A/N
+    return jnp.sum(model.gain(y)[..., 0, :] * i1, axis=(-2, -1))
+
+
+def _drive(model, k_hat, zeta_hat):
+    """``(k̂, ζ̂)`` as ``(L,)`` arrays; ``None`` (either): :func:`classical_parameters` of the model."""
+    L = model.n_coil_sets
+    if k_hat is None or zeta_hat is None:
+        kf, zf = classical_parameters(model)
+        k_hat = kf if k_hat is None else k_hat
+        zeta_hat = zf if zeta_hat is None else zeta_hat
+    k_hat = np.broadcast_to(np.asarray(k_hat, dtype=float), (L,)).copy()
+    zeta_hat = np.broadcast_to(np.asarray(zeta_hat, dtype=float), (L,)).copy()
+    if not (np.all(np.isfinite(k_hat)) and np.all(np.isfinite(zeta_hat)) and np.all(k_hat > 0)):
+        raise ValueError(f"the drive's k_hat {k_hat.tolist()} N/A must be positive and zeta_hat "
+                         f"{zeta_hat.tolist()} rad finite")
+    return k_hat, zeta_hat
+
+
+def drive_gain(model, y, k_hat=None, zeta_hat=None) -> np.ndarray:
+    """Driving force the model makes per newton a drive's classical commutation commands, ``g(y)`` (-).
+
+    The drive commutates ``u`` (N) as eq. Commutation_Solution_Ideal_SingleCoilset with its own
+    ``k̂^l`` (N/A), ``ζ̂^l`` (rad) and ``Δ = 0``: ``i^l = u c^l(y)``; the model then makes
+    ``F̂_y = g(y) u + F̂_cog,y(y)`` with ``g(y) = Σ_l K̂^l_y(y) c^l(y)`` — about
+    ``(k/k̂) cos(ζ - ζ̂)`` plus the model's force ripple.
+
+    Args:
+        model: any model with ``gain``, ``n_coil_sets``, ``pole_pitch``; y: positions (m), any shape.
+        k_hat, zeta_hat: the drive's ``(L,)`` (or scalar) commutation; ``None``: :func:`classical_parameters`.
+
+    Returns:
+        ``g`` with the shape of ``y``.
+    """
+    k_hat, zeta_hat = _drive(model, k_hat, zeta_hat)
+    return np.asarray(_drive_gain(model, jnp.asarray(y, dtype=float), jnp.asarray(k_hat), jnp.asarray(zeta_hat)))
+
+
+def _drive_offset(model, y, k_hat, zeta_hat):
+    """The table's target ``F̂_cog,y(y) / g(y)`` (N) on ``y`` (m), after checking ``g >= MIN_DRIVE_GAIN``."""
+    g = drive_gain(model, y, k_hat, zeta_hat)
+    j = int(np.argmin(g))
+    if not g[j] >= MIN_DRIVE_GAIN:
+        raise ValueError(f"with k_hat {np.round(np.ravel(k_hat), 4).tolist()} N/A, zeta_hat "
+                         f"{np.round(np.ravel(zeta_hat), 4).tolist()} rad the drive's commutation makes only "
+                         f"{g[j]:.3g} N per N commanded at y = {float(np.ravel(y)[j]):.6g} m (at least "
+                         f"{MIN_DRIVE_GAIN:g} needed); check the drive's zeta_hat (rad) and k_hat (N/A)")
+    return np.asarray(_cog_y(model, jnp.asarray(y, dtype=float))) / g
+
+
+def build_cogging_table(model, resolution: float = DEFAULT_RESOLUTION, y_range=None, k_hat=None,
+                        zeta_hat=None) -> CoggingTable:
+    """Anti-cogging table for a drive with classical commutation ``k̂, ζ̂``: ``F̂_cog,y(y) / g(y)`` (N).
+
+    The drive commutates ``Fy* - table(y)`` (eq. Commutation_Solution_Ideal_SingleCoilset); the model then
+    makes ``g(y) (Fy* - table(y)) + F̂_cog,y(y)``, so the table that cancels the cogging force for this
+    drive is the cogging force divided by the drive's own force per newton commanded, :func:`drive_gain`
+    (1 for a drive whose ``k̂, ζ̂`` match the motor; 1.1 for a drive whose ``k̂`` is 10 % high). At
+    standstill (``Fy* = 0``) the cogging force is then cancelled up to the interpolation error.
 
     Grid as :func:`build_lut` (uniform, end to end over ``y_range`` or the training range,
     spacing ``<= resolution`` m).
+
+    Args:
+        k_hat, zeta_hat: the drive's ``(L,)`` (or scalar) commutation (N/A, rad); ``None`` (either):
+            :func:`classical_parameters` of the model.
+
+    Raises:
+        ValueError: a bad grid, or a drive commutation that makes less than :data:`MIN_DRIVE_GAIN`
+        newton per newton commanded somewhere on the grid.
     """
-    y = jnp.asarray(_grid(model, resolution, y_range))
-    return CoggingTable(y, _cog_y(model, y))
+    y = _grid(model, resolution, y_range)
+    k_hat, zeta_hat = _drive(model, k_hat, zeta_hat)
+    return CoggingTable(jnp.asarray(y), jnp.asarray(_drive_offset(model, y, k_hat, zeta_hat)))
 
 
 @jax.jit
@@ -645,7 +768,8 @@ def cogging_table_error(table: CoggingTable, model, f_max: float, k_hat=None, ze
                         current_limit: float | None = None) -> CoggingTableError:
     """Errors of a drive running classical commutation plus the anti-cogging table.
 
-    (a) interpolation: ``max |table(y) - F̂_cog,y(y)|`` on a grid ``factor`` times finer (N).
+    (a) interpolation: ``max |table(y) - F̂_cog,y(y) / g(y)|`` on a grid ``factor`` times finer (N): the
+    table against its target for this drive (:func:`build_cogging_table` with the same ``k̂, ζ̂``).
     (b) the force error left against the full law, on the model: the drive commutates
     ``Fy* - table(y)`` classically (eq. Commutation_Solution_Ideal_SingleCoilset with
     ``k̂, ζ̂``, ``Δ = 0``), giving ``i_tab``; the error is ``|F̂(y, i_tab) - F̂(y, i_exact)|``
@@ -663,17 +787,11 @@ def cogging_table_error(table: CoggingTable, model, f_max: float, k_hat=None, ze
     """
     if not (f_max > 0 and math.isfinite(f_max)):
         raise ValueError(f"f_max must be a positive force in N, got {f_max}")
-    L = model.n_coil_sets
-    if k_hat is None or zeta_hat is None:
-        kf, zf = classical_parameters(model)
-        k_hat = kf if k_hat is None else k_hat
-        zeta_hat = zf if zeta_hat is None else zeta_hat
-    k_hat = np.broadcast_to(np.asarray(k_hat, dtype=float), (L,)).copy()
-    zeta_hat = np.broadcast_to(np.asarray(zeta_hat, dtype=float), (L,)).copy()
+    k_hat, zeta_hat = _drive(model, k_hat, zeta_hat)
     y = np.linspace(float(table.y[0]), float(table.y[-1]), (table.n - 1) * int(factor) + 1)
     yj = jnp.asarray(y)
     off = table.offset(yj)
-    interp = float(np.max(np.abs(np.asarray(off) - np.asarray(_cog_y(model, yj)))))
+    interp = float(np.max(np.abs(np.asarray(off) - _drive_offset(model, y, k_hat, zeta_hat))))
     fs = np.array([[f_max, 0.0, 0.0], [-f_max, 0.0, 0.0]])
     law = ModelLaw(model, metric="phase", current_limit=current_limit)
     i_tab = _classical_table_currents(model, yj[:, None], jnp.asarray(fs[:, 0])[None, :], off[:, None],
@@ -684,11 +802,20 @@ def cogging_table_error(table: CoggingTable, model, f_max: float, k_hat=None, ze
     return CoggingTableError(interp, e.abs, e.rel, k_hat, zeta_hat, float(f_max))
 
 
-def write_cogging_table(table: CoggingTable, out_dir, name: str = "pgcomm_cogging") -> Path:
-    """Write ``NAME.csv`` with columns ``y`` (m), ``Fy_cog`` (N), atomically. Returns the path."""
+def write_cogging_table(table: CoggingTable, out_dir, name: str = "pgcomm_cogging", comments=None) -> Path:
+    """Write ``NAME.csv`` with columns ``y`` (m), ``Fy_cog`` (N), atomically. Returns the path.
+
+    ``Fy_cog`` is the force offset the drive subtracts from its demand (:func:`build_cogging_table`).
+    ``comments``: lines written first, each as ``# line`` (what the table is for: the drive's
+    ``k̂, ζ̂`` and where they came from), e.g. ``pandas.read_csv(path, comment="#")`` skips them and
+    ``numpy.loadtxt(path, delimiter=",", skiprows=len(comments) + 1)`` counts them. ``None``: a plain
+    CSV, header first.
+    """
     from pgcomm.io.atomic import atomic_write_text
 
     buf = io.StringIO()
+    for line in comments or ():
+        buf.write("# " + " ".join(str(line).split()) + "\n")
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["y", "Fy_cog"])
     for yv, fv in zip(np.asarray(table.y), np.asarray(table.values)):

@@ -46,6 +46,11 @@ mechanics into the returned document as ``document["mechanics"]`` (plain dict: `
 
 Both files are written to temporary names in the target directory and renamed into place
 (the ``.json`` last), so an interrupted save never leaves a half-written model.
+
+User metadata the exports read (both families): ``current_limit`` (A, peak phase current, or
+``null``: the motor description's limit, stored by ``pgcomm identify``; :func:`current_limit_of`)
+and ``drive`` (``{"k_hat": [...] N/A, "zeta_hat": [...] rad, "source": "..."}``: the commutation
+the drive runs, :func:`drive_metadata`, :func:`drive_of`).
 """
 
 from __future__ import annotations
@@ -641,3 +646,72 @@ def feedforward_from_metadata(metadata):
         raise DataError(f"mechanics: coulomb_knots ({len(knots)}) must increase and match coulomb_table "
                         f"({len(table)})")
     return Feedforward(mass=mass, viscous=viscous, coulomb=coulomb, coulomb_knots=knots, coulomb_table=table)
+
+
+def drive_metadata(k_hat, zeta_hat, source: str) -> dict:
+    """The metadata entry ``"drive"`` of a model file: the commutation a drive runs, and where it comes from.
+
+    Args:
+        k_hat: ``(L,)`` (or scalar) the drive's ``k̂`` (N/A); zeta_hat: ``(L,)`` (or scalar) its ``ζ̂`` (rad).
+        source: plain words, e.g. ``"motor.toml [nominal]: the drive's commutation while the data were recorded"``.
+
+    Returns:
+        ``{"k_hat": [...], "zeta_hat": [...], "source": source}`` (JSON-ready).
+    """
+    k = [float(x) for x in np.ravel(k_hat)]
+    z = [float(x) for x in np.ravel(zeta_hat)]
+    return {"k_hat": k, "zeta_hat": z, "source": str(source)}
+
+
+def current_limit_of(document, path) -> float | None:
+    """The peak phase current limit (A) a model file records (user metadata key ``current_limit``), or ``None``.
+
+    ``pgcomm identify`` stores the motor description's ``current_limit`` there; every export applies
+    it by default.
+
+    Args:
+        document: the document of :func:`load_model`; path: the model file (named in errors).
+
+    Raises:
+        DataError: a recorded limit that is not a positive, finite number of amperes.
+    """
+    meta = document.get("metadata") if isinstance(document, dict) else None
+    v = meta.get("current_limit") if isinstance(meta, dict) else None
+    if v is None:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise DataError(f"{path}: metadata current_limit = {v!r} is not a positive peak phase current in A")
+    return float(v)
+
+
+def drive_of(document, path, n_coil_sets: int):
+    """The drive's commutation a model file records (user metadata key ``drive``), or ``None``.
+
+    Args:
+        document: the document of :func:`load_model`; path: the model file (named in errors);
+        n_coil_sets: ``L`` of the model.
+
+    Returns:
+        ``(k_hat (L,) N/A, zeta_hat (L,) rad, source)`` or ``None``.
+
+    Raises:
+        DataError: a ``drive`` entry with missing, non-finite or non-positive values, or another
+        number of coil sets.
+    """
+    meta = document.get("metadata") if isinstance(document, dict) else None
+    d = meta.get("drive") if isinstance(meta, dict) else None
+    if d is None:
+        return None
+    try:
+        k = np.asarray(d["k_hat"], dtype=float).reshape(-1)
+        z = np.asarray(d["zeta_hat"], dtype=float).reshape(-1)
+        source = str(d.get("source", "the model file"))
+    except (KeyError, TypeError, ValueError, AttributeError) as err:
+        raise DataError(f"{path}: metadata drive: missing or invalid field {err}") from None
+    if k.shape != (n_coil_sets,) or z.shape != (n_coil_sets,):
+        raise DataError(f"{path}: metadata drive holds {k.size} k_hat and {z.size} zeta_hat values for "
+                        f"{n_coil_sets} coil sets")
+    if not (np.all(np.isfinite(k)) and np.all(np.isfinite(z)) and np.all(k > 0)):
+        raise DataError(f"{path}: metadata drive: k_hat {k.tolist()} N/A must be positive and zeta_hat "
+                        f"{z.tolist()} rad finite")
+    return k, z, source
