@@ -70,6 +70,85 @@ def test_report_matches_results(quick):
     assert (out / "model.json").exists() and (out / "model.npz").exists()
 
 
+def _text(html: str) -> str:
+    """The report without its embedded images, HTML entities resolved."""
+    import html as html_lib
+
+    return html_lib.unescape(re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "", html))
+
+
+def test_report_speaks_plain_words_with_units(quick):
+    """Issue 16, point 8: no LaTeX label of the paper (Table Commutation_Performance, eq. Identification_CostFunction,
+    Fig. Data_Generation, ...), a unit in every numeric column's header, one caption per figure and none twice."""
+    _, out = quick
+    html = _text((out / "report.html").read_text())
+    labels = re.findall(r"\b[A-Z][A-Za-z]*(?:_[A-Z][A-Za-z0-9]*)+\b", html)
+    assert labels == [], labels
+    for table in re.findall(r"<table>(.*?)</table>", html, flags=re.S):
+        header = re.search(r"<tr>(.*?)</tr>", table, flags=re.S).group(1)
+        for th in re.findall(r"<th>(.*?)</th>", header, flags=re.S):
+            assert th in ("row", "law", "coil set") or re.search(r"\[[^\]]+\]$", th), th
+    captions = re.findall(r"<figcaption>(.*?)</figcaption>", html, flags=re.S)
+    assert len(captions) == len(set(captions)) == len(list(out.glob("*.png")))
+    for word in ("the paper's Table 1", "the paper's Table 2", "the paper's Fig. 8", "the paper's Fig. 9"):
+        assert word in html, word
+
+
+def test_report_explains_the_pgnn_gain_offset(quick):
+    """On the twin the force-sensor PGNN's Fy gain sits well above the truth because it takes the motor's
+    direction-dependent force into its gain: the PGNN with the direction term, from the same data, is back
+    at the truth (less than half the offset; measured: 11 % against 0.1 %). The report says so, with the
+    numbers of results.json."""
+    res, out = quick
+    me = res["model_error"]
+    r_p, r_d = me["pgnn"]["gain_ratio_y"], me["pgnn_direction"]["gain_ratio_y"]
+    assert r_p > 1.02 and abs(r_d - 1) < 0.5 * abs(r_p - 1), (r_p, r_d)
+    assert abs(me["spline"]["gain_ratio_y"] - 1) < 0.5 * abs(r_p - 1)
+    html = _text((out / "report.html").read_text())
+    cap = re.search(r"<figcaption>(Gain of coil set 1, PGNN.*?)</figcaption>", html, flags=re.S).group(1)
+    assert f"{100 * (r_p - 1):.1f} % above the truth" in cap
+    assert "direction-dependent force" in cap and "extra gain" in cap
+
+
+def test_report_says_what_the_sensorless_line_below_the_oracle_is(quick):
+    """The oracle's filtered y error is the force sensor's noise (its true force meets the demand), and the line
+    with the direction force taken out is of the true force (no noise): below the oracle is no paradox, and the
+    report says it is a different quantity."""
+    res, out = quick
+    sn, oracle = res["sensor_noise"], res["commutation_mse"]["oracle"]["y"]["filtered"]
+    a = np.exp(-2 * np.pi * 50.0 * 1e-3)
+    assert sn["expected"]["y"] == pytest.approx(0.8 ** 2 * (1 - a) / (1 + a), rel=1e-12)
+    # the oracle has the true state: its true force meets the demand (well below the noise), so its measured error
+    # is the noise draw of this reference
+    assert sn["oracle_true_force"]["y"] < 0.01 * sn["long"]["y"]
+    n, t = sn["long"]["y"], sn["oracle_true_force"]["y"]
+    assert abs(oracle - n - t) <= 2 * np.sqrt(n * t) + 1e-12 * n  # the cross term, by Cauchy-Schwarz
+    wo = res["sensorless"]["y_mse_without_direction_force"]["pgnn_sensorless"]
+    assert wo < oracle  # the case the report must explain
+    html = _text((out / "report.html").read_text())
+    sentence = re.search(r"<li>[^<]*PGNN without force sensor[^<]*</li>", html).group(0)
+    assert f"{wo:.3g} N²" in sentence and "A different quantity" in sentence and "true driving force" in sentence
+    assert f"{sn['long']['y']:.3g} N² of sensor noise" in sentence and "does not beat the floor" in sentence
+
+
+def test_filtered_noise_mse_matches_filtered_white_noise():
+    from pgcomm.metrics import lowpass
+    from pgcomm.reproduce import filtered_noise_mse
+    from pgcomm.sensors import Sensors
+
+    sensors = Sensors(force_noise=(0.8, 0.45, 0.9))
+    n, ts = 400_000, 1e-3
+    rng = np.random.default_rng(3)
+    got = filtered_noise_mse(sensors, ts, 50.0)
+    a = np.exp(-2 * np.pi * 50.0 * ts)
+    # the filtered series is correlated over ~(1 + a)/(1 - a) samples: its variance estimate's relative standard
+    # error is sqrt(2 (1 + a) / ((1 - a) n)); 5 of them
+    tol = 5 * np.sqrt(2 * (1 + a) / ((1 - a) * n))
+    for q, d in enumerate("yxz"):
+        x = lowpass(rng.normal(0.0, sensors.force_noise[q], n), ts, 50.0)
+        assert np.mean(x[100:] ** 2) == pytest.approx(got[d], rel=tol)
+
+
 def test_sensorless_rows(quick):
     """Issue 10 part 3 on the twin: calibration without force within the issue-8 bars; pgnn_sensorless removes
     >= 80 % of what the force-sensor PGNN removes in y; with the plant's direction-dependent force (which no

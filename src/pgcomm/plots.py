@@ -17,7 +17,7 @@ from pgcomm.metrics import lowpass  # noqa: E402
 #: One colour per comparison row, stable across figures.
 ROW_COLORS = {"original": "#9e9e9e", "classical": "#d62728", "physics": "#ff7f0e", "pgnn": "#1f77b4",
               "pgnn_direction": "#17becf", "spline": "#2ca02c", "pgnn_sensorless": "#9467bd", "cogging_table": "#8c564b",
-              "cogging_table_sensorless": "#bcbd22", "harmonic_cogging": "#e377c2", "oracle": "#2ca02c"}
+              "cogging_table_sensorless": "#bcbd22", "harmonic_cogging": "#e377c2", "oracle": "#000000"}
 _DIR_LABEL = ("$F_y - F_y^*$ [N]", "$F_x - F_x^*$ [N]", "$T_z - T_z^*$ [N m]")
 
 
@@ -58,8 +58,8 @@ def plot_run(result, lowpass_hz: float = 50.0, title: str = ""):
 
 
 def plot_comparison(runs: dict, lowpass_hz: float = 50.0, title: str = ""):
-    """Paper Figs. CommutationError_Ref1/2: reference, filtered commutation error y, x, z and
-    tracking error, every row of ``runs`` (name -> SimResult) overlaid."""
+    """The paper's Figs. 10 and 11 (slow and fast reference): reference, filtered commutation error
+    y, x, z and tracking error, every row of ``runs`` (name -> SimResult) overlaid."""
     first = next(iter(runs.values()))
     # filter at full rate, draw at most ~5000 points per line (the figure cannot show more)
     k = max(1, first.t.shape[0] // 5000)
@@ -98,7 +98,7 @@ def finish_error_axes(fig, ax, title: str = "") -> None:
 
 
 def plot_reference(reference, title: str = "data-generation reference"):
-    """Paper Fig. Data_Generation: the reference position and velocity."""
+    """The paper's Fig. 8 (reference for the data sets): the reference position (mm) and velocity (m/s)."""
     fig, ax = plt.subplots(2, 1, figsize=(10, 4.5), sharex=True)
     ax[0].plot(reference.t, reference.r * 1e3)
     ax[0].set_ylabel("$y^*$ [mm]")
@@ -113,7 +113,8 @@ def plot_reference(reference, title: str = "data-generation reference"):
 
 
 def plot_calibration(k_initial, zeta_initial, k_cal, zeta_cal, k_true=None, zeta_true=None):
-    """Table Parameters_CLM as a figure: initial, calibrated and (twin) true ``k̂^l``, ``ζ̂^l`` per coil set."""
+    """The paper's Table 1 as a figure: initial, calibrated and (twin) true ``k̂^l`` (N/A), ``ζ̂^l`` (rad) per
+    coil set."""
     n = len(k_cal)
     x = np.arange(1, n + 1)
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
@@ -122,7 +123,7 @@ def plot_calibration(k_initial, zeta_initial, k_cal, zeta_cal, k_true=None, zeta
         a.plot(x, np.broadcast_to(init, (n,)), "s", color="#9e9e9e", label="initial")
         a.plot(x, cal, "o", color="#d62728", label="calibrated")
         if true is not None:
-            a.plot(x, true, "x", color="#2ca02c", ms=10, label="true (twin)")
+            a.plot(x, true, "x", color="#2ca02c", ms=10, label="true")
         a.set_xticks(x)
         a.set_xlabel("coil set $l$")
         a.set_ylabel(lab)
@@ -133,16 +134,17 @@ def plot_calibration(k_initial, zeta_initial, k_cal, zeta_cal, k_true=None, zeta
     return fig
 
 
-def plot_cogging(y, cog_model, cog_true=None, title="identified cogging force"):
-    """Paper Fig. Cogging_Force: ``(1/L) Σ_l F̂_cog^l(y)`` in y, x, z, against the truth when known.
+def plot_cogging(y, cog_model, cog_true=None, title="identified cogging force", label="PGNN"):
+    """The paper's Fig. 9 (identified cogging force): ``(1/L) Σ_l F̂_cog^l(y)`` in y, x, z, against the
+    truth when known.
 
     Args:
-        y: (N,) m; cog_model: (N, 3); cog_true: (N, 3) or None.
+        y: (N,) m; cog_model: (N, 3) (N, N, N·m); cog_true: (N, 3) or None; label: the model's legend entry.
     """
     fig, ax = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
     labels = ("$F_{cog,y}$ [N]", "$F_{cog,x}$ [N]", "$T_{cog,z}$ [N m]")
     for q in range(3):
-        ax[q].plot(y * 1e3, cog_model[:, q], color="#1f77b4", label="PGNN")
+        ax[q].plot(y * 1e3, cog_model[:, q], color="#1f77b4", label=label)
         if cog_true is not None:
             ax[q].plot(y * 1e3, cog_true[:, q], "--", color="#2ca02c", label="truth")
         ax[q].set_ylabel(labels[q])
@@ -154,25 +156,29 @@ def plot_cogging(y, cog_model, cog_true=None, title="identified cogging force"):
     return fig
 
 
-def plot_gain_columns(y, gain_model, gain_true=None, coil_set: int = 0):
+def plot_gain_columns(y, gain_model, gain_true=None, coil_set: int = 0, label: str = "model"):
     """Gain-matrix columns ``K̂^l(y)`` (3 x 2 panels) of one coil set against the truth when known.
 
     Args:
-        y: (N,) m; gain_model, gain_true: (N, 3, 2) N/A.
+        y: (N,) m; gain_model, gain_true: (N, 3, 2) (N/A; N·m/A in the Tz row); label: the model's legend
+            entry and title word (e.g. ``"PGNN"``).
     """
     fig, ax = plt.subplots(3, 2, figsize=(11, 7), sharex=True)
     rows = ("$F_y$", "$F_x$", "$T_z$")
+    units = ("[N/A]", "[N/A]", "[N m/A]")
     for q in range(3):
         for j in range(2):
             a = ax[q, j]
-            a.plot(y * 1e3, gain_model[:, q, j], color="#1f77b4", lw=0.9, label="model")
+            a.plot(y * 1e3, gain_model[:, q, j], color="#1f77b4", lw=0.9, label=label)
             if gain_true is not None:
                 a.plot(y * 1e3, gain_true[:, q, j], "--", color="#2ca02c", lw=0.9, label="truth")
             a.set_title(f"{rows[q]} per $i_{'ab'[j]}^{coil_set + 1}$", fontsize=9)
+            a.set_ylabel(f"{rows[q]} per A {units[q]}", fontsize=8)
             a.grid(alpha=0.3)
     ax[0, 0].legend(fontsize=8)
     for j in range(2):
         ax[2, j].set_xlabel("position $y$ [mm]")
+    fig.suptitle(f"gain of coil set {coil_set + 1}: {label}" + (" against the truth" if gain_true is not None else ""))
     fig.tight_layout()
     return fig
 

@@ -233,11 +233,12 @@ def print_mse(results: dict, rows, stream=sys.stdout) -> None:
 
 
 def print_calibration(c: dict, stream=sys.stdout) -> None:
-    """Table Parameters_CLM analogue of the ``calibration.*`` keys of results.json on ``stream``."""
-    print(f"{'coil set':>8s} {'k initial':>10s} {'k calib.':>10s} {'k true':>10s} {'zeta init.':>11s} "
-          f"{'zeta calib.':>12s} {'zeta true':>10s}", file=stream)
+    """The ``calibration.*`` keys of results.json on ``stream`` as a table with units (the paper's Table 1:
+    initial and calibrated k̂ in N/A, ζ̂ in rad, and the true values where known)."""
+    print(f"{'coil set':>8s} {'k init. N/A':>12s} {'k calib. N/A':>12s} {'k true N/A':>12s} {'zeta init. rad':>14s} "
+          f"{'zeta calib. rad':>15s} {'zeta true rad':>14s}", file=stream)
     for l in range(len(c["calibrated"]["k"])):
         tk = c["true"]["k"][l] if c["true"]["k"] is not None else float("nan")
         tz = c["true"]["zeta"][l] if c["true"]["zeta"] is not None else float("nan")
-        print(f"{l + 1:8d} {c['initial']['k'][l]:10.3f} {c['calibrated']['k'][l]:10.3f} {tk:10.3f} "
-              f"{c['initial']['zeta'][l]:11.4f} {c['calibrated']['zeta'][l]:12.4f} {tz:10.4f}", file=stream)
+        print(f"{l + 1:8d} {c['initial']['k'][l]:12.3f} {c['calibrated']['k'][l]:12.3f} {tk:12.3f} "
+              f"{c['initial']['zeta'][l]:14.4f} {c['calibrated']['zeta'][l]:15.4f} {tz:14.4f}", file=stream)

@@ -156,14 +156,15 @@ def run(args, out: Path, progress) -> None:
     gm = np.asarray(pgnn.gain(jnp.asarray(y)))
     gt = np.asarray(setup.plant.gain(jnp.asarray(y))) if known else None
     for l in range(pgnn.n_coil_sets):
-        plots.save(plots.plot_gain_columns(y, gm[:, l], None if gt is None else gt[:, l], l),
+        plots.save(plots.plot_gain_columns(y, gm[:, l], None if gt is None else gt[:, l], l, label="PGNN"),
                    out / f"gain_coilset{l + 1}.png")
     results["runtime_s"] = time.perf_counter() - t0
     write_results(out / "results.json", results)
     if not args.quiet:
         if sensorless:
             print("without a force sensor: costs of the y row on filtered windows, (m ÿ - F^y - friction)^2 [N^2]")
-        print(f"{'coil set':24s} {'V physics':>10s} {'V PGNN':>10s} {'V phys val':>10s} {'V PGNN val':>10s} {'s':>6s}")
+        print(f"{'coil set':24s} {'V physics':>10s} {'V PGNN':>10s} {'V phys val':>10s} {'V PGNN val':>10s} {'time':>6s}")
+        print(f"{'':24s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[s]':>6s}")
         for r in res:
             print(f"{r.name[:24]:24s} {r.cost_physics:10.4g} {r.cost_pgnn:10.4g} {r.cost_physics_validation:10.4g} "
                   f"{r.cost_pgnn_validation:10.4g} {r.seconds:6.1f}")
@@ -195,11 +196,12 @@ def _identify_spline(args, out, progress, setup, data, source, t0) -> None:
     known = setup.plant is not None and (source != "logs" or args.plant is None)
     truth = np.asarray(setup.plant.cogging(jnp.asarray(y))) if known else None
     plots.save(plots.plot_cogging(y, np.asarray(fit.model.cogging(jnp.asarray(y))), truth,
-                                  title="identified cogging force (spline model)"), out / "cogging.png")
+                                  title="identified cogging force (spline model)", label="spline model"),
+               out / "cogging.png")
     gm = np.asarray(fit.model.gain(jnp.asarray(y)))
     gt = np.asarray(setup.plant.gain(jnp.asarray(y))) if known else None
     for l in range(fit.model.n_coil_sets):
-        plots.save(plots.plot_gain_columns(y, gm[:, l], None if gt is None else gt[:, l], l),
+        plots.save(plots.plot_gain_columns(y, gm[:, l], None if gt is None else gt[:, l], l, label="spline model"),
                    out / f"gain_coilset{l + 1}.png")
     results["runtime_s"] = time.perf_counter() - t0
     write_results(out / "results.json", results)
@@ -208,6 +210,7 @@ def _identify_spline(args, out, progress, setup, data, source, t0) -> None:
         print(f"spline model: knots every {1e3 * sp['gain']:.3g} mm (gain), {1e3 * sp['cogging']:.3g} mm (cogging), "
               f"{1e3 * sp['direction']:.3g} mm (direction), {fit.model.n_parameters} coefficients")
         print(f"{'coil set':10s} {'MSE y':>10s} {'x':>10s} {'z':>10s} {'CV y':>10s} {'x':>10s} {'z':>10s}")
+        print(f"{'':10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2m^2]':>10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2m^2]':>10s}")
         for l, (c, v) in enumerate(zip(fit.cost, fit.cost_validation)):
             print(f"{l + 1:<10d} " + " ".join(f"{c[d]:10.4g}" for d in "yxz") + " "
                   + " ".join(f"{v[d]:10.4g}" for d in "yxz"))

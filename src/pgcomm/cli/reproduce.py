@@ -31,7 +31,7 @@ def run(args, out: Path, progress) -> None:
     from pgcomm import __version__, plots, reproduce
     from pgcomm.io.model import save_model
     from pgcomm.io.results import write_results
-    from pgcomm.report import write_report
+    from pgcomm.report import figure_captions, write_report
 
     t0 = time.perf_counter()
     setup = setup_from_args(args)
@@ -45,48 +45,43 @@ def run(args, out: Path, progress) -> None:
     with progress.stage("figures, model file and report"):
         lp = setup.config.evaluation.lowpass_hz
         figs = {}
+        captions = figure_captions(o, results)
 
-        def fig(name, f, caption):
+        def fig(name, f):
             plots.save(f, out / name)
-            figs[caption] = out / name
+            figs[captions[name]] = out / name
 
-        fig("reference.png", plots.plot_reference(o.references["long"]),
-            "Fig. Data_Generation: the reference used for the data sets and the long evaluation.")
+        fig("reference.png", plots.plot_reference(o.references["long"]))
         fig("mse.png", plots.plot_mse_bars({r: {d: o.commutation_mse[r][d]["filtered"] for d in "yxz"}
-                                            for r in o.rows}),
-            "Filtered commutation-error MSE per row and direction (log scale).")
+                                            for r in o.rows},
+                                           title=f"commutation-error MSE per row, {lp:g} Hz low-pass, long reference"))
         velocities = setup.config.reference.velocities
-        labels = {"slow": f"slow ({min(velocities):g} m/s)", "fast": f"fast ({max(velocities):g} m/s)",
+        labels = {"slow": f"slow reference ({min(velocities):g} m/s)", "fast": f"fast reference ({max(velocities):g} m/s)",
                   "user": "user reference"}
         for rname, label in labels.items():
             if rname in o.runs:
-                fig(f"compare_{rname}.png", plots.plot_comparison(o.runs[rname], lp, title=f"{label} reference"),
-                    f"Figs. CommutationError_Ref1/2: {label} reference — filtered commutation error in y, x, z "
-                    "and tracking error, every row.")
+                fig(f"compare_{rname}.png", plots.plot_comparison(o.runs[rname], lp, title=label))
         y = np.linspace(*_train_range(o.pgnn, setup), 2001)
         truth = np.asarray(setup.plant.cogging(jnp.asarray(y)))
-        fig("cogging.png", plots.plot_cogging(y, np.asarray(o.pgnn.cogging(jnp.asarray(y))), truth),
-            "Fig. Cogging_Force: identified cogging force (mean over coil sets) against the plant's truth.")
+        fig("cogging.png", plots.plot_cogging(y, np.asarray(o.pgnn.cogging(jnp.asarray(y))), truth,
+                                              title="cogging force identified by the PGNN (mean over coil sets)"))
         gm = np.asarray(o.pgnn.gain(jnp.asarray(y)))
         gt = np.asarray(setup.plant.gain(jnp.asarray(y)))
-        fig("gain_coilset1.png", plots.plot_gain_columns(y, gm[:, 0], gt[:, 0], 0),
-            "Gain-matrix columns of coil set 1: PGNN against the plant's truth.")
+        fig("gain_coilset1.png", plots.plot_gain_columns(y, gm[:, 0], gt[:, 0], 0, label="PGNN"))
         cal = o.calibration
         fig("calibration.png", plots.plot_calibration(cal.k_initial, cal.zeta_initial, cal.k, cal.zeta, setup.true_k,
-                                                      setup.true_zeta),
-            "Table Parameters_CLM: initial, calibrated and true k, zeta per coil set.")
+                                                      setup.true_zeta))
         fy_max = float(np.max(np.abs(o.runs["long"]["pgnn"].f_star[:, 0])))
         if o.spline is not None:
             ys = np.asarray(o.spline.model.gain_knots)
             yy = np.linspace(ys[0], ys[-1], 2001)
             truth_c = np.asarray(setup.plant.cogging(jnp.asarray(yy)))
             fig("cogging_spline.png", plots.plot_cogging(yy, np.asarray(o.spline.model.cogging(jnp.asarray(yy))),
-                                                         truth_c),
-                "Cogging force of the spline model (table chosen by cross-validation) against the plant's truth.")
+                                                         truth_c, title="cogging force of the spline model",
+                                                         label="spline model"))
             gs = np.asarray(o.spline.model.gain(jnp.asarray(yy)))
             gts = np.asarray(setup.plant.gain(jnp.asarray(yy)))
-            fig("gain_spline_coilset1.png", plots.plot_gain_columns(yy, gs[:, 0], gts[:, 0], 0),
-                "Gain-matrix columns of coil set 1: spline model against the plant's truth.")
+            fig("gain_spline_coilset1.png", plots.plot_gain_columns(yy, gs[:, 0], gts[:, 0], 0, label="spline model"))
         if o.spline is not None:
             save_model(out / "spline_model", o.spline.model,
                        {"seed": args.seed, "plant": setup.plant_name, "fy_abs_max": fy_max,
