@@ -2,4 +2,5 @@
 
 from pgcomm.cli import entry
 
-entry()
+if __name__ == "__main__":  # importing the module (autodoc does) must not run the program
+    entry()
