@@ -452,12 +452,12 @@ def simulated_mass(setup: Setup) -> tuple[Setup, str]:
     sim = float(setup.config.mechanics.mass)
     if setup.motor.mass is None:
         return (replace(setup, motor=replace(setup.motor, mass=sim)),
-                f"{sim:g} kg from the simulated mechanics ([mechanics] mass; the motor description has none)")
+                f"{sim:.4g} kg from the simulated mechanics ([mechanics] mass; the motor description has none)")
     m = float(setup.motor.mass)
     if setup.plant_name == "twin" and m == sim:
-        return setup, f"{m:g} kg from the simulated mechanics ([mechanics] mass)"
-    differs = "" if abs(m - sim) <= 1e-9 * sim else f"; the simulated translator has {sim:g} kg"
-    return setup, f"{m:g} kg from the motor description{differs}"
+        return setup, f"{m:.4g} kg from the simulated mechanics ([mechanics] mass)"
+    differs = "" if abs(m - sim) <= 1e-9 * sim else f"; the simulated translator has {sim:.4g} kg"
+    return setup, f"{m:.4g} kg from the motor description{differs}"
 
 
 def tune_feedforward(setup: Setup, laws: list, reference, seed: int = 0) -> list[Feedforward]:

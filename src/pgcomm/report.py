@@ -85,7 +85,7 @@ def gain_sentence(result: ReproduceResult, results: dict | None = None) -> str:
     """
     me = (results or result.to_dict())["model_error"]
     r_p = me["pgnn"]["gain_ratio_y"]
-    text = (f"The PGNN's driving-force gain |K̂_y| is on average {_off(r_p)} the truth over the stroke "
+    text = (f"The PGNN's driving-force gain |K̂_y| is on average {_off(r_p)} over the stroke "
             f"(mean of |K̂_y(y)| / |K_y(y)| over positions and coil sets)")
     others = [f"{label} {_off(me[name]['gain_ratio_y'])}" for name, label in
               (("pgnn_direction", "the PGNN with the direction term"), ("spline", "the spline model")) if name in me]
@@ -102,20 +102,22 @@ def gain_sentence(result: ReproduceResult, results: dict | None = None) -> str:
                  "compensates the direction force only in proportion to the current.")
     z_p = me["pgnn"]["gain_rms_relative"]["z"]
     z_d = me.get("pgnn_direction", {}).get("gain_rms_relative", {}).get("z")
-    if z_p is not None and z_d is not None:
-        text += (f" The Tz row's gain is small (a few tenths of N m/A): the PGNN misses it by {100 * z_p:.0f} % of its "
-                 f"RMS, the PGNN with the direction term by {100 * z_d:.0f} %")
+    if z_p and z_d is not None:
+        z_ref = me["pgnn"]["gain_rms"]["z"] / z_p  # RMS of the true Tz row (N m/A)
+        text += (f" The Tz row's true gain has an RMS of {z_ref:.2g} N m/A: the PGNN misses it by {100 * z_p:.0f} % "
+                 f"of that, the PGNN with the direction term by {100 * z_d:.0f} %")
         text += (", so the torque row takes up the motor's direction-dependent torque in the same way."
                  if f_dir > 0 and z_d < 0.5 * z_p else ".")
     return text
 
 
 def _off(ratio: float) -> str:
-    """``ratio`` of a model's gain to the truth's in words: ``"10.9 % above"``, ``"within 0.05 % of"``."""
+    """``ratio`` of a model's gain to the truth's in words: ``"10.9 % above the truth"``, ``"within 0.05 % of the
+    truth"``."""
     d = 100.0 * (ratio - 1.0)
     if abs(d) < 0.05:
-        return "within 0.05 % of"
-    return f"{abs(d):.1f} % {'above' if d > 0 else 'below'}"
+        return "within 0.05 % of the truth"
+    return f"{abs(d):.1f} % {'above' if d > 0 else 'below'} the truth"
 
 
 def figure_captions(result: ReproduceResult, results: dict | None = None) -> dict:
@@ -187,14 +189,14 @@ def comparison_sentences(result: ReproduceResult) -> list[str]:
     s.append(f"Original, y: {r_oy:.3g} N² against the paper's {p_oy:.3g} N²; the uncalibrated k̂ = {k0} N/A is "
              f"{abs(k_excess):.0f} % {'above' if k_excess >= 0 else 'below'} the calibrated values, so this error "
              "grows with the squared driving force, which depends on the friction and mass of the translator "
-             f"(this run: {mech.mass:g} kg, {mech.coulomb:g} N Coulomb friction, {mech.viscous:g} N s/m viscous "
+             f"(this run: {mech.mass:.4g} kg, {mech.coulomb:.4g} N Coulomb friction, {mech.viscous:.4g} N s/m viscous "
              "friction).")
     r_py, p_py = cm["pgnn"]["y"]["filtered"], p["pgnn"]["y"][0]
     r_or = cm["oracle"]["y"]["filtered"]
     s.append(f"PGNN, y: {r_py:.3g} N² against the paper's {p_py:.3g} N², {r_cy / r_py:.1f} times less than classical "
              f"(paper: {p_cy / p_py:.1f} times). The oracle (the plant's exact inverse with its true position and "
              f"velocity) reaches {r_or:.3g} N²: its true force meets the demand (MSE {oracle_true['y']:.2g} N²), "
-             f"and {noise['y']:.3g} N² is the force sensor's own noise on this reference ({cfg.sensors.force_noise[0]:g} "
+             f"and {noise['y']:.3g} N² is the force sensor's own noise on this reference ({cfg.sensors.force_noise[0]:.3g} "
              f"N rms after the {lp:g} Hz low-pass; {noise_expected['y']:.3g} N² expected), the floor of any error "
              "measured with this sensor. What lies between the PGNN and the oracle is outside the PGNN's model class "
              "(velocity-dependent forces, higher harmonics, variation along the stroke finer than its networks) or "
@@ -210,7 +212,7 @@ def comparison_sentences(result: ReproduceResult) -> list[str]:
                  f"{unit}), PGNN {cm['pgnn'][d]['filtered']:.3g} {unit} (paper {p['pgnn'][d][0]:.3g} {unit}), oracle "
                  f"{cm['oracle'][d]['filtered']:.3g} {unit} (the filtered sensor noise on this reference: "
                  f"{noise[d]:.3g} {unit}); the unfiltered values hold all of the force-sensor noise (this run: "
-                 f"{cfg.sensors.force_noise[q]:g} {nu} rms, {cfg.sensors.force_noise[q] ** 2:.3g} {unit}).")
+                 f"{cfg.sensors.force_noise[q]:.3g} {nu} rms, {cfg.sensors.force_noise[q] ** 2:.3g} {unit}).")
     r_ct, p_ct = tm["classical"], PAPER["tracking_mse"]["classical"]
     r_pt, p_pt = tm["pgnn"], PAPER["tracking_mse"]["pgnn"]
     s.append(f"Tracking error: classical {r_ct:.3g} m² (paper {p_ct:.3g} m²), PGNN {r_pt:.3g} m² (paper "
@@ -232,7 +234,7 @@ def comparison_sentences(result: ReproduceResult) -> list[str]:
                  f"N²): it removes {_pct(share_p)} of what the force-sensor PGNN removes. Its Coulomb column also "
                  "holds any direction-dependent force of the motor (the two cannot be told apart from the motion), "
                  f"so that force stays in its error. Identified friction ({fr}) against the simulated translator's "
-                 f"{mech.coulomb:g} N Coulomb and {mech.viscous:g} N s/m viscous friction; offered as the "
+                 f"{mech.coulomb:.4g} N Coulomb and {mech.viscous:.4g} N s/m viscous friction; offered as the "
                  f"feedforward's parameters. Moving mass: {mass}.")
         if "cogging_table_sensorless" in cm:
             wo = sl["y_mse_without_direction_force"]
