@@ -170,3 +170,10 @@ def test_identify_writes_model_and_costs(tmp_path, capsys):
 
     model, doc = load_model(out / "model.json")
     assert model.n_coil_sets == 3 and doc["metadata"]["fy_abs_max"] > 0
+    # the motor's current limit travels with the model (the twin's 10 A) and every export applies it by default
+    assert doc["metadata"]["current_limit"] == 10.0 and "drive" not in doc["metadata"]
+    code, stdout, err = run(["export", "--model", str(out / "model.json"), "--format", "c", "--out",
+                             str(tmp_path / "c"), "--quiet"], capsys)
+    assert code == 0, err
+    header = " ".join((tmp_path / "c" / "pgcomm_law.h").read_text().split())
+    assert "Current limit: 10 A peak phase current (from the model file)" in header
