@@ -3,6 +3,7 @@ generated on the plant (twin or force map); results.json and a figure."""
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -88,6 +89,12 @@ def run(args, out: Path, progress) -> None:
 
     t0 = time.perf_counter()
     setup = setup_from_args(args)
+    mass_source = None
+    if args.no_force_sensor:
+        # the simulated translator's mass, before the first computation (a motor TOML may have none)
+        setup, mass_source = experiment.simulated_mass(setup)
+        if not args.quiet:
+            print(f"pgcomm: moving mass {mass_source}", file=sys.stderr)
     reference = experiment.data_generation_reference(setup)
     cc = setup.config.calibration
     with progress.stage(f"Algorithm 1 on {setup.plant_name}: {setup.motor.n_coil_sets} coil sets x 2 data sets, "
@@ -96,7 +103,7 @@ def run(args, out: Path, progress) -> None:
                                                sensorless=args.no_force_sensor)
     calibration = experiment.calibration_results(setup, cal)
     if args.no_force_sensor:
-        calibration.update(method="sensorless", mass=experiment.sensorless_mass(setup))
+        calibration.update(method="sensorless", mass=experiment.sensorless_mass(setup), mass_source=mass_source)
     results = {"command": "calibrate", "plant": setup.plant_name, "calibration": calibration,
                "force_sensor": not args.no_force_sensor, "runtime_s": time.perf_counter() - t0}
     plots.save(plots.plot_calibration(cal.k_initial, cal.zeta_initial, cal.k, cal.zeta, setup.true_k,
