@@ -431,8 +431,8 @@ def convergence(result: CalibrationResult, tol: float = 1e-4, n_se: float = CONV
         n_se: standard errors a step may reach and still count as noise.
 
     Returns:
-        ``{"step": {"k_relative": (L,), "zeta_rad": (L,)}, "standard_error": {...}, "tolerance": {...},
-        "converged": bool, "rule": str}``.
+        ``{"step": {"k_relative": (L,), "zeta_rad": (L,)}, "standard_error": {...}, "tolerance": {...},``
+        ``"converged": bool, "rule": str}``.
     """
     steps = sorted(result.history[-1], key=lambda s: s.coil_set)
     k_step = result.k / result.k_initial - 1.0

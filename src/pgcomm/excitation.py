@@ -60,7 +60,7 @@ MIN_ANGLE = 0.1
 #: Smallest ``sqrt(λ_min(cov p)) / rms|p|`` per bin (else a single force magnitude).
 MIN_SPREAD = 0.1
 
-#: |Δ| (rad) below which a sample counts as ``Δ ≈ 0`` (plain commutation) in the report.
+#: ``|Δ|`` (rad) below which a sample counts as ``Δ ≈ 0`` (plain commutation) in the report.
 DELTA_ZERO = 0.05
 #: Samples whose current amplitude is below this share of the median are "no current"
 #: (they are ignored when judging current directions).

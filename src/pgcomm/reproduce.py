@@ -70,8 +70,8 @@ def model_error(model, plant, y_range, n: int = 2001) -> dict:
         y_range: ``(lo, hi)`` positions, uniformly sampled with ``n`` points.
 
     Returns:
-        ``{"gain_rms": {y, x, z}, "cogging_rms": {y, x, z}, "gain_rms_relative": {y, x, z},
-        "gain_ratio_y": r}``: RMS over positions, coil sets and both current columns (N/A; N·m/A for
+        ``{"gain_rms": {y, x, z}, "cogging_rms": {y, x, z}, "gain_rms_relative": {y, x, z},``
+        ``"gain_ratio_y": r}``: RMS over positions, coil sets and both current columns (N/A; N·m/A for
         z), RMS of the cogging (N; N·m), the gain RMS relative to the RMS of the true gain row, and
         the mean over positions and coil sets of the model's driving-force gain amplitude over the
         truth's, ``|K̂_y(y)| / |K_y(y)|`` (both current columns; 1.08 = the model's gain 8 % high).

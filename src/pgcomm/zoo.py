@@ -15,11 +15,11 @@ folder a user could have brought, and :func:`write_zoo` writes ``n`` of them::
 
 **Electromagnetics** (:meth:`ZooMotor.gain_phases`). Coil set ``l`` sits at track position
 ``p = y + d^l`` (``y`` the translator's centre of mass, ``d^l`` its lever arm). With the
-commutation phase of phase ``p ∈ {a, b, c}``
+commutation phase of phase ``p ∈ {a, b, c}``::
 
     θ_lp(y) = 2π y/d_m + ζ^l + φ_p + α_lp + δφ(p) + arg A_lp(y)
 
-the per-ampere forces are
+the per-ampere forces are::
 
     Fy_lp = (2/3) k^l (1 + g_lp) s(p) |A_lp|   [sin θ + h5 sin(5θ + ψ5) + h7 sin(7θ + ψ7)]
     Fx_lp = (2/3) k^l (1 + g_lp) s(p) |B_lp| μ^l(p) [cos θ' + h5 cos(5θ' + ψ5) + h7 cos(7θ' + ψ7)]

@@ -120,7 +120,7 @@ def regressor(theta_nl: CoilSetModel, y, currents, velocity=None):
         y: ``(N,)`` (m); currents: ``(N, 2)`` (A); velocity: ``(N,)`` (m/s), needed with the direction term.
 
     Returns:
-        ``(N, p)`` with columns ``[cos·ia, cos·ib, sin·ia, sin·ib, (harmonics: 8), (s(ẏ)),
+        ``(N, p)`` with columns ``[cos·ia, cos·ib, sin·ia, sin·ib, (8 harmonics), (s(ẏ)),
         h_1·ia, ia, h_2·ib, ib, h_φ, 1]`` (extensions and networks that are absent leave their
         columns out).
     """
