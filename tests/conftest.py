@@ -31,3 +31,15 @@ jax.config.update("jax_numpy_dtype_promotion", "strict")
 def rng():
     """A seeded NumPy generator (explicit seeds only)."""
     return np.random.default_rng(20240611)
+
+
+@pytest.fixture(scope="session")
+def cc():
+    """Path of the system C compiler; the tests that compile exported C are skipped only if there is none."""
+    import shutil
+
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path:
+            return path
+    pytest.skip("no C compiler (cc, gcc, clang) on PATH")

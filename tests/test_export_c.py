@@ -15,7 +15,6 @@ law is always damped and its own rounding noise (Python's too) is ~1e-10.
 from __future__ import annotations
 
 import re
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -130,15 +129,6 @@ int main(int argc, char **argv)
 }
 """
 
-
-@pytest.fixture(scope="module")
-def cc():
-    """Path of the system C compiler; the C tests are skipped only if there is none."""
-    for name in ("cc", "gcc", "clang"):
-        path = shutil.which(name)
-        if path:
-            return path
-    pytest.skip("no C compiler (cc, gcc, clang) on PATH")
 
 
 def compile_law(cc, model, directory: Path, precision="double", name="law", **kwargs) -> Path:

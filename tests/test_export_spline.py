@@ -17,7 +17,6 @@ ten thousand ulp: far below any physical meaning, far above rounding.
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -240,15 +239,6 @@ int main(int argc, char **argv)
 }
 """
 
-
-@pytest.fixture(scope="module")
-def cc():
-    """Path of the system C compiler; the C tests are skipped only if there is none."""
-    for name in ("cc", "gcc", "clang"):
-        path = shutil.which(name)
-        if path:
-            return path
-    pytest.skip("no C compiler (cc, gcc, clang) on PATH")
 
 
 def compile_law(cc, model, directory: Path, mechanics, precision="double", name="spl", **kwargs) -> Path:

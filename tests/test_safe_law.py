@@ -187,17 +187,6 @@ int main(int argc, char **argv)
 """
 
 
-@pytest.fixture(scope="module")
-def cc():
-    """Path of the system C compiler; these tests are skipped only if there is none."""
-    import shutil
-
-    for name in ("cc", "gcc", "clang"):
-        path = shutil.which(name)
-        if path:
-            return path
-    pytest.skip("no C compiler (cc, gcc, clang) on PATH")
-
 
 def _compile(cc, directory, harness: str, source=None):
     import subprocess
