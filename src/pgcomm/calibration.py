@@ -277,9 +277,10 @@ def calibrate_from_logs(logs, motor, method: str = "offset", n_bins: int = 40) -
 
     Each log is one experiment with one coil set carrying current (:func:`pgcomm.data.active_coil_set`)
     and the drive's fixed commutation at ``motor``'s nominal ``k̂``, ``ζ̂`` with a constant phase
-    offset ``Δ``. The offset is read from the drive inputs: a log stores ``(Fy_ref_l, delta_l)``
-    with ``Fy_ref_l ≥ 0``, so where ``Fy_ref_l`` and the demanded ``Fy_star`` have opposite signs
-    the applied offset is ``delta_l + π``. Per coil set exactly one log with ``Δ = −Δ0`` and one
+    offset ``Δ``. The offset is read from the drive inputs ``(Fy_ref_l, delta_l)``: in the log
+    format ``Fy_ref_l`` is signed and ``delta_l`` stays at ``±Δ0``; logs of older writers with
+    ``Fy_ref_l ≥ 0`` are read too (where ``Fy_ref_l`` and ``Fy_star`` have opposite signs the
+    applied offset is ``delta_l + π``). Per coil set exactly one log with ``Δ = −Δ0`` and one
     with ``+Δ0`` are needed. The coefficients and the update are those of
     :func:`calibrate_from_datasets` (the same numbers as calibrating on the simulated data sets).
 

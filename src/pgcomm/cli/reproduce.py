@@ -88,7 +88,13 @@ def run(args, out: Path, progress) -> None:
                         "current_limit": setup.motor.current_limit,
                         "identification": {"spline": results["identification"].get("spline")}},
                        mechanics=o.mechanics)
+        from pgcomm.io.model import drive_metadata
+
+        # the law's limit and the drive's calibrated commutation, which every export then uses by default
         save_model(out / "model", o.pgnn, {"seed": args.seed, "plant": setup.plant_name, "fy_abs_max": fy_max,
+                                           "current_limit": setup.motor.current_limit,
+                                           "drive": drive_metadata(cal.k, cal.zeta, "calibrated by Algorithm 1 "
+                                                                   "(pgcomm reproduce)"),
                                            "identification": results["identification"]})
         results["runtime_s"] = time.perf_counter() - t0
         write_results(out / "results.json", results)
