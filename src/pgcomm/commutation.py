@@ -353,7 +353,7 @@ class ModelLaw:
 
     ``velocity_source``: which velocity the controller gives the law (:mod:`pgcomm.simulate`):
     ``"reference"`` (default: the reference velocity ``ṙ``, exact and without lag; measured
-    better on the twin, see the README) or ``"encoder"`` (the encoder difference through a
+    better on the twin, see docs/extensions.md) or ``"encoder"`` (the encoder difference through a
     first-order low-pass at ``velocity_cutoff_hz``, Hz).
     """
 

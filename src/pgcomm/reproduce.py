@@ -338,7 +338,7 @@ class ReproduceResult:
                       "tracking": tm["classical"] / tm[row]} for row in self.rows}
 
     def to_dict(self) -> dict:
-        """The JSON-ready ``results.json`` dict (keys in the README; the CLI adds ``command``, ``version``,
+        """The JSON-ready ``results.json`` dict (keys in docs/results.md; the CLI adds ``command``, ``version``,
         ``quick``, ``seed`` and ``runtime_s``)."""
         out: dict = {"plant": self.setup.plant_name,
                      "calibration": experiment.calibration_results(self.setup, self.calibration),

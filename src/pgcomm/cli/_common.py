@@ -26,7 +26,7 @@ def add_common_options(p: argparse.ArgumentParser, out: bool = True, plant: bool
                        help="force map replacing the twin's electromagnetics (needs --motor)")
         p.add_argument("--motor", type=Path, metavar="MOTOR.toml", help="motor description for --plant")
         p.add_argument("--config", type=Path, metavar="FILE.toml",
-                       help="experiment settings (see README); default: config.toml beside --plant, if there")
+                       help="experiment settings (see docs/formats.md); default: config.toml beside --plant, if there")
         p.add_argument("--truth", type=Path, metavar="TRUTH.json",
                        help="the plant's known k, zeta (default: truth.json beside --plant, if there)")
         p.add_argument("--seed", type=seed_value, default=0,

@@ -1,6 +1,6 @@
 """Force-map files (CSV): :func:`load_forcemap` and :func:`write_forcemap` of a :class:`~pgcomm.forcemap.ForceMapPlant`.
 
-Format (README, "Force map"): column ``y`` (m, strictly increasing); for each coil set
+Format (docs/formats.md, "Force map"): column ``y`` (m, strictly increasing); for each coil set
 ``l = 1..L`` and phase ``p ∈ {a, b, c}`` the columns ``Fy_{l}{p}``, ``Fx_{l}{p}`` (N/A) and
 ``Tz_{l}{p}`` (N·m/A); optional ``Fy_cog``, ``Fx_cog`` (N), ``Tz_cog`` (N·m). ``L`` is read
 from the column names. The table is read by :func:`pgcomm.io.tables.read_csv_columns`.
