@@ -56,7 +56,8 @@ int law_call(double y, const double f[3], double cur[LAW_L][2]);
 def bench_identification() -> None:
     from pgcomm import experiment
     from pgcomm.data import coil_set_data_from_runs
-    from pgcomm.experiment import ExperimentConfig, build_setup
+    from pgcomm.io.setup import build_setup
+    from pgcomm.settings import ExperimentConfig
     from pgcomm.identify import identify
 
     setup = build_setup(ExperimentConfig())
@@ -105,7 +106,8 @@ def bench_c(cc, n, reps) -> None:
 
 def bench_sensorless(full: bool) -> None:
     from pgcomm import reproduce
-    from pgcomm.experiment import ExperimentConfig, build_setup
+    from pgcomm.io.setup import build_setup
+    from pgcomm.settings import ExperimentConfig
     cfg = ExperimentConfig() if full else reproduce.quick_config(ExperimentConfig())
     setup = build_setup(cfg)
     t0 = time.perf_counter()

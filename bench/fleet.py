@@ -45,7 +45,8 @@ def main() -> None:
     ap.add_argument("--keep", type=Path, help="reuse/keep the zoo here")
     a = ap.parse_args()
     from pgcomm.fleet import process_motor, run_fleet
-    from pgcomm.zoo import draw_motor, motor_folder_name, write_logs, write_motor
+    from pgcomm.experiment import write_production_logs
+    from pgcomm.zoo import draw_motor, motor_folder_name, write_motor
 
     root = Path(a.keep or tempfile.mkdtemp(prefix="pgcomm-bench-fleet-"))
     zoo = root / "zoo"
@@ -53,7 +54,7 @@ def main() -> None:
     for i in range(1, a.motors + 1):
         f = zoo / motor_folder_name(i, a.motors)
         if not (f / "logs").is_dir():
-            write_logs(write_motor(draw_motor(a.seed, i - 1), f), seed=a.seed)
+            write_production_logs(write_motor(draw_motor(a.seed, i - 1), f), seed=a.seed)
     print(f"zoo: {a.motors} motors with logs in {root} ({time.perf_counter() - t:.0f} s to write or check)")
     samples = sum(sum(1 for _ in open(p)) - 1 for p in zoo.glob("*/logs/*.csv"))
     print(f"logged samples: {samples} ({samples / a.motors:.0f} per motor)")

@@ -45,6 +45,8 @@ def run_motor(folder: str, seed: int, twin_type: bool) -> dict:
 
     import pgcomm  # noqa: F401
     from pgcomm import experiment
+    from pgcomm.io.setup import build_setup
+    from pgcomm.settings import load_experiment
     from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw, oracle_law
     from pgcomm.compensation import fit_cogging_table
     from pgcomm.data import coil_set_data_from_runs
@@ -52,7 +54,7 @@ def run_motor(folder: str, seed: int, twin_type: bool) -> dict:
     from pgcomm.reproduce import reference_seed
 
     folder = Path(folder)
-    setup = experiment.build_setup(experiment.load_experiment(folder / "config.toml"), folder / "plant.csv",
+    setup = build_setup(load_experiment(folder / "config.toml"), folder / "plant.csv",
                                    folder / "motor.toml")
     if twin_type:
         from pgcomm.zoo import draw_motor

@@ -48,7 +48,8 @@ def run_motor(folder: str, seed: int, quick: bool, twin_type: bool = False) -> d
 
     import pgcomm  # noqa: F401
     from pgcomm import reproduce
-    from pgcomm.experiment import build_setup, load_experiment
+    from pgcomm.io.setup import build_setup
+    from pgcomm.settings import load_experiment
 
     folder = Path(folder)
     config = load_experiment(folder / "config.toml")

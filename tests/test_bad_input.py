@@ -278,7 +278,9 @@ def test_simulated_runs_give_a_motor_without_mass_the_simulated_translators(tmp_
 
 
 def test_simulated_mass_names_a_motor_mass_that_differs():
-    from pgcomm.experiment import ExperimentConfig, build_setup, simulated_mass
+    from pgcomm.io.setup import build_setup
+    from pgcomm.settings import ExperimentConfig
+    from pgcomm.setup import simulated_mass
 
     setup = build_setup(ExperimentConfig())
     same, source = simulated_mass(setup)

@@ -129,7 +129,10 @@ def test_forcemap_too_short_for_stroke(tmp_path, capsys):
 
 def test_default_reference_spans_the_map(tmp_path):
     """Without [reference] stroke, the reference covers the map's range less the margin (any centre)."""
-    from pgcomm.experiment import ExperimentConfig, build_setup, data_generation_reference, reference_span
+    from pgcomm.experiment import data_generation_reference
+    from pgcomm.io.setup import build_setup
+    from pgcomm.settings import ExperimentConfig
+    from pgcomm.setup import reference_span
 
     y = np.linspace(0.2, 0.5, 31)  # a map not centred on 0
     write_forcemap(tmp_path / "map.csv", y, np.ones((31, 3, 3, 3)))

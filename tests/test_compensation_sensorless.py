@@ -2,7 +2,7 @@
 
 Closed form: effort data built from a known force error ``e(y)``, symmetric friction and a
 direction force give back ``e(y)`` (:func:`pgcomm.compensation.fit_effort_table`). On the twin:
-the table from the slow constant-velocity passes (:func:`pgcomm.experiment.sensorless_cogging_table`)
+the table from the slow constant-velocity passes (:func:`pgcomm.sensorless_table.sensorless_cogging_table`)
 does what the force-sensor table does.
 """
 
@@ -98,10 +98,11 @@ def test_directions_without_common_positions_are_refused():
 
 @pytest.fixture(scope="module")
 def twin():
-    from pgcomm import experiment
+    from pgcomm import experiment, sensorless_table
     from pgcomm.commutation import ClassicalLaw, OffsetLaw
     from pgcomm.compensation import fit_cogging_table
-    from pgcomm.experiment import ExperimentConfig, build_setup
+    from pgcomm.io.setup import build_setup
+    from pgcomm.settings import ExperimentConfig
     from pgcomm.reproduce import quick_config
 
     setup = build_setup(quick_config(ExperimentConfig()))
@@ -112,7 +113,7 @@ def twin():
     run_c = experiment.run_laws(setup, [law], long_ref, [ff], seeds=[60])[0]
     table = fit_cogging_table(run_c.y_meas, run_c.f_meas[:, 0] - run_c.f_star[:, 0],
                               setup.config.evaluation.cogging_table_entries, setup.config.reference.span)
-    sensorless, info = experiment.sensorless_cogging_table(setup, law, ff, seed=0)
+    sensorless, info = sensorless_table.sensorless_cogging_table(setup, law, ff, seed=0)
     laws = [law, OffsetLaw(law, table), OffsetLaw(law, sensorless)]
     ffs = experiment.tune_feedforward(setup, laws, long_ref, seed=70)
     runs = experiment.run_laws(setup, laws, long_ref, ffs, seeds=[123] * 3)
@@ -162,13 +163,13 @@ def test_sensorless_table_is_close_to_the_force_sensor_table(twin):
 
 
 def test_a_speed_that_leaves_no_settled_samples_is_refused_before_running(twin):
-    from pgcomm import experiment
+    from pgcomm import sensorless_table
     from pgcomm.commutation import ClassicalLaw
     from pgcomm.control import Feedforward
 
     setup = twin["setup"]
     law = ClassicalLaw.from_motor(setup.motor)
     with pytest.raises(ConfigError, match="lower the speed or lengthen the stroke"):
-        experiment.sensorless_cogging_table(setup, law, Feedforward(), speed=0.3)
+        sensorless_table.sensorless_cogging_table(setup, law, Feedforward(), speed=0.3)
     with pytest.raises(ConfigError, match="expected > 0"):
-        experiment.sensorless_cogging_table(setup, law, Feedforward(), speed=0.0)
+        sensorless_table.sensorless_cogging_table(setup, law, Feedforward(), speed=0.0)

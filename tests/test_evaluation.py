@@ -6,14 +6,13 @@ import numpy as np
 import pytest
 
 from pgcomm.errors import DataError
+from pgcomm.plots import plot_logs, plot_model_error
 from pgcomm.evaluation import (
     evaluate_log,
     evaluate_logs,
     evaluation_results,
     format_table,
     log_names,
-    plot_logs,
-    plot_model_error,
 )
 from pgcomm.metrics import lowpass
 from test_excitation import MOTOR, TS, synthetic_log, truth_model

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from pgcomm.errors import DataError
-from pgcomm.excitation import excitation_report, group_logs, plot_coverage
+from pgcomm.excitation import excitation_report, group_logs
+from pgcomm.plots import plot_coverage
 from pgcomm.data import CoilSetData
 from pgcomm.excitation import check_excitation
 from pgcomm.io.logs import Log

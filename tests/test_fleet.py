@@ -9,7 +9,8 @@ import pytest
 
 from pgcomm.cli import main
 from pgcomm.fleet import flag_outliers, robust_z
-from pgcomm.zoo import draw_motor, write_logs, write_motor
+from pgcomm.experiment import write_production_logs
+from pgcomm.zoo import draw_motor, write_motor
 
 # zoo seed 1: indices 9 and 10 are single-coil-set motors with short data sets of about the same
 # length (one compiled identification serves both), index 4 gets a corrupt log.
@@ -24,7 +25,7 @@ def _small_motor(folder: Path, index: int) -> Path:
     c = re.sub(r"velocities = \[([^,]*), [^\]]*\]", lambda m: f"velocities = [{m.group(1)}]", c)
     c = re.sub(r"dwell = \S+", "dwell = 0.05", c)
     (f / "config.toml").write_text(c + "\n[identification]\nstarts = 2\nmax_iterations = 3\n")
-    write_logs(f, seed=0)
+    write_production_logs(f, seed=0)
     return f
 
 

@@ -19,7 +19,8 @@ import scipy.io as sio
 
 from pgcomm import experiment, trajectory
 from pgcomm.excitation import excitation_report
-from pgcomm.experiment import ExperimentConfig, build_setup
+from pgcomm.io.setup import build_setup
+from pgcomm.settings import ExperimentConfig
 from pgcomm.identify import identify_all
 from pgcomm.io.logs import Log, read_logs, write_log
 from pgcomm.data import coil_set_data_from_logs

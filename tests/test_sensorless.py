@@ -151,7 +151,8 @@ def twin_run():
     from dataclasses import replace
 
     from pgcomm import experiment
-    from pgcomm.experiment import ExperimentConfig, build_setup
+    from pgcomm.io.setup import build_setup
+    from pgcomm.settings import ExperimentConfig
     from pgcomm.reproduce import quick_config
 
     cfg = quick_config(ExperimentConfig())

@@ -17,7 +17,8 @@ import pytest
 
 from pgcomm.cli import main
 from pgcomm.errors import DataError
-from pgcomm.experiment import ExperimentConfig, build_setup
+from pgcomm.io.setup import build_setup
+from pgcomm.settings import ExperimentConfig
 from pgcomm.io.logs import Log, read_log, write_log
 from pgcomm.io.model import load_model
 from pgcomm.motor import ideal_gain

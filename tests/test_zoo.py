@@ -8,13 +8,15 @@ import numpy as np
 import pytest
 
 import pgcomm  # noqa: F401  (enables float64)
-from pgcomm.experiment import build_setup, load_experiment
+from pgcomm.io.setup import build_setup
+from pgcomm.settings import load_experiment
 from pgcomm.forcemap import ForceMapPlant
 from pgcomm.io.forcemap import load_forcemap
 from pgcomm.io.config import load_motor
 from pgcomm.motor import PHASE_OFFSETS
 from pgcomm.plant import fundamental
-from pgcomm.zoo import EFFECTS, ZooMotor, draw_motor, motor_folder_name, reference_span, write_motor, write_zoo
+from pgcomm.setup import reference_span
+from pgcomm.zoo import EFFECTS, ZooMotor, draw_motor, motor_folder_name, write_motor, write_zoo
 
 N_DRAWS = 50
 FILES = ("plant.csv", "motor.toml", "config.toml", "truth.json")

@@ -36,9 +36,9 @@ _PUBLIC = {
     "ForceMapPlant": ("pgcomm.forcemap", "ForceMapPlant"),
     "load_forcemap": ("pgcomm.io.forcemap", "load_forcemap"),
     # experiment settings, set-up, the whole experiment
-    "ExperimentConfig": ("pgcomm.experiment", "ExperimentConfig"),
-    "load_experiment": ("pgcomm.experiment", "load_experiment"),
-    "build_setup": ("pgcomm.experiment", "build_setup"),
+    "ExperimentConfig": ("pgcomm.settings", "ExperimentConfig"),
+    "load_experiment": ("pgcomm.settings", "load_experiment"),
+    "build_setup": ("pgcomm.io.setup", "build_setup"),
     "run_experiment": ("pgcomm.reproduce", "run"),
     # the rig: plan, logs, calibration, identification
     "make_plan": ("pgcomm.plan", "make_plan"),

@@ -17,7 +17,7 @@ no sample reaches stay finite.
 Without a force sensor a drive learns the same table from its own effort:
 :func:`fit_effort_table` turns the position controller's force demand at slow constant
 velocity, one pass in each direction, into a :class:`CoggingTable`
-(:func:`pgcomm.experiment.sensorless_cogging_table` runs the passes).
+(:func:`pgcomm.sensorless_table.sensorless_cogging_table` runs the passes).
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ which the translator is slower than the identification's speed bound are left ou
 
 Every log is named by the shortest end of its path that no other log shares (:func:`log_names`:
 ``a/log.csv`` and ``b/log.csv`` become ``a/log`` and ``b/log``); figures, the text table and
-results.json use that name. Figures (:func:`plot_logs`, :func:`plot_model_error`) overlay all
+results.json use that name. Figures (:func:`pgcomm.plots.plot_logs`, :func:`pgcomm.plots.plot_model_error`) overlay all
 logs, one line per log, in the layout of the paper's commutation-error figures
 (:func:`pgcomm.plots.plot_comparison`). Logs may have different lengths, so every log is drawn
 against its own time axis.
@@ -40,9 +40,9 @@ from pathlib import Path
 import numpy as np
 
 from pgcomm.errors import DataError
-from pgcomm.metrics import DIRECTIONS, commutation_mse, lowpass, tracking_mse
+from pgcomm.metrics import DIRECTIONS, commutation_mse, tracking_mse
 
-__all__ = ["LogEvaluation", "evaluate_log", "evaluate_logs", "evaluation_results", "plot_logs", "plot_model_error",
+__all__ = ["LogEvaluation", "evaluate_log", "evaluate_logs", "evaluation_results", 
            "format_table", "require_desired_force", "missing_desired_force", "reconstruct_force", "ReconstructedForce",
            "STAR_COLUMNS", "log_names"]
 
@@ -474,96 +474,6 @@ def evaluation_results(evaluations, lowpass_hz: float = 50.0, model: str | None 
     return {"lowpass_hz": float(lowpass_hz), "model": model, "logs": [ev.to_dict() for ev in evaluations],
             "force_reconstructed": any(ev.force_reconstructed for ev in evaluations),
             "warnings": warnings, "notes": notes}
-
-
-# ------------------------------------------------------------------------------------------ figures
-
-_MODEL_LABEL = ("$F_y - \\hat F_y$ [N]", "$F_x - \\hat F_x$ [N]", "$T_z - \\hat T_z$ [N m]")
-
-
-def _colors(n):
-    import matplotlib.pyplot as plt
-
-    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    return [cycle[i % len(cycle)] for i in range(n)]
-
-
-def plot_logs(evaluations, title: str = ""):
-    """All logs overlaid: position, filtered commutation error in y, x, z, tracking error.
-
-    The layout of :func:`pgcomm.plots.plot_comparison`, one line per log (legend: its name,
-    :attr:`LogEvaluation.label`); the first panel shows ``r`` where logged, else the logged position
-    ``y`` (dashed). Logs without a desired force have no commutation-error line (said in the panel
-    when none has one). Returns a Matplotlib figure.
-    """
-    from pgcomm import plots  # selects the Agg backend
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(5, 1, figsize=(10, 10), sharex=True)
-    for ev, c in zip(evaluations, _colors(len(evaluations))):
-        if ev.r is not None:
-            ax[0].plot(ev.t, ev.r * 1e3, lw=0.9, color=c, label=ev.label)
-        else:
-            ax[0].plot(ev.t, ev.y * 1e3, "--", lw=0.9, color=c, label=f"{ev.label} (y)")
-        if ev.reconstructed is not None:  # y only, on the reconstruction's windows
-            rc = ev.reconstructed
-            if rc.error is not None:
-                ax[1].plot(rc.t, rc.error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
-            if ev.e is not None:
-                ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
-            continue
-        if ev.commutation_error is None:  # no desired force logged: tracking only
-            if ev.e is not None:
-                ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
-            continue
-        err = lowpass(ev.commutation_error, ev.sample_time, ev.lowpass_hz)
-        plots.draw_error_lines(ax, ev.t, err, ev.e, c, ev.label)
-    if any(ev.force_reconstructed for ev in evaluations):
-        for q in (2, 3):
-            ax[q].text(0.5, 0.9, "force reconstructed from the motion: x, z not observable (n/a)",
-                       transform=ax[q].transAxes, ha="center", va="top", fontsize=8)
-    if evaluations and all(ev.commutation_mse["y"]["filtered"] is None for ev in evaluations):
-        ax[1].text(0.5, 0.5, "no desired force F* logged: commutation error not available (see the model error)",
-                   transform=ax[1].transAxes, ha="center", va="center")
-    ax[0].set_ylabel("$y^*$ [mm]")
-    if not any(ev.e is not None for ev in evaluations):
-        ax[4].text(0.5, 0.5, "no reference r logged: tracking error not available", transform=ax[4].transAxes,
-                   ha="center", va="center")
-    ax[0].legend(loc="upper right", ncol=min(4, len(evaluations)), fontsize=8)
-    lp = evaluations[0].lowpass_hz if evaluations else 50.0
-    n_rec = sum(ev.force_reconstructed for ev in evaluations)
-    title1 = ("commutation error, Fy reconstructed from the motion, zero-phase filtered windows"
-              if evaluations and n_rec == len(evaluations) else
-              f"commutation error, {lp:g} Hz low-pass" + (" (reconstructed: filtered windows)" if n_rec else ""))
-    ax[1].set_title(title1, fontsize=10)
-    plots.finish_error_axes(fig, ax, title)
-    return fig
-
-
-def plot_model_error(evaluations, title: str = "model error F - F̂(y, i)"):
-    """Filtered model error ``F − F̂(y, i)`` in y, x, z, one line per log with a model fit."""
-    from pgcomm import plots  # noqa: F401  (selects the Agg backend)
-    import matplotlib.pyplot as plt
-
-    evs = [ev for ev in evaluations if ev.model_error is not None or ev.window_model_error is not None]
-    fig, ax = plt.subplots(3, 1, figsize=(10, 7), sharex=True)
-    for ev, c in zip(evs, _colors(len(evs))):
-        if ev.window_model_error is not None:  # reconstructed force: y on its windows only
-            ax[0].plot(ev.reconstructed.t, ev.window_model_error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
-            continue
-        err = lowpass(ev.model_error, ev.sample_time, ev.lowpass_hz)
-        for q in range(3):
-            ax[q].plot(ev.t, err[:, q], lw=0.7, color=c, label=ev.label)
-    for q in range(3):
-        ax[q].set_ylabel(_MODEL_LABEL[q])
-        ax[q].grid(alpha=0.3)
-    ax[2].set_xlabel("time [s]")
-    if evs:
-        ax[0].legend(loc="upper right", ncol=min(4, len(evs)), fontsize=8)
-    lp = evs[0].lowpass_hz if evs else 50.0
-    ax[0].set_title(f"{title}, {lp:g} Hz low-pass", fontsize=10)
-    fig.tight_layout()
-    return fig
 
 
 def format_table(evaluations) -> str:

@@ -45,7 +45,7 @@ from pgcomm.data import CoilSetData, active_coil_set, log_currents
 from pgcomm.motor import Motor
 
 __all__ = ["BinStats", "CoilSetExcitation", "ExcitationReport", "excitation_report", "coil_set_excitation",
-           "group_logs", "plot_coverage", "check_excitation", "DEFAULT_BINS", "MAX_BINS", "MIN_SAMPLES", "MIN_ANGLE",
+           "group_logs", "problem_runs", "check_excitation", "DEFAULT_BINS", "MAX_BINS", "MIN_SAMPLES", "MIN_ANGLE",
            "MIN_SPREAD", "DELTA_ZERO", "PROBLEMS"]
 
 #: Default number of position bins over the stroke.
@@ -339,7 +339,7 @@ def _bin_stats(data: CoilSetData, pole_pitch: float, zeta: float, edges, min_sam
                     tuple(problem))
 
 
-def _runs(problem) -> list[tuple[int, int, str]]:
+def problem_runs(problem) -> list[tuple[int, int, str]]:
     """Runs ``(first_bin, last_bin, kind)`` of consecutive bins with the same problem (``None`` runs left out)."""
     out, b, n = [], 0, len(problem)
     while b < n:
@@ -360,7 +360,7 @@ def _messages(coil_set: int, bins: BinStats, min_samples: int) -> tuple:
     dec = max(3, int(np.ceil(-np.log10(width))) + 1) if width > 0 else 3
     head = f"coil set {coil_set + 1}:"
     out = []
-    for b, end, kind in _runs(bins.problem):
+    for b, end, kind in problem_runs(bins.problem):
         where = f"y in [{e[b]:.{dec}f}, {e[end + 1]:.{dec}f}] m"
         run = slice(b, end + 1)
         if kind == "gap":
@@ -407,54 +407,4 @@ def check_excitation(data: CoilSetData, pole_pitch: float, n_bins: int = DEFAULT
     lo, hi = (float(data.y.min()), float(data.y.max())) if y_range is None else map(float, y_range)
     edges = np.linspace(lo, hi, int(n_bins) + 1)
     bins = _bin_stats(data, float(pole_pitch), 0.0, edges, min_samples, min_angle, min_spread)
-    return [f"y ∈ [{edges[b]:.4g}, {edges[e + 1]:.4g}] m: {_CHECK_WORDS[kind]}" for b, e, kind in _runs(bins.problem)]
-
-
-# ------------------------------------------------------------------------------------------- figure
-
-
-def plot_coverage(report: ExcitationReport):
-    """Coverage figure: per coil set, samples per position bin stacked by ``Δ`` sign; bins with problems shaded.
-
-    Returns a Matplotlib figure (one row of axes per coil set; positions in mm).
-    """
-    from pgcomm import plots  # noqa: F401  (selects the Agg backend)
-    import matplotlib.pyplot as plt
-
-    n = len(report.coil_sets)
-    fig, axes = plt.subplots(n, 1, figsize=(10, 2.4 * n + 0.6), sharex=True, squeeze=False)
-    lo, hi = report.y_range
-    colors = {"Δ < 0": "#1f77b4", "Δ ≈ 0": "#7f7f7f", "Δ > 0": "#ff7f0e", "no current": "#d9d9d9"}
-    for ax, cs in zip(axes[:, 0], report.coil_sets):
-        status = "ok" if cs.ok else f"{len(cs.problems)} problem(s)"
-        ax.set_title(f"coil set {cs.coil_set + 1}: {status}", fontsize=10, loc="left",
-                     color="k" if cs.ok else "#d62728")
-        ax.set_ylabel("samples")
-        ax.grid(alpha=0.3, axis="y")
-        if cs.bins is None:
-            ax.text(0.5, 0.5, "no log with this coil set active", transform=ax.transAxes, ha="center",
-                    va="center", color="#d62728")
-            continue
-        b = cs.bins
-        left, width = b.edges[:-1] * 1e3, np.diff(b.edges) * 1e3
-        bottom = np.zeros(len(left))
-        for (label, c), v in zip(colors.items(), (b.delta_negative, b.delta_zero, b.delta_positive, b.no_current)):
-            ax.bar(left, v, width=width, bottom=bottom, align="edge", color=c, edgecolor="white", lw=0.3,
-                   label=label)
-            bottom = bottom + v
-        ax.set_ylim(0, 1.25 * max(float(bottom.max()), 1.0))  # headroom for the problem labels
-        for first, last, kind in _runs(b.problem):
-            ax.axvspan(b.edges[first] * 1e3, b.edges[last + 1] * 1e3, color="#d62728", alpha=0.15, lw=0)
-            ax.text((b.edges[first] + b.edges[last + 1]) * 0.5e3, 0.96, kind, transform=ax.get_xaxis_transform(),
-                    ha="center", va="top", fontsize=8, color="#d62728")
-    handles, labels = axes[0, 0].get_legend_handles_labels()
-    if not handles:  # no coil set had data
-        handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in colors.values()]
-        labels = list(colors)
-    axes[-1, 0].set_xlabel("position $y$ [mm]")
-    axes[-1, 0].set_xlim(lo * 1e3, hi * 1e3)
-    fig.suptitle(f"excitation: samples per position bin ({report.n_bins} bins) by sign of Δ; "
-                 "shaded bins lack excitation", fontsize=10)
-    fig.tight_layout(rect=(0, 0, 1, 0.95))
-    fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.965), ncol=4, fontsize=8, frameon=False)
-    return fig
+    return [f"y ∈ [{edges[b]:.4g}, {edges[e + 1]:.4g}] m: {_CHECK_WORDS[kind]}" for b, e, kind in problem_runs(bins.problem)]

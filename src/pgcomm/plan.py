@@ -91,7 +91,7 @@ def reference_settings(rc, motor: Motor) -> dict:
     """The data-generation reference's parameters for a rig, resolved against its travel.
 
     Args:
-        rc: :class:`pgcomm.experiment.ReferenceConfig`; ``stroke`` (half stroke, m) and ``center`` (m)
+        rc: :class:`pgcomm.settings.ReferenceConfig`; ``stroke`` (half stroke, m) and ``center`` (m)
             may be ``None``: then the reference spans the motor's ``travel``.
         motor: the rig's motor; its ``travel`` (m), when known, bounds the reference.
 

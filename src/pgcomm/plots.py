@@ -12,6 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from pgcomm.excitation import problem_runs  # noqa: E402
 from pgcomm.metrics import lowpass  # noqa: E402
 
 #: One colour per comparison row, stable across figures.
@@ -198,4 +199,132 @@ def plot_mse_bars(table: dict, title: str = "commutation-error MSE (filtered)"):
         ax[q].grid(alpha=0.3, axis="y")
     fig.suptitle(title)
     fig.tight_layout()
+    return fig
+
+
+# --------------------------------------------------------------------- rig logs (pgcomm evaluate)
+
+_MODEL_LABEL = ("$F_y - \\hat F_y$ [N]", "$F_x - \\hat F_x$ [N]", "$T_z - \\hat T_z$ [N m]")
+
+
+def _colors(n):
+    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    return [cycle[i % len(cycle)] for i in range(n)]
+
+
+def plot_logs(evaluations, title: str = ""):
+    """All logs overlaid: position, filtered commutation error in y, x, z, tracking error.
+
+    The layout of :func:`plot_comparison`, one line per log (legend: its name,
+    :attr:`pgcomm.evaluation.LogEvaluation.label`); the first panel shows ``r`` where logged, else the logged position
+    ``y`` (dashed). Logs without a desired force have no commutation-error line (said in the panel
+    when none has one). Returns a Matplotlib figure.
+    """
+    fig, ax = plt.subplots(5, 1, figsize=(10, 10), sharex=True)
+    for ev, c in zip(evaluations, _colors(len(evaluations))):
+        if ev.r is not None:
+            ax[0].plot(ev.t, ev.r * 1e3, lw=0.9, color=c, label=ev.label)
+        else:
+            ax[0].plot(ev.t, ev.y * 1e3, "--", lw=0.9, color=c, label=f"{ev.label} (y)")
+        if ev.reconstructed is not None:  # y only, on the reconstruction's windows
+            rc = ev.reconstructed
+            if rc.error is not None:
+                ax[1].plot(rc.t, rc.error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
+            if ev.e is not None:
+                ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
+            continue
+        if ev.commutation_error is None:  # no desired force logged: tracking only
+            if ev.e is not None:
+                ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
+            continue
+        err = lowpass(ev.commutation_error, ev.sample_time, ev.lowpass_hz)
+        draw_error_lines(ax, ev.t, err, ev.e, c, ev.label)
+    if any(ev.force_reconstructed for ev in evaluations):
+        for q in (2, 3):
+            ax[q].text(0.5, 0.9, "force reconstructed from the motion: x, z not observable (n/a)",
+                       transform=ax[q].transAxes, ha="center", va="top", fontsize=8)
+    if evaluations and all(ev.commutation_mse["y"]["filtered"] is None for ev in evaluations):
+        ax[1].text(0.5, 0.5, "no desired force F* logged: commutation error not available (see the model error)",
+                   transform=ax[1].transAxes, ha="center", va="center")
+    ax[0].set_ylabel("$y^*$ [mm]")
+    if not any(ev.e is not None for ev in evaluations):
+        ax[4].text(0.5, 0.5, "no reference r logged: tracking error not available", transform=ax[4].transAxes,
+                   ha="center", va="center")
+    ax[0].legend(loc="upper right", ncol=min(4, len(evaluations)), fontsize=8)
+    lp = evaluations[0].lowpass_hz if evaluations else 50.0
+    n_rec = sum(ev.force_reconstructed for ev in evaluations)
+    title1 = ("commutation error, Fy reconstructed from the motion, zero-phase filtered windows"
+              if evaluations and n_rec == len(evaluations) else
+              f"commutation error, {lp:g} Hz low-pass" + (" (reconstructed: filtered windows)" if n_rec else ""))
+    ax[1].set_title(title1, fontsize=10)
+    finish_error_axes(fig, ax, title)
+    return fig
+
+
+def plot_model_error(evaluations, title: str = "model error F - F̂(y, i)"):
+    """Filtered model error ``F − F̂(y, i)`` in y, x, z, one line per log with a model fit."""
+    evs = [ev for ev in evaluations if ev.model_error is not None or ev.window_model_error is not None]
+    fig, ax = plt.subplots(3, 1, figsize=(10, 7), sharex=True)
+    for ev, c in zip(evs, _colors(len(evs))):
+        if ev.window_model_error is not None:  # reconstructed force: y on its windows only
+            ax[0].plot(ev.reconstructed.t, ev.window_model_error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
+            continue
+        err = lowpass(ev.model_error, ev.sample_time, ev.lowpass_hz)
+        for q in range(3):
+            ax[q].plot(ev.t, err[:, q], lw=0.7, color=c, label=ev.label)
+    for q in range(3):
+        ax[q].set_ylabel(_MODEL_LABEL[q])
+        ax[q].grid(alpha=0.3)
+    ax[2].set_xlabel("time [s]")
+    if evs:
+        ax[0].legend(loc="upper right", ncol=min(4, len(evs)), fontsize=8)
+    lp = evs[0].lowpass_hz if evs else 50.0
+    ax[0].set_title(f"{title}, {lp:g} Hz low-pass", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+# ------------------------------------------------------------------- excitation (pgcomm check)
+
+def plot_coverage(report):
+    """Coverage figure of an :class:`pgcomm.excitation.ExcitationReport`: per coil set, samples per position bin stacked by ``Δ`` sign; bins with problems shaded.
+
+    Returns a Matplotlib figure (one row of axes per coil set; positions in mm).
+    """
+    n = len(report.coil_sets)
+    fig, axes = plt.subplots(n, 1, figsize=(10, 2.4 * n + 0.6), sharex=True, squeeze=False)
+    lo, hi = report.y_range
+    colors = {"Δ < 0": "#1f77b4", "Δ ≈ 0": "#7f7f7f", "Δ > 0": "#ff7f0e", "no current": "#d9d9d9"}
+    for ax, cs in zip(axes[:, 0], report.coil_sets):
+        status = "ok" if cs.ok else f"{len(cs.problems)} problem(s)"
+        ax.set_title(f"coil set {cs.coil_set + 1}: {status}", fontsize=10, loc="left",
+                     color="k" if cs.ok else "#d62728")
+        ax.set_ylabel("samples")
+        ax.grid(alpha=0.3, axis="y")
+        if cs.bins is None:
+            ax.text(0.5, 0.5, "no log with this coil set active", transform=ax.transAxes, ha="center",
+                    va="center", color="#d62728")
+            continue
+        b = cs.bins
+        left, width = b.edges[:-1] * 1e3, np.diff(b.edges) * 1e3
+        bottom = np.zeros(len(left))
+        for (label, c), v in zip(colors.items(), (b.delta_negative, b.delta_zero, b.delta_positive, b.no_current)):
+            ax.bar(left, v, width=width, bottom=bottom, align="edge", color=c, edgecolor="white", lw=0.3,
+                   label=label)
+            bottom = bottom + v
+        ax.set_ylim(0, 1.25 * max(float(bottom.max()), 1.0))  # headroom for the problem labels
+        for first, last, kind in problem_runs(b.problem):
+            ax.axvspan(b.edges[first] * 1e3, b.edges[last + 1] * 1e3, color="#d62728", alpha=0.15, lw=0)
+            ax.text((b.edges[first] + b.edges[last + 1]) * 0.5e3, 0.96, kind, transform=ax.get_xaxis_transform(),
+                    ha="center", va="top", fontsize=8, color="#d62728")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    if not handles:  # no coil set had data
+        handles = [plt.Rectangle((0, 0), 1, 1, color=c) for c in colors.values()]
+        labels = list(colors)
+    axes[-1, 0].set_xlabel("position $y$ [mm]")
+    axes[-1, 0].set_xlim(lo * 1e3, hi * 1e3)
+    fig.suptitle(f"excitation: samples per position bin ({report.n_bins} bins) by sign of Δ; "
+                 "shaded bins lack excitation", fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 0.95))
+    fig.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.965), ncol=4, fontsize=8, frameon=False)
     return fig

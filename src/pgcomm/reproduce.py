@@ -37,7 +37,9 @@ from pgcomm.calibration import CalibrationResult
 from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw, oracle_law
 from pgcomm.compensation import fit_cogging_table, fit_harmonic_cogging
 from pgcomm.data import coil_set_data_from_runs
-from pgcomm.experiment import ExperimentConfig, Setup
+from pgcomm.settings import ExperimentConfig
+from pgcomm.sensorless_table import effort_reference, sensorless_cogging_table
+from pgcomm.setup import Setup, check_reference, sensorless_mass, simulated_mass
 from pgcomm.identify import IdentifyResult
 from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se, reducible_share
 from pgcomm.models import CombinedModel
@@ -154,10 +156,10 @@ class SensorlessResult:
         model: the combined model (x, z rows classical with ``calibration``'s ``k``, ``ζ``).
         seconds: wall time of calibration and identification (s).
         mass: the given moving mass (kg).
-        mass_source: where that mass comes from (:func:`pgcomm.experiment.simulated_mass`), e.g.
+        mass_source: where that mass comes from (:func:`pgcomm.setup.simulated_mass`), e.g.
             ``"30 kg from the simulated mechanics ([mechanics] mass; the motor description has none)"``.
         table_info: the run of the ``cogging_table_sensorless`` row
-            (:func:`pgcomm.experiment.sensorless_cogging_table`'s ``info``).
+            (:func:`pgcomm.sensorless_table.sensorless_cogging_table`'s ``info``).
     """
 
     calibration: CalibrationResult
@@ -404,7 +406,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
 
     progress = progress or Progress(enabled=False)
     # the run simulates the translator, so its mass is known: a motor description without one takes it (said)
-    setup, mass_source = experiment.simulated_mass(setup)
+    setup, mass_source = simulated_mass(setup)
     progress.info(f"moving mass for the rows without a force sensor: {mass_source}")
     cfg = setup.config
     ic = cfg.identification
@@ -415,8 +417,8 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     if extra_reference is not None:
         refs["user"] = extra_reference
     for name, ref in refs.items():  # before any work: a reference off the plant fails now, not after minutes
-        experiment.check_reference(setup, ref, f"the {name} reference")
-    experiment.effort_reference(setup)  # the sensorless table's stroke and speed, needed minutes later
+        check_reference(setup, ref, f"the {name} reference")
+    effort_reference(setup)  # the sensorless table's stroke and speed, needed minutes later
     long_ref = refs["long"]
 
     with progress.stage(f"data generation: {motor.n_coil_sets} coil sets x 2 data sets (Delta = -/+"
@@ -461,7 +463,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         pgnn_sl, id_sl = experiment.identify_sensorless_models(setup, coil_set_data_from_runs(data0), cal_sl.k,
                                                                cal_sl.zeta, seed, progress)
         sensorless = SensorlessResult(cal_sl, tuple(id_sl), pgnn_sl, time.perf_counter() - t_sl,
-                                      experiment.sensorless_mass(setup), mass_source=mass_source)
+                                      sensorless_mass(setup), mass_source=mass_source)
         for r in id_sl:
             me = r.mechanics
             progress.info(f"{r.name}: y cost {r.cost_y:.4g} N^2 on {me['windows']} filtered windows "
@@ -496,7 +498,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         # the drives' way without a force sensor: classical commutation calibrated without force data and
         # a table from the controller's effort (the feedforward is identified from the demand, no force)
         classical_sl = ClassicalLaw.from_motor(motor, k=cal_sl.k, zeta=cal_sl.zeta)
-        tables["cogging_table_sensorless"], info = experiment.sensorless_cogging_table(
+        tables["cogging_table_sensorless"], info = sensorless_cogging_table(
             setup, classical_sl, ffs["classical"], seed=seed + 80)
         laws["cogging_table_sensorless"] = OffsetLaw(classical_sl, tables["cogging_table_sensorless"])
         sensorless = replace(sensorless, table_info=info)

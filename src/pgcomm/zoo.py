@@ -78,7 +78,7 @@ import numpy as np
 
 from pgcomm._pytree import pytree_dataclass, static_field
 from pgcomm.motor import PHASE_OFFSETS, Motor, star_reduce
-from pgcomm.experiment import reference_span
+from pgcomm.setup import reference_span
 from pgcomm.plant import plant_force
 
 __all__ = [
@@ -89,10 +89,8 @@ __all__ = [
     "ZooPlant",
     "config_toml",
     "draw_motor",
-    "reference_span",
     "write_motor",
     "write_zoo",
-    "write_logs",
     "motor_folder_name",
     "MAX_MOTORS",
 ]
@@ -692,7 +690,7 @@ def _f(x) -> str:
 
 
 def config_toml(motor: ZooMotor) -> str:
-    """Experiment settings TOML (``--config``) of the motor's machine; keys of :class:`pgcomm.experiment.ExperimentConfig`."""
+    """Experiment settings TOML (``--config``) of the motor's machine; keys of :class:`pgcomm.settings.ExperimentConfig`."""
     lo, hi = motor.reference_range
     lines = [
         f"# pgcomm experiment settings of zoo motor {motor.index} (seed {motor.seed}); SI units",
@@ -799,30 +797,3 @@ def write_zoo(n: int, seed: int, out_dir, progress=None) -> list[Path]:
             progress.info(f"{folder.name}: L = {m.n_coil_sets}, d_m = {m.pole_pitch * 1e3:.1f} mm, "
                           f"k ≈ {np.mean(m.k):.1f} N/A, stroke {m.stroke:.3f} m, effects: {', '.join(m.effects)}")
     return folders
-
-
-def write_logs(folder, seed: int = 0) -> list[Path]:
-    """Write the data sets a production line records for the motor in ``folder``: ``folder/logs/Z{i}_coilset{l}.csv``.
-
-    The experiments of Algorithm 1's first pass (eq. DataSets): the data-generation
-    reference of ``folder/config.toml`` run closed loop on the force map ``folder/plant.csv``,
-    one coil set at a time with the drive at the nominal ``k̂``, ``ζ̂`` of ``folder/motor.toml``
-    and ``Δ = ∓Δ0`` (``[calibration] delta``, default π/4); noise seeded by ``seed`` as in
-    ``pgcomm calibrate --seed``. The files are exactly those of ``pgcomm calibrate --save-data``
-    with the same folder and seed (:func:`pgcomm.io.logs.write_datasets`).
-
-    Args:
-        folder: a motor folder of :func:`write_motor` (``plant.csv``, ``motor.toml``, ``config.toml``).
-        seed: noise seed.
-
-    Returns:
-        the ``2 L`` log paths.
-    """
-    from pgcomm.experiment import build_setup, data_generation_reference, generate, load_experiment
-    from pgcomm.io.logs import write_datasets
-
-    folder = Path(folder)
-    setup = build_setup(load_experiment(folder / "config.toml"), forcemap_path=folder / "plant.csv",
-                        motor_path=folder / "motor.toml")
-    data = generate(setup, data_generation_reference(setup), setup.motor.k, setup.motor.zeta, seed=seed)
-    return write_datasets(folder / "logs", data)

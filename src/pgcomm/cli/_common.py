@@ -99,8 +99,9 @@ def motor_from_args(args):
 
 
 def setup_from_args(args):
-    """The :class:`pgcomm.experiment.Setup` of ``--config``, ``--plant`` and ``--motor``."""
-    from pgcomm.experiment import ExperimentConfig, build_setup, load_experiment
+    """The :class:`pgcomm.setup.Setup` of ``--config``, ``--plant`` and ``--motor``."""
+    from pgcomm.io.setup import build_setup
+    from pgcomm.settings import ExperimentConfig, load_experiment
 
     config_path = args.config
     if config_path is None and args.plant is not None and (Path(args.plant).parent / "config.toml").is_file():
@@ -115,7 +116,8 @@ def setup_from_args(args):
 
 def reference_from_args(args, setup):
     """``--reference`` (checked against the controller's sample time), else the data-generation reference."""
-    from pgcomm.experiment import check_reference, data_generation_reference
+    from pgcomm.experiment import data_generation_reference
+    from pgcomm.setup import check_reference
     from pgcomm.io.references import read_reference
 
     if getattr(args, "reference", None):

@@ -28,7 +28,7 @@ def _run_logs(args, out: Path, progress) -> None:
     from pgcomm import plots
     from pgcomm.calibration import calibrate_from_logs, convergence
     from pgcomm.errors import ConfigError
-    from pgcomm.experiment import ExperimentConfig, load_experiment
+    from pgcomm.settings import ExperimentConfig, load_experiment
     from pgcomm.io.config import write_motor
     from pgcomm.io.results import write_results
 
@@ -85,6 +85,7 @@ def run(args, out: Path, progress) -> None:
     if args.data:
         return _run_logs(args, out, progress)
     from pgcomm import experiment, plots
+    from pgcomm.setup import sensorless_mass, simulated_mass
     from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
@@ -92,7 +93,7 @@ def run(args, out: Path, progress) -> None:
     mass_source = None
     if args.no_force_sensor:
         # the simulated translator's mass, before the first computation (a motor TOML may have none)
-        setup, mass_source = experiment.simulated_mass(setup)
+        setup, mass_source = simulated_mass(setup)
         if not args.quiet:
             print(f"pgcomm: moving mass {mass_source}", file=sys.stderr)
     reference = experiment.data_generation_reference(setup)
@@ -103,7 +104,7 @@ def run(args, out: Path, progress) -> None:
                                                sensorless=args.no_force_sensor)
     calibration = experiment.calibration_results(setup, cal)
     if args.no_force_sensor:
-        calibration.update(method="sensorless", mass=experiment.sensorless_mass(setup), mass_source=mass_source)
+        calibration.update(method="sensorless", mass=sensorless_mass(setup), mass_source=mass_source)
     results = {"command": "calibrate", "plant": setup.plant_name, "calibration": calibration,
                "force_sensor": not args.no_force_sensor, "runtime_s": time.perf_counter() - t0}
     plots.save(plots.plot_calibration(cal.k_initial, cal.zeta_initial, cal.k, cal.zeta, setup.true_k,

@@ -67,7 +67,7 @@ def run(args, out, progress) -> None:
                    "runtime_s": time.perf_counter() - t0}
         # staged here (not by cli.main) so that the report is kept when the data fail the check
         with staged_output(args.report_dir, args.overwrite) as tmp:
-            plots.save(excitation.plot_coverage(report), tmp / "coverage.png")
+            plots.save(plots.plot_coverage(report), tmp / "coverage.png")
             write_results(tmp / "results.json", results)
     if not args.quiet:
         print(format_check(report))

@@ -77,10 +77,10 @@ def run(args, out: Path, progress) -> None:
     results = {"command": "evaluate", "version": __version__, "force_reconstructed": mechanics is not None,
                "evaluation": evaluation.evaluation_results(evals, args.lowpass_hz,
                                                            None if args.model is None else str(args.model))}
-    plots.save(evaluation.plot_logs(evals, title=f"{len(evals)} log(s)"), out / "evaluation.png")
+    plots.save(plots.plot_logs(evals, title=f"{len(evals)} log(s)"), out / "evaluation.png")
     figures = ["evaluation.png"]
     if model is not None:
-        plots.save(evaluation.plot_model_error(evals, title=f"model error of {Path(args.model).name}"),
+        plots.save(plots.plot_model_error(evals, title=f"model error of {Path(args.model).name}"),
                    out / "model_error.png")
         figures.append("model_error.png")
     results["runtime_s"] = time.perf_counter() - t0

@@ -45,6 +45,7 @@ def run(args, out: Path, progress) -> None:
     import numpy as np
 
     from pgcomm import __version__, experiment, plots
+    from pgcomm.setup import sensorless_mass, simulated_mass
     from pgcomm.data import coil_set_data_from_logs, coil_set_data_from_runs
     from pgcomm.errors import ExcitationError
     from pgcomm.excitation import check_excitation
@@ -74,10 +75,10 @@ def run(args, out: Path, progress) -> None:
     mass_source = None
     if sensorless and logs is None:
         # the data are simulated: the simulated translator's mass is known (used, and said, if the motor has none)
-        setup, mass_source = experiment.simulated_mass(setup)
+        setup, mass_source = simulated_mass(setup)
         if not args.quiet:
             print(f"pgcomm: moving mass for identification without a force sensor: {mass_source}", file=sys.stderr)
-    mass = experiment.sensorless_mass(setup, args.motor) if sensorless else None
+    mass = sensorless_mass(setup, args.motor) if sensorless else None
     if logs is not None:
         with progress.stage("group logs by coil set"):
             data = coil_set_data_from_logs(logs, setup.motor, force=not sensorless)
@@ -123,6 +124,8 @@ def run(args, out: Path, progress) -> None:
             pgnn, res = experiment.identify_sensorless_models(setup, data, setup.motor.k, setup.motor.zeta, args.seed,
                                                               progress, check_data=False)
             t_id = time.perf_counter() - t_id
+        from pgcomm.identify.mechanics import combined_mechanics
+
         mechanics, feedforward = combined_mechanics(res)
         fy_abs_max = max(float(np.max(np.abs(np.asarray(r.model.force(jnp.asarray(d.y),
                                                                       jnp.asarray(d.currents)))[:, 0])))
@@ -230,7 +233,8 @@ def _refuse_spline_without_force(args, sensorless: bool) -> None:
 def _setup(args):
     """The set-up; logs with ``--motor`` but no ``--plant`` are a rig's: its motor description, no plant."""
     if args.data and args.motor is not None and args.plant is None:
-        from pgcomm.experiment import ExperimentConfig, Setup, load_experiment
+        from pgcomm.settings import ExperimentConfig, load_experiment
+        from pgcomm.setup import Setup
         from pgcomm.io.config import load_motor
 
         motor = load_motor(args.motor)
@@ -265,41 +269,6 @@ def _common_sample_time(logs) -> float:
             raise DataError(f"{lg.source}: sample time {lg.sample_time:g} s differs from {ts:g} s of {logs[0].source}; "
                             "identification without a force sensor needs one sample time")
     return float(ts)
-
-
-def combined_mechanics(res) -> tuple[dict, dict]:
-    """The translator's mechanics from every coil set's identification, and the feedforward's parameters.
-
-    Every coil set's experiments move the same translator, so its friction is estimated once per
-    coil set; the combination is their mean weighted by the number of filtered windows: viscous
-    ``f_v``, the Coulomb table ``F_c(y)`` (each coil set's piecewise-linear table on common knots
-    over the union of their spans, held constant beyond a table's own span) and its stroke mean
-    ``f_c``. The mass is the given one.
-
-    Returns:
-        ``(mechanics, feedforward)``: ``{"mass", "coulomb", "viscous", "friction_velocity",
-        "coulomb_knots", "coulomb_table", "coil_sets": [per coil set]}`` and ``{"mass" (kg),
-        "viscous" (N s/m), "coulomb" (N)}`` (the fields of :class:`pgcomm.control.Feedforward`).
-    """
-    import numpy as np
-
-    mech = [r.mechanics for r in res]
-    w = np.array([m["windows"] for m in mech], float)
-    coulomb = float(np.average([m["coulomb"] for m in mech], weights=w))
-    viscous = float(np.average([m["viscous"] for m in mech], weights=w))
-    mass = float(mech[0]["mass"])
-    mechanics = {"mass": mass, "coulomb": coulomb, "viscous": viscous,
-                 "friction_velocity": float(mech[0]["friction_velocity"])}
-    if all("coulomb_table" in m and "coulomb_knots" in m for m in mech):
-        lo = min(m["coulomb_knots"][0] for m in mech)
-        hi = max(m["coulomb_knots"][-1] for m in mech)
-        n = max(len(m["coulomb_knots"]) for m in mech)
-        knots = np.linspace(lo, hi, n)
-        table = np.average([np.interp(knots, m["coulomb_knots"], m["coulomb_table"]) for m in mech], axis=0,
-                           weights=w)
-        mechanics.update(coulomb_knots=[float(x) for x in knots], coulomb_table=[float(x) for x in table])
-    mechanics["coil_sets"] = [dict(m, name=r.name) for m, r in zip(mech, res)]
-    return mechanics, {"mass": mass, "viscous": viscous, "coulomb": coulomb}
 
 
 def format_feedforward(ff: dict) -> str:

@@ -38,7 +38,7 @@ def plan_from_args(args):
     """
     from dataclasses import replace
 
-    from pgcomm.experiment import ExperimentConfig, load_experiment
+    from pgcomm.settings import ExperimentConfig, load_experiment
     from pgcomm.plan import make_plan, reference_settings
 
     force_sensor = not args.no_force_sensor

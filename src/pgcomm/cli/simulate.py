@@ -31,7 +31,7 @@ def configure(p) -> None:
 
 def _run_plan(args, out: Path, progress) -> None:
     """``--plan``: every experiment of the plan on the plant, logs ``out/<experiment>.csv``."""
-    from pgcomm import experiment
+    from pgcomm.setup import check_reference
     from pgcomm.data import generate_datasets
     from pgcomm.errors import ConfigError
     from pgcomm.io.logs import Log, write_log
@@ -52,7 +52,7 @@ def _run_plan(args, out: Path, progress) -> None:
         if abs(a - b) > 1e-9 * abs(a):
             raise ConfigError(f"--plan {args.plan}: {what} {b:g} in its motor.toml, but the plant "
                               f"({setup.plant_name}) has {a:g}")
-    experiment.check_reference(setup, plan.reference, f"--plan {args.plan}")
+    check_reference(setup, plan.reference, f"--plan {args.plan}")
     n = len(plan.experiments)
     with progress.stage(f"{n} experiments of the plan on {setup.plant_name} ({plan.duration:.1f} s each)"):
         runs = generate_datasets(setup.plant, drive, plan.reference, delta=plan.delta, pid=setup.pid,

@@ -24,7 +24,8 @@ def configure(p) -> None:
 
 def run(args, out: Path, progress) -> None:
     """Write ``out/motor_NN/`` for every motor (and its ``logs/`` with ``--logs``)."""
-    from pgcomm.zoo import MAX_MOTORS, draw_motor, motor_folder_name, write_logs, write_motor
+    from pgcomm.experiment import write_production_logs
+    from pgcomm.zoo import MAX_MOTORS, draw_motor, motor_folder_name, write_motor
 
     n = args.motors
     if not 1 <= n <= MAX_MOTORS:
@@ -36,7 +37,7 @@ def run(args, out: Path, progress) -> None:
             m = draw_motor(args.seed, i - 1)
             folder = write_motor(m, out / name)
             if args.logs:
-                write_logs(folder, seed=args.seed)
+                write_production_logs(folder, seed=args.seed)
             progress.info(f"L = {m.n_coil_sets}, d_m = {m.pole_pitch * 1e3:.1f} mm, k ≈ {sum(m.k) / len(m.k):.1f} "
                           f"N/A, stroke {m.stroke:.3f} m, effects: {', '.join(m.effects) or 'none'}")
     if not args.quiet:

@@ -40,7 +40,7 @@ from pgcomm.interp import hat_basis
 from pgcomm.sensorless import AccelerationFilter, filter_windows, filtered_acceleration, moving_windows
 from pgcomm.spline_model import Grid
 
-__all__ = ["MechanicsFit", "identify_mechanics", "DIRECTION_SPACINGS"]
+__all__ = ["MechanicsFit", "identify_mechanics", "combined_mechanics", "DIRECTION_SPACINGS"]
 
 #: Candidate knot spacings of ``D(y)``, in pole pitches.
 DIRECTION_SPACINGS = (4.0, 2.0, 1.0, 0.5, 0.25)
@@ -164,3 +164,36 @@ def identify_mechanics(data: list[CoilSetData], model, sample_time: float, pole_
                         direction_velocity=float(direction_velocity), cost=train, cost_validation=cv,
                         spacing=grid.spacing, lam=lam, windows=n_win, filter=filt.to_dict(),
                         seconds=time.perf_counter() - t0)
+
+
+def combined_mechanics(res) -> tuple[dict, dict]:
+    """The translator's mechanics from every coil set's identification, and the feedforward's parameters.
+
+    Every coil set's experiments move the same translator, so its friction is estimated once per
+    coil set; the combination is their mean weighted by the number of filtered windows: viscous
+    ``f_v``, the Coulomb table ``F_c(y)`` (each coil set's piecewise-linear table on common knots
+    over the union of their spans, held constant beyond a table's own span) and its stroke mean
+    ``f_c``. The mass is the given one.
+
+    Returns:
+        ``(mechanics, feedforward)``: ``{"mass", "coulomb", "viscous", "friction_velocity",
+        "coulomb_knots", "coulomb_table", "coil_sets": [per coil set]}`` and ``{"mass" (kg),
+        "viscous" (N s/m), "coulomb" (N)}`` (the fields of :class:`pgcomm.control.Feedforward`).
+    """
+    mech = [r.mechanics for r in res]
+    w = np.array([m["windows"] for m in mech], float)
+    coulomb = float(np.average([m["coulomb"] for m in mech], weights=w))
+    viscous = float(np.average([m["viscous"] for m in mech], weights=w))
+    mass = float(mech[0]["mass"])
+    mechanics = {"mass": mass, "coulomb": coulomb, "viscous": viscous,
+                 "friction_velocity": float(mech[0]["friction_velocity"])}
+    if all("coulomb_table" in m and "coulomb_knots" in m for m in mech):
+        lo = min(m["coulomb_knots"][0] for m in mech)
+        hi = max(m["coulomb_knots"][-1] for m in mech)
+        n = max(len(m["coulomb_knots"]) for m in mech)
+        knots = np.linspace(lo, hi, n)
+        table = np.average([np.interp(knots, m["coulomb_knots"], m["coulomb_table"]) for m in mech], axis=0,
+                           weights=w)
+        mechanics.update(coulomb_knots=[float(x) for x in knots], coulomb_table=[float(x) for x in table])
+    mechanics["coil_sets"] = [dict(m, name=r.name) for m, r in zip(mech, res)]
+    return mechanics, {"mass": mass, "viscous": viscous, "coulomb": coulomb}
