@@ -58,22 +58,22 @@ def bench_identification() -> None:
     from pgcomm.data import coil_set_data_from_runs
     from pgcomm.io.setup import build_setup
     from pgcomm.settings import ExperimentConfig
-    from pgcomm.identify import identify
+    from pgcomm.identify import IdentifyOptions, identify
 
     setup = build_setup(ExperimentConfig())
     ref = experiment.data_generation_reference(setup)
     data = coil_set_data_from_runs(experiment.generate(setup, ref, setup.motor.k, setup.motor.zeta, seed=0,
                                                        coil_sets=[0]))[0]
     t0 = time.perf_counter()
-    plain = identify(data, setup.motor.pole_pitch, seed=0, tol=1e-9)
+    plain = identify(data, setup.motor.pole_pitch, IdentifyOptions(tol=1e-9), seed=0)
     t_plain = time.perf_counter() - t0
     print("coil set 1, default twin, training data: y cost mean (Fy - Fy_hat)^2 (N^2)")
     print(f"  {'model':34s} {'cost_y':>8s} {'paper':>6s} {'C_y (N)':>8s} {'s':>6s}")
     print(f"  {'paper PGNN':34s} {plain.cost_y:8.3f} {3.52:6.2f} {'-':>8s} {t_plain:6.1f}")
     for name, harm in (("PGNN + direction term", False), ("PGNN + direction + 5th/7th", True)):
         t0 = time.perf_counter()
-        r = identify(data, setup.motor.pole_pitch, seed=0, tol=1e-9, n_starts=1, start_from=plain.model,
-                     direction=True, harmonics=harm)
+        r = identify(data, setup.motor.pole_pitch, IdentifyOptions(tol=1e-9, starts=1, direction=True, harmonics=harm),
+                     seed=0, start_from=plain.model)
         print(f"  {name:34s} {r.cost_y:8.3f} {1.20:6.2f} {float(r.model.C[0]):8.3f} {time.perf_counter() - t0:6.1f}")
     noise = setup.config.sensors.force_noise[0]
     print(f"  (force-sensor noise alone: {noise ** 2:.3f} N^2)")

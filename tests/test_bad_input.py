@@ -386,7 +386,7 @@ def test_calibrate_save_data_writes_the_data_sets(tmp_path, capsys):
 def test_identify_without_validation_set():
     """``validation_fraction=0`` trains on everything; validation costs are NaN (documented)."""
     from pgcomm.data import CoilSetData
-    from pgcomm.identify import identify
+    from pgcomm.identify import IdentifyOptions, identify
 
     rng = np.random.default_rng(0)
     n = 3000
@@ -396,8 +396,8 @@ def test_identify_without_validation_set():
     force = np.stack([60 * (np.sin(eta) * cur[:, 0] + np.sin(eta + 2 * np.pi / 3) * cur[:, 1]),
                       np.zeros(n), np.zeros(n)], axis=1) + rng.normal(size=(n, 3)) * 0.1
     exp = (np.arange(n) >= n // 2).astype(int)
-    r = identify(CoilSetData(y, cur, force, exp), 0.03, validation_fraction=0.0, n_starts=1, max_iter=2,
-                 check_data=False)
+    r = identify(CoilSetData(y, cur, force, exp), 0.03,
+                 IdentifyOptions(validation_fraction=0.0, starts=1, max_iterations=2), check_data=False)
     assert r.n_validation == 0 and r.n_train == n
     assert np.isnan(r.cost_pgnn_validation) and np.isnan(r.cost_physics_validation)
     assert np.isfinite(r.cost_pgnn)

@@ -102,7 +102,7 @@ def test_default_resolution_meets_a_tenth_of_a_percent():
         lut = build_lut(m)
         assert lut.dy == pytest.approx(DEFAULT_RESOLUTION, rel=1e-9)
         e = lut_error(lut, m, 100.0)
-        assert e.worst_rel < 1e-3, (seed, e.as_dict())
+        assert e.worst_rel < 1e-3, (seed, e.to_dict())
         assert e.points == (lut.n - 1) * 10 + 1
 
 
@@ -254,7 +254,7 @@ def test_cogging_table_on_a_pgnn_model_shows_what_the_full_law_corrects(model):
     full = lut_error(build_lut(model), model, 100.0)
     assert e.interpolation < 1e-3  # N: the table itself is fine ...
     assert e.law_abs[0] > 10 * full.abs[0]  # ... the gain mismatch of classical commutation is not
-    d = e.as_dict()
+    d = e.to_dict()
     assert set(d["classical_plus_table"]) == {"y", "x", "z"} and len(d["k_hat"]) == 3
     # explicit drive parameters are used as given (the table built for that drive)
     t2 = build_cogging_table(model, k_hat=67.0, zeta_hat=-0.52)

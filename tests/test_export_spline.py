@@ -388,7 +388,7 @@ def test_lut_of_a_spline_model(tmp_path):
     # (its size, ~(7 ω h)²/8 of the 7th harmonic's share, is the caller's choice of resolution)
     err = lut_error(lut, model, 100.0)
     coarse = lut_error(build_lut(model, resolution=4e-4), model, 100.0)
-    assert 3.0 < coarse.worst_rel / err.worst_rel < 5.0, (coarse.as_dict(), err.as_dict())
+    assert 3.0 < coarse.worst_rel / err.worst_rel < 5.0, (coarse.to_dict(), err.to_dict())
     assert err.worst_rel < 1e-2
     paths = write_lut(lut, tmp_path, "spl_lut")
     assert [p.name for p in paths] == ["spl_lut.csv", "spl_lut.h", "spl_lut_direction.csv"]

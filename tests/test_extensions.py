@@ -153,9 +153,10 @@ def test_noise_free_extended_truth_is_recovered(truth, data):
     rng = np.random.default_rng(5)
     flat = np.asarray(idf.hidden_vector(truth))
     start = idf.with_hidden_vector(truth, flat * (1 + 0.02 * rng.normal(size=flat.size)))
-    res = idf.identify(data, D_M, gain_widths=(2,), cog_widths=(3,), Lambda=0.0, n_starts=1, start_from=start,
-                       harmonics=True, direction=True, direction_velocity=V_EPS, tol=1e-12, max_iter=200,
-                       check_data=False, validation_fraction=0.0, damping=0.0)
+    res = idf.identify(data, D_M, idf.IdentifyOptions(
+        gain_widths=(2,), cog_widths=(3,), regularisation=0.0, starts=1, harmonics=True, direction=True,
+        direction_velocity=V_EPS, tol=1e-12, max_iterations=200, validation_fraction=0.0, damping=0.0),
+        start_from=start, check_data=False)
     f_rms = float(np.sqrt(np.mean(data.force[:, 0] ** 2)))
     assert res.cost_y < (1e-4 * f_rms) ** 2
     np.testing.assert_allclose(np.asarray(res.model.C), np.asarray(truth.C), rtol=0, atol=1e-4 * f_rms)

@@ -209,7 +209,7 @@ def test_chunk_size_and_method_do_not_change_the_result(data):
 
 @pytest.fixture(scope="module")
 def trained(data):
-    return idf.identify(data, D_M, n_starts=4, max_iter=25, seed=3, subsample=1)
+    return idf.identify(data, D_M, idf.IdentifyOptions(starts=4, max_iterations=25, subsample=1), seed=3)
 
 
 def test_training_beats_physics_and_decreases_monotonically(trained):
@@ -228,10 +228,10 @@ def test_training_beats_physics_and_decreases_monotonically(trained):
 
 
 def test_same_seed_same_parameters(data, trained):
-    again = idf.identify(data, D_M, n_starts=4, max_iter=25, seed=3, subsample=1)
+    again = idf.identify(data, D_M, idf.IdentifyOptions(starts=4, max_iterations=25, subsample=1), seed=3)
     for a, b in zip(jax.tree_util.tree_leaves(trained.model), jax.tree_util.tree_leaves(again.model)):
         assert np.array_equal(np.asarray(a), np.asarray(b))
-    other = idf.identify(data, D_M, n_starts=4, max_iter=2, seed=4, subsample=1)
+    other = idf.identify(data, D_M, idf.IdentifyOptions(starts=4, max_iterations=2, subsample=1), seed=4)
     assert not np.array_equal(np.asarray(other.model.A), np.asarray(trained.model.A))
 
 
@@ -239,7 +239,7 @@ def test_two_phases_and_identify_all(monkeypatch):
     monkeypatch.setattr(idf_lm, "_MIN_SUBSAMPLE", 1000)  # let small data use the subsampled first phase
     # same sizes as the `trained` fixture, so phase 2 reuses its compiled step
     sets = [synthetic_coil_set(seed=l, name=f"coil set {l + 1}", lever_arm=0.07 * (l - 1)) for l in range(2)]
-    model, results = idf.identify_all(sets, D_M, n_starts=4, max_iter=6, subsample=2, refine_starts=4)
+    model, results = idf.identify_all(sets, D_M, idf.IdentifyOptions(starts=4, max_iterations=6, subsample=2, refine_starts=4))
     assert isinstance(model, CombinedModel) and model.n_coil_sets == 2
     assert [r.name for r in results] == ["coil set 1", "coil set 2"]
     for r in results:
@@ -370,10 +370,10 @@ def test_slope_penalty_jacobian_matches_finite_differences():
 
 def test_slope_bound_keeps_first_layer_within_the_supported_width(data):
     # a bound of 2 pole pitches (10-90 % width) is far below what an unbounded fit uses here
-    r = idf.identify(data, D_M, gain_widths=(2,), cog_widths=(8,), n_starts=2, max_iter=20, seed=1,
-                     subsample=1, min_feature_width=2.0, check_data=False)
-    free = idf.identify(data, D_M, gain_widths=(2,), cog_widths=(8,), n_starts=2, max_iter=20, seed=1,
-                        subsample=1, min_feature_width=0.0, check_data=False)
+    r = idf.identify(data, D_M, idf.IdentifyOptions(gain_widths=(2,), cog_widths=(8,), starts=2, max_iterations=20,
+                                                 subsample=1, min_feature_width=2.0), seed=1, check_data=False)
+    free = idf.identify(data, D_M, idf.IdentifyOptions(gain_widths=(2,), cog_widths=(8,), starts=2, max_iterations=20,
+                                                    subsample=1, min_feature_width=0.0), seed=1, check_data=False)
     mask = _Layout.of(r.model).first_layer_weight_mask()
     w = np.abs(np.asarray(idf.hidden_vector(r.model)))[mask]
     w_free = np.abs(np.asarray(idf.hidden_vector(free.model)))[mask]
@@ -385,8 +385,8 @@ def test_slope_bound_keeps_first_layer_within_the_supported_width(data):
 
 
 def test_width_selection_keeps_the_best_validation_cost(data):
-    r = idf_lm.identify_selecting_width(data, D_M, gain_width_candidates=(2, 4), cog_widths=(4,), n_starts=2,
-                                        max_iter=8, seed=2, subsample=1, check_data=False)
+    r = idf_lm.identify_selecting_width(data, D_M, idf.IdentifyOptions(
+        gain_width_candidates=(2, 4), cog_widths=(4,), starts=2, max_iterations=8, subsample=1), seed=2, check_data=False)
     widths = [w for w, _ in r.width_selection]
     costs = [c for _, c in r.width_selection]
     assert widths == [2, 4]

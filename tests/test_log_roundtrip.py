@@ -21,7 +21,7 @@ from pgcomm import experiment, trajectory
 from pgcomm.excitation import excitation_report
 from pgcomm.io.setup import build_setup
 from pgcomm.settings import ExperimentConfig
-from pgcomm.identify import identify_all
+from pgcomm.identify import IdentifyOptions, identify_all
 from pgcomm.io.logs import Log, read_logs, write_log
 from pgcomm.data import coil_set_data_from_logs
 
@@ -84,7 +84,7 @@ def test_identified_costs_are_bit_identical_across_formats(written):
             assert rep.ok, rep.problems
         data = coil_set_data_from_logs(logs, setup.motor)
         # few starts and iterations: the point is equality; the first call compiles (~10 s), the rest reuse it
-        _, res = identify_all(data, setup.motor.pole_pitch, seed=0, n_starts=2, max_iter=10)
+        _, res = identify_all(data, setup.motor.pole_pitch, IdentifyOptions(starts=2, max_iterations=10), seed=0)
         costs[s] = [(r.cost_physics, r.cost_pgnn, r.cost_physics_validation, r.cost_pgnn_validation) for r in res]
     assert all(np.isfinite(c).all() for c in costs.values())
     for s in FORMATS[1:]:

@@ -115,7 +115,7 @@ def test_projected_jacobian_matches_finite_differences(sdata, gain, cog, method)
 
 def test_direction_term_is_refused_without_force_sensor(sdata):
     with pytest.raises(ValueError, match="Coulomb"):
-        idf.identify(sdata, D_M, direction=True, n_starts=1, max_iter=1, check_data=False)
+        idf.identify(sdata, D_M, idf.IdentifyOptions(direction=True, starts=1, max_iterations=1), check_data=False)
 
 
 # ------------------------------------------------------------------------------------ bad input
@@ -168,7 +168,7 @@ def test_twin_y_row_friction_and_calibration_without_force(twin_run):
     mech = setup.config.mechanics
     data = coil_set_data_from_runs(runs)[0]
     sd = sensorless_data(data, TS, setup.motor.pole_pitch, mech.mass, current_limit=setup.motor.current_limit)
-    res = idf.identify(sd, setup.motor.pole_pitch, n_starts=2, max_iter=40, seed=0)
+    res = idf.identify(sd, setup.motor.pole_pitch, idf.IdentifyOptions(starts=2, max_iterations=40), seed=0)
     y = jnp.linspace(*setup.config.reference.span, 801)
     g_hat = np.asarray(res.model.gain(y))[:, 0, :]
     g = np.asarray(setup.plant.gain(y))[:, 0, 0, :]
@@ -177,8 +177,8 @@ def test_twin_y_row_friction_and_calibration_without_force(twin_run):
     assert np.sqrt(np.mean((g_hat - g) ** 2) / np.mean(g**2)) < 0.02
     assert np.sqrt(np.mean((c_hat - c) ** 2)) < 0.1 * np.sqrt(np.mean(c**2))
     me = res.mechanics
-    assert me["coulomb"] == pytest.approx(mech.coulomb, rel=0.05)
-    assert me["viscous"] == pytest.approx(mech.viscous, rel=0.05)
+    assert me.coulomb == pytest.approx(mech.coulomb, rel=0.05)
+    assert me.viscous == pytest.approx(mech.viscous, rel=0.05)
     # x/z rows become the classical model
     model = with_classical_rows(res.model, 61.0, -0.54, setup.motor.mu, setup.motor.lever_arms[0])
     np.testing.assert_allclose(np.asarray(model.gain(y))[:, 0, :], g_hat, rtol=0, atol=1e-12 * np.abs(g).max())

@@ -49,6 +49,7 @@ _PUBLIC = {
     "calibrate_from_logs": ("pgcomm.calibration", "calibrate_from_logs"),
     "coil_set_data_from_logs": ("pgcomm.data", "coil_set_data_from_logs"),
     "identify_pgnn": ("pgcomm.identify", "identify"),
+    "IdentifyOptions": ("pgcomm.identify.options", "IdentifyOptions"),
     "identify_spline": ("pgcomm.identify.spline", "identify_spline"),
     # models and laws
     "CombinedModel": ("pgcomm.models", "CombinedModel"),

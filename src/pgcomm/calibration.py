@@ -79,6 +79,17 @@ class CalibrationResult:
     iterations: int
     history: list = field(default_factory=list)
 
+    def to_dict(self) -> dict:
+        """JSON-ready: ``initial`` and ``calibrated`` ``{k (N/A), zeta (rad)}`` per coil set, ``iterations``,
+        and of the last pass per coil set the ``standard_error`` ``{k, zeta}`` and the ``coefficients``
+        ``{c1, c2}`` (empty lists without a history)."""
+        steps = sorted(self.history[-1], key=lambda s: s.coil_set) if self.history else []
+        return {"initial": {"k": [float(x) for x in self.k_initial], "zeta": [float(x) for x in self.zeta_initial]},
+                "calibrated": {"k": [float(x) for x in self.k], "zeta": [float(x) for x in self.zeta]},
+                "iterations": int(self.iterations),
+                "standard_error": {"k": [s.k_se for s in steps], "zeta": [s.zeta_se for s in steps]},
+                "coefficients": {"c1": [s.c1 for s in steps], "c2": [s.c2 for s in steps]}}
+
 
 def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset", n_bins: int = 40,
                      y_range=None, sample_time: float = 1e-3, min_speed: float = 0.01, pole_pitch=None,

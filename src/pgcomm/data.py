@@ -28,6 +28,7 @@ from pgcomm.mechanics import Mechanics
 from pgcomm.motor import Motor
 from pgcomm.sensors import Sensors
 from pgcomm.simulate import SimResult, simulate_many
+from pgcomm.seeds import stream_seed
 
 #: A coil set counts as active in a log when its RMS current exceeds this share of the largest.
 ACTIVE_SHARE = 1e-3
@@ -236,7 +237,8 @@ def generate_datasets(plant, drive: Motor, reference, *, delta: float = np.pi / 
         drive: the drive's fixed commutation ``k̂^l``, ``ζ̂^l`` (current estimates), sample time, limit.
         reference: :class:`pgcomm.trajectory.Reference`, e.g. the paper's data-generation reference.
         delta: ``Δ0`` (rad); ``|Δ0| <= π/4`` for safety as in the paper.
-        seed: base noise seed; experiment ``(l, i)`` uses ``seed + 2 l + i``.
+        seed: the run's seed; experiment ``(l, i)`` draws its noise from the named stream
+            ``stream_seed(seed, "data", l, i)`` (:func:`pgcomm.seeds.stream_seed`).
         coil_sets: which coil sets (0-based), default all.
 
     Returns:
@@ -247,7 +249,7 @@ def generate_datasets(plant, drive: Motor, reference, *, delta: float = np.pi / 
     for l in coil_sets:
         for i, sgn in enumerate((-1.0, 1.0)):
             laws.append(DriveInputLaw.for_coil_set(drive, l, sgn * delta))
-            keys.append((l, sgn * delta, seed + 2 * l + i))
+            keys.append((l, sgn * delta, stream_seed(seed, "data", l, i)))
     runs = simulate_many(plant, laws, reference, drive=drive, pid=pid, mechanics=mechanics, sensors=sensors,
                          seeds=[k[2] for k in keys])
     out = []

@@ -28,6 +28,7 @@ from pgcomm.data import CoilSetData, generate_datasets
 from pgcomm.identify import identify_all
 from pgcomm.metrics import commutation_mse, tracking_mse
 from pgcomm.models import CombinedModel
+from pgcomm.seeds import stream_seed
 from pgcomm.setup import Setup, sensorless_mass
 from pgcomm.simulate import SimResult, simulate_many
 
@@ -78,7 +79,10 @@ def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first
         if last["calls"] == 0 and first is not None:
             last["data"] = first
         else:
-            last["data"] = generate(setup, reference, k, zeta, seed=seed + 1000 * last["calls"])
+            # pass 0 is the data set of the run's seed (what reproduce and --save-data write); later
+            # passes draw their own named streams
+            last["data"] = generate(setup, reference, k, zeta, seed=(seed if last["calls"] == 0 else
+                                    stream_seed(seed, "calibration pass", last["calls"])))
         last["calls"] += 1
         return last["data"]
 
@@ -101,11 +105,12 @@ def tune_feedforward(setup: Setup, laws: list, reference, seed: int = 0) -> list
     Iterated ``controller.ff_iterations`` times: each pass runs the loop with the previous
     estimate (the first with none) and refits :func:`pgcomm.control.identify_feedforward`
     on the demanded force; with the feedforward in the loop the feedback lag no longer
-    biases the mass estimate. Laws of the same type are simulated batched.
+    biases the mass estimate. Laws of the same type are simulated batched. Pass ``it`` of law
+    ``j`` draws its sensor noise from the named stream ``stream_seed(seed, "feedforward", it, j)``.
     """
     ffs = [Feedforward()] * len(laws)
     for it in range(setup.config.controller.ff_iterations):
-        runs = run_laws(setup, laws, reference, ffs, seeds=[seed + 7919 * it + j for j in range(len(laws))])
+        runs = run_laws(setup, laws, reference, ffs, seeds=[stream_seed(seed, "feedforward", it, j) for j in range(len(laws))])
         ffs = [identify_feedforward(reference.v, reference.a, r.f_star[:, 0]) for r in runs]
     return ffs
 
@@ -140,13 +145,10 @@ def run_metrics(result: SimResult, lowpass_hz: float = 50.0) -> dict:
 def calibration_results(setup: Setup, cal: CalibrationResult) -> dict:
     """The ``calibration.*`` keys of results.json: initial, calibrated and (twin only) true ``k`` (N/A), ``ζ`` (rad)."""
     true = setup.true_k is not None
-    return {"initial": {"k": cal.k_initial, "zeta": cal.zeta_initial},
-            "calibrated": {"k": cal.k, "zeta": cal.zeta},
-            "true": {"k": setup.true_k if true else None, "zeta": setup.true_zeta if true else None},
-            "error": ({"k_relative": cal.k / setup.true_k - 1.0, "zeta_rad": cal.zeta - setup.true_zeta}
-                      if true else None),
-            "iterations": cal.iterations, "method": setup.config.calibration.method,
-            "delta": setup.config.calibration.delta}
+    return cal.to_dict() | {
+        "true": {"k": setup.true_k if true else None, "zeta": setup.true_zeta if true else None},
+        "error": ({"k_relative": cal.k / setup.true_k - 1.0, "zeta_rad": cal.zeta - setup.true_zeta} if true else None),
+        "method": setup.config.calibration.method, "delta": setup.config.calibration.delta}
 
 
 def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=None, check_data: bool = True):
@@ -154,13 +156,8 @@ def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=N
 
     ``check_data=False`` skips the excitation check (the caller ran it and chose to go on).
     """
-    ic = setup.config.identification
-    pgnn, res = identify_all(data, setup.motor.pole_pitch, seed=seed, progress=_lm_progress(progress),
-                             gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
-                             gain_width_candidates=tuple(ic.gain_width_candidates),
-                             activation=ic.activation, Lambda=ic.regularisation, ridge_output=ic.ridge_output,
-                             n_starts=ic.starts, max_iter=ic.max_iterations, tol=ic.tol,
-                             validation_fraction=ic.validation_fraction, check_data=check_data)
+    pgnn, res = identify_all(data, setup.motor.pole_pitch, setup.config.identification.options(), seed=seed,
+                             progress=_lm_progress(progress), check_data=check_data)
     physics = CombinedModel.from_coil_sets([r.physics_model for r in res])
     return pgnn, physics, res
 
@@ -183,11 +180,7 @@ def identify_sensorless_models(setup: Setup, data: list[CoilSetData], k, zeta, s
     mass = sensorless_mass(setup)
     sdata = [sensorless_data(d, motor.sample_time, motor.pole_pitch, mass, current_limit=motor.current_limit,
                              friction_velocity=ic.direction_velocity) for d in data]
-    _, res = identify_all(sdata, motor.pole_pitch, seed=seed, progress=_lm_progress(progress),
-                          gain_widths=tuple(ic.gain_widths), cog_widths=tuple(ic.cog_widths),
-                          gain_width_candidates=tuple(ic.gain_width_candidates), activation=ic.activation,
-                          Lambda=ic.regularisation, ridge_output=ic.ridge_output, n_starts=ic.starts,
-                          max_iter=ic.max_iterations, tol=ic.tol, validation_fraction=ic.validation_fraction,
+    _, res = identify_all(sdata, motor.pole_pitch, ic.options(), seed=seed, progress=_lm_progress(progress),
                           check_data=check_data)
     models = [with_classical_rows(r.model, float(k[l]), float(zeta[l]), motor.mu, motor.lever_arms[l])
               for l, r in enumerate(res)]
@@ -242,12 +235,10 @@ def identify_direction_models(setup: Setup, data: list[CoilSetData], start_model
         # the widths of the start model (chosen by validation per coil set)
         gw = None if m0.gain_nets is None else m0.gain_nets[0].widths
         cw = None if m0.cog_net is None else m0.cog_net.widths
-        res.append(identify(d, setup.motor.pole_pitch, seed=seed + l, gain_widths=gw,
-                            cog_widths=cw, activation=ic.activation, Lambda=ic.regularisation,
-                            ridge_output=ic.ridge_output, n_starts=1, max_iter=ic.max_iterations, tol=ic.tol,
-                            validation_fraction=ic.validation_fraction, check_data=False,
-                            harmonics=ic.direction_harmonics, direction=True,
-                            direction_velocity=ic.direction_velocity, start_from=m0))
+        options = ic.options(gain_widths=gw, cog_widths=cw, starts=1, harmonics=ic.direction_harmonics,
+                             direction=True)
+        res.append(identify(d, setup.motor.pole_pitch, options, seed=stream_seed(seed, "direction starts", l),
+                            check_data=False, start_from=m0))
     return CombinedModel.from_coil_sets([r.model for r in res]), res
 
 

@@ -25,7 +25,7 @@ Steps (each a stage of the progress display):
 from __future__ import annotations
 
 import time
-import zlib
+
 from dataclasses import dataclass, replace
 
 import pgcomm._x64  # noqa: F401  (float64 before any array is made)
@@ -37,6 +37,7 @@ from pgcomm.calibration import CalibrationResult
 from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw, oracle_law
 from pgcomm.compensation import fit_cogging_table, fit_harmonic_cogging
 from pgcomm.data import coil_set_data_from_runs
+from pgcomm.seeds import stream_seed
 from pgcomm.settings import ExperimentConfig
 from pgcomm.sensorless_table import effort_reference, sensorless_cogging_table
 from pgcomm.setup import Setup, check_reference, sensorless_mass, simulated_mass
@@ -126,7 +127,7 @@ def reference_seed(seed: int, reference_name: str) -> int:
     Every law sees the same noise on the same reference, so rows compare without noise
     spread, and adding a reference leaves the other references' numbers unchanged.
     """
-    return seed + 100 + zlib.crc32(reference_name.encode()) % 100_000
+    return stream_seed(seed, "evaluation", reference_name)
 
 
 def quick_config(config: ExperimentConfig) -> ExperimentConfig:
@@ -152,7 +153,7 @@ class SensorlessResult:
 
     Attributes:
         calibration: Algorithm 1 on the motion (method ``"sensorless"``).
-        identification: per coil set, the y row with friction (``mechanics``).
+        identification: per coil set, the y row with friction (``mechanics``, a :class:`~pgcomm.sensorless.FrictionFit`).
         model: the combined model (x, z rows classical with ``calibration``'s ``k``, ``ζ``).
         seconds: wall time of calibration and identification (s).
         mass: the given moving mass (kg).
@@ -180,6 +181,28 @@ class SensorlessResult:
 
 
 @dataclass(frozen=True)
+class Diagnostics:
+    """Figures of a run computed once from its runs, models and the plant's truth (:func:`run` fills them),
+    so that :meth:`ReproduceResult.to_dict` only arranges stored values.
+
+    Attributes:
+        model_error: model name (``pgnn``, ``physics``, optional ``pgnn_direction``, ``spline``) ->
+            :func:`model_error` against the plant's truth.
+        reducible_standard_error: :meth:`ReproduceResult.compute_reducible_standard_errors`.
+        sensor_noise: :meth:`ReproduceResult.compute_sensor_noise`.
+        y_mse_without_direction_force: :meth:`ReproduceResult.compute_mse_without_direction_force`
+            (``None`` without the sensorless chain, where it is reported).
+        sensorless_model_error: :func:`model_error` of the sensorless model, or ``None``.
+    """
+
+    model_error: dict
+    reducible_standard_error: dict
+    sensor_noise: dict
+    y_mse_without_direction_force: dict | None = None
+    sensorless_model_error: dict | None = None
+
+
+@dataclass(frozen=True)
 class ReproduceResult:
     """Everything the paper's experiment produced on one set-up.
 
@@ -194,6 +217,7 @@ class ReproduceResult:
         feedforward: row -> :class:`~pgcomm.control.Feedforward` (``m`` kg, ``f_v`` N s/m, ``f_c`` N).
         tables: ``"cogging_table"`` / ``"harmonic_cogging"`` / ``"cogging_table_sensorless"`` -> the drive-style offset.
         metrics: reference name -> row -> ``{"commutation_mse": {dir: {filtered, unfiltered}}, "tracking_mse": m²}``.
+        diagnostics: the figures computed once at the end of :func:`run` (:class:`Diagnostics`).
     """
 
     setup: Setup
@@ -212,6 +236,7 @@ class ReproduceResult:
     sensorless: SensorlessResult | None = None
     spline: object = None
     mechanics: object = None
+    diagnostics: Diagnostics | None = None
 
     @property
     def rows(self) -> tuple:
@@ -235,7 +260,7 @@ class ReproduceResult:
         (:func:`pgcomm.metrics.reducible_share`): a share of a difference lost in noise means nothing.
         """
         cm, tm = self.commutation_mse, self.tracking_mse
-        se = self.reducible_standard_errors()
+        se = self._diagnostics().reducible_standard_error
         share = {}
         for row in self.rows:
             share[row] = {d: reducible_share(cm[row][d]["filtered"], cm["classical"][d]["filtered"],
@@ -243,7 +268,29 @@ class ReproduceResult:
             share[row]["tracking"] = reducible_share(tm[row], tm["classical"], tm["oracle"], se["tracking"])
         return share
 
-    def reducible_standard_errors(self) -> dict:
+    def _diagnostics(self) -> Diagnostics:
+        if self.diagnostics is None:
+            raise ValueError("this ReproduceResult has no diagnostics: results from pgcomm.reproduce.run have them "
+                             "(or add them with with_diagnostics())")
+        return self.diagnostics
+
+    def with_diagnostics(self) -> "ReproduceResult":
+        """This result with its :class:`Diagnostics` computed (what :func:`run` returns)."""
+        models = {"pgnn": self.pgnn, "physics": self.physics}
+        if self.pgnn_direction is not None:
+            models["pgnn_direction"] = self.pgnn_direction
+        if self.spline is not None:
+            models["spline"] = self.spline.model
+        span = self.setup.config.reference.span
+        sl = self.sensorless
+        return replace(self, diagnostics=Diagnostics(
+            model_error={name: model_error(m, self.setup.plant, span) for name, m in models.items()},
+            reducible_standard_error=self.compute_reducible_standard_errors(),
+            sensor_noise=self.compute_sensor_noise(),
+            y_mse_without_direction_force=None if sl is None else self.compute_mse_without_direction_force(),
+            sensorless_model_error=None if sl is None else model_error(sl.model, self.setup.plant, span)))
+
+    def compute_reducible_standard_errors(self) -> dict:
         """Standard errors of ``classical - oracle`` on the long reference: per direction (filtered, N² or
         N²m²) and ``tracking`` (m²), from block means (:func:`pgcomm.metrics.mse_difference_se`)."""
         c, o = self.runs["long"]["classical"], self.runs["long"]["oracle"]
@@ -256,7 +303,7 @@ class ReproduceResult:
         se["tracking"] = mse_difference_se(c.e, o.e, block)
         return se
 
-    def mse_without_direction_force(self) -> dict:
+    def compute_mse_without_direction_force(self) -> dict:
         """Row -> filtered y MSE (N²) of ``F - F* - F_dir`` on the long reference: the error with the
         plant's own direction-dependent force taken out (known only on a simulated plant; ``F_dir`` at the
         true position and a central-difference velocity of it).
@@ -275,7 +322,7 @@ class ReproduceResult:
             out[row] = float(np.mean(lowpass(e, r.sample_time, lp) ** 2))
         return out
 
-    def sensor_noise(self) -> dict:
+    def compute_sensor_noise(self) -> dict:
         """What the force sensor's noise contributes to the filtered commutation-error MSE (N², N², N²m²).
 
         Returns:
@@ -354,7 +401,7 @@ class ReproduceResult:
         out["tracking_mse"] = per_ref["long"]["tracking_mse"]
         out["references"] = per_ref
         out["reducible_share"] = self.reducible_share()
-        out["reducible_standard_error"] = self.reducible_standard_errors()
+        out["reducible_standard_error"] = self._diagnostics().reducible_standard_error
         out["improvement_over_classical"] = self.improvement_over_classical()
         out["feedforward"] = {row: {"mass": ff.mass, "viscous": ff.viscous, "coulomb": ff.coulomb,
                                     **({"coulomb_knots": list(ff.coulomb_knots), "coulomb_table": list(ff.coulomb_table)}
@@ -365,19 +412,15 @@ class ReproduceResult:
         out["tables"].update({
                          "harmonic_cogging": {"harmonics": (int(self.tables["harmonic_cogging"].coef.shape[0]) - 1)
                                               // 2}})
-        models = [("pgnn", self.pgnn), ("physics", self.physics)]
-        if self.pgnn_direction is not None:
-            models.append(("pgnn_direction", self.pgnn_direction))
+        diag = self._diagnostics()
         if self.spline is not None:
-            models.append(("spline", self.spline.model))
             out["identification"]["spline"] = self.spline.to_dict()
             out["mechanics"] = {"identified": self.mechanics.to_dict(),
                                 "simulated": {"mass": self.setup.config.mechanics.mass,
                                               "viscous": self.setup.config.mechanics.viscous,
                                               "coulomb": self.setup.config.mechanics.coulomb}}
-        out["model_error"] = {name: model_error(model, self.setup.plant, self.setup.config.reference.span)
-                              for name, model in models}
-        out["sensor_noise"] = self.sensor_noise()
+        out["model_error"] = dict(diag.model_error)
+        out["sensor_noise"] = diag.sensor_noise
         out["tracking_order"] = self.tracking_order()
         out["recommended"] = self.recommended()
         if self.sensorless is not None:
@@ -386,8 +429,8 @@ class ReproduceResult:
             c, p, s_ = (cm[r]["y"]["filtered"] for r in ("classical", "pgnn", "pgnn_sensorless"))
             # issue 10's target: the sensorless PGNN removes >= 80 % of what the force-sensor PGNN removes
             sl["share_of_pgnn_reduction_y"] = (c - s_) / (c - p) if c - p > 0 else None
-            sl["model_error"] = model_error(self.sensorless.model, self.setup.plant, self.setup.config.reference.span)
-            sl["y_mse_without_direction_force"] = self.mse_without_direction_force()
+            sl["model_error"] = diag.sensorless_model_error
+            sl["y_mse_without_direction_force"] = diag.y_mse_without_direction_force
             out["sensorless"] = sl
         out["paper"] = PAPER
         return out
@@ -466,9 +509,9 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
                                       sensorless_mass(setup), mass_source=mass_source)
         for r in id_sl:
             me = r.mechanics
-            progress.info(f"{r.name}: y cost {r.cost_y:.4g} N^2 on {me['windows']} filtered windows "
-                          f"({1e3 * me['filter']['window_s']:.0f} ms); friction F_c = {me['coulomb']:.3g} N, "
-                          f"c = {me['viscous']:.3g} N s/m (m = {me['mass']:.3g} kg given)")
+            progress.info(f"{r.name}: y cost {r.cost_y:.4g} N^2 on {me.windows} filtered windows "
+                          f"({1e3 * me.filter.window:.0f} ms); friction F_c = {me.coulomb:.3g} N, "
+                          f"c = {me.viscous:.3g} N s/m (m = {me.mass:.3g} kg given)")
 
     limit = motor.current_limit
     laws = {"original": ClassicalLaw.from_motor(motor),
@@ -483,11 +526,11 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
 
     with progress.stage(f"feedforward identification per law ({cfg.controller.ff_iterations} closed-loop passes)"):
         names = list(laws)
-        ffs = dict(zip(names, experiment.tune_feedforward(setup, [laws[n] for n in names], long_ref, seed=seed + 50)))
+        ffs = dict(zip(names, experiment.tune_feedforward(setup, [laws[n] for n in names], long_ref, seed=stream_seed(seed, "feedforward", "rows"))))
 
     with progress.stage("drive-style rows: anti-cogging table and harmonic fit from the classical residual, "
                         "anti-cogging table from the controller's effort (no force sensor)"):
-        run_c = experiment.run_laws(setup, [laws["classical"]], long_ref, [ffs["classical"]], seeds=[seed + 60])[0]
+        run_c = experiment.run_laws(setup, [laws["classical"]], long_ref, [ffs["classical"]], seeds=[stream_seed(seed, "classical run for the tables")])[0]
         residual = run_c.f_meas[:, 0] - run_c.f_star[:, 0]
         tables = {"cogging_table": fit_cogging_table(run_c.y_meas, residual, cfg.evaluation.cogging_table_entries,
                                                      cfg.reference.span),
@@ -499,11 +542,11 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         # a table from the controller's effort (the feedforward is identified from the demand, no force)
         classical_sl = ClassicalLaw.from_motor(motor, k=cal_sl.k, zeta=cal_sl.zeta)
         tables["cogging_table_sensorless"], info = sensorless_cogging_table(
-            setup, classical_sl, ffs["classical"], seed=seed + 80)
+            setup, classical_sl, ffs["classical"], seed=stream_seed(seed, "sensorless table run"))
         laws["cogging_table_sensorless"] = OffsetLaw(classical_sl, tables["cogging_table_sensorless"])
         sensorless = replace(sensorless, table_info=info)
         extra = ["cogging_table", "harmonic_cogging", "cogging_table_sensorless"]
-        ffs.update(zip(extra, experiment.tune_feedforward(setup, [laws[n] for n in extra], long_ref, seed=seed + 70)))
+        ffs.update(zip(extra, experiment.tune_feedforward(setup, [laws[n] for n in extra], long_ref, seed=stream_seed(seed, "feedforward", "table rows"))))
     laws["spline"], ffs["spline"] = spline_law, mech.feedforward()
 
     rows = [row for row in ROWS if row in laws]
@@ -520,8 +563,8 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     return ReproduceResult(setup=setup, calibration=cal, identification=tuple(id_res), identification_seconds=t_id,
                            pgnn=pgnn, physics=physics, references=refs, runs=runs, feedforward=ffs, tables=tables,
                            metrics=metrics, identification_direction=tuple(id_dir), pgnn_direction=pgnn_dir,
-                           sensorless=sensorless, spline=spline, mechanics=mech)
+                           sensorless=sensorless, spline=spline, mechanics=mech).with_diagnostics()
 
 
-__all__ = ["ROWS", "REALISABLE", "PAPER", "ReproduceResult", "run", "quick_config", "paper_improvement", "model_error",
+__all__ = ["ROWS", "REALISABLE", "PAPER", "Diagnostics", "ReproduceResult", "run", "quick_config", "paper_improvement", "model_error",
            "filtered_noise_mse"]

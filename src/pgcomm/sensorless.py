@@ -198,6 +198,36 @@ def filtered_acceleration(filt: AccelerationFilter, starts, y) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class FrictionFit:
+    """The translator's friction identified with the y row from the motion (one coil set's experiments).
+
+    Attributes:
+        mass: the given moving mass ``m`` (kg).
+        coulomb: mean of the Coulomb table over its knots' span (trapezoid), N.
+        viscous: viscous coefficient ``f_v`` (N s/m).
+        coulomb_table, coulomb_knots: the piecewise-linear Coulomb table ``F_c(y)`` (N) at its knots (m).
+        friction_velocity: ``v_ε`` (m/s) of the smooth sign ``tanh(ẏ/v_ε)``.
+        filter: the zero-phase acceleration filter the fit used.
+        windows: filtered windows fitted.
+    """
+
+    mass: float
+    coulomb: float
+    viscous: float
+    coulomb_table: tuple[float, ...]
+    coulomb_knots: tuple[float, ...]
+    friction_velocity: float
+    filter: AccelerationFilter
+    windows: int
+
+    def to_dict(self) -> dict:
+        """JSON-ready: every field, lists for the table (model files and results.json hold this)."""
+        return {"mass": self.mass, "coulomb": self.coulomb, "viscous": self.viscous,
+                "coulomb_table": list(self.coulomb_table), "coulomb_knots": list(self.coulomb_knots),
+                "friction_velocity": self.friction_velocity, "filter": self.filter.to_dict(), "windows": self.windows}
+
+
+@dataclass(frozen=True)
 class SensorlessData:
     """One coil set's data for identification without a force sensor (module docstring).
 
@@ -274,20 +304,21 @@ class SensorlessData:
         idx = self.starts[:, None] + 1 + np.arange(self.filt.length)
         return np.einsum("jmk,m->jk", cols[idx], self.filt.taps)
 
-    def mechanics(self, friction) -> dict:
+    def mechanics(self, friction) -> "FrictionFit":
         """Friction (opposing motion) from the fitted coefficients of :meth:`friction_columns`.
 
-        ``coulomb`` (N) is the mean of the table ``F_c(y)`` over its knots' span (trapezoid),
-        ``coulomb_table`` its values at ``coulomb_knots`` (m), ``viscous`` (N s/m).
+        Args:
+            friction: ``(K + 1,)`` fitted coefficients (the Coulomb table's ``K`` knots, then viscous).
         """
         f = -np.asarray(friction, float)  # the columns enter with the force: m ÿ = F + θ_f cols
         table = f[:-1]
         w = np.full(table.shape[0], 1.0)
         if w.size > 1:
             w[[0, -1]] = 0.5
-        return {"mass": self.mass, "coulomb": float(w @ table / w.sum()), "viscous": float(f[-1]),
-                "coulomb_table": [float(x) for x in table], "coulomb_knots": [float(x) for x in self.friction_knots],
-                "friction_velocity": self.friction_velocity, "filter": self.filt.to_dict(), "windows": self.n}
+        return FrictionFit(mass=float(self.mass), coulomb=float(w @ table / w.sum()), viscous=float(f[-1]),
+                           coulomb_table=tuple(float(x) for x in table),
+                           coulomb_knots=tuple(float(x) for x in self.friction_knots),
+                           friction_velocity=float(self.friction_velocity), filter=self.filt, windows=int(self.n))
 
     def take(self, index) -> "SensorlessData":
         """The output samples ``index``."""
@@ -383,5 +414,5 @@ def with_classical_rows(model, k: float, zeta: float, mu: float, lever_arm: floa
     return model.with_outputs(A, B, gain, cog, H, C)
 
 
-__all__ = ["AccelerationFilter", "SensorlessData", "sensorless_data", "window_starts", "filter_windows",
+__all__ = ["AccelerationFilter", "FrictionFit", "SensorlessData", "sensorless_data", "window_starts", "filter_windows",
            "filtered_acceleration", "with_classical_rows"]

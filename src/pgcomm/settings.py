@@ -136,6 +136,23 @@ class IdentificationConfig:
         if not 0 < self.direction_velocity < 1:
             raise ValueError(f"direction_velocity = {self.direction_velocity} m/s: expected 0 < v_eps < 1 m/s")
 
+    def options(self, **changes):
+        """These settings as the :class:`~pgcomm.identify.options.IdentifyOptions` of Algorithm 2.
+
+        Args:
+            changes: fields of :class:`~pgcomm.identify.options.IdentifyOptions` that differ from the
+                settings for one call (e.g. ``direction=True`` for the direction row).
+        """
+        from pgcomm.identify.options import IdentifyOptions
+
+        fields = dict(gain_widths=self.gain_widths, cog_widths=self.cog_widths,
+                      gain_width_candidates=self.gain_width_candidates, activation=self.activation,
+                      regularisation=self.regularisation, ridge_output=self.ridge_output, starts=self.starts,
+                      max_iterations=self.max_iterations, tol=self.tol, validation_fraction=self.validation_fraction,
+                      direction_velocity=self.direction_velocity)
+        fields.update(changes)
+        return IdentifyOptions(**fields)
+
 
 @dataclass(frozen=True)
 class EvaluationConfig:

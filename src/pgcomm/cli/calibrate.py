@@ -49,12 +49,7 @@ def _run_logs(args, out: Path, progress) -> None:
     conv = convergence(cal, cc.tol)
     nxt = motor.with_nominal(k=tuple(cal.k), zeta=tuple(cal.zeta))
     write_motor(out / "motor.toml", nxt)
-    steps = sorted(cal.history[-1], key=lambda s: s.coil_set)
-    calibration = {"initial": {"k": cal.k_initial, "zeta": cal.zeta_initial},
-                   "calibrated": {"k": cal.k, "zeta": cal.zeta}, "true": {"k": None, "zeta": None},
-                   "standard_error": {"k": [s.k_se for s in steps], "zeta": [s.zeta_se for s in steps]},
-                   "coefficients": {"c1": [s.c1 for s in steps], "c2": [s.c2 for s in steps]},
-                   "method": method, "iterations": 1} | {"convergence": conv}
+    calibration = cal.to_dict() | {"true": {"k": None, "zeta": None}, "method": method, "convergence": conv}
     results = {"command": "calibrate", "logs": [str(lg.source) for lg in logs], "motor": str(args.motor or "twin"),
                "calibration": calibration, "force_sensor": not args.no_force_sensor,
                "runtime_s": time.perf_counter() - t0}
@@ -65,7 +60,7 @@ def _run_logs(args, out: Path, progress) -> None:
               f"{'zeta drive':>10s} {'zeta new':>9s} {'step':>9s} {'± SE':>8s}")
         print(f"{'':>8s} {'(N/A)':>9s} {'(N/A)':>9s} {'(%)':>8s} {'(%)':>7s}   {'(rad)':>10s} {'(rad)':>9s} "
               f"{'(mrad)':>9s} {'(mrad)':>8s}")
-        for l, s in enumerate(steps):
+        for l in range(len(cal.k)):
             print(f"{l + 1:8d} {cal.k_initial[l]:9.3f} {cal.k[l]:9.3f} {100 * conv['step']['k_relative'][l]:+8.3f} "
                   f"{100 * conv['standard_error']['k_relative'][l]:7.3f}   {cal.zeta_initial[l]:10.4f} "
                   f"{cal.zeta[l]:9.4f} {1e3 * conv['step']['zeta_rad'][l]:+9.3f} "

@@ -307,7 +307,7 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
         error={q: {"abs": float(err.abs[k]), "rel": float(err.rel[k]), "y_worst": float(err.y_worst[k])}
                for k, q in enumerate("yxz")},
         worst_rel=err.worst_rel,
-        cogging_table={"rows": cog.n, "bytes": cog.nbytes, **cog_err.as_dict(),
+        cogging_table={"rows": cog.n, "bytes": cog.nbytes, **cog_err.to_dict(),
                        "drive": {"k_hat": k_hat.tolist(), "zeta_hat": zeta_hat.tolist(), "source": drive["source"]}},
     )
     if not args.quiet:

@@ -305,7 +305,7 @@ class LutError:
         """Largest of :attr:`rel`."""
         return float(np.max(self.rel))
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """``{"y": {"abs": N, "rel": -, "y_worst": m}, "x": ..., "z": ..., "f_max": N, "points": n}``."""
         d = {q: {"abs": float(self.abs[k]), "rel": float(self.rel[k]), "y_worst": float(self.y_worst[k])}
              for k, q in enumerate(_DIRS)}
@@ -620,7 +620,7 @@ class CoggingTableError:
     zeta_hat: np.ndarray
     f_max: float
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Plain dict for results.json."""
         d = {q: {"abs": float(self.law_abs[k]), "rel": float(self.law_rel[k])} for k, q in enumerate(_DIRS)}
         return {"interpolation_abs": self.interpolation, "classical_plus_table": d,

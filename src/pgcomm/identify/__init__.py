@@ -30,7 +30,8 @@ What this module implements (labels of the paper):
 
 Modules: :mod:`~pgcomm.identify.layout` (``θ_phy``, ``Λ``, ``θ_NL``, ``θ_L``),
 :mod:`~pgcomm.identify.projection` (regressor, Proposition 1, cost, projected normal
-equations), :mod:`~pgcomm.identify.lm` (the Levenberg–Marquardt loop, :func:`identify`),
+equations), :mod:`~pgcomm.identify.lm` (the Levenberg–Marquardt loop, :func:`identify`), :mod:`~pgcomm.identify.options`
+(:class:`IdentifyOptions`, the settings as one object),
 :mod:`~pgcomm.identify.result` (:class:`IdentifyResult`). The public names are re-exported here.
 
 Numerics (why it is done this way)
@@ -79,7 +80,8 @@ from pgcomm.identify.layout import (
     with_hidden_vector,
     with_theta_L,
 )
-from pgcomm.identify.lm import identify, identify_all
+from pgcomm.identify.lm import identify, identify_all, identify_selecting_width
+from pgcomm.identify.options import MIN_FEATURE_WIDTH, IdentifyOptions
 from pgcomm.identify.projection import (
     DEFAULT_CHUNK,
     DEFAULT_CHUNK_GENERIC,
@@ -100,5 +102,6 @@ __all__ = [
     "DEFAULT_LAMBDA", "DEFAULT_DAMPING", "DEFAULT_CHUNK", "DEFAULT_CHUNK_GENERIC", "STOP_REASONS",
     "theta_phy", "theta_phy_to_AB", "lambda_diagonal", "hidden_vector", "with_hidden_vector", "theta_L_of",
     "with_theta_L", "regressor", "fit_physics", "CostTerms", "cost", "cost_y", "Proposition1Result", "proposition1",
-    "projected_normal_equations", "projected_residual", "identify", "identify_all", "IdentifyResult",
+    "projected_normal_equations", "projected_residual", "identify", "identify_all", "identify_selecting_width",
+    "IdentifyOptions", "MIN_FEATURE_WIDTH", "IdentifyResult",
 ]

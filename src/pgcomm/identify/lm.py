@@ -18,7 +18,6 @@ from pgcomm.data import CoilSetData, train_validation_split
 from pgcomm.errors import DataError, ExcitationError
 from pgcomm.excitation import check_excitation
 from pgcomm.identify.layout import (
-    DEFAULT_LAMBDA,
     _Layout,
     hidden_vector,
     lambda_diagonal,
@@ -26,7 +25,6 @@ from pgcomm.identify.layout import (
     with_theta_L,
 )
 from pgcomm.identify.projection import (
-    DEFAULT_DAMPING,
     CostTerms,
     _Eval,
     _evaluate,
@@ -38,18 +36,12 @@ from pgcomm.identify.projection import (
     sensorless_residual,
     split_friction,
 )
+from pgcomm.seeds import stream_seed
 from pgcomm.sensorless import SensorlessData
+from pgcomm.identify.options import IdentifyOptions
 from pgcomm.identify.result import STOP_REASONS, IdentifyResult
-from pgcomm.models import (
-    DEFAULT_COG_WIDTHS,
-    DEFAULT_DIRECTION_VELOCITY,
-    DEFAULT_GAIN_WIDTHS,
-    CoilSetModel,
-    CombinedModel,
-)
+from pgcomm.models import CoilSetModel, CombinedModel
 
-#: Narrowest 10–90 % width of a hidden unit, in pole pitches (see :func:`identify`).
-MIN_FEATURE_WIDTH = 0.25
 
 #: Fewest samples the first (subsampled) training phase uses.
 _MIN_SUBSAMPLE = 4096
@@ -177,22 +169,15 @@ def _run_lm(layout, flats, chunks, k, n, *, max_iter, tol, lambda0, show, phase,
     return st, tuple(history)
 
 
-def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_WIDTHS, cog_widths=DEFAULT_COG_WIDTHS,
-             activation: str = "tanh", Lambda=DEFAULT_LAMBDA, theta_phy_star=None, ridge_output: float = 0.0,
-             n_starts: int = 8, seed: int = 0, max_iter: int = 100, tol: float = 1e-6,
-             subsample: int = 8, refine_starts: int = 2,
-             validation_fraction: float = 0.2, block_size: int = 500, chunk_size: int | None = None,
-             damping: float = DEFAULT_DAMPING, lambda0: float = 1e-3, method: str = "auto",
-             min_feature_width: float = MIN_FEATURE_WIDTH, check_data: bool = True, progress=None,
-             harmonics: bool = False, direction: bool = False,
-             direction_velocity: float = DEFAULT_DIRECTION_VELOCITY, start_from: CoilSetModel | None = None
-             ) -> IdentifyResult:
+def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | None = None, *, seed: int = 0,
+             theta_phy_star=None, start_from: CoilSetModel | None = None, check_data: bool = True,
+             progress=None) -> IdentifyResult:
     """Identify the PGNN of one coil set (Algorithm 2) by variable-projection Levenberg–Marquardt.
 
     Steps: split the data (:func:`train_validation_split`); check excitation
     (:func:`check_excitation`, raises :class:`~pgcomm.errors.ExcitationError`); fit the
-    physics-only model (``θ_phy*`` unless given); draw ``n_starts`` random hidden layers from
-    ``jax.random.PRNGKey(seed)``; iterate, for several starts at once (one batched
+    physics-only model once (the physics row of the result and ``θ_phy*`` unless given); draw
+    ``options.starts`` random hidden layers from ``jax.random.PRNGKey(seed)``; iterate, for several starts at once (one batched
     evaluation)::
 
         θ_L = Prop1(θ_NL)                                   (eq. Optimal_Initialization)
@@ -202,7 +187,7 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     Jacobian in ``θ_NL`` (see ``_evaluate``). Two phases, because consecutive samples at
     1 kHz carry nearly the same information:
 
-    1. all ``n_starts`` starts on every ``subsample``-th training sample (at least 4096
+    1. all ``options.starts`` starts on every ``subsample``-th training sample (at least 4096
        samples; skipped when the data are too few for that);
     2. the ``refine_starts`` best of them on all training samples.
 
@@ -218,70 +203,65 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
     build steps the data cannot support (they fit noise and jump in the law).
 
     Args:
-        data: samples of both data sets ``Z_1, Z_2`` of this coil set.
+        data: samples of both data sets ``Z_1, Z_2`` of this coil set: a :class:`CoilSetData` (force
+            sensor) or a :class:`~pgcomm.sensorless.SensorlessData` (the motion's ``m ÿ``).
         pole_pitch: ``d_m`` (m).
-        gain_widths, cog_widths: hidden widths of the gain-column and cogging networks
-            (``None`` leaves the network out); paper: ``(2,)`` and ``(16,)``.
-        Lambda: ``Λ`` (default ``0.1 I``); theta_phy_star: ``θ_phy*`` or ``None`` (physics fit).
-        ridge_output: explicit ridge on the networks' output weights (0 = the paper's cost).
-        n_starts, seed: random starts; seed of ``jax.random.PRNGKey``.
-        max_iter, tol: LM limits per phase (iterations; relative cost decrease of an accepted
-            step and relative step size).
-        subsample, refine_starts: the two phases above.
-        validation_fraction, block_size: see :func:`split_indices`.
-        chunk_size: samples per accumulated chunk (memory bound; results independent of it).
-        damping: numerical damping of Proposition 1's least squares (see :func:`proposition1`).
-        lambda0: initial LM damping (relative to ``diag JᵀJ``).
-        method: Jacobian sums, ``"auto"``, ``"structured"`` or ``"generic"``.
-        min_feature_width: narrowest 10–90 % width of a hidden unit, in pole pitches (0 = no bound).
-        check_data: run :func:`check_excitation` first.
-        harmonics: add the 5th/7th harmonic gain columns (8 linear parameters per direction;
-            not regularised: no network can mimic a 6 mm ripple, so there is no
-            over-parametrisation for ``Λ`` to resolve, and pulling them to 0 would only bias them).
-        direction: add the direction term ``C s(ẏ)`` (one linear parameter per direction, not
-            regularised); ``data.velocity`` is then required.
-        direction_velocity: ``v_ε`` (m/s) of ``s(ẏ) = tanh(ẏ/v_ε)``.
+        options: what to fit and how (:class:`~pgcomm.identify.options.IdentifyOptions`; default:
+            the paper's networks and cost).
+        seed: seed of ``jax.random.PRNGKey`` for the random starts (a named stream,
+            :func:`pgcomm.seeds.stream_seed`, when called from a pipeline).
+        theta_phy_star: ``θ_phy*`` of the regularisation, or ``None`` for the physics fit of the
+            training data.
         start_from: a model of the same network widths (e.g. the paper's PGNN of this coil set)
             whose hidden layers are the first start (a warm start: an extension adds only
             linear columns, so the trained hidden layers are already close); the other
-            ``n_starts - 1`` starts stay random.
+            ``options.starts - 1`` starts stay random.
+        check_data: run :func:`check_excitation` first.
         progress: ``None`` (silent), ``True`` (one line per iteration to stderr) or a callable
             receiving a dict ``{phase, iteration, best_cost, lambda, active, starts}``.
+
+    Options worth knowing (:class:`~pgcomm.identify.options.IdentifyOptions`): ``harmonics`` adds
+    the 5th/7th harmonic gain columns, not regularised (no network can mimic a 6 mm ripple, so
+    there is no over-parametrisation for ``Λ`` to resolve, and pulling them to 0 would only bias
+    them); ``direction`` adds ``C s(ẏ)`` (one linear parameter per direction, not regularised;
+    ``data.velocity`` is then required; without a force sensor the direction term is the Coulomb
+    friction column, so it is refused there).
 
     Returns:
         :class:`IdentifyResult`.
     """
     t0 = time.perf_counter()
+    o = IdentifyOptions() if options is None else options
     name = data.name
     if data.n < 10:
         raise DataError(f"{name}: too few samples ({data.n}) to identify a model")
-    if gain_widths is None and cog_widths is None:
-        raise ValueError("identify needs at least one network; use fit_physics for the physics-only model")
     sensorless = isinstance(data, SensorlessData)
-    if sensorless and direction:
+    if sensorless and o.direction:
         raise ValueError(f"{name}: without a force sensor the direction term is the Coulomb friction column; "
                          "identify with direction=False")
-    if direction and data.velocity is None:
+    if o.direction and data.velocity is None:
         raise DataError(f"{name}: the direction term needs the velocity of every sample; "
                         "build the data with CoilSetData.with_velocity(sample_time)")
     if check_data:
         problems = check_excitation(data.raw if sensorless else data, pole_pitch)
         if problems:
             raise ExcitationError(f"{name}: data do not persistently excite the model: " + "; ".join(problems))
-    train, val = (data.split(validation_fraction, block_size) if sensorless
-                  else train_validation_split(data, validation_fraction, block_size))
+    train, val = (data.split(o.validation_fraction, o.block_size) if sensorless
+                  else train_validation_split(data, o.validation_fraction, o.block_size))
     y_lo, y_hi = float(data.y.min()), float(data.y.max())
     y_center = 0.5 * (float(train.y.min()) + float(train.y.max()))
     y_scale = max(0.5 * (float(train.y.max()) - float(train.y.min())), 1e-9)
 
+    # the physics-only fit, once: the result's physics model, the starts' physics part and θ_phy*
     a_phy, b_phy = fit_physics(train, pole_pitch)
     physics = CoilSetModel.physics(a_phy, b_phy, pole_pitch, y_center, y_scale, y_lo, y_hi)
-    star = _star_or_fit(train, pole_pitch, theta_phy_star)
-    lam12 = lambda_diagonal(Lambda)
+    star = _star_or_fit(train, pole_pitch, (a_phy, b_phy) if theta_phy_star is None else theta_phy_star)
+    lam12 = lambda_diagonal(o.regularisation)
 
-    keys = jax.random.split(jax.random.PRNGKey(seed), n_starts)
-    models0 = [CoilSetModel.init(kk, a_phy, b_phy, pole_pitch, y_center, y_scale, gain_widths, cog_widths, activation,
-                                 y_lo, y_hi, harmonics, direction, direction_velocity) for kk in keys]
+    keys = jax.random.split(jax.random.PRNGKey(seed), o.starts)
+    models0 = [CoilSetModel.init(kk, a_phy, b_phy, pole_pitch, y_center, y_scale, o.gain_widths, o.cog_widths,
+                                 o.activation, y_lo, y_hi, o.harmonics, o.direction, o.direction_velocity)
+               for kk in keys]
     template = models0[0]
     flats = jnp.stack([hidden_vector(mm) for mm in models0])
     if start_from is not None:
@@ -290,29 +270,29 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
             raise ValueError(f"start_from has {warm.shape[0]} hidden parameters, this structure {flats.shape[1]}")
         flats = flats.at[0].set(warm)
     show = _progress_printer(name) if progress is True else (progress or None)
-    opts = dict(max_iter=max_iter, tol=tol, lambda0=lambda0, show=show)
+    opts = dict(max_iter=o.max_iterations, tol=o.tol, lambda0=o.lambda0, show=show)
     history = []
     mask = jnp.asarray(_Layout.of(template).first_layer_weight_mask())
-    w_max = (2.0 * np.arctanh(0.8) * y_scale / (min_feature_width * pole_pitch) if min_feature_width > 0
+    w_max = (2.0 * np.arctanh(0.8) * y_scale / (o.min_feature_width * pole_pitch) if o.min_feature_width > 0
              else np.inf)
     force_ms = float(np.mean(train.force ** 2)) + 1e-300
 
     def slope(n):
         return (mask, jnp.asarray(w_max), jnp.asarray(np.sqrt(n * force_ms)))
 
-    stride = max(1, min(int(subsample), train.n // _MIN_SUBSAMPLE))
-    iters0 = np.zeros(n_starts, int)
+    stride = max(1, min(int(o.subsample), train.n // _MIN_SUBSAMPLE))
+    iters0 = np.zeros(o.starts, int)
     start_costs = None
     if stride > 1:
         sub = train.take(slice(None, None, stride))
-        layout, chunks, k = _prepare(template, sub, lam12, star, ridge_output, damping, chunk_size, method)
+        layout, chunks, k = _prepare(template, sub, lam12, star, o.ridge_output, o.damping, o.chunk_size, o.method)
         st1, hist1 = _run_lm(layout, flats, chunks, k, sub.n, phase=1, slope=slope(sub.n), **opts)
         history.append(hist1)
         fs1 = np.where(np.isfinite(np.asarray(st1.ev.f)), np.asarray(st1.ev.f), np.inf)
         start_costs = 2.0 * fs1 / sub.n
-        keep = np.argsort(fs1, kind="stable")[:max(1, min(refine_starts, n_starts))]
+        keep = np.argsort(fs1, kind="stable")[:max(1, min(o.refine_starts, o.starts))]
         flats, iters0 = st1.flat[keep], np.asarray(st1.n_iter)[keep]
-    layout, chunks, k = _prepare(template, train, lam12, star, ridge_output, damping, chunk_size, method)
+    layout, chunks, k = _prepare(template, train, lam12, star, o.ridge_output, o.damping, o.chunk_size, o.method)
     st, hist2 = _run_lm(layout, flats, chunks, k, train.n, phase=2 if stride > 1 else 1, slope=slope(train.n),
                         **opts)
     history.append(hist2)
@@ -338,9 +318,9 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
         name=name, model=model, physics_model=physics, cost_physics=c_phys.data, cost_pgnn=c_pgnn.total,
         cost_pgnn_data=c_pgnn.data, cost_physics_validation=c_phys_val.data, cost_pgnn_validation=c_pgnn_val.data,
         cost_pgnn_validation_full=c_pgnn_val.total, iterations=int(iters0[best] + np.asarray(st.n_iter)[best]),
-        seconds=time.perf_counter() - t0, ridge=float(ridge_output), ridge_term=float(st.ev.ridge2[best]) / train.n,
-        damping=float(damping), damping_term=float(st.ev.damp2[best]) / train.n,
-        n_train=train.n, n_validation=val.n, seed=int(seed), n_starts=int(n_starts),
+        seconds=time.perf_counter() - t0, ridge=float(o.ridge_output), ridge_term=float(st.ev.ridge2[best]) / train.n,
+        damping=float(o.damping), damping_term=float(st.ev.damp2[best]) / train.n,
+        n_train=train.n, n_validation=val.n, seed=int(seed), n_starts=int(o.starts),
         cost_y=cost_y(model, train, friction), cost_y_physics=cost_y(physics, train, phys_friction), mechanics=mechanics,
         start_costs=tuple(float(x) for x in start_costs),
         stop_reason=STOP_REASONS[int(np.asarray(st.reason)[best])], history=tuple(history),
@@ -349,9 +329,9 @@ def identify(data: CoilSetData, pole_pitch: float, *, gain_widths=DEFAULT_GAIN_W
             np.abs(np.asarray(st.flat[best])) - w_max, 0.0), 0.0) ** 2)))
 
 
-def identify_selecting_width(data: CoilSetData, pole_pitch: float, *, gain_width_candidates=(2, 4, 8),
-                             **kwargs) -> IdentifyResult:
-    """:func:`identify` for each gain-network width in ``gain_width_candidates``; keep the best on validation.
+def identify_selecting_width(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | None = None, *,
+                             seed: int = 0, progress=None, check_data: bool = True) -> IdentifyResult:
+    """:func:`identify` for each gain-network width in ``options.gain_width_candidates``; keep the best on validation.
 
     The paper's width 2 is a start, not a rule: a motor whose magnets vary one by one needs
     more capacity along the stroke than one with a smooth field. Every candidate is trained
@@ -361,42 +341,48 @@ def identify_selecting_width(data: CoilSetData, pole_pitch: float, *, gain_width
     validation data the first candidate is kept (nothing to choose by).
 
     Args:
-        gain_width_candidates: single-hidden-layer widths of the two gain networks.
-        kwargs: passed to :func:`identify` (``gain_widths`` is set per candidate).
+        data, pole_pitch, seed, progress, check_data: as :func:`identify`.
+        options: :class:`~pgcomm.identify.options.IdentifyOptions` whose ``gain_width_candidates``
+            (single-hidden-layer widths of the two gain networks, default ``(2, 4, 8)`` when empty)
+            replace ``gain_widths`` one by one.
     """
     from dataclasses import replace
 
-    cands = tuple(int(w) for w in gain_width_candidates)
-    if not cands:
-        raise ValueError("gain_width_candidates is empty")
-    results = [identify(data, pole_pitch, gain_widths=(w,), **kwargs) for w in cands]
+    o = IdentifyOptions() if options is None else options
+    cands = o.gain_width_candidates or (2, 4, 8)
+    results = [identify(data, pole_pitch, replace(o, gain_widths=(w,)), seed=seed, progress=progress,
+                        check_data=check_data) for w in cands]
     val = [r.cost_pgnn_validation for r in results]
     best = int(np.nanargmin(val)) if np.isfinite(val).any() else 0
     return replace(results[best], width_selection=tuple((w, float(v)) for w, v in zip(cands, val)),
                    seconds=float(sum(r.seconds for r in results)))
 
 
-def identify_all(datasets, pole_pitch: float, *, seed: int = 0, progress=None, gain_width_candidates=(),
-                 **kwargs):
+def identify_all(datasets, pole_pitch: float, options: IdentifyOptions | None = None, *, seed: int = 0,
+                 progress=None, check_data: bool = True):
     """Identify every coil set independently (Algorithm 2's loop) and combine them (eq. PGNN_Electromagnetics).
 
     Args:
-        datasets: list of :class:`CoilSetData`, one per coil set (in coil-set order).
-        pole_pitch: ``d_m`` (m). seed: coil set ``l`` (0-based) uses ``seed + l``.
-        gain_width_candidates: if not empty, each coil set's gain width is chosen by validation
-            (:func:`identify_selecting_width`); coil sets may differ (narrower networks are padded
-            with inert units when combined).
-        kwargs: passed to :func:`identify`.
+        datasets: list of :class:`CoilSetData` (or :class:`~pgcomm.sensorless.SensorlessData`), one
+            per coil set (in coil-set order).
+        pole_pitch: ``d_m`` (m).
+        options: :class:`~pgcomm.identify.options.IdentifyOptions` for every coil set; with
+            ``gain_width_candidates`` each coil set's gain width is chosen by validation
+            (:func:`identify_selecting_width`), so coil sets may differ (narrower networks are
+            padded with inert units when combined).
+        seed: the run's seed; coil set ``l`` (0-based) starts from the named stream
+            ``stream_seed(seed, "starts", l)`` (:func:`pgcomm.seeds.stream_seed`).
+        progress, check_data: as :func:`identify`.
 
     Returns:
         ``(CombinedModel, [IdentifyResult, ...])``.
     """
+    o = IdentifyOptions() if options is None else options
     results = []
     for l, data in enumerate(datasets):
-        if gain_width_candidates:
-            kwargs.pop("gain_widths", None)
-            results.append(identify_selecting_width(data, pole_pitch, gain_width_candidates=gain_width_candidates,
-                                                    seed=seed + l, progress=progress, **kwargs))
+        kw = dict(seed=stream_seed(seed, "starts", l), progress=progress, check_data=check_data)
+        if o.gain_width_candidates:
+            results.append(identify_selecting_width(data, pole_pitch, o, **kw))
         else:
-            results.append(identify(data, pole_pitch, seed=seed + l, progress=progress, **kwargs))
+            results.append(identify(data, pole_pitch, o, **kw))
     return CombinedModel.from_coil_sets([r.model for r in results]), results

@@ -181,19 +181,17 @@ def combined_mechanics(res) -> tuple[dict, dict]:
         "viscous" (N s/m), "coulomb" (N)}`` (the fields of :class:`pgcomm.control.Feedforward`).
     """
     mech = [r.mechanics for r in res]
-    w = np.array([m["windows"] for m in mech], float)
-    coulomb = float(np.average([m["coulomb"] for m in mech], weights=w))
-    viscous = float(np.average([m["viscous"] for m in mech], weights=w))
-    mass = float(mech[0]["mass"])
+    w = np.array([m.windows for m in mech], float)
+    coulomb = float(np.average([m.coulomb for m in mech], weights=w))
+    viscous = float(np.average([m.viscous for m in mech], weights=w))
+    mass = float(mech[0].mass)
     mechanics = {"mass": mass, "coulomb": coulomb, "viscous": viscous,
-                 "friction_velocity": float(mech[0]["friction_velocity"])}
-    if all("coulomb_table" in m and "coulomb_knots" in m for m in mech):
-        lo = min(m["coulomb_knots"][0] for m in mech)
-        hi = max(m["coulomb_knots"][-1] for m in mech)
-        n = max(len(m["coulomb_knots"]) for m in mech)
-        knots = np.linspace(lo, hi, n)
-        table = np.average([np.interp(knots, m["coulomb_knots"], m["coulomb_table"]) for m in mech], axis=0,
-                           weights=w)
-        mechanics.update(coulomb_knots=[float(x) for x in knots], coulomb_table=[float(x) for x in table])
-    mechanics["coil_sets"] = [dict(m, name=r.name) for m, r in zip(mech, res)]
+                 "friction_velocity": float(mech[0].friction_velocity)}
+    lo = min(m.coulomb_knots[0] for m in mech)
+    hi = max(m.coulomb_knots[-1] for m in mech)
+    n = max(len(m.coulomb_knots) for m in mech)
+    knots = np.linspace(lo, hi, n)
+    table = np.average([np.interp(knots, m.coulomb_knots, m.coulomb_table) for m in mech], axis=0, weights=w)
+    mechanics.update(coulomb_knots=[float(x) for x in knots], coulomb_table=[float(x) for x in table])
+    mechanics["coil_sets"] = [dict(m.to_dict(), name=r.name) for m, r in zip(mech, res)]
     return mechanics, {"mass": mass, "viscous": viscous, "coulomb": coulomb}

@@ -74,7 +74,7 @@ class IdentifyResult:
     width_selection: tuple = ()
     cost_y: float = float("nan")
     cost_y_physics: float = float("nan")
-    mechanics: dict | None = None
+    mechanics: object = None  # FrictionFit (pgcomm.sensorless) without a force sensor
     history: tuple = field(default=(), repr=False)
 
     def to_dict(self) -> dict:
@@ -87,7 +87,7 @@ class IdentifyResult:
         out["start_costs"] = list(self.start_costs)
         out["force_sensor"] = self.mechanics is None
         if self.mechanics is not None:
-            out["mechanics"] = dict(self.mechanics)
+            out["mechanics"] = self.mechanics.to_dict()
         out["gain_width"] = self.model.gain_nets[0].widths[-1] if self.model.gain_nets is not None else None
         out["width_selection"] = [{"gain_width": w, "cost_validation": v} for w, v in self.width_selection]
         return {key: (None if isinstance(v, float) and not np.isfinite(v) else v) for key, v in out.items()}

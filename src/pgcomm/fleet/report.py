@@ -1,0 +1,81 @@
+"""``fleet.html``: the distributions of the QA quantities with the outliers marked.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from pathlib import Path
+
+import numpy as np
+
+from pgcomm.defaults import DEFAULT_OUTLIER_Z
+from pgcomm.fleet.motor import QA_QUANTITIES
+from pgcomm.fleet.qa import flag_outliers
+
+_LABELS = {"k": "k (N/A)", "zeta": "zeta (rad)", "cogging_pp": "cogging amplitude, peak-to-peak in y (N)",
+           "improvement": "improvement cost_physics / cost_pgnn (-)"}
+
+
+def write_fleet_html(path, rows, threshold: float = DEFAULT_OUTLIER_Z) -> Path:
+    """``fleet.html``: histograms of :data:`QA_QUANTITIES` (PNG embedded), outliers marked, a table of them, failures.
+
+    Returns:
+        ``path``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pgcomm.io.atomic import atomic_write_text
+
+    flags = flag_outliers(rows, threshold)
+    ok = [r for r in rows if r.get("status") == "ok"]
+    failed = [r for r in rows if r.get("status") != "ok"]
+    esc = html.escape
+    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>pgcomm fleet</title></head><body>",
+             f"<h1>pgcomm fleet: {len({r['motor'] for r in rows})} motors</h1>",
+             f"<p>{len({r['motor'] for r in ok})} ok ({len(ok)} coil sets), {len(failed)} failed. Outliers: robust "
+             f"z-score |z| &gt; {threshold:g} (median and MAD &middot; 1.4826 across the fleet).</p>"]
+    for q in QA_QUANTITIES:
+        x = np.array([np.nan if r.get(q) is None else r[q] for r in ok], dtype=float)
+        x = x[np.isfinite(x)]
+        fig, ax = plt.subplots(figsize=(6, 3))
+        if x.size:
+            ax.hist(x, bins=max(5, min(40, int(np.sqrt(x.size)) * 2)), color="0.6")
+            for f in flags:
+                if f["quantity"] == q:
+                    ax.axvline(f["value"], color="C3", lw=1)
+        ax.set_xlabel(_LABELS[q])
+        ax.set_ylabel("coil sets")
+        n_out = sum(f["quantity"] == q for f in flags)
+        ax.set_title(f"{q}: {x.size} values, {n_out} outlier(s) (red)")
+        fig.tight_layout()
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=90)
+        plt.close(fig)
+        parts.append(f"<h2>{esc(_LABELS[q])}</h2><img src='data:image/png;base64,"
+                     f"{base64.b64encode(buf.getvalue()).decode()}'>")
+    parts.append("<h2>Outliers: which motor is unlike the others, and in what</h2>")
+    if flags:
+        parts.append("<table border='1' cellpadding='3'><tr><th>motor</th><th>coil set</th><th>quantity</th>"
+                     "<th>value</th><th>fleet median</th><th>robust z</th></tr>")
+        for f in flags:
+            parts.append(f"<tr><td>{esc(f['motor'])}</td><td>{f['coil_set']}</td><td>{esc(f['quantity'])}</td>"
+                         f"<td>{f['value']:.6g}</td><td>{f['median']:.6g}</td><td>{f['z']:+.2f}</td></tr>")
+        parts.append("</table>")
+    else:
+        parts.append("<p>none</p>")
+    parts.append("<h2>Failed motors</h2>")
+    if failed:
+        parts.append("<table border='1' cellpadding='3'><tr><th>motor</th><th>error</th></tr>")
+        parts += [f"<tr><td>{esc(r['motor'])}</td><td>{esc(r['error'] or '')}</td></tr>" for r in failed]
+        parts.append("</table>")
+    else:
+        parts.append("<p>none</p>")
+    parts.append("</body></html>\n")
+    atomic_write_text(path, "\n".join(parts))
+    return Path(path)
+
