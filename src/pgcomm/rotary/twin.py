@@ -249,7 +249,7 @@ def _run(params, xs, n_sub: int):
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
         iq = jnp.clip(iq, -i_lim, i_lim)
         t_em0, _ = plant_torque(theta, omega, iq)
-        out = (th_m, w_f, iq + n_iq, n_id, theta, omega, t_em0, u)
+        out = (th_m, w_f, iq + n_iq, n_id, theta, omega, t_em0, u, iq)
 
         def sub(_, st):
             th, om = st
@@ -282,7 +282,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     Returns:
         dict of ``(N,)`` arrays: ``t`` (s), ``theta`` (encoder, rad), ``velocity`` (rad/s, the drive's
         estimate), ``iq_1``, ``id_1`` (A, measured), ``theta_true``, ``omega_true``, ``torque``
-        (air-gap N·m, with ``torque_noise``), ``demand`` (A), ``theta_ref``, ``omega_ref``.
+        (air-gap N·m, with ``torque_noise``), ``iq_true`` (A, what flowed), ``demand`` (A), ``theta_ref``, ``omega_ref``.
     """
     m = truth.motor
     ts = float(m.sample_time)
@@ -314,9 +314,9 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     xs = tuple(jnp.asarray(v, float) for v in (ref.theta, ref.omega, ref.alpha, dither,
                                                truth.current_noise * noise[0], truth.current_noise * noise[1]))
     outs = [np.asarray(o) for o in _run(params, xs, n_sub)]
-    th_m, w_f, iq, idd, th, om, tq, u = outs
+    th_m, w_f, iq, idd, th, om, tq, u, iq_act = outs
     return {"t": ts * np.arange(n), "theta": th_m, "velocity": w_f, "iq_1": iq, "id_1": idd, "theta_true": th,
-            "omega_true": om, "torque": tq + truth.torque_noise * noise[2], "demand": u,
+            "omega_true": om, "iq_true": iq_act, "torque": tq + truth.torque_noise * noise[2], "demand": u,
             "theta_ref": np.asarray(ref.theta, float), "omega_ref": np.asarray(ref.omega, float)}
 
 
