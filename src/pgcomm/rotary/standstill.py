@@ -41,7 +41,7 @@ class StandstillTable:
     Attributes:
         table: ``(points,)`` compensating q-current (A) at ``θ_j = 2π j / points``: forward/reverse mean.
         forward, reverse: ``(points,)`` the two passes (A).
-        noise: estimated RMS noise of ``table`` (A): RMS of half the forward−reverse difference.
+        noise: estimated RMS noise of ``table`` (A) from the spread of the current within the holds.
         seconds: duration on a rig (s).
     """
 
@@ -78,7 +78,9 @@ def table_from_log(log: dict, plan: StandstillPlan, starts) -> StandstillTable:
     n = plan.points
     fwd, rev = means[:n], means[n:][::-1]
     tab = 0.5 * (fwd + rev)
-    noise = float(np.sqrt(np.mean((0.5 * (fwd - rev)) ** 2)))
+    # white-noise part: the spread within a hold over sqrt(samples), halved again by the two passes
+    # (forward and reverse also differ systematically, by the friction the hold did not settle out)
+    noise = float(np.sqrt(np.mean(iq[idx].var(axis=1, ddof=1)) / plan.average / 2.0))
     return StandstillTable(tab, fwd, rev, noise, plan.duration(float(log["t"][1] - log["t"][0])))
 
 

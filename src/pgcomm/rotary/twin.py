@@ -20,7 +20,7 @@ is the encoder difference through a first-order low-pass (the drive's estimator)
 loop or a PI speed loop with feedforward gives the demand ``u`` (A, equivalent current at
 ``k0``); the commutation law (:mod:`pgcomm.rotary.law`) makes it a q-current, clipped to the
 limit and held over the sample (ideal current loop); the mechanics are integrated in
-``n_sub`` semi-implicit Euler sub-steps. The log holds what the drive records: ``t``, ``theta``
+``n_sub`` sub-steps, each exact for a constant torque. The log holds what the drive records: ``t``, ``theta``
 (multi-turn, encoder), ``velocity``, ``iq_1``, ``id_1`` (measured, with noise), plus the truth
 (``theta_true``, ``omega_true``, ``torque`` = air-gap torque, e.g. for a torque sensor).
 """
@@ -253,9 +253,11 @@ def _run(params, xs, n_sub: int):
 
         def sub(_, st):
             th, om = st
+            # exact for a torque constant over the sub-step (the held current's part is): semi-implicit
+            # Euler's dt²/2 error per sub-step biased the identified friction by 30 % under a 100 Hz dither
             _, t_net = plant_torque(th, om, iq)
-            om = om + dt * t_net / inertia
-            return th + dt * om, om
+            acc = t_net / inertia
+            return th + dt * om + 0.5 * dt * dt * acc, om + dt * acc
 
         theta_n, omega_n = jax.lax.fori_loop(0, n_sub, sub, (theta, omega))
         return (theta_n, omega_n, th_m, w_f, integ), out

@@ -163,3 +163,27 @@ def read_truth(path) -> RotaryTruth:
         raise DataError(f"{path}: file not found") from None
     except (ValueError, KeyError, TypeError) as e:
         raise DataError(f"{path}: not a rotary truth file ({' '.join(str(e).split())})") from None
+
+
+def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
+    """Simulate the running logs of :func:`pgcomm.rotary.experiment.running_references` and write them as
+    CSV (``t, theta, velocity, iq_1, id_1``: what a drive records) to ``folder/run{k}.csv``."""
+    from pgcomm.io.atomic import atomic_open
+    from pgcomm.rotary.experiment import RotarySettings, running_references
+    from pgcomm.rotary.identify import Orders
+    from pgcomm.rotary.twin import LawParams, default_gains, simulate
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    a = truth.inertia / truth.k0
+    refs = running_references(truth.motor, a, RotarySettings(), Orders.for_motor(truth.motor))
+    names = []
+    for k, ref in enumerate(refs, start=1):
+        log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(a), seed=seed * 1000 + k)
+        path = folder / f"run{k}.csv"
+        with atomic_open(path) as f:
+            f.write("t,theta,velocity,iq_1,id_1\n")
+            np.savetxt(f, np.column_stack([log[c] for c in ("t", "theta", "velocity", "iq_1", "id_1")]),
+                       delimiter=",", fmt="%.12g")
+        names.append(path.name)
+    return names
