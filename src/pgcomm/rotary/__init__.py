@@ -5,17 +5,15 @@ Most motors engineers tune are rotary PMSM/BLDC on a field-oriented (FOC) drive.
 d-axis) current in its own electrical frame ``p θ + offset`` — no phase currents, no torque
 sensor. This subpackage mirrors the linear pipeline for them:
 
-============================  ===========================================================
-:mod:`~pgcomm.rotary.motor`   :class:`RotaryMotor`: pole pairs, slots, ``k_t``, inertia, limit
-:mod:`~pgcomm.rotary.model`   periodic maps over one revolution (Fourier on the circle, orders
-                              from the slot/pole combination) and :class:`RotaryModel`
-:mod:`~pgcomm.rotary.twin`    the rotary PMSM twin on a FOC drive in closed loop (lax.scan)
-:mod:`~pgcomm.rotary.zoo`     random plausible motors (slot/pole combinations, tolerances)
-:mod:`~pgcomm.rotary.identify`  least squares from running logs, with or without torque sensor
-:mod:`~pgcomm.rotary.standstill`  the drives' method: hold at N angles both ways, average i_q
-:mod:`~pgcomm.rotary.law`     the commutation law ``i_q = (T* − cog − dir)/k_t(θ)``, safe
-:mod:`~pgcomm.rotary.experiment`  ``pgcomm reproduce`` on a rotary motor: all rows, figures
-============================  ===========================================================
+* :mod:`pgcomm.rotary.motor`: :class:`RotaryMotor` (pole pairs, slots, ``k_t``, inertia, limit);
+* :mod:`pgcomm.rotary.model`: periodic maps over one revolution (Fourier on the circle, orders
+  from the slot/pole combination) and :class:`RotaryModel` (with ``table(n)`` for exports);
+* :mod:`pgcomm.rotary.twin`: the rotary PMSM twin on a FOC drive in closed loop (``lax.scan``);
+* :mod:`pgcomm.rotary.zoo`: random plausible motors (slot/pole combinations, tolerances);
+* :mod:`pgcomm.rotary.identify`: least squares from running logs, with or without torque sensor;
+* :mod:`pgcomm.rotary.standstill`: the drives' method (hold at N angles both ways, average ``i_q``);
+* :mod:`pgcomm.rotary.law`: the commutation law ``i_q = (T* − cog − dir)/k_t(θ)``, safe for any input;
+* :mod:`pgcomm.rotary.experiment`: ``pgcomm reproduce`` on a rotary motor (all rows, figures).
 
 **The model and its units.** The electrical period ``2π/p`` takes the pole pitch's place;
 everything position-dependent is periodic over one mechanical revolution. With ``k0`` the mean
