@@ -34,6 +34,8 @@ def run(args, out: Path, progress) -> None:
     from pgcomm.report import figure_captions, write_report
 
     t0 = time.perf_counter()
+    if _is_rotary(args):
+        return _run_rotary(args, out, progress, t0)
     setup = setup_from_args(args)
     if args.quick:
         setup = replace(setup, config=reproduce.quick_config(setup.config))
@@ -121,3 +123,68 @@ def _train_range(model, setup):
     if rng:
         return rng
     return setup.config.reference.span
+
+
+def _is_rotary(args) -> bool:
+    """Whether ``--motor`` declares ``kind = "rotary"`` (then the rotary experiment runs)."""
+    if not getattr(args, "motor", None):
+        return False
+    from pgcomm.io.config import motor_kind
+
+    return motor_kind(args.motor) == "rotary"
+
+
+def _run_rotary(args, out: Path, progress, t0: float) -> None:
+    """``pgcomm reproduce --motor rotary.toml``: :mod:`pgcomm.rotary.experiment` on the rotary twin.
+
+    The twin's truth is ``--truth`` or ``truth.json`` beside the motor file (the zoo writes one),
+    else drawn from the description with ``--seed``.
+    """
+    from pgcomm import __version__
+    from pgcomm.errors import ConfigError
+    from pgcomm.io.config import load_rotary_motor
+    from pgcomm.rotary import experiment as rexp
+    from pgcomm.rotary.zoo import default_truth, read_truth
+
+    for opt in ("plant", "config", "reference"):
+        if getattr(args, opt, None):
+            raise ConfigError(f"--{opt}: not used with a rotary motor (--motor {args.motor} has kind = \"rotary\")")
+    motor = load_rotary_motor(args.motor)
+    truth_path = args.truth or (Path(args.motor).parent / "truth.json")
+    if args.truth or truth_path.is_file():
+        truth = read_truth(truth_path)
+        if truth.motor.pole_pairs != motor.pole_pairs or truth.motor.slots != motor.slots:
+            raise ConfigError(f"{truth_path}: truth of a {truth.motor.name} motor, but --motor {args.motor} is "
+                              f"{motor.name}")
+        from dataclasses import replace
+        truth = replace(truth, motor=motor)
+        source = str(truth_path)
+    else:
+        truth = default_truth(motor, seed=args.seed)
+        source = f"drawn from the description (seed {args.seed})"
+    progress.info(f"rotary {motor.name}: twin truth {source}")
+    settings = rexp.quick_settings() if args.quick else rexp.RotarySettings()
+    results = rexp.run(truth, settings, seed=args.seed, progress=progress)
+    results.update(command="reproduce", kind="rotary", version=__version__, quick=bool(args.quick), seed=args.seed,
+                   truth_source=source)
+    results["runtime_s"] = time.perf_counter() - t0
+    with progress.stage("results.json, model.json, table.csv, figure"):
+        rexp.write_outputs(out, results, truth)
+    if not args.quiet:
+        _print_rotary(results)
+        print(f"wrote {args.out}/results.json, model.json, table.csv, rotary.png ({results['runtime_s']:.0f} s)")
+
+
+def _print_rotary(r: dict) -> None:
+    e = r["identification"]["errors"]
+    print(f"identification (no torque sensor): cogging {100 * e['cogging_rel']:.1f} %, ripple "
+          f"{100 * e['ripple_rel']:.1f} % RMS error of the truth's RMS; J/k0 {100 * e['inertia_ratio_rel']:.2f} %")
+    a = r["standstill"]["agreement"]
+    print(f"running-log table vs standstill sweep: {a['rms_model_minus_sweep_A']:.3g} A RMS (sweep's own error "
+          f"{a['rms_sweep_minus_truth_A']:.3g} A); time {r['timing']['running_logs_s']:.0f} s running vs "
+          f"{r['timing']['standstill_s']:.0f} s standstill")
+    print(f"{'row':18s} {'position [rad^2]':>17s} {'speed [(rad/s)^2]':>18s} {'torque err [A^2]':>17s}")
+    for row, v in r["tracking_mse"].items():
+        print(f"{row:18s} {v['position']:17.3g} {v['speed']:18.3g} {r['commutation_mse'][row]['position']:17.3g}")
+    q = r["tracking_ratio_model_over_standstill"]
+    print(f"tracking model/standstill table: position {q['position']:.2f}, speed {q['speed']:.2f}")

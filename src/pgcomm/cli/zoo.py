@@ -19,6 +19,9 @@ def configure(p) -> None:
     p.add_argument("--seed", type=int, default=0, help="zoo seed, also the noise seed of --logs (default 0)")
     p.add_argument("--logs", action="store_true",
                    help="also write logs/Z{i}_coilset{l}.csv per motor (as pgcomm calibrate --save-data)")
+    p.add_argument("--kind", choices=("linear", "rotary"), default="linear",
+                   help="linear motors (force maps, default) or rotary PMSM/BLDC motors (motor.toml with "
+                        "kind = \"rotary\" and truth.json; --logs writes running logs t, theta, velocity, iq_1, id_1)")
     add_common_options(p, out=True, plant=False)
 
 
@@ -30,6 +33,8 @@ def run(args, out: Path, progress) -> None:
     n = args.motors
     if not 1 <= n <= MAX_MOTORS:
         raise ConfigError(f"--motors {n}: expected 1 to {MAX_MOTORS} motors")
+    if getattr(args, "kind", "linear") == "rotary":
+        return _run_rotary(args, out, progress, n)
     for i in range(1, n + 1):
         name = motor_folder_name(i, n)
         what = "force map and truth" + (", logs" if args.logs else "")
@@ -42,3 +47,22 @@ def run(args, out: Path, progress) -> None:
                           f"N/A, stroke {m.stroke:.3f} m, effects: {', '.join(m.effects) or 'none'}")
     if not args.quiet:
         print(f"wrote {n} motor folder(s) to {args.out}")
+
+
+def _run_rotary(args, out: Path, progress, n: int) -> None:
+    """``--kind rotary``: ``out/motor_NN/motor.toml`` + ``truth.json`` (+ ``logs/run{k}.csv``)."""
+    from pgcomm.rotary.zoo import draw_rotary, write_rotary_motor, write_running_logs
+    from pgcomm.zoo import motor_folder_name
+
+    for i in range(1, n + 1):
+        name = motor_folder_name(i, n)
+        with progress.stage(f"{name} ({i}/{n}): rotary motor and truth" + (", running logs" if args.logs else "")):
+            t = draw_rotary(args.seed, i - 1)
+            folder = write_rotary_motor(t, out / name)
+            if args.logs:
+                write_running_logs(t, folder / "logs", seed=args.seed)
+            progress.info(f"{t.motor.name}, k_t = {t.k_t:.3g} N·m/A, J = {t.inertia:.3g} kg·m², cogging "
+                          f"{100 * t.cogging.rms() / (t.k_t * 0.5 * t.motor.current_limit):.1f} % of rated torque, "
+                          f"ripple {100 * t.ripple.rms():.2f} %")
+    if not args.quiet:
+        print(f"wrote {n} rotary motor folder(s) to {args.out}")

@@ -18,6 +18,20 @@ Motor config (DESIGN, "Formats")::
     [[coil_set]]              # one table per coil set, in order l = 1..L
     lever_arm = -0.065        # d^l (m)
 
+A rotary motor on a field-oriented drive has ``kind = "rotary"`` (linear is the default;
+:func:`load_rotary_motor`, :func:`motor_kind`)::
+
+    kind = "rotary"
+    pole_pairs = 7            # p: the electrical period 2π/p replaces the pole pitch
+    slots = 12                # Q: with p it sets the cogging orders (LCM(Q, 2p) per revolution)
+    sample_time = 0.001       # the drive's control and logging period (s)
+    k_t = 0.1                 # optional, torque constant (N·m/A); needed only to report N·m
+    inertia = 2e-4            # optional, rotor + load (kg·m²)
+    current_limit = 20.0      # optional, q-current limit (A)
+    commutation_offset = 0.0  # optional, the drive's electrical angle offset (rad, electrical)
+    encoder_counts = 65536    # optional, counts per revolution
+    friction = 0.01           # optional, nominal Coulomb friction (N·m)
+
 Every value is checked for plausibility, because the common mistake with such
 files is a unit of the wrong magnitude (a pole pitch of 30 "m" that was meant
 in mm). Unknown keys are refused with the closest valid key: a misspelt
@@ -48,6 +62,9 @@ __all__ = [
     "load_toml",
     "load_dataclass",
     "load_motor",
+    "load_rotary_motor",
+    "motor_kind",
+    "rotary_motor_to_toml",
     "motor_to_toml",
     "write_motor",
     "PLAUSIBLE",
@@ -456,7 +473,10 @@ def load_motor(path) -> Motor:
     """
     file = str(path)
     doc = load_toml(path)
-    top = ("pole_pitch", "sample_time", "current_limit", "mass", "travel", "nominal", "coil_set")
+    if _kind(doc, file) == "rotary":
+        raise ConfigError(f"{file}: kind = \"rotary\": this command takes a linear motor (pole_pitch, [[coil_set]]); "
+                          "rotary motors run with 'pgcomm reproduce --motor'")
+    top = ("kind", "pole_pitch", "sample_time", "current_limit", "mass", "travel", "nominal", "coil_set")
     _check_keys(doc, top, _Where(file))
     pole_pitch = _number(doc, "pole_pitch", file)
     sample_time = _number(doc, "sample_time", file)
@@ -562,3 +582,112 @@ def motor_to_toml(motor: Motor) -> str:
 def write_motor(path, motor: Motor) -> None:
     """Write ``motor`` as TOML to ``path`` (atomically)."""
     atomic_write_text(path, motor_to_toml(motor))
+
+
+# --------------------------------------------------------------------------- rotary motors
+
+#: Motor kinds a motor TOML may declare with ``kind = ...`` (absent: linear).
+MOTOR_KINDS = ("linear", "rotary")
+
+#: Plausibility of rotary-motor values: key -> (lo, hi, unit).
+ROTARY_PLAUSIBLE = {
+    "pole_pairs": (1, 200, ""),
+    "slots": (3, 600, ""),
+    "sample_time": (1e-6, 0.1, "s"),
+    "k_t": (1e-4, 100.0, "N·m/A"),
+    "inertia": (1e-9, 1e3, "kg·m²"),
+    "current_limit": (0.0, 1e4, "A"),
+    "commutation_offset": (-2.0 * math.pi, 2.0 * math.pi, "rad"),
+    "encoder_counts": (16, 2**32, ""),
+    "friction": (0.0, 1e4, "N·m"),
+}
+_ROTARY_INT = ("pole_pairs", "slots", "encoder_counts")
+_ROTARY_REQUIRED = ("kind", "pole_pairs", "slots", "sample_time")
+
+
+def _kind(doc: dict, file: str) -> str:
+    kind = doc.get("kind", "linear")
+    if not isinstance(kind, str) or kind not in MOTOR_KINDS:
+        hint = closest_hint(kind, MOTOR_KINDS) if isinstance(kind, str) else ""
+        raise ConfigError(f"{file}: kind = {_fmt(kind)} is not one of {', '.join(repr(k) for k in MOTOR_KINDS)}{hint}")
+    return kind
+
+
+def motor_kind(path) -> str:
+    """``"linear"`` or ``"rotary"``: the ``kind`` key of a motor TOML (absent: linear).
+
+    Raises:
+        ConfigError: unreadable file, TOML error, or an unknown kind (with the closest valid one).
+    """
+    return _kind(load_toml(path), str(path))
+
+
+def load_rotary_motor(path):
+    """Load a rotary motor description (``kind = "rotary"``, keys in the module docstring).
+
+    Returns:
+        :class:`pgcomm.rotary.motor.RotaryMotor`.
+
+    Raises:
+        ConfigError: one line naming the file and key: unknown or missing key, wrong type, a
+            non-integer pole-pair/slot/count number, an implausible value (wrong unit), or
+            ``slots``/``pole_pairs`` that make no three-phase motor.
+    """
+    from pgcomm.rotary.motor import RotaryMotor
+
+    file = str(path)
+    doc = load_toml(path)
+    if _kind(doc, file) != "rotary":
+        raise ConfigError(f"{file}: not a rotary motor (set kind = \"rotary\")")
+    _check_keys(doc, tuple(ROTARY_PLAUSIBLE) + ("kind",), _Where(file))
+    vals = {}
+    for key, (lo, hi, unit) in ROTARY_PLAUSIBLE.items():
+        if key not in doc:
+            if key in _ROTARY_REQUIRED:
+                what = "an integer" if key in _ROTARY_INT else f"a number in {unit}"
+                raise ConfigError(f"{file}: key '{key}' missing (expected {what})")
+            continue
+        v = doc[key]
+        u = f" {unit}" if unit else ""
+        if key in _ROTARY_INT:
+            if isinstance(v, bool) or not isinstance(v, int):
+                shown = f" = {_fmt(v)}" if not isinstance(v, (dict, list)) else ""
+                raise ConfigError(f"{file}: {key}{shown} is {_describe(v)}, expected an integer")
+        elif isinstance(v, bool) or not isinstance(v, (int, float)):
+            shown = f" = {_fmt(v)}" if not isinstance(v, (dict, list)) else ""
+            raise ConfigError(f"{file}: {key}{shown} is {_describe(v)}, expected a number in {unit}")
+        x = float(v)
+        lo_ok = x > lo if key == "current_limit" else x >= lo
+        if not (math.isfinite(x) and lo_ok and x <= hi):
+            hint = ""
+            if key == "sample_time" and lo <= x * 1e-3 <= hi:
+                hint = "; did you give ms?"
+            elif key == "commutation_offset" and abs(x * math.pi / 180) <= hi:
+                hint = "; did you give degrees?"
+            raise ConfigError(f"{file}: {key} = {_fmt(v)}{u} is implausible (expected {lo:g}–{hi:g}{u}{hint})")
+        vals[key] = int(v) if key in _ROTARY_INT else x
+    if vals["slots"] % 3:
+        raise ConfigError(f"{file}: slots = {vals['slots']} is not a multiple of 3 (a three-phase winding)")
+    try:
+        return RotaryMotor(**vals)
+    except ValueError as e:
+        raise ConfigError(f"{file}: {' '.join(str(e).split())}") from None
+
+
+def rotary_motor_to_toml(motor) -> str:
+    """The TOML text of a :class:`pgcomm.rotary.motor.RotaryMotor` (readable by :func:`load_rotary_motor`)."""
+    lines = ["# pgcomm rotary motor description (SI units: rad, s, A, N·m, kg·m²)",
+             'kind = "rotary"',
+             f"pole_pairs = {int(motor.pole_pairs)}  # p: electrical period 2π/p",
+             f"slots = {int(motor.slots)}  # Q: {motor.name}, cogging at LCM(Q, 2p) = {motor.cogging_fundamental} "
+             "periods per revolution",
+             f"sample_time = {_toml_float(motor.sample_time)}  # the drive's period (s)"]
+    for key, comment in (("k_t", "torque constant (N·m/A)"), ("inertia", "rotor + load (kg·m²)"),
+                         ("current_limit", "q-current limit (A)"), ("friction", "Coulomb friction (N·m)")):
+        v = getattr(motor, key)
+        if v is not None:
+            lines.append(f"{key} = {_toml_float(v)}  # {comment}")
+    lines.append(f"commutation_offset = {_toml_float(motor.commutation_offset)}  # drive's electrical offset (rad)")
+    if motor.encoder_counts is not None:
+        lines.append(f"encoder_counts = {int(motor.encoder_counts)}  # counts per revolution")
+    return "\n".join(lines) + "\n"

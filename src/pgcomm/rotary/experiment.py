@@ -1,0 +1,315 @@
+"""``pgcomm reproduce`` on a rotary motor: running logs -> identification -> laws in closed loop.
+
+Rows (all on the same twin, same seeds, same feedback gains):
+
+``classical``
+    no compensation: ``i_q = u``, with the feedforward a drive user tunes (inertia, viscous and
+    Coulomb friction fitted on the running logs, :func:`pgcomm.rotary.identify.fit_mechanics`).
+``standstill_table``
+    the drives' method: the table of a standstill sweep (:mod:`pgcomm.rotary.standstill`) added to
+    ``u``, same feedforward as ``classical``.
+``model``
+    the law of the model identified from running logs without a torque sensor
+    (:mod:`pgcomm.rotary.law`), with the feedforward of its own identification (``J/k0``, ``b``;
+    the Coulomb term is its direction map).
+``oracle``
+    the law with the true map and the true feedforward: the floor.
+
+Figures per row: tracking MSE of the position loop (rad²) and of the speed loop ((rad/s)²), the
+commutation error (the torque disturbance the feedback must fight, as an equivalent current:
+``(T_em − (T_c + D) s − b ω)/k0 − u_ff,true``, MSE in A²), and the reducible share
+``(classical − row)/(classical − oracle)``. Identification: RMS error of cogging and ripple
+against the truth over the revolution (relative to the truth's RMS), and the agreement of the
+running-log table with the standstill table against the sweep's noise.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from pgcomm.rotary.identify import Orders, fit_mechanics, identify, max_speed
+from pgcomm.rotary.model import RotaryModel
+from pgcomm.rotary.standstill import StandstillPlan, run_standstill
+from pgcomm.rotary.twin import LawParams, Reference, RotaryTruth, default_gains, simulate
+
+__all__ = ["RotarySettings", "running_references", "tracking_references", "run", "identification_errors",
+           "ROWS", "quick_settings"]
+
+ROWS = ("classical", "standstill_table", "model", "oracle")
+#: Running-log and standstill tables agree "within the noise of the sweep" when their RMS difference is at
+#: most this factor times the sweep's own RMS error against the truth (sqrt(2) for two equally good tables).
+AGREEMENT_FACTOR = 1.5
+
+
+@dataclass(frozen=True)
+class RotarySettings:
+    """Sizes of the rotary experiment.
+
+    Attributes:
+        revolutions: revolutions per running-log segment (two speeds, both directions).
+        speed_shares: mean speeds of the segments as shares of the alias guard's speed limit.
+        dither_hz: frequencies of the q-current dither the drive injects in the running logs (Hz).
+        dither_share: dither amplitude as a share of the current limit (at most; less where the
+            speed swing would exceed ``swing`` of the mean speed).
+        swing: largest speed swing the dither may cause (share of the mean speed).
+        standstill: the sweep (points, settle, average).
+        eval_share: evaluation speed as a share of the speed limit.
+        eval_revolutions: revolutions per direction of each evaluation run.
+    """
+
+    revolutions: float = 2.0
+    speed_shares: tuple = (0.3, 0.5)
+    dither_hz: tuple = (61.0, 83.0, 107.0)
+    dither_share: float = 0.5
+    swing: float = 0.8
+    standstill: StandstillPlan = StandstillPlan()
+    eval_share: float = 0.5
+    eval_revolutions: float = 1.0
+
+
+def quick_settings() -> RotarySettings:
+    """A short run for a first look and for tests."""
+    return RotarySettings(revolutions=1.0, standstill=StandstillPlan(points=720, settle=30, average=20),
+                          eval_revolutions=0.5)
+
+
+def _ramp_profile(omega: float, n_cruise: int, n_ramp: int, ts: float):
+    """Speed profile: smooth (raised-cosine) ramp up, cruise, ramp down. Returns ``(ω, α)``."""
+    up = 0.5 * (1 - np.cos(np.pi * np.arange(n_ramp) / n_ramp))
+    prof = np.concatenate([up, np.ones(n_cruise), up[::-1]]) * omega
+    alpha = np.gradient(prof, ts)
+    return prof, alpha
+
+
+def running_references(truth_motor, inertia_ratio: float, settings: RotarySettings, orders: Orders) -> list:
+    """The running logs' references: speed loop at two speeds in both directions with a q-current dither.
+
+    Args:
+        truth_motor: :class:`RotaryMotor` (sample time, current limit).
+        inertia_ratio: nominal ``J/k0`` (A·s²/rad) the drive is tuned with (bounds the dither).
+        settings: :class:`RotarySettings`; orders: the model's orders (the alias guard's limit).
+
+    Returns:
+        list of :class:`Reference` (speed mode).
+    """
+    ts = truth_motor.sample_time
+    v_lim = max_speed(orders, ts)
+    i_lim = truth_motor.current_limit or 10.0
+    refs = []
+    for share in settings.speed_shares:
+        for sign in (+1.0, -1.0):
+            w = share * v_lim
+            n_cruise = int(math.ceil(settings.revolutions * 2 * math.pi / w / ts))
+            n_ramp = int(0.2 / ts)
+            om, al = _ramp_profile(sign * w, n_cruise, n_ramp, ts)
+            t = ts * np.arange(om.size)
+            # dither amplitude per frequency: the speed swing a/(J/k0 · 2πf) stays below swing · w
+            amp = [min(settings.dither_share * i_lim / len(settings.dither_hz),
+                       settings.swing * w * 2 * math.pi * f * inertia_ratio / len(settings.dither_hz))
+                   for f in settings.dither_hz]
+            dith = sum(a * np.sin(2 * math.pi * f * t + k) for k, (a, f) in enumerate(zip(amp, settings.dither_hz)))
+            dith = dith * (np.abs(om) >= 0.999 * w)  # only while cruising
+            th = np.cumsum(om) * ts
+            refs.append(Reference(th, om, al, "speed", dith))
+    return refs
+
+
+def tracking_references(truth_motor, orders: Orders, settings: RotarySettings) -> dict:
+    """Evaluation references: ``position`` (forward then back at the evaluation speed, position loop)
+    and ``speed`` (the same profile in the speed loop)."""
+    ts = truth_motor.sample_time
+    w = settings.eval_share * max_speed(orders, ts)
+    n_cruise = int(math.ceil(settings.eval_revolutions * 2 * math.pi / w / ts))
+    n_ramp = int(0.2 / ts)
+    om_f, al_f = _ramp_profile(w, n_cruise, n_ramp, ts)
+    pause = np.zeros(int(0.1 / ts))
+    om = np.concatenate([pause, om_f, pause, -om_f, pause])
+    al = np.concatenate([pause, al_f, pause, -al_f, pause])
+    th = np.cumsum(om) * ts
+    return {"position": Reference(th, om, al, "position"), "speed": Reference(th, om, al, "speed")}
+
+
+def identification_errors(model: RotaryModel, truth: RotaryTruth, n: int = 4096) -> dict:
+    """RMS errors over the revolution against the truth (relative to the truth's RMS, and absolute).
+
+    Returns:
+        ``{"cogging_rel", "cogging_rms_A", "ripple_rel", "ripple_rms", "direction_rel", "inertia_ratio_rel"}``.
+    """
+    tm = truth.model()
+    th = 2 * math.pi * np.arange(n) / n
+
+    def rel(a, b):
+        e = float(np.sqrt(np.mean((a - b) ** 2)))
+        r = float(np.sqrt(np.mean(b**2)))
+        return e / r if r > 0 else float("nan"), e
+
+    c_rel, c_abs = rel(model.cogging(th), tm.cogging(th))
+    r_rel, r_abs = rel(model.ripple(th), tm.ripple(th))
+    d_rel, _ = rel(model.direction(th), tm.direction(th))
+    a_rel = abs(model.inertia_ratio / tm.inertia_ratio - 1) if model.inertia_ratio else float("nan")
+    return {"cogging_rel": c_rel, "cogging_rms_A": c_abs, "ripple_rel": r_rel, "ripple_rms": r_abs,
+            "direction_rel": d_rel, "inertia_ratio_rel": a_rel}
+
+
+def _commutation_error(truth: RotaryTruth, log: dict, ref: Reference, gains_u_fb=None) -> np.ndarray:
+    """Torque disturbance the feedback fights, as an equivalent current (A), per sample."""
+    th, om, iq = log["theta_true"], log["omega_true"], log["iq_true"]
+    k0 = truth.k0
+    s = np.tanh(om / truth.friction_velocity)
+    net = truth.air_gap_torque(th, iq) - (truth.coulomb + truth.drag(th)) * s - truth.viscous * om
+    # what the feedback alone would have had to deliver on an ideal motor: u_fb = u - ff of the row; the
+    # disturbance is the net torque beyond the feedback plus the ideal inertial feedforward
+    return net / k0 - (log["u_fb"] + truth.inertia / k0 * ref.alpha)
+
+
+def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: int = 0, progress=None) -> dict:
+    """The whole rotary experiment on ``truth`` (module docstring); returns the results dict.
+
+    Args:
+        truth: the twin (:class:`RotaryTruth`).
+        settings: :class:`RotarySettings`.
+        seed: noise seed (each run gets its own stream derived from it).
+        progress: :class:`pgcomm.progress.Progress` or ``None``.
+
+    Returns:
+        dict with ``motor``, ``identification``, ``standstill``, ``tracking_mse``, ``commutation_mse``,
+        ``reducible_share``, ``tracking_ratio_model_over_standstill``, ``timing`` and the models
+        (``models``: the identified and true :class:`RotaryModel`, the standstill table).
+    """
+    from pgcomm.progress import Progress
+
+    progress = progress or Progress(enabled=False)
+    t_start = time.perf_counter()
+    motor = truth.motor
+    ts = motor.sample_time
+    orders = Orders.for_motor(motor)
+    a_nom = truth.inertia / truth.k0  # the drive is tuned: its gains come from the nominal J/k
+    gains = default_gains(a_nom)
+    classical = LawParams.classical(motor.pole_pairs)
+    with progress.stage("running logs (speed loop, two speeds, both directions, q-current dither)"):
+        refs = running_references(motor, a_nom, settings, orders)
+        logs = [simulate(truth, r, classical, gains, seed=seed * 1000 + 1 + i) for i, r in enumerate(refs)]
+        run_seconds = sum(r.n for r in refs) * ts
+    with progress.stage("identification from the running logs (no torque sensor)"):
+        ident = identify(logs, motor, orders)
+        mech = fit_mechanics(logs, motor, orders)
+        errs = identification_errors(ident.model, truth)
+        progress.info(f"cogging error {100 * errs['cogging_rel']:.1f} %, ripple error {100 * errs['ripple_rel']:.1f} "
+                      f"% of the truth's RMS; ridge {ident.info['ridge']:.0e}")
+    with progress.stage(f"standstill sweep ({settings.standstill.points} angles, both directions)"):
+        t0 = time.perf_counter()
+        sweep = run_standstill(truth, gains, settings.standstill, seed=seed * 1000 + 100)
+        sweep_sim = time.perf_counter() - t0
+    n_pts = settings.standstill.points
+    tab_model = ident.model.table(n_pts)
+    tab_truth = truth.model().table(n_pts)
+    rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
+    agreement = {"rms_model_minus_sweep_A": rms(tab_model - sweep.table), "sweep_noise_A": sweep.noise,
+                 "rms_sweep_minus_truth_A": rms(sweep.table - tab_truth),
+                 "rms_model_minus_truth_A": rms(tab_model - tab_truth), "truth_rms_A": rms(tab_truth)}
+    agreement["rms_forward_minus_reverse_A"] = rms(sweep.forward - sweep.reverse)
+    # a model as good as the sweep differs from it by sqrt(2) x the sweep's own error, a perfect one by 1 x
+    agreement["within_noise"] = bool(agreement["rms_model_minus_sweep_A"]
+                                     <= AGREEMENT_FACTOR * agreement["rms_sweep_minus_truth_A"])
+    laws = {
+        "classical": LawParams.classical(motor.pole_pairs, mech["inertia_ratio"], mech["viscous"], mech["coulomb"]),
+        "standstill_table": LawParams(classical.model, sweep.table, mech["inertia_ratio"], mech["viscous"],
+                                      mech["coulomb"]),
+        "model": LawParams(ident.model, None, ident.model.inertia_ratio, ident.model.viscous, 0.0),
+        "oracle": LawParams(truth.model(), None, a_nom, truth.viscous / truth.k0, 0.0),
+    }
+    tracking, commutation = {}, {}
+    evals = tracking_references(motor, orders, settings)
+    with progress.stage("laws in closed loop (position and speed loops)"):
+        for row, law in laws.items():
+            tracking[row], commutation[row] = {}, {}
+            for loop, ref in evals.items():
+                log = simulate(truth, ref, law, gains, seed=seed * 1000 + 200 + (loop == "speed"))
+                ff = law.ff_a * ref.alpha + law.ff_b * ref.omega + law.ff_d * np.sign(ref.omega)
+                log["u_fb"] = log["demand"] - ff
+                if loop == "position":
+                    tracking[row][loop] = float(np.mean((ref.theta - log["theta_true"]) ** 2))
+                else:
+                    cruise = np.abs(ref.omega) >= 0.999 * np.max(np.abs(ref.omega))
+                    tracking[row][loop] = float(np.mean((ref.omega - log["omega_true"])[cruise] ** 2))
+                commutation[row][loop] = float(np.mean(_commutation_error(truth, log, ref) ** 2))
+    share = {}
+    for row in ROWS:
+        share[row] = {}
+        for loop in ("position", "speed"):
+            c, o = tracking["classical"][loop], tracking["oracle"][loop]
+            share[row][loop] = (c - tracking[row][loop]) / (c - o) if c > o else None
+    ratio = {loop: tracking["model"][loop] / tracking["standstill_table"][loop] for loop in ("position", "speed")}
+    return {
+        "motor": {**motor.to_dict(), "name": motor.name, "cogging_fundamental": motor.cogging_fundamental,
+                  "k0_true": truth.k0, "inertia_ratio_true": truth.inertia / truth.k0},
+        "identification": {**ident.info, "errors": errs, "mechanics_fit": mech},
+        "standstill": {"points": n_pts, "seconds": sweep.seconds, "noise_A": sweep.noise,
+                       "simulation_seconds": sweep_sim, "agreement": agreement},
+        "timing": {"running_logs_s": run_seconds, "standstill_s": sweep.seconds,
+                   "running_over_standstill": run_seconds / sweep.seconds},
+        "tracking_mse": tracking, "commutation_mse": commutation, "reducible_share": share,
+        "tracking_ratio_model_over_standstill": ratio,
+        "runtime_s": time.perf_counter() - t_start,
+        "models": {"model": ident.model, "truth": truth.model(), "table": sweep.table},
+    }
+
+
+def write_outputs(out, results: dict, truth: RotaryTruth) -> list:
+    """Write ``results.json``, ``model.json`` (identified :class:`RotaryModel`), ``table.csv`` (the
+    standstill table and the model's table at the same angles) and two figures into ``out``.
+
+    Args:
+        out: folder (exists); results: :func:`run`'s dict (``models`` is taken out of it);
+        truth: the twin (for the figures).
+
+    Returns:
+        names of the files written.
+    """
+    import json
+    from pathlib import Path
+
+    from pgcomm import plots
+    from pgcomm.io.atomic import atomic_open, atomic_write_text
+    from pgcomm.io.results import write_results
+
+    out = Path(out)
+    models = results.pop("models")
+    model, tm, table = models["model"], models["truth"], models["table"]
+    atomic_write_text(out / "model.json", json.dumps(model.to_dict(), indent=1) + "\n")
+    n = table.size
+    th = 2 * math.pi * np.arange(n) / n
+    with atomic_open(out / "table.csv") as f:
+        f.write("theta,standstill_table,model_table,model_forward,model_reverse\n")
+        np.savetxt(f, np.column_stack([th, table, model.table(n), model.table(n, +1), model.table(n, -1)]),
+                   delimiter=",", fmt="%.9g")
+    write_results(out / "results.json", results)
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(3, 1, figsize=(10, 9))
+    ax[0].plot(th, table, lw=0.6, label="standstill table (drives' method)")
+    ax[0].plot(th, model.table(n), lw=0.8, label="model from running logs")
+    ax[0].plot(th, tm.table(n), "k--", lw=0.6, label="truth")
+    ax[0].set_ylabel("compensating $i_q$ [A]")
+    ax[0].legend(fontsize=8)
+    ax[1].plot(th, 100 * model.ripple(th), label="identified")
+    ax[1].plot(th, 100 * tm.ripple(th), "k--", label="truth")
+    ax[1].set_ylabel("torque-constant ripple [%]")
+    ax[1].set_xlabel("mechanical angle θ [rad]")
+    ax[1].legend(fontsize=8)
+    rows = list(results["tracking_mse"])
+    x = np.arange(len(rows))
+    for k, loop in enumerate(("position", "speed")):
+        vals = [results["tracking_mse"][r][loop] / results["tracking_mse"]["classical"][loop] for r in rows]
+        ax[2].bar(x + 0.4 * k, vals, 0.4, label=f"{loop} loop")
+    ax[2].set_xticks(x + 0.2, rows)
+    ax[2].set_yscale("log")
+    ax[2].set_ylabel("tracking MSE / classical")
+    ax[2].legend(fontsize=8)
+    fig.suptitle(f"rotary {truth.motor.name}: identification and tracking")
+    plots.save(fig, out / "rotary.png")
+    return ["results.json", "model.json", "table.csv", "rotary.png"]

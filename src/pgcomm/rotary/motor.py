@@ -1,0 +1,69 @@
+"""The nominal description of a rotary motor on a field-oriented drive (what its TOML holds)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["RotaryMotor"]
+
+
+@dataclass(frozen=True)
+class RotaryMotor:
+    """A rotary PMSM/BLDC as its user knows it (SI units: rad, s, A, N·m, kg·m²).
+
+    Attributes:
+        pole_pairs: ``p``; the electrical period ``2π/p`` (rad) takes the linear pole pitch's place.
+        slots: ``Q`` stator slots; with ``p`` it sets the cogging orders (``LCM(Q, 2p)`` etc.).
+        sample_time: the drive's control and logging period (s), e.g. 0.001.
+        k_t: nominal torque constant (N·m/A, q-axis, peak-current convention) or ``None``;
+            only needed to report N·m.
+        inertia: moment of inertia of rotor and load (kg·m²) or ``None``; without it (and
+            without ``k_t``) identification reports ``J/k_t`` (A·s²/rad).
+        current_limit: the drive's q-current limit (A) or ``None``.
+        commutation_offset: the drive's electrical angle offset (rad, electrical): its frame is
+            ``p θ + offset``; the analogue of the linear ``ζ̂``.
+        encoder_counts: encoder counts per revolution (for the twin's quantisation) or ``None``.
+        friction: nominal Coulomb friction (N·m) or ``None``.
+    """
+
+    pole_pairs: int
+    slots: int
+    sample_time: float = 1e-3
+    k_t: float | None = None
+    inertia: float | None = None
+    current_limit: float | None = None
+    commutation_offset: float = 0.0
+    encoder_counts: int | None = None
+    friction: float | None = None
+
+    kind = "rotary"
+
+    def __post_init__(self):
+        if int(self.pole_pairs) != self.pole_pairs or self.pole_pairs < 1:
+            raise ValueError(f"pole_pairs = {self.pole_pairs} must be a positive integer")
+        if int(self.slots) != self.slots or self.slots < 3:
+            raise ValueError(f"slots = {self.slots} must be an integer >= 3")
+        if not (self.sample_time > 0 and math.isfinite(self.sample_time)):
+            raise ValueError(f"sample_time = {self.sample_time} must be positive")
+
+    @property
+    def electrical_period(self) -> float:
+        """``2π/p`` (rad, mechanical): the rotary counterpart of the pole pitch ``d_m``."""
+        return 2.0 * math.pi / self.pole_pairs
+
+    @property
+    def cogging_fundamental(self) -> int:
+        """``LCM(Q, 2p)``: cogging periods per revolution."""
+        return math.lcm(int(self.slots), 2 * int(self.pole_pairs))
+
+    @property
+    def name(self) -> str:
+        """Slot/pole combination, e.g. ``"12N14P"``."""
+        return f"{self.slots}N{2 * self.pole_pairs}P"
+
+    def to_dict(self) -> dict:
+        return {"kind": "rotary", "pole_pairs": int(self.pole_pairs), "slots": int(self.slots),
+                "sample_time": self.sample_time, "k_t": self.k_t, "inertia": self.inertia,
+                "current_limit": self.current_limit, "commutation_offset": self.commutation_offset,
+                "encoder_counts": self.encoder_counts, "friction": self.friction}

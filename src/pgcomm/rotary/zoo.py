@@ -1,0 +1,189 @@
+"""A zoo of random, physically plausible rotary PMSM/BLDC motors with their truth.
+
+Every claim about the rotary pipeline is checked over the zoo, never on one motor. A motor is
+drawn from a seed and an index (the same pair always gives the same motor):
+
+* slot/pole combination from common fractional-slot designs (:data:`COMBINATIONS`: the first
+  eight motors take one each, in order, so any zoo of >= 8 motors covers them all);
+* torque constant 0.02–2 N·m/A (log-uniform), current limit 5–40 A, inertia of rotor plus load
+  with ``J/k_t`` 2e-3–2e-2 A·s²/rad;
+* cogging RMS 0.5–5 % of the rated torque (``k_t`` times half the current limit): the
+  multiples of ``LCM(Q, 2p)`` (falling with the multiple), magnet-tolerance sidebands at the
+  multiples of ``Q``, stator-tolerance sidebands at the multiples of ``2p``, order 1 and 2 from
+  eccentricity, and 2 % of it at an order outside the model's basis;
+* torque-constant ripple RMS 0.5–3 %: eccentricity (1), magnet tolerances (2, 3, ``2p``), back-EMF
+  harmonics (``6p``, ``12p``), slotting (``Q``), and 3 % of it outside the basis;
+* the drive's commutation offset off by up to ±0.3 rad (electrical);
+* Coulomb friction 0.5–3 % of rated torque with a position-dependent part of 10–40 % of it
+  (orders 1, 2, ``2p``), viscous friction, encoder of 2^16–2^20 counts, current noise
+  0.2–0.5 % of the limit.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from pgcomm.rotary.model import Fourier, cogging_orders, direction_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.rotary.motor import RotaryMotor
+from pgcomm.rotary.twin import RotaryTruth
+
+__all__ = ["COMBINATIONS", "draw_rotary", "default_truth", "write_rotary_motor", "read_truth", "MAX_MOTORS"]
+
+#: (slots, pole pairs) of common concentrated-winding motors: 9N6P, 12N8P, 12N10P, 12N14P, 18N16P,
+#: 24N20P, 24N22P, 36N42P.
+COMBINATIONS = [(9, 3), (12, 4), (12, 5), (12, 7), (18, 8), (24, 10), (24, 11), (36, 21)]
+MAX_MOTORS = 999
+
+
+def _random_fourier(rng, orders, rms: float, weights=None) -> Fourier:
+    """Random phases, amplitudes ∝ ``weights`` (default equal), scaled to ``rms`` over the revolution."""
+    orders = np.asarray(orders, int)
+    w = np.ones(orders.size) if weights is None else np.asarray(weights, float)
+    amp = w * rng.uniform(0.5, 1.0, orders.size)
+    ph = rng.uniform(0, 2 * math.pi, orders.size)
+    coef = np.stack([amp * np.cos(ph), amp * np.sin(ph)], axis=1)
+    f = Fourier(orders, coef)
+    r = f.rms()
+    return f.scaled(rms / r) if r > 0 else f
+
+
+def _outside(basis, start: int) -> int:
+    """The smallest order >= ``start`` that is not in ``basis`` (for the part of the truth no model holds)."""
+    b = set(int(x) for x in basis)
+    h = start
+    while h in b:
+        h += 1
+    return h
+
+
+def _merge(*parts: Fourier) -> Fourier:
+    return Fourier(np.concatenate([p.orders for p in parts]), np.concatenate([p.coef for p in parts]))
+
+
+def draw_truth(rng, slots: int, pole_pairs: int, *, k_t=None, current_limit=None, inertia=None,
+               sample_time: float = 1e-3) -> RotaryTruth:
+    """One random motor of a given slot/pole combination (ranges in the module docstring).
+
+    Args:
+        rng: :class:`numpy.random.Generator`.
+        slots, pole_pairs: ``Q``, ``p``.
+        k_t, current_limit, inertia: fix these (N·m/A, A, kg·m²) instead of drawing them.
+        sample_time: the drive's period (s).
+    """
+    p, q = int(pole_pairs), int(slots)
+    k_t = float(k_t) if k_t is not None else float(np.exp(rng.uniform(np.log(0.02), np.log(2.0))))
+    i_lim = float(current_limit) if current_limit is not None else float(np.exp(rng.uniform(np.log(5), np.log(40))))
+    inertia = float(inertia) if inertia is not None else k_t * float(np.exp(rng.uniform(np.log(2e-3), np.log(2e-2))))
+    t_rated = k_t * 0.5 * i_lim
+    lcm = fundamental_cogging_order(q, p)
+    c_basis = cogging_orders(q, p)
+    # cogging: main multiples of L, falling; sidebands at kQ and k·2p; eccentricity orders; outside part
+    main = Fourier(np.array([lcm, 2 * lcm, 3 * lcm]), np.zeros((3, 2)))
+    w_main = np.array([1.0, rng.uniform(0.1, 0.3), rng.uniform(0.02, 0.1)])
+    main = _random_fourier(rng, main.orders, 1.0, w_main)
+    side_q = [h for h in range(q, 3 * lcm + 1, q) if h % lcm]
+    side_p = [h for h in range(2 * p, 3 * lcm + 1, 2 * p) if h % lcm and h % q]
+    side_q = _random_fourier(rng, side_q, rng.uniform(0.05, 0.15), np.exp(-np.asarray(side_q) / lcm)) if side_q \
+        else Fourier.zeros([])
+    side_p = _random_fourier(rng, side_p, rng.uniform(0.03, 0.1), np.exp(-np.asarray(side_p) / lcm)) if side_p \
+        else Fourier.zeros([])
+    ecc = _random_fourier(rng, [1, 2], rng.uniform(0.01, 0.04))
+    out = _random_fourier(rng, [_outside(c_basis, lcm // 2 + 1)], 0.02)
+    cog = _merge(main, side_q, side_p, ecc, out)
+    cog = cog.scaled(rng.uniform(0.005, 0.05) * t_rated / cog.rms())
+    # torque-constant ripple (relative)
+    r_basis = ripple_orders(q, p)
+    r_orders = [1, 2, 3, 2 * p, 6 * p, 12 * p, q]
+    r_weights = [1.0, 0.4, 0.3, 0.5, 1.0, 0.3, 0.3]
+    rip = _random_fourier(rng, r_orders, 1.0, r_weights)
+    rip = _merge(rip, _random_fourier(rng, [_outside(r_basis, 4)], 0.03))
+    rip = rip.scaled(rng.uniform(0.005, 0.03) / rip.rms())
+    # friction and the direction-dependent drag
+    coulomb = rng.uniform(0.005, 0.03) * t_rated
+    d_orders = [h for h in direction_orders(p) if h > 0]
+    drag = _random_fourier(rng, d_orders, rng.uniform(0.1, 0.4) * coulomb)
+    viscous = rng.uniform(0.002, 0.01) * t_rated / 10.0  # 0.2-1 % of rated torque at 10 rad/s
+    bits = int(rng.integers(16, 21))
+    motor = RotaryMotor(pole_pairs=p, slots=q, sample_time=sample_time, k_t=round(k_t, 4), inertia=None,
+                        current_limit=round(i_lim, 2), commutation_offset=0.0, encoder_counts=2**bits)
+    dt = sample_time / 10
+    w_eps = max(0.01, 2.0 * dt * coulomb * 1.5 / inertia)  # the smooth sign stays stable in the sub-steps
+    return RotaryTruth(motor=motor, k_t=k_t, offset_error=float(rng.uniform(-0.3, 0.3)), ripple=rip, cogging=cog,
+                       drag=drag, coulomb=coulomb, viscous=viscous, inertia=inertia, friction_velocity=w_eps,
+                       current_noise=float(rng.uniform(0.002, 0.005) * i_lim), torque_noise=0.005 * t_rated,
+                       encoder_counts=2**bits)
+
+
+def draw_rotary(seed: int, index: int) -> RotaryTruth:
+    """Zoo motor ``index`` (0-based) of zoo ``seed``: combination ``COMBINATIONS[index]`` for the first
+    eight, a random one after that; everything else drawn (module docstring)."""
+    rng = np.random.default_rng([int(seed), int(index), 0x70]) 
+    if index < len(COMBINATIONS):
+        q, p = COMBINATIONS[index]
+    else:
+        q, p = COMBINATIONS[int(rng.integers(len(COMBINATIONS)))]
+    return draw_truth(rng, q, p)
+
+
+def default_truth(motor: RotaryMotor, seed: int = 0) -> RotaryTruth:
+    """A twin for a user's rotary motor description: its ``k_t``, limit and inertia where given,
+    parasitic effects drawn (seeded) from the zoo's ranges."""
+    rng = np.random.default_rng([int(seed), 0x71])
+    t = draw_truth(rng, motor.slots, motor.pole_pairs, k_t=motor.k_t, current_limit=motor.current_limit,
+                   inertia=motor.inertia, sample_time=motor.sample_time)
+    counts = motor.encoder_counts or t.encoder_counts
+    from dataclasses import replace
+    return replace(t, motor=motor, encoder_counts=int(counts))
+
+
+def write_rotary_motor(truth: RotaryTruth, folder) -> Path:
+    """Write ``folder/motor.toml`` (kind = "rotary", the user's view) and ``folder/truth.json``."""
+    from pgcomm.io.atomic import atomic_write_text
+    from pgcomm.io.config import rotary_motor_to_toml
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(folder / "motor.toml", rotary_motor_to_toml(truth.motor))
+    atomic_write_text(folder / "truth.json", json.dumps(truth.to_dict(), indent=1) + "\n")
+    return folder
+
+
+def read_truth(path) -> RotaryTruth:
+    """A ``truth.json`` written by :func:`write_rotary_motor`."""
+    from pgcomm.errors import DataError
+
+    try:
+        with open(path, encoding="utf-8") as f:
+            return RotaryTruth.from_dict(json.load(f))
+    except FileNotFoundError:
+        raise DataError(f"{path}: file not found") from None
+    except (ValueError, KeyError, TypeError) as e:
+        raise DataError(f"{path}: not a rotary truth file ({' '.join(str(e).split())})") from None
+
+
+def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
+    """Simulate the running logs of :func:`pgcomm.rotary.experiment.running_references` and write them as
+    CSV (``t, theta, velocity, iq_1, id_1``: what a drive records) to ``folder/run{k}.csv``."""
+    from pgcomm.io.atomic import atomic_open
+    from pgcomm.rotary.experiment import RotarySettings, running_references
+    from pgcomm.rotary.identify import Orders
+    from pgcomm.rotary.twin import LawParams, default_gains, simulate
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    a = truth.inertia / truth.k0
+    refs = running_references(truth.motor, a, RotarySettings(), Orders.for_motor(truth.motor))
+    names = []
+    for k, ref in enumerate(refs, start=1):
+        log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(a), seed=seed * 1000 + k)
+        path = folder / f"run{k}.csv"
+        with atomic_open(path) as f:
+            f.write("t,theta,velocity,iq_1,id_1\n")
+            np.savetxt(f, np.column_stack([log[c] for c in ("t", "theta", "velocity", "iq_1", "id_1")]),
+                       delimiter=",", fmt="%.12g")
+        names.append(path.name)
+    return names

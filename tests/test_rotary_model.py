@@ -1,0 +1,108 @@
+"""Rotary model, orders, law and motor TOML: closed forms, explicit tolerances."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pgcomm.errors import ConfigError
+from pgcomm.rotary.law import MIN_GAIN, iq_command, iq_for_torque
+from pgcomm.rotary.model import Fourier, RotaryModel, cogging_orders, harmonic_columns, ripple_orders
+from pgcomm.rotary.motor import RotaryMotor
+
+
+def _model(rng):
+    return RotaryModel(7, Fourier(np.array([84, 12, 1]), rng.normal(0, 0.1, (3, 2))),
+                       Fourier(np.array([1, 42]), rng.normal(0, 0.01, (2, 2))),
+                       Fourier(np.array([0, 14]), np.array([[0.05, 0.0], [0.01, -0.02]])), viscous=1e-3,
+                       inertia_ratio=2e-3, k_t=0.1)
+
+
+def test_orders_follow_the_slot_pole_combination():
+    o = cogging_orders(12, 7)  # 12N14P: LCM(12, 14) = 84
+    assert {84, 168, 252, 12, 14, 1, 2} <= set(o.tolist())
+    assert o.max() == 252 and np.all(np.diff(o) > 0)
+    assert {1, 14, 42, 84, 12} <= set(ripple_orders(12, 7).tolist())
+    assert RotaryMotor(21, 36).cogging_fundamental == 252
+    assert RotaryMotor(7, 12).electrical_period == pytest.approx(2 * math.pi / 7, rel=1e-15)
+
+
+def test_fourier_closed_forms(rng):
+    th = np.linspace(0, 2 * math.pi, 4096, endpoint=False)
+    cols = harmonic_columns(th, [0, 3])
+    np.testing.assert_allclose(cols[:, 1], np.cos(3 * th), atol=1e-12)
+    np.testing.assert_allclose(cols[:, 3], np.sin(3 * th), atol=1e-12)
+    f = Fourier(np.array([0, 5, 84]), rng.normal(size=(3, 2)))
+    # Parseval against the sampled RMS (exact for orders below half the sample count)
+    assert f.rms() == pytest.approx(np.sqrt(np.mean(f(th) ** 2)), rel=1e-10)
+    # periodic over one revolution, multi-turn angles included
+    scale = np.abs(f.coef).sum()
+    np.testing.assert_allclose(f(th + 2 * math.pi * 1000), f(th), atol=1e-9 * scale)
+    assert Fourier.from_dict(f.to_dict()).coef.tolist() == f.coef.tolist()
+
+
+def test_table_is_the_compensating_current(rng):
+    m = _model(rng)
+    n = 1024
+    th = 2 * math.pi * np.arange(n) / n
+    fwd, rev, avg = m.table(n, +1), m.table(n, -1), m.table(n)
+    np.testing.assert_allclose(fwd, (-m.cogging(th) + m.direction(th)) / m.gain(th), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(rev, (-m.cogging(th) - m.direction(th)) / m.gain(th), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(avg, 0.5 * (fwd + rev), rtol=1e-12, atol=1e-14)
+    # at zero demand the compensated motor produces no torque: gain * iq + c - d s = 0
+    np.testing.assert_allclose(m.gain(th) * fwd + m.cogging(th) - m.direction(th), 0.0, atol=1e-12)
+    assert RotaryModel.from_dict(m.to_dict()).table(64).tolist() == m.table(64).tolist()
+    with pytest.raises(ValueError):
+        m.table(0)
+
+
+def test_law_inverts_the_model_and_is_safe(rng):
+    m = _model(rng)
+    th = rng.uniform(-50, 50, 500)
+    u = rng.uniform(-3, 3, 500)
+    s = np.sign(rng.normal(size=500))
+    iq = iq_command(m, u, th, s)
+    delivered = m.gain(th) * iq + m.cogging(th) - m.direction(th) * s
+    np.testing.assert_allclose(delivered, u, atol=1e-12 * 3)
+    np.testing.assert_allclose(iq_for_torque(m, 0.1 * u, th, s), iq, rtol=1e-12, atol=1e-14)
+    bad = iq_command(m, np.array([np.nan, 1.0, np.inf, 1.0]), np.array([0.0, np.nan, 0.0, np.inf]))
+    assert np.all(bad == 0.0)
+    assert np.max(np.abs(iq_command(m, 100.0 * u, th, s, current_limit=2.0))) <= 2.0
+    wild = RotaryModel(7, Fourier.zeros([]), Fourier(np.array([1]), np.array([[-5.0, 0.0]])), Fourier.zeros([]))
+    assert np.all(np.isfinite(iq_command(wild, 1.0, np.linspace(0, 7, 100))))
+    assert np.max(np.abs(iq_command(wild, 1.0, np.linspace(0, 7, 100)))) <= 1.0 / MIN_GAIN + 1e-12
+    no_kt = RotaryModel.zero(7)
+    with pytest.raises(ValueError, match="k_t"):
+        iq_for_torque(no_kt, 1.0, 0.0)
+
+
+def _write(tmp_path, text):
+    p = tmp_path / "motor.toml"
+    p.write_text(text)
+    return p
+
+
+def test_rotary_motor_toml(tmp_path):
+    from pgcomm.io.config import load_motor, load_rotary_motor, motor_kind, rotary_motor_to_toml
+
+    m = RotaryMotor(7, 12, 1e-3, k_t=0.1, inertia=2e-4, current_limit=20.0, encoder_counts=65536)
+    p = _write(tmp_path, rotary_motor_to_toml(m))
+    assert motor_kind(p) == "rotary"
+    assert load_rotary_motor(p) == m
+    with pytest.raises(ConfigError, match="rotary"):
+        load_motor(p)  # linear commands refuse it with one line
+    cases = {
+        'kind = "rotory"\n': "closest match: 'rotary'",
+        'kind = "rotary"\nslots = 12\nsample_time = 0.001\n': "key 'pole_pairs' missing",
+        'kind = "rotary"\npole_pairs = 7.5\nslots = 12\nsample_time = 0.001\n': "pole_pairs = 7.5 is a float",
+        'kind = "rotary"\npole_pairs = 7\nslots = 13\nsample_time = 0.001\n': "multiple of 3",
+        'kind = "rotary"\npole_pairs = 7\nslots = 12\nsample_time = 1\n': "did you give ms",
+        'kind = "rotary"\npole_pairs = 7\nslots = 12\nsample_time = 0.001\nk_t = -1\n': "k_t = -1",
+        'kind = "rotary"\npole_pairs = 7\nslots = 12\nsample_time = 0.001\ninertai = 1\n': "closest valid key: 'inertia'",
+    }
+    for text, msg in cases.items():
+        with pytest.raises(ConfigError, match=msg) as e:
+            load_rotary_motor(_write(tmp_path, text))
+        assert "\n" not in str(e.value)
