@@ -23,6 +23,17 @@ values of ``pgcomm fleet``), else the fit to the model's fundamental
 table's comment lines, printed and stored in ``results.json`` (``cogging_table.drive``). With
 ``--format c`` the same values (when given or recorded) are embedded as ``NAME_drive_k_hat``,
 ``NAME_drive_zeta_hat`` for ``NAME_drive_inputs``.
+
+Rotary drives (issue 18): ``--format moteus|odrive|c-angle --table TABLE.csv`` export a compensation
+table over one mechanical revolution (columns ``angle`` rad, ``iq`` A; :mod:`pgcomm.export.angle_table`)
+instead of a model file: ``moteus`` writes ``NAME.cfg``, the ``conf set motor.cogging_dq_scale`` /
+``motor.cogging_dq_comp.<i>`` lines for ``moteus_tool --write-config`` (:mod:`pgcomm.export.moteus`);
+``odrive`` writes ``NAME.json``, the 3600-entry ``cogging_map`` (N·m) of ODrive's open firmware 0.5.x,
+which needs ``--torque-constant`` and which stock firmware cannot load (:mod:`pgcomm.export.odrive`);
+``c-angle`` writes ``NAME.h``, a safe C99 lookup by mechanical angle (:mod:`pgcomm.export.angle_lut`;
+``--entries`` resamples, ``--current-limit`` is required as for the law). ``--current-limit`` clips the
+moteus/ODrive entries when given. Each prints and stores in ``results.json`` its resampling and
+quantisation error (RMS and max, A) and the assumptions it rests on.
 """
 
 from __future__ import annotations
@@ -39,17 +50,34 @@ HELP = "Export a model's commutation law as C code or a lookup table, verified a
 #: ``--f-max`` when the model's metadata has no training force (N).
 DEFAULT_F_MAX = 100.0
 
+#: Formats made from a compensation table over one revolution (``--table``), not a model file.
+TABLE_FORMATS = ("moteus", "odrive", "c-angle")
+
+#: Default ``--name`` per format.
+DEFAULT_NAMES = {"c": "pgcomm_law", "lut": "pgcomm_lut", "moteus": "pgcomm_moteus", "odrive": "pgcomm_odrive",
+                 "c-angle": "pgcomm_angle_lut"}
+
 
 def configure(p) -> None:
     """Options of ``pgcomm export``."""
     from pgcomm.defaults import DEFAULT_RESOLUTION
 
-    p.add_argument("--model", required=True, type=Path, metavar="MODEL.json", help="model file (pgcomm identify)")
-    p.add_argument("--format", required=True, choices=("c", "lut"),
-                   help="c: self-contained C99 law; lut: lookup table (CSV + C header) and anti-cogging table")
+    p.add_argument("--model", type=Path, metavar="MODEL.json",
+                   help="model file (pgcomm identify); for --format c and lut")
+    p.add_argument("--table", type=Path, metavar="TABLE.csv",
+                   help="compensation table over one revolution (columns angle rad, iq A); for --format moteus, "
+                        "odrive and c-angle")
+    p.add_argument("--format", required=True, choices=("c", "lut") + TABLE_FORMATS,
+                   help="c: self-contained C99 law; lut: lookup table (CSV + C header) and anti-cogging table; "
+                        "moteus: conf set lines of motor.cogging_dq_comp; odrive: ODrive 0.5.x cogging_map (JSON); "
+                        "c-angle: C99 lookup of the table by mechanical angle")
+    p.add_argument("--torque-constant", type=float, metavar="NM_PER_A",
+                   help="the ODrive's motor.config.torque_constant (N m/A), for --format odrive (its map is in N m)")
+    p.add_argument("--entries", type=int, metavar="N",
+                   help="table size for --format c-angle (default: the input table's)")
     add_out_option(p)
     p.add_argument("--precision", choices=("double", "single"), default="double",
-                   help="C scalar type for --format c (default double)")
+                   help="C scalar type for --format c and c-angle (default double)")
     p.add_argument("--resolution", type=float, default=DEFAULT_RESOLUTION, metavar="M",
                    help=f"table spacing in m for --format lut (default {DEFAULT_RESOLUTION:g} m)")
     p.add_argument("--name", help="C identifier for file names and symbols "
@@ -183,12 +211,19 @@ def run(args, out: Path, progress) -> None:
     from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
+    if args.format in TABLE_FORMATS:
+        return _export_table(args, out, progress, t0)
+    if args.model is None:
+        raise ConfigError(f"--format {args.format} exports a model file: give --model MODEL.json")
+    if args.table is not None:
+        raise ConfigError(f"--table is for --format {', '.join(TABLE_FORMATS)}; --format {args.format} exports "
+                          "--model")
     limit, limit_given = parse_current_limit(args.current_limit)
     if args.f_max is not None and not (math.isfinite(args.f_max) and args.f_max > 0):
         raise ConfigError(f"--f-max must be a positive force in N, got {args.f_max}")
     if not (math.isfinite(args.resolution) and args.resolution > 0):
         raise ConfigError(f"--resolution must be a positive length in m, got {args.resolution}")
-    name = args.name or ("pgcomm_law" if args.format == "c" else "pgcomm_lut")
+    name = args.name or DEFAULT_NAMES[args.format]
     from pgcomm.export.c import check_c_name
 
     try:
@@ -321,3 +356,102 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
         print(f"anti-cogging table for a drive with {drive_text}: interpolation {cog_err.interpolation:.3g} N; "
               f"classical + table leaves y {ce[0]:.3g} N, x {ce[1]:.3g} N, z {ce[2]:.3g} N m")
         print(f"wrote {args.out}/{paths[0].name}, {paths[1].name}, {cog_path.name}, results.json")
+
+
+def _export_table(args, out, progress, t0) -> None:
+    """``--format moteus|odrive|c-angle``: a compensation table over one revolution for a rotary drive."""
+    from pgcomm.export.angle_table import read_angle_table
+    from pgcomm.export.c import check_c_name
+    from pgcomm.io.results import write_results
+
+    if args.table is None:
+        raise ConfigError(f"--format {args.format} exports a compensation table: give --table TABLE.csv "
+                          "(columns angle in rad, iq in A, one revolution)")
+    if args.model is not None:
+        raise ConfigError(f"--format {args.format} exports --table, not --model (a model file's law: --format c or lut)")
+    if args.entries is not None and args.format != "c-angle":
+        raise ConfigError(f"--entries is for --format c-angle; {args.format}'s table size is fixed by the drive")
+    if args.torque_constant is not None and args.format != "odrive":
+        raise ConfigError("--torque-constant is for --format odrive (its map is in N m)")
+    k = args.torque_constant
+    if args.format == "odrive" and k is None:
+        raise ConfigError("--format odrive needs --torque-constant NM_PER_A, the ODrive's "
+                          "motor.config.torque_constant (its cogging_map is in N m: entry = k_t x iq_comp)")
+    if k is not None and not (math.isfinite(k) and 0 < k <= 1e3):
+        raise ConfigError(f"--torque-constant {k:g}: expected the motor's torque constant in N m/A (0 < k_t <= 1000)")
+    if args.entries is not None and not 8 <= args.entries <= 1 << 20:
+        raise ConfigError(f"--entries {args.entries}: expected a table size from 8 to {1 << 20}")
+    name = args.name or DEFAULT_NAMES[args.format]
+    try:
+        check_c_name(name)
+    except ValueError as e:
+        raise ConfigError(f"--name: {e}") from None
+    limit, limit_given = parse_current_limit(args.current_limit)
+    if limit_given:
+        limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"
+    elif args.format == "c-angle":
+        raise ConfigError(f"{args.table}: a table records no current limit; give --current-limit A, the drive's "
+                          "q-current limit, or --current-limit none to export a lookup without a limit")
+    else:
+        limit_source = "none given: the drive's own current limit applies"
+    table = read_angle_table(args.table)
+    provenance = [f"input table {args.table} ({table.n} entries)", *table.comments]
+    results = {"command": "export", "format": args.format, "table": str(args.table), "table_entries": table.n,
+               "name": name, "current_limit": limit, "current_limit_source": limit_source}
+    with progress.stage(f"{args.format} table from {table.n} entries"):
+        if args.format == "moteus":
+            path, figures, lines = _moteus(table, out, name, limit)
+        elif args.format == "odrive":
+            path, figures, lines = _odrive(args, table, out, name, limit, provenance)
+        else:
+            path, figures, lines = _c_angle(args, table, out, name, limit, limit_source, provenance)
+    results.update(files=[path.name], **{args.format.replace("-", "_"): figures})
+    results["runtime_s"] = time.perf_counter() - t0
+    write_results(out / "results.json", results)
+    if not args.quiet:
+        for line in lines:
+            print(line)
+        print(f"wrote {args.out}/{path.name}, results.json")
+
+
+def _moteus(table, out, name, limit):
+    from pgcomm.export.moteus import build_moteus, write_moteus
+
+    mt = build_moteus(table, current_limit=limit)
+    path = write_moteus(mt, out / f"{name}.cfg")
+    t, i = mt.total, mt.interpolation
+    lines = [f"moteus: 1024 int8 entries, motor.cogging_dq_scale = {mt.scale:.6g} A/LSB; int8 quantisation max "
+             f"{mt.quantisation:.3g} A (bound scale/2 = {0.5 * mt.scale:.3g} A), RMS {mt.quantisation_rms:.3g} A",
+             f"drive's linear interpolation vs the input table: RMS {t.rms:.3g} A, max {t.max:.3g} A "
+             f"(resampling alone: RMS {i.rms:.3g} A, max {i.max:.3g} A)"
+             + (f"; {mt.clipped} entries clipped at {limit:g} A" if mt.clipped else ""),
+             "assumes: " + "; ".join(mt.assumptions),
+             f"load with: python -m moteus.moteus_tool --target ID --write-config {path.name}, then conf write"]
+    return path, mt.as_dict(), lines
+
+
+def _odrive(args, table, out, name, limit, provenance):
+    from pgcomm.export.odrive import ASSUMPTIONS, build_odrive, write_odrive
+
+    k = args.torque_constant
+    om = build_odrive(table, k, current_limit=limit)
+    path = write_odrive(om, out / f"{name}.json", provenance)
+    p, n = om.positive, om.negative
+    lines = [f"ODrive 0.5.x cogging_map: 3600 float32 entries in N m (k_t = {k:g} N m/A); zero-order hold vs the input "
+             f"table: RMS {p.rms:.3g} A, max {p.max:.3g} A (negative positions: RMS {n.rms:.3g} A, max {n.max:.3g} A)"
+             + (f"; {om.clipped} entries clipped at {limit:g} A" if om.clipped else ""),
+             "NOT loadable by stock ODrive firmware (cogging_map has no protocol entry in 0.5.x); see the JSON",
+             "assumes: " + "; ".join(ASSUMPTIONS[:3])]
+    return path, om.as_dict(), lines
+
+
+def _c_angle(args, table, out, name, limit, limit_source, provenance):
+    from pgcomm.export.angle_lut import build_angle_lut, write_angle_lut
+
+    lut = build_angle_lut(table, args.entries, args.precision, current_limit=limit)
+    path = write_angle_lut(lut, out / f"{name}.h", name, limit_source, provenance)
+    e = lut.error
+    lines = [f"C lookup {name}: {lut.n} entries ({args.precision}), periodic linear interpolation vs the input table: "
+             f"RMS {e.rms:.3g} A, max {e.max:.3g} A; current limit {_limit_text(limit, limit_source)}"
+             + (f"; {lut.clipped} entries clipped" if lut.clipped else "")]
+    return path, lut.as_dict(), lines

@@ -7,8 +7,12 @@ Log format (DESIGN, "Formats"): one row per controller sample, columns
 * ``Fy``, ``Fx`` (N), ``Tz`` (N·m): measured force, all three or none: a log without them
   is a log of a rig without a force sensor (:attr:`Log.has_force`; identification then uses
   the motion, ``pgcomm identify --no-force-sensor``); a log with only some of them is refused;
-* per coil set ``l = 1..L`` either the star currents ``ia_{l}``, ``ib_{l}`` (A)
-  or the drive inputs ``Fy_ref_{l}`` (N), ``delta_{l}`` (rad), or both. Sign convention of
+* per coil set ``l = 1..L`` the star currents ``ia_{l}``, ``ib_{l}`` (A), or the drive inputs
+  ``Fy_ref_{l}`` (N), ``delta_{l}`` (rad), or the q/d-axis currents ``iq_{l}``, ``id_{l}`` (A) of a
+  field-oriented drive in its own electrical frame (:mod:`pgcomm.drive_frame`: the paper's drive
+  inputs seen from that drive; ``id_{l}`` may be absent — a drive holding ``i_d* = 0`` often does
+  not log it — and is then taken as 0 A by :meth:`Log.dq_currents`, noted in :attr:`Log.notes`;
+  an ``id_{l}`` without ``iq_{l}`` is refused), or several of these forms. Sign convention of
   the drive inputs (the one of :func:`pgcomm.commutation.transform_T_inverse`, of the exported
   C law and of every log pgcomm writes): ``Fy_ref_{l}`` is signed (it follows the force) and
   ``delta_{l}`` lies in ``(-π/2, π/2]``, so a data set driven at ``Δ = -π/4`` logs
@@ -18,6 +22,18 @@ Log format (DESIGN, "Formats"): one row per controller sample, columns
 * optional ``r`` (m, reference), ``Fy_star``, ``Fx_star``, ``Tz_star`` (N, N,
   N·m, desired force), ``experiment`` and ``active_coil_set`` (integers stored
   as floats).
+
+Rotary motors (DESIGN, "Rotary motors") log the mechanical angle ``theta`` (rad) in place of ``y``
+(read them with ``required=ROTARY_REQUIRED``), optionally ``velocity`` (the drive's velocity
+estimate: rad/s beside ``theta``, m/s beside ``y``), the q/d-axis currents above, and optionally
+the q/d-axis voltages ``vq_{l}``, ``vd_{l}`` and the supply voltage ``vbus`` (V). ``theta`` may be
+multi-turn and either continuous or wrapped to one revolution (``[0, 2π)``, ``[−π, π)``, in any
+angle unit): wraps are detected against the logged velocity (or, without it, assuming less than a
+quarter revolution per sample) and removed (:func:`pgcomm.io.angles.unwrap_angle`); the log says so
+in :attr:`Log.angle_wraps` and :attr:`Log.notes`; a jump that is neither a wrap nor motion is
+refused with one line naming the file, column and sample. Angle units of ``theta``: ``rad``,
+``mrad``, ``deg``, ``rev`` (``turn``); of ``velocity``: ``rad/s``, ``deg/s``, ``rev/s``, ``rpm``
+(or ``m/s``, ``mm/s`` for a linear log).
 
 File formats:
 
@@ -52,6 +68,7 @@ units::
     [units]              # log-format name = unit of that column in the file
     y = "mm"
     Fy = "mN"
+    # theta = "deg"      # rotary: rad, mrad, deg, rev; velocity = "rpm" (rad/s, deg/s, rev/s, rpm)
     [options]
     sample_time = 0.001  # s, when the file has no t column
     group = "data"       # HDF5 group / .mat struct holding the columns
@@ -90,6 +107,7 @@ __all__ = [
     "is_log_column",
     "UNITS",
     "REQUIRED",
+    "ROTARY_REQUIRED",
     "FORCE_COLUMNS",
     "KNOWN_COLUMNS",
     "TIME_TOLERANCE",
@@ -98,14 +116,21 @@ __all__ = [
 #: Columns a log must have (``t`` may be replaced by a given sample time).
 REQUIRED = ("y",)
 
+#: Columns a rotary motor's log must have: the mechanical angle in place of ``y``.
+ROTARY_REQUIRED = ("theta",)
+
 #: The measured force: a log has all of them (force sensor) or none (no force sensor).
 FORCE_COLUMNS = ("Fy", "Fx", "Tz")
 
 #: Log-format column names that are not per coil set.
-KNOWN_COLUMNS = ("t", "y", "Fy", "Fx", "Tz", "r", "Fy_star", "Fx_star", "Tz_star", "experiment", "active_coil_set")
+KNOWN_COLUMNS = ("t", "y", "Fy", "Fx", "Tz", "r", "Fy_star", "Fx_star", "Tz_star", "experiment", "active_coil_set",
+                 "theta", "velocity", "vbus")
 
-#: Per-coil-set columns: ``ia_{l}``, ``ib_{l}``, ``Fy_ref_{l}``, ``delta_{l}`` with ``l >= 1``.
-_COIL_RE = re.compile(r"^(ia|ib|Fy_ref|delta)_([0-9]+)$")
+#: Per-coil-set columns: ``ia_{l}``, ``ib_{l}``, ``Fy_ref_{l}``, ``delta_{l}``, ``iq_{l}``, ``id_{l}`` with ``l >= 1``.
+_COIL_RE = re.compile(r"^(ia|ib|Fy_ref|delta|iq|id)_([0-9]+)$")
+
+#: Optional per-coil-set voltages ``vq_{l}``, ``vd_{l}`` (V): logged, never a coil set's inputs.
+_VOLT_RE = re.compile(r"^(vq|vd)_([1-9][0-9]*)$")
 
 #: Relative tolerance on the uniformity of ``t`` steps.
 TIME_TOLERANCE = 1e-6
@@ -127,13 +152,24 @@ UNITS = {
     "angle": {"rad": 1.0, "deg": math.pi / 180.0, "mrad": 1e-3},
     "current": {"A": 1.0, "mA": 1e-3},
     "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6},
+    # a rotary motor's mechanical angle: one revolution is 2π rad
+    "rotation": {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0, "rev": 2.0 * math.pi, "turn": 2.0 * math.pi},
+    # the drive's velocity estimate: angular beside theta, linear beside y
+    "velocity": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rev/s": 2.0 * math.pi, "rpm": 2.0 * math.pi / 60.0,
+                 "m/s": 1.0, "mm/s": 1e-3},
+    "voltage": {"V": 1.0, "mV": 1e-3, "kV": 1e3},
 }
+
+#: Velocity units that are angular (the others are linear).
+ANGULAR_VELOCITY_UNITS = ("rad/s", "deg/s", "rev/s", "rpm")
 
 _QUANTITY = {
     "t": "time", "y": "length", "r": "length",
     "Fy": "force", "Fx": "force", "Fy_star": "force", "Fx_star": "force",
     "Tz": "torque", "Tz_star": "torque",
     "ia": "current", "ib": "current", "Fy_ref": "force", "delta": "angle",
+    "theta": "rotation", "velocity": "velocity", "iq": "current", "id": "current",
+    "vq": "voltage", "vd": "voltage", "vbus": "voltage",
 }
 
 
@@ -147,16 +183,18 @@ def _coil(name: str):
 
 def is_log_column(name: str) -> bool:
     """Whether ``name`` is a log-format column name (see module docstring)."""
-    return name in KNOWN_COLUMNS or _coil(name) is not None
+    return name in KNOWN_COLUMNS or _coil(name) is not None or _VOLT_RE.match(name) is not None
 
 
 def _quantity(name: str) -> str | None:
     c = _coil(name)
-    return _QUANTITY.get(c[0] if c else name)
+    v = _VOLT_RE.match(name)
+    return _QUANTITY.get(c[0] if c else v.group(1) if v else name)
 
 
 def _known_examples():
-    return list(KNOWN_COLUMNS) + [f"{k}_{l}" for l in (1, 2, 3) for k in ("ia", "ib", "Fy_ref", "delta")]
+    return list(KNOWN_COLUMNS) + [f"{k}_{l}" for l in (1, 2, 3)
+                                  for k in ("ia", "ib", "Fy_ref", "delta", "iq", "id", "vq", "vd")]
 
 
 # --------------------------------------------------------------------------- column mapping
@@ -218,7 +256,7 @@ def column_mapping(table: dict, source: str = "column mapping") -> ColumnMapping
                 raise ConfigError(
                     f"{source}: [{sec}] '{name}' is not a log column{closest_hint(name, examples)};"
                     " known: t, y, Fy, Fx, Tz, r, Fy_star, Fx_star, Tz_star, experiment, active_coil_set,"
-                    " ia_<l>, ib_<l>, Fy_ref_<l>, delta_<l>"
+                    " theta, velocity, vbus, ia_<l>, ib_<l>, Fy_ref_<l>, delta_<l>, iq_<l>, id_<l>, vq_<l>, vd_<l>"
                 )
             if not isinstance(value, str):
                 raise ConfigError(f"{source}: [{sec}] {name} = {value!r} must be a string")
@@ -283,11 +321,17 @@ class Log:
             the module docstring; extra names allowed). Converted on construction.
         sample_time: controller sample time (s).
         source: where the log came from (file name), used in messages.
+        angle_wraps: number of one-revolution wraps :func:`read_log` removed from ``theta``
+            (0: the file's angle was continuous, or the log has no ``theta``).
+        notes: what the reader did beyond unit conversion, one sentence each (wraps removed,
+            a missing ``id_{l}`` taken as 0 A), for the user's report.
     """
 
     columns: dict
     sample_time: float
     source: str = "log"
+    angle_wraps: int = 0
+    notes: tuple = ()
 
     def __post_init__(self):
         cols = {}
@@ -351,6 +395,24 @@ class Log:
     def drive_inputs(self) -> tuple[np.ndarray, np.ndarray] | None:
         """Drive inputs ``(Fy_ref (N, L) in N, delta (N, L) in rad)``, or ``None`` if a coil set has none."""
         return self._stack("Fy_ref", "delta")
+
+    def dq_currents(self) -> np.ndarray | None:
+        """q/d-axis currents ``(N, L, 2)`` = ``[iq_l, id_l]`` (A) in the drive's frame, or ``None`` if a coil set has no ``iq_l``.
+
+        A coil set without ``id_l`` gets ``id = 0`` (a field-oriented drive holding ``i_d* = 0``;
+        :func:`read_log` says so in :attr:`notes`). Convert with :mod:`pgcomm.drive_frame`.
+        """
+        n = self.n_coil_sets
+        if n == 0 or not all(f"iq_{l}" in self.columns for l in range(1, n + 1)):
+            return None
+        zero = np.zeros(self.n_samples)
+        return np.stack([np.stack([self.columns[f"iq_{l}"], self.columns.get(f"id_{l}", zero)], axis=-1)
+                         for l in range(1, n + 1)], axis=1)
+
+    @property
+    def is_rotary(self) -> bool:
+        """Whether the log is a rotary motor's: it has the mechanical angle ``theta`` (rad)."""
+        return "theta" in self.columns
 
     @property
     def has_force(self) -> bool:
@@ -575,14 +637,23 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
             f"Fy_ref_{n_sets + 1}, delta_{n_sets + 1}); found {list_names(found) or 'nothing'}"
             f"{closest_hint(f'ia_{n_sets + 1}', unused)}"
         )
+    notes = []
     for l in range(1, n_sets + 1):
         have = coil.get(l, set())
         if not have:
             raise DataError(
                 f"{src}: no columns for coil set {l} but coil sets up to {n_sets} are present "
-                f"(coil sets must be 1..L; expected ia_{l}, ib_{l} or Fy_ref_{l}, delta_{l})"
+                f"(coil sets must be 1..L; expected ia_{l}, ib_{l} or Fy_ref_{l}, delta_{l} or iq_{l}[, id_{l}])"
             )
-        if {"ia", "ib"} <= have or {"Fy_ref", "delta"} <= have:
+        if "id" in have and "iq" not in have:
+            # a d-axis current alone says nothing about the force: never read it as a complete coil set
+            raise DataError(
+                f"{src}: {kind} 'iq_{l}' missing (coil set {l} has id_{l} but no iq_{l}; a field-oriented drive's "
+                f"log gives the q-axis current iq_{l}, and id_{l} with it or not at all){closest_hint(f'iq_{l}', unused)}"
+            )
+        if "iq" in have and "id" not in have:
+            notes.append(f"coil set {l}: no id_{l} in the log, taken as 0 A (a drive holding i_d* = 0)")
+        if {"ia", "ib"} <= have or {"Fy_ref", "delta"} <= have or "iq" in have:
             continue
         pairs = (("ia", "ib"), ("Fy_ref", "delta"))
         part = next(p for p in pairs if set(p) & have)
@@ -655,6 +726,23 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
                 if ts * 1e-3 <= MAX_SAMPLE_TIME else "")
         raise DataError(f"{src} {kind} {lab('t')}: sample time {ts:.6g} s is implausible for a motor controller "
                         f"(at most {MAX_SAMPLE_TIME:g} s){hint}")
+    angle_wraps = 0
+    vunit = mapping.units.get("velocity")
+    if vunit is not None and "velocity" in cols:
+        angular = vunit in ANGULAR_VELOCITY_UNITS
+        if angular and "theta" not in cols:
+            raise DataError(f"{src} {kind} {lab('velocity')}: unit '{vunit}' is angular but the log has no angle "
+                            "'theta' (a linear log's velocity is in m/s or mm/s)")
+        if not angular and "theta" in cols:
+            raise DataError(f"{src} {kind} {lab('velocity')}: unit '{vunit}' is linear but the log is a rotary "
+                            "motor's (it has 'theta'); give rad/s, deg/s, rev/s or rpm")
+    if "theta" in cols:
+        from pgcomm.io.angles import unwrap_angle
+
+        cols["theta"], angle_wraps = unwrap_angle(cols["theta"], ts, cols.get("velocity"), src, lab("theta"))
+        if angle_wraps:
+            notes.append(f"theta: {angle_wraps} wrap(s) of one revolution removed (the file's angle was wrapped; "
+                         "the log's theta is continuous)")
     for name in ("y", "r"):
         if name in cols and float(np.max(np.abs(cols[name]))) > MAX_POSITION:
             big = float(np.max(np.abs(cols[name])))
@@ -662,7 +750,7 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
                     if big * 1e-3 <= MAX_POSITION else "")
             raise DataError(f"{src} {kind} {lab(name)}: |{name}| reaches {big:.6g} m, implausible for a linear "
                             f"motor (at most {MAX_POSITION:g} m){hint}")
-    return Log(cols, ts, src)
+    return Log(cols, ts, src, angle_wraps, tuple(notes))
 
 
 def read_logs(patterns, sample_time: float | None = None, columns=None, required=REQUIRED, min_coil_sets: int = 1) -> list[Log]:

@@ -1,0 +1,92 @@
+"""Multi-turn angles from drive logs: wrapped or continuous, made continuous, or refused when ambiguous.
+
+A rotary drive logs its position either unwrapped (a continuous multi-turn angle) or wrapped
+to one revolution (``[0, 2π)``, ``[−π, π)``, ``[0, 360)`` deg, ``[0, 1)`` rev ...). A wrap shows as
+a jump of about one revolution between consecutive samples. :func:`unwrap_angle` tells a wrap
+from motion by comparing each step ``d_i = θ_{i+1} − θ_i`` (rad) with the step the motion predicts:
+
+* with the logged velocity ``ω`` (rad/s): ``p_i = (ω_i + ω_{i+1}) T_s / 2`` (trapezoid);
+* without it: ``p_i = 0`` — the log is then taken to turn less than a quarter revolution per
+  sample (at 1 kHz: 1571 rad/s = 15000 rpm), and a faster log needs its velocity column.
+
+``k_i = round((d_i − p_i) / 2π)`` whole revolutions are removed from step ``i``; the step is
+*ambiguous* (refused, with one line naming the file, the column and the sample) when the residual
+``|d_i − p_i − 2π k_i|`` exceeds :data:`AMBIGUITY` (a quarter revolution), since then neither "a
+wrap" nor "motion" explains it — a glitch, a velocity in the wrong unit, or motion too fast for
+the sample rate. A jump of more than one revolution (``|k_i| > 1``) is refused too: a wrapped
+angle never jumps by more than one revolution. At 1 ms and ``ω`` = 100 rad/s the prediction is
+off by ``δω·T_s``, far below the threshold for any sensible velocity estimate, so the rule is
+conservative: it refuses rather than guesses.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pgcomm.errors import DataError
+
+__all__ = ["AMBIGUITY", "REVOLUTION", "unwrap_angle"]
+
+#: One revolution (rad).
+REVOLUTION = 2.0 * math.pi
+
+#: Largest residual (rad) between a step and the predicted step, after removing whole revolutions,
+#: that is still explained (a quarter revolution).
+AMBIGUITY = 0.5 * math.pi
+
+
+def unwrap_angle(theta, sample_time: float, velocity=None, source: str = "log", label: str = "'theta'"):
+    """Make a multi-turn angle continuous; count the wraps removed.
+
+    Args:
+        theta: ``(N,)`` mechanical angle (rad), wrapped or continuous.
+        sample_time: ``T_s`` (s), > 0.
+        velocity: ``(N,)`` angular velocity (rad/s) logged with it, or ``None``.
+        source, label: file and column for messages (``label`` as the log reader prints columns,
+            e.g. ``"'pos' (theta)"``).
+
+    Returns:
+        ``(theta_continuous, n_wraps)``: ``(N,)`` float64 angle (rad) equal to ``theta`` at the first
+        sample, and the number of wraps removed (0: the log was continuous; the input array is
+        returned as it is then).
+
+    Raises:
+        DataError: an ambiguous step or a jump of more than one revolution; the message names the
+            file, the column, the sample (row = 1-based sample index) and the values.
+    """
+    th = np.asarray(theta, dtype=np.float64)
+    if th.size < 2:
+        return th, 0
+    d = np.diff(th)
+    if velocity is not None:
+        w = np.asarray(velocity, dtype=np.float64)
+        pred = 0.5 * (w[1:] + w[:-1]) * sample_time
+    else:
+        pred = np.zeros_like(d)
+    r = d - pred
+    k = np.rint(r / REVOLUTION)
+    e = np.abs(r - REVOLUTION * k)
+    bad = np.flatnonzero((e > AMBIGUITY) | (np.abs(k) > 1))
+    if bad.size:
+        i = int(bad[0])
+        rows = f"row {i + 2}"
+        jump = f"{label} jumps by {d[i]:.6g} rad from {th[i]:.9g} (row {i + 1}) to {th[i + 1]:.9g}"
+        if abs(k[i]) > 1 and e[i] <= AMBIGUITY:
+            why = (f"{int(abs(k[i]))} revolutions in one sample is not a wrap (a wrapped angle jumps by one "
+                   "revolution)")
+        elif velocity is not None:
+            why = (f"ambiguous: the logged velocity {0.5 * (w[i] + w[i + 1]):.6g} rad/s predicts a step of "
+                   f"{pred[i]:.6g} rad per {sample_time:.6g} s sample and the jump is {e[i]:.3g} rad away from that "
+                   "plus any whole revolution (check the velocity's unit and sign, or the log for a glitch)")
+        else:
+            why = (f"ambiguous: {e[i]:.3g} rad from any whole revolution, more than a quarter revolution per "
+                   f"{sample_time:.6g} s sample (add the velocity column so that fast motion can be told from a "
+                   "wrap, or check the log for a glitch)")
+        raise DataError(f"{source} {rows}: {jump}: {why}")
+    n = int(np.sum(np.abs(k)))
+    if n == 0:
+        return th, 0
+    # whole revolutions only: the samples keep their digits (no cumulative sum of the steps)
+    return th - REVOLUTION * np.concatenate(([0.0], np.cumsum(k))), n
