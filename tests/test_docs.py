@@ -86,7 +86,11 @@ def test_toml_snippet_loads(code, tmp_path):
 
     path = tmp_path / "snippet.toml"
     path.write_text(code)
-    if re.search(r"^pole_pitch\s*=", code, re.M):
+    if re.search(r'^kind\s*=\s*"rotary"', code, re.M):
+        from pgcomm.io.config import load_rotary_motor
+
+        assert load_rotary_motor(path).pole_pairs >= 1
+    elif re.search(r"^pole_pitch\s*=", code, re.M):
         motor = load_motor(path)
         assert motor.n_coil_sets >= 1
     elif re.search(r"^\[columns\]", code, re.M):

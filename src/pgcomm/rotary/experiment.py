@@ -261,7 +261,8 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
 
 def write_outputs(out, results: dict, truth: RotaryTruth) -> list:
     """Write ``results.json``, ``model.json`` (identified :class:`RotaryModel`), ``table.csv`` (the
-    standstill table and the model's table at the same angles) and two figures into ``out``.
+    standstill table and the model's table at the same angles), ``compensation.csv`` (the model's
+    averaged table in the format ``pgcomm export --table`` reads) and the figure into ``out``.
 
     Args:
         out: folder (exists); results: :func:`run`'s dict (``models`` is taken out of it);
@@ -287,6 +288,13 @@ def write_outputs(out, results: dict, truth: RotaryTruth) -> list:
         f.write("theta,standstill_table,model_table,model_forward,model_reverse\n")
         np.savetxt(f, np.column_stack([th, table, model.table(n), model.table(n, +1), model.table(n, -1)]),
                    delimiter=",", fmt="%.9g")
+    from pgcomm.export.angle_table import make_table, write_angle_table
+
+    # the model's table (both directions averaged, as the drives hold it) in the format pgcomm export
+    # --table reads: reproduce -> export moteus|odrive|c-angle without a conversion step
+    write_angle_table(out / "compensation.csv", make_table(model.table(n), "model from running logs"),
+                      comments=(f"pgcomm rotary model of {truth.motor.name}, identified from running logs "
+                                "without a torque sensor; forward and reverse averaged",))
     write_results(out / "results.json", results)
     import matplotlib.pyplot as plt
 
@@ -312,4 +320,4 @@ def write_outputs(out, results: dict, truth: RotaryTruth) -> list:
     ax[2].legend(fontsize=8)
     fig.suptitle(f"rotary {truth.motor.name}: identification and tracking")
     plots.save(fig, out / "rotary.png")
-    return ["results.json", "model.json", "table.csv", "rotary.png"]
+    return ["results.json", "model.json", "table.csv", "compensation.csv", "rotary.png"]
