@@ -109,7 +109,8 @@ def test_moteus_lines_parse_back_within_the_int8_bound(tmp_path):
     assert lines[0].startswith("conf set motor.cogging_dq_scale ") and len(lines) == 1 + M_ENTRIES
     assert all(l.startswith("conf set motor.cogging_dq_comp.") for l in lines[1:])
     scale, q = read_moteus(tmp_path / "m.cfg")
-    assert scale == np.float32(scale) and scale == pytest.approx(np.max(np.abs(t.iq)) / 127, rel=1e-7)
+    # the printed scale is the float32 the firmware holds, and the one the entries were quantised against
+    assert np.float32(scale) == np.float32(mt.scale) and scale == pytest.approx(np.max(np.abs(t.iq)) / 127, rel=1e-7)
     assert np.max(np.abs(q)) == 127 and q.dtype == np.int8
     # each entry within half a step of the table, the sign that of the current to add
     np.testing.assert_array_less(np.abs(q * scale - t.iq), 0.5 * scale * (1 + 1e-6))

@@ -198,3 +198,12 @@ def test_linear_logs_still_need_y(tmp_path):
     _write(tmp_path / "log.csv", ["t", "theta", "iq_1"], [t, theta, 0 * t])
     with pytest.raises(DataError, match="'y' missing"):
         read_log(tmp_path / "log.csv")
+
+
+def test_a_linear_log_keeps_an_extra_theta_column_as_it_is(tmp_path):
+    t = np.arange(20) * TS
+    wrapped = np.mod(np.arange(20) * 2.0, 2 * np.pi)  # would be ambiguous in a rotary log
+    _write(tmp_path / "lin.csv", ["t", "y", "ia_1", "ib_1", "theta"], [t, 0 * t, 0 * t, 0 * t, wrapped])
+    log = read_log(tmp_path / "lin.csv")
+    np.testing.assert_array_equal(log["theta"], wrapped)
+    assert log.angle_wraps == 0

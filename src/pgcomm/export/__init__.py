@@ -10,7 +10,17 @@
   anti-cogging table for drives that only take a position -> force-offset table
   (:func:`build_cogging_table`, :func:`cogging_table_error`).
 
-``pgcomm export`` (:mod:`pgcomm.cli.export`) drives both from a model file.
+Rotary drives (issue 18), from a compensation table over one mechanical revolution
+(:mod:`pgcomm.export.angle_table`: reading, periodic resampling, reconstruction error):
+
+* :mod:`pgcomm.export.moteus` — ``conf set`` lines of moteus' ``motor.cogging_dq_comp`` (1024 int8)
+  and ``motor.cogging_dq_scale``;
+* :mod:`pgcomm.export.odrive` — the 3600-entry ``cogging_map`` (N·m) of ODrive's open firmware 0.5.x
+  (a format stock firmware cannot load; the file says so);
+* :mod:`pgcomm.export.angle_lut` — a safe C99 lookup indexed by the mechanical angle.
+
+``pgcomm export`` (:mod:`pgcomm.cli.export`) drives all of them: from a model file (``--model``,
+formats ``c`` and ``lut``) or from a table (``--table``, formats ``moteus``, ``odrive``, ``c-angle``).
 """
 
 from pgcomm.export.c import c_source, write_c

@@ -24,7 +24,8 @@ Log format (DESIGN, "Formats"): one row per controller sample, columns
   as floats).
 
 Rotary motors (DESIGN, "Rotary motors") log the mechanical angle ``theta`` (rad) in place of ``y``
-(read them with ``required=ROTARY_REQUIRED``), optionally ``velocity`` (the drive's velocity
+(read them with ``required=ROTARY_REQUIRED``; a log with both ``y`` and ``theta`` is a linear
+motor's, its ``theta`` an extra column left as it is), optionally ``velocity`` (the drive's velocity
 estimate: rad/s beside ``theta``, m/s beside ``y``), the q/d-axis currents above, and optionally
 the q/d-axis voltages ``vq_{l}``, ``vd_{l}`` and the supply voltage ``vbus`` (V). ``theta`` may be
 multi-turn and either continuous or wrapped to one revolution (``[0, 2π)``, ``[−π, π)``, in any
@@ -411,8 +412,8 @@ class Log:
 
     @property
     def is_rotary(self) -> bool:
-        """Whether the log is a rotary motor's: it has the mechanical angle ``theta`` (rad)."""
-        return "theta" in self.columns
+        """Whether the log is a rotary motor's: the mechanical angle ``theta`` (rad) in place of ``y``."""
+        return "theta" in self.columns and "y" not in self.columns
 
     @property
     def has_force(self) -> bool:
@@ -727,16 +728,18 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
         raise DataError(f"{src} {kind} {lab('t')}: sample time {ts:.6g} s is implausible for a motor controller "
                         f"(at most {MAX_SAMPLE_TIME:g} s){hint}")
     angle_wraps = 0
+    # a rotary motor's log: theta in place of y (a linear log may carry a column named theta as an extra)
+    rotary = "theta" in cols and "y" not in cols
     vunit = mapping.units.get("velocity")
     if vunit is not None and "velocity" in cols:
         angular = vunit in ANGULAR_VELOCITY_UNITS
-        if angular and "theta" not in cols:
-            raise DataError(f"{src} {kind} {lab('velocity')}: unit '{vunit}' is angular but the log has no angle "
-                            "'theta' (a linear log's velocity is in m/s or mm/s)")
-        if not angular and "theta" in cols:
+        if angular and not rotary:
+            raise DataError(f"{src} {kind} {lab('velocity')}: unit '{vunit}' is angular but the log is not a rotary "
+                            "motor's (no angle 'theta' in place of 'y'; a linear log's velocity is in m/s or mm/s)")
+        if not angular and rotary:
             raise DataError(f"{src} {kind} {lab('velocity')}: unit '{vunit}' is linear but the log is a rotary "
                             "motor's (it has 'theta'); give rad/s, deg/s, rev/s or rpm")
-    if "theta" in cols:
+    if rotary:
         from pgcomm.io.angles import unwrap_angle
 
         cols["theta"], angle_wraps = unwrap_angle(cols["theta"], ts, cols.get("velocity"), src, lab("theta"))
