@@ -17,6 +17,24 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
+
+def _worker_compile_cache() -> None:
+    """Under pytest-xdist, each worker process gets its own folder of JAX's persistent compilation cache.
+
+    JAX writes a cache entry in place (no rename): a worker reading an entry the other worker is still writing
+    gets a warning, which this suite turns into an error. A folder per worker (``<cache>/pytest-gw0``, ...) has
+    one writer; an explicit ``$PGCOMM_COMPILE_CACHE`` or ``$JAX_COMPILATION_CACHE_DIR`` is left as it is.
+    """
+    worker = os.environ.get("PYTEST_XDIST_WORKER")
+    if not worker or "PGCOMM_COMPILE_CACHE" in os.environ or os.environ.get("JAX_COMPILATION_CACHE_DIR"):
+        return
+    from pgcomm.cli import compile_cache_dir
+
+    os.environ["PGCOMM_COMPILE_CACHE"] = os.path.join(compile_cache_dir(), f"pytest-{worker}")
+
+
+_worker_compile_cache()
+
 import jax  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
@@ -43,3 +61,100 @@ def cc():
         if path:
             return path
     pytest.skip("no C compiler (cc, gcc, clang) on PATH")
+
+
+def _trim_heap() -> None:
+    """Hand the heap that the process has freed back to the system (glibc keeps it for reuse otherwise)."""
+    import ctypes
+
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):  # not glibc: the heap stays with the process
+        pass
+
+
+def _release_memory() -> None:
+    """Drop JAX's in-memory caches of traced and compiled programs and hand the freed heap back to the system.
+
+    JAX keeps every compiled program for the life of the process, and glibc keeps freed heap for reuse: a test
+    module that runs whole commands (``reproduce --quick`` peaks at ~1.5 GB) would leave its process that large
+    for every module after it, and the suite grew to over 5 GB. Programs needed again are compiled again (or
+    loaded from the persistent compilation cache once a command has enabled it, see
+    pgcomm.cli.compile_cache_dir); the compiled code, and so every number, is the same.
+    """
+    import gc
+
+    jax.clear_caches()
+    gc.collect()
+    _trim_heap()
+
+
+@pytest.fixture(scope="session")
+def release_memory():
+    """:func:`_release_memory`, for a fixture that runs several whole commands in a row."""
+    return _release_memory
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _release_memory_after_module():
+    yield
+    _release_memory()
+
+
+@pytest.fixture(autouse=True)
+def _trim_heap_after_test():
+    """After each test, the heap its compilations freed (the compiled programs stay for the module's next tests):
+    the next test's peak then starts from what the process holds, not from the last test's high-water mark."""
+    yield
+    _trim_heap()
+
+
+# ----------------------------------------------------------------------------------------- running in parallel
+# pyproject.toml runs the suite on pytest-xdist workers (-n auto --dist loadfile): a test file runs whole on one
+# worker, so its module fixtures are computed once. Each worker is one process with its own JAX programs and
+# arrays, so the number of workers is what bounds the suite's memory.
+
+#: at most this many worker processes, whatever the machine's core count ($PYTEST_XDIST_AUTO_NUM_WORKERS overrides)
+MAX_WORKERS = 2
+
+#: the test files that run whole commands end to end (marked ``slow``): ``reproduce --quick`` peaks at ~1.5 GB and
+#: the fleet runs two worker processes of its own, so these run one after the other on one xdist worker (two of
+#: them at once would take the suite over 3 GB), as one work unit that starts first, while the other worker takes
+#: the rest file by file
+END_TO_END = ("test_fleet.py", "test_readme_rig.py", "test_reproduce.py", "test_zoo_pipeline.py")
+
+
+def pytest_xdist_auto_num_workers(config):
+    env = os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS")
+    if env:
+        return int(env)
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:
+        cores = os.cpu_count() or 1
+    return max(1, min(MAX_WORKERS, cores))
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadfile`` with the :data:`END_TO_END` files as one unit (xdist's ``loadgroup`` marks cannot do
+    it here: xdist 3.8 renames the test ids through an attribute pytest 9 no longer reads)."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class EndToEndTogether(LoadScopeScheduling):
+        def _split_scope(self, nodeid):
+            path = nodeid.split("::", 1)[0]
+            return "end-to-end" if os.path.basename(path) in END_TO_END else path
+
+    return EndToEndTogether(config, log)
+
+
+@pytest.hookimpl(tryfirst=True)  # the marks before -m selects on them
+def pytest_collection_modifyitems(config, items):
+    """The :data:`END_TO_END` files are ``slow`` and come first (a stable sort; xdist's work units follow the
+    collection's order), so that the suite does not end on them."""
+    for item in items:
+        if item.path.name in END_TO_END:
+            item.add_marker(pytest.mark.slow)
+    items.sort(key=lambda item: item.path.name not in END_TO_END)

@@ -15,7 +15,6 @@ law is always damped and its own rounding noise (Python's too) is ~1e-10.
 from __future__ import annotations
 
 import re
-import subprocess
 from pathlib import Path
 
 import jax
@@ -23,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import _c_harness as c_harness
 from pgcomm.commutation import ModelLaw, currents_to_drive_inputs
 from pgcomm.export.c import c_source, write_c
 from pgcomm.models import MLP, CoilSetModel, CombinedModel, physics_from_ideal
@@ -35,7 +35,6 @@ GAIN_SCALE = np.array([1.5, 0.1, 0.01])
 COG_SCALE = np.array([3.0, 0.5, 0.05])
 #: F* ranges: |Fy| <= 100 N, |Fx| <= 5 N, |Tz| <= 1 N·m
 F_RANGE = np.array([100.0, 5.0, 1.0])
-CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -72,94 +71,15 @@ def make_model(L, gain_widths=(2,), cog_widths=(16,), activation="tanh", seed=0)
 # compiling and running the harness
 # ---------------------------------------------------------------------------------------------
 
-HARNESS = r"""
-#include <stdio.h>
-#include "@NAME@.h"
-
-#define L @UNAME@_L
-typedef @NAME@_real T;
-
-/* in:  int32 n, then n records of doubles (y, f_star[3], k_hat[L], zeta_hat[L])
-   out: n records of doubles (ret_currents, ret_drive, currents[L][2], fy[L], delta[L],
-        gain[L][3][2], cogging[3]) */
-int main(int argc, char **argv)
-{
-    FILE *in, *out;
-    int n, s, l, q, j;
-    if (argc != 3)
-        return 1;
-    in = fopen(argv[1], "rb");
-    out = fopen(argv[2], "wb");
-    if (!in || !out || fread(&n, sizeof n, 1, in) != 1)
-        return 2;
-    for (s = 0; s < n; ++s) {
-        double rec[4 + 2 * L], res[2 + 10 * L + 3];
-        T y, f[3], k[L], z[L], cur[L][2], fy[L], de[L], g[L][3][2], cog[3];
-        int m = 0;
-        if (fread(rec, sizeof(double), 4 + 2 * L, in) != (size_t)(4 + 2 * L))
-            return 3;
-        y = (T)rec[0];
-        for (q = 0; q < 3; ++q)
-            f[q] = (T)rec[1 + q];
-        for (l = 0; l < L; ++l) {
-            k[l] = (T)rec[4 + l];
-            z[l] = (T)rec[4 + L + l];
-        }
-        res[m++] = @NAME@_currents(y, f, cur);
-        res[m++] = @NAME@_drive_inputs(y, f, k, z, fy, de);
-        @NAME@_model(y, g, cog);
-        for (l = 0; l < L; ++l)
-            for (j = 0; j < 2; ++j)
-                res[m++] = cur[l][j];
-        for (l = 0; l < L; ++l)
-            res[m++] = fy[l];
-        for (l = 0; l < L; ++l)
-            res[m++] = de[l];
-        for (l = 0; l < L; ++l)
-            for (q = 0; q < 3; ++q)
-                for (j = 0; j < 2; ++j)
-                    res[m++] = g[l][q][j];
-        for (q = 0; q < 3; ++q)
-            res[m++] = cog[q];
-        if (fwrite(res, sizeof(double), (size_t)m, out) != (size_t)m)
-            return 4;
-    }
-    fclose(in);
-    return fclose(out) != 0;
-}
-"""
-
-
-
 def compile_law(cc, model, directory: Path, precision="double", name="law", **kwargs) -> Path:
-    """Export ``model``, compile it with the harness, return the executable."""
+    """Export ``model``, compile it with the law harness (tests/_c_harness.py), return the executable."""
     write_c(model, directory, name=name, precision=precision, **kwargs)
-    harness = directory / "harness.c"
-    harness.write_text(HARNESS.replace("@NAME@", name).replace("@UNAME@", name.upper()))
-    exe = directory / "harness"
-    proc = subprocess.run([cc, *CFLAGS, "-o", str(exe), str(harness), str(directory / f"{name}.c"), "-lm"],
-                          capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
-    return exe
+    return c_harness.compile_law(cc, directory, name)
 
 
 def run_harness(exe: Path, L: int, y, f, k_hat, zeta_hat) -> dict:
     """Run the compiled harness on samples; returns its outputs as arrays."""
-    n = y.shape[0]
-    rec = np.concatenate([y[:, None], f, k_hat, zeta_hat], axis=1).astype("<f8")
-    inp, outp = exe.parent / "in.bin", exe.parent / "out.bin"
-    inp.write_bytes(np.int32(n).tobytes() + rec.tobytes())
-    subprocess.run([str(exe), str(inp), str(outp)], check=True)
-    r = np.fromfile(outp, "<f8").reshape(n, 2 + 10 * L + 3)
-    c = 2
-    out = {"ret": r[:, :2].astype(int), "currents": r[:, c:c + 2 * L].reshape(n, L, 2)}
-    c += 2 * L
-    out["fy"] = r[:, c:c + L]
-    out["delta"] = r[:, c + L:c + 2 * L]
-    c += 2 * L
-    out["gain"] = r[:, c:c + 6 * L].reshape(n, L, 3, 2)
-    out["cogging"] = r[:, c + 6 * L:]
-    return out
+    return c_harness.run_law(exe, L, y, f, k_hat, zeta_hat)
 
 
 def samples(L, n=N_SAMPLES, seed=7, y_range=Y_RANGE):

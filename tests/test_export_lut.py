@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import shutil
-import subprocess
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import _c_harness as c_harness
 from pgcomm.commutation import ModelLaw, classical_single_direction
 from pgcomm.errors import DataError
 from pgcomm.export.lut import (
@@ -177,42 +175,16 @@ def test_read_lut_refuses_bad_files(tmp_path, model):
 
 
 @pytest.mark.parametrize("limit", [None, 2.0])
-def test_c_header_matches_python_table_law(tmp_path, limit):
-    cc = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
-    if cc is None:
-        pytest.skip("no C compiler on PATH")
+def test_c_header_matches_python_table_law(cc, tmp_path, limit):
     model = paper_model(2)
     lut = build_lut(model, 1e-3, current_limit=limit)
     (tmp_path / "tab.h").write_text(lut_header(lut, "tab"))
-    (tmp_path / "main.c").write_text(r"""
-#include <stdio.h>
-#include "tab.h"
-int main(void)
-{
-    float y, f[3], i[TAB_L][2];
-    int l;
-    while (scanf("%f %f %f %f", &y, &f[0], &f[1], &f[2]) == 4) {
-        int r = tab_currents(y, f, i);
-        printf("%d", r);
-        for (l = 0; l < TAB_L; ++l)
-            printf(" %.9g %.9g", i[l][0], i[l][1]);
-        printf("\n");
-    }
-    return 0;
-}
-""")
-    exe = tmp_path / "main"
-    proc = subprocess.run([cc, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic", "-o", str(exe),
-                           str(tmp_path / "main.c"), "-lm"], capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
+    exe = c_harness.compile_lut(cc, tmp_path, "tab")
     rng = np.random.default_rng(0)
     y = np.concatenate([rng.uniform(-0.1, 0.1, 2000), [-0.2, 0.15]]).astype(np.float32).astype(float)
     f = (rng.uniform(-1, 1, (y.size, 3)) * [100.0, 5.0, 1.0]).astype(np.float32).astype(float)
-    out = subprocess.run([str(exe)], input="\n".join(" ".join("%.9g" % v for v in (yy, *ff)) for yy, ff in zip(y, f)),
-                         capture_output=True, text=True, check=True).stdout
-    res = np.array([[float(v) for v in line.split()] for line in out.splitlines()])
-    assert res[:, 0].tolist() == [0] * 2000 + [1, 1]
-    i_c = res[:, 1:].reshape(y.size, 3, 2)
+    ret, i_c = c_harness.run_lut(exe, 3, y, f)
+    assert ret.tolist() == [0] * 2000 + [1, 1]
     i_py = np.asarray(lut_currents(lut, y, f))
     # float32 table entries and arithmetic against the float64 table law
     assert np.max(np.abs(i_c - i_py)) <= 1e-5 * np.max(np.abs(i_py))

@@ -17,7 +17,6 @@ ten thousand ulp: far below any physical meaning, far above rounding.
 from __future__ import annotations
 
 import json
-import subprocess
 from pathlib import Path
 
 import jax
@@ -25,6 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import _c_harness as c_harness
 from pgcomm.commutation import ModelLaw, currents_to_drive_inputs
 from pgcomm.control import feedforward_signal
 from pgcomm.errors import DataError
@@ -40,7 +40,6 @@ TRAIN = (-0.09, 0.09)        # training range (m): the return code flips there
 Y_TEST = (-0.14, 0.14)       # test positions: inside and outside the knot grids
 F_RANGE = np.array([100.0, 5.0, 1.0])  # |Fy| N, |Fx| N, |Tz| N m
 REL = 1e-12
-CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]
 
 
 def make_spline(L=3, n_gain=9, n_cog=31, n_dir=7, direction=True, seed=0) -> SplineModel:
@@ -163,94 +162,12 @@ def test_missing_npz_and_bad_saves(tmp_path):
 # C export
 # ---------------------------------------------------------------------------------------------
 
-HARNESS = r"""
-#include <stdio.h>
-#include <stdlib.h>
-#include "@NAME@.h"
-
-#define L @UNAME@_L
-#define NIN (7 + 2 * L)
-#define NOUT (2 + 10 * L + 3 + 3 + 2)
-typedef @NAME@_real T;
-
-/* in:  int32 n, then n records of doubles (y, v, f_star[3], k_hat[L], zeta_hat[L], r, a)
-   out: n records (ret_currents, ret_drive, currents[L][2], fy[L], delta[L], gain[L][3][2],
-        cogging[3], direction[3], g, u_ff) with u_ff from this record and the next (the last: itself) */
-int main(int argc, char **argv)
-{
-    FILE *in, *out;
-    int n, s, l, q, j;
-    double *rec;
-    if (argc != 3)
-        return 1;
-    in = fopen(argv[1], "rb");
-    out = fopen(argv[2], "wb");
-    if (!in || !out || fread(&n, sizeof n, 1, in) != 1)
-        return 2;
-    rec = malloc(sizeof(double) * NIN * (size_t)n);
-    if (!rec || fread(rec, sizeof(double) * NIN, (size_t)n, in) != (size_t)n)
-        return 3;
-    for (s = 0; s < n; ++s) {
-        const double *x = rec + NIN * s, *nx = rec + NIN * (s + 1 < n ? s + 1 : s);
-        double res[NOUT];
-        T y = (T)x[0], v = (T)x[1], f[3], k[L], z[L], cur[L][2], fy[L], de[L], g[L][3][2], cog[3], dir[3];
-        int m = 0;
-        for (q = 0; q < 3; ++q)
-            f[q] = (T)x[2 + q];
-        for (l = 0; l < L; ++l) {
-            k[l] = (T)x[5 + l];
-            z[l] = (T)x[5 + L + l];
-        }
-#if @UNAME@_HAS_VELOCITY
-        res[m++] = @NAME@_currents(y, v, f, cur);
-        res[m++] = @NAME@_drive_inputs(y, v, f, k, z, fy, de);
-        @NAME@_direction(y, v, dir);
-#else
-        res[m++] = @NAME@_currents(y, f, cur);
-        res[m++] = @NAME@_drive_inputs(y, f, k, z, fy, de);
-        dir[0] = dir[1] = dir[2] = (T)0;
-        (void)v;
-#endif
-        @NAME@_model(y, g, cog);
-        for (l = 0; l < L; ++l)
-            for (j = 0; j < 2; ++j)
-                res[m++] = cur[l][j];
-        for (l = 0; l < L; ++l)
-            res[m++] = fy[l];
-        for (l = 0; l < L; ++l)
-            res[m++] = de[l];
-        for (l = 0; l < L; ++l)
-            for (q = 0; q < 3; ++q)
-                for (j = 0; j < 2; ++j)
-                    res[m++] = g[l][q][j];
-        for (q = 0; q < 3; ++q)
-            res[m++] = cog[q];
-        for (q = 0; q < 3; ++q)
-            res[m++] = dir[q];
-        res[m++] = @NAME@_feedforward_g((T)x[5 + 2 * L], v, (T)x[6 + 2 * L]);
-        res[m++] = @NAME@_feedforward((T)x[5 + 2 * L], v, (T)x[6 + 2 * L],
-                                      (T)nx[5 + 2 * L], (T)nx[1], (T)nx[6 + 2 * L]);
-        if (fwrite(res, sizeof(double), (size_t)m, out) != (size_t)m)
-            return 4;
-    }
-    free(rec);
-    fclose(in);
-    return fclose(out) != 0;
-}
-"""
-
-
-
 def compile_law(cc, model, directory: Path, mechanics, precision="double", name="spl", **kwargs) -> Path:
-    """Export ``model`` with the feedforward, compile it with the harness, return the executable."""
+    """Export ``model`` with the feedforward, compile it with the law harness (tests/_c_harness.py), return the
+    executable."""
     write_c(model, directory, name=name, precision=precision, mechanics=mechanics, **kwargs)
-    harness = directory / "harness.c"
-    harness.write_text(HARNESS.replace("@NAME@", name).replace("@UNAME@", name.upper()))
-    exe = directory / "harness"
-    proc = subprocess.run([cc, *CFLAGS, "-o", str(exe), str(harness), str(directory / f"{name}.c"), "-lm"],
-                          capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
-    return exe
+    return c_harness.compile_law(cc, directory, name, direction="y, v" if model.has_direction else None,
+                                 feedforward=True)
 
 
 def samples(L, n=3000, seed=7):
@@ -269,22 +186,7 @@ def samples(L, n=3000, seed=7):
 
 
 def run_harness(exe: Path, L: int, y, v, f, k_hat, zeta_hat, r, a) -> dict:
-    n = y.shape[0]
-    rec = np.concatenate([y[:, None], v[:, None], f, k_hat, zeta_hat, r[:, None], a[:, None]], axis=1)
-    inp, outp = exe.parent / "in.bin", exe.parent / "out.bin"
-    inp.write_bytes(np.int32(n).tobytes() + rec.astype("<f8").tobytes())
-    subprocess.run([str(exe), str(inp), str(outp)], check=True)
-    res = np.fromfile(outp, "<f8").reshape(n, 2 + 10 * L + 3 + 3 + 2)
-    c = 2
-    out = {"ret": res[:, :2].astype(int), "currents": res[:, c:c + 2 * L].reshape(n, L, 2)}
-    c += 2 * L
-    out["fy"], out["delta"] = res[:, c:c + L], res[:, c + L:c + 2 * L]
-    c += 2 * L
-    out["gain"] = res[:, c:c + 6 * L].reshape(n, L, 3, 2)
-    c += 6 * L
-    out["cogging"], out["direction"] = res[:, c:c + 3], res[:, c + 3:c + 6]
-    out["g"], out["u_ff"] = res[:, c + 6], res[:, c + 7]
-    return out
+    return c_harness.run_law(exe, L, y, f, k_hat, zeta_hat, v=v, r=r, a=a)
 
 
 @jax.jit

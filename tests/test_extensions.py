@@ -186,17 +186,12 @@ def test_model_file_roundtrip_with_extensions_and_old_schema(tmp_path, truth):
     np.testing.assert_array_equal(np.asarray(old.gain(y)), np.asarray(plain.gain(y)))
 
 
-def test_c_export_with_velocity_matches_python(tmp_path, truth):
-    from test_export_c import CFLAGS, HARNESS, samples
-
-    import shutil
-    import subprocess
+def test_c_export_with_velocity_matches_python(cc, tmp_path, truth):
+    import _c_harness as c_harness
+    from test_export_c import samples
 
     from pgcomm.export.c import write_c
 
-    cc = shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
-        pytest.skip("no C compiler")
     L = 2
     # a second coil set at another lever arm: with both at the same lever arm the Tz row is nearly
     # dependent and rounding is amplified far above 1e-12 of the currents (in Python as in C)
@@ -204,25 +199,11 @@ def test_c_export_with_velocity_matches_python(tmp_path, truth):
     model = CombinedModel.from_coil_sets([truth, dataclasses.replace(truth, A=jnp.asarray(a2), B=jnp.asarray(b2),
                                                                      C=truth.C * 0.5)])
     write_c(model, tmp_path, name="law")
-    harness = (HARNESS.replace("@NAME@", "law").replace("@UNAME@", "LAW")
-               .replace("double rec[4 + 2 * L]", "double rec[5 + 2 * L]")
-               .replace("4 + 2 * L, in) != (size_t)(4 + 2 * L)", "5 + 2 * L, in) != (size_t)(5 + 2 * L)")
-               .replace("T y, f[3]", "T v, y, f[3]")
-               .replace("y = (T)rec[0];", "y = (T)rec[0];\n        v = (T)rec[4 + 2 * L];")
-               .replace("law_currents(y, f, cur)", "law_currents(y, v, f, cur)")
-               .replace("law_drive_inputs(y, f, k, z, fy, de)", "law_drive_inputs(y, v, f, k, z, fy, de)"))
-    (tmp_path / "harness.c").write_text(harness)
-    exe = tmp_path / "harness"
-    proc = subprocess.run([cc, *CFLAGS, "-o", str(exe), str(tmp_path / "harness.c"), str(tmp_path / "law.c"), "-lm"],
-                          capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
+    exe = c_harness.compile_law(cc, tmp_path, "law")
     y, f, k_hat, zeta_hat = samples(L, n=2000)
     v = np.random.default_rng(3).uniform(-0.005, 0.005, y.size)  # through the smooth sign's transition
-    rec = np.concatenate([y[:, None], f, k_hat, zeta_hat, v[:, None]], axis=1).astype("<f8")
-    (tmp_path / "in.bin").write_bytes(np.int32(y.size).tobytes() + rec.tobytes())
-    subprocess.run([str(exe), str(tmp_path / "in.bin"), str(tmp_path / "out.bin")], check=True)
-    out = np.fromfile(tmp_path / "out.bin", "<f8").reshape(y.size, 2 + 10 * L + 3)
-    cur_c = out[:, 2:2 + 2 * L].reshape(-1, L, 2)
+    out = c_harness.run_law(exe, L, y, f, k_hat, zeta_hat, v=v)
+    cur_c = out["currents"]
     law = ModelLaw(model, metric="phase")
     cur_py = np.asarray(jax.jit(law.currents)(jnp.asarray(y), jnp.asarray(f), jnp.asarray(v)))
     np.testing.assert_allclose(cur_c, cur_py, rtol=0, atol=1e-12 * np.abs(cur_py).max())

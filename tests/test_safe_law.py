@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import _c_harness as c_harness
 from pgcomm.commutation import ModelLaw
 from pgcomm.models import CoilSetModel, CombinedModel, physics_from_ideal
 from pgcomm.motor import star_to_phases
@@ -82,131 +83,6 @@ def test_model_law_holds_the_range_end(rng):
 # the exported C laws (PGNN, spline, lookup table) fuzzed the same way, against the Python laws
 # ---------------------------------------------------------------------------------------------
 
-#: the compiler flags of tests/test_export_c.py
-CFLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-pedantic"]
-
-LAW_HARNESS = r"""
-#include <stdio.h>
-#include "@NAME@.h"
-
-#define L @UNAME@_L
-#define NIN (5 + 2 * L)
-#define NOUT (2 + 4 * L)
-typedef @NAME@_real T;
-
-/* in:  int32 n, then n records of doubles (y, v, f_star[3], k_hat[L], zeta_hat[L])
-   out: n records of doubles (ret_currents, currents[L][2], ret_drive, fy[L], delta[L]) */
-int main(int argc, char **argv)
-{
-    FILE *in, *out;
-    int n, s, l, q;
-    if (argc != 3)
-        return 1;
-    in = fopen(argv[1], "rb");
-    out = fopen(argv[2], "wb");
-    if (!in || !out || fread(&n, sizeof n, 1, in) != 1)
-        return 2;
-    for (s = 0; s < n; ++s) {
-        double x[NIN], res[NOUT];
-        T y, v, f[3], k[L], z[L], cur[L][2], fy[L], de[L];
-        int m = 0, r1, r2;
-        if (fread(x, sizeof(double), NIN, in) != NIN)
-            return 3;
-        y = (T)x[0];
-        v = (T)x[1];
-        for (q = 0; q < 3; ++q)
-            f[q] = (T)x[2 + q];
-        for (l = 0; l < L; ++l) {
-            k[l] = (T)x[5 + l];
-            z[l] = (T)x[5 + L + l];
-        }
-#if @UNAME@_HAS_VELOCITY
-        r1 = @NAME@_currents(y, v, f, cur);
-        r2 = @NAME@_drive_inputs(y, v, f, k, z, fy, de);
-#else
-        (void)v;
-        r1 = @NAME@_currents(y, f, cur);
-        r2 = @NAME@_drive_inputs(y, f, k, z, fy, de);
-#endif
-        res[m++] = r1;
-        for (l = 0; l < L; ++l) {
-            res[m++] = cur[l][0];
-            res[m++] = cur[l][1];
-        }
-        res[m++] = r2;
-        for (l = 0; l < L; ++l)
-            res[m++] = fy[l];
-        for (l = 0; l < L; ++l)
-            res[m++] = de[l];
-        if (fwrite(res, sizeof(double), NOUT, out) != NOUT)
-            return 4;
-    }
-    fclose(in);
-    return fclose(out) != 0;
-}
-"""
-
-LUT_HARNESS = r"""
-#include <stdio.h>
-#include "@NAME@.h"
-
-#define L @UNAME@_L
-
-/* in: int32 n, then n records of doubles (y, v, f_star[3]); out: n records (ret, currents[L][2]) */
-int main(int argc, char **argv)
-{
-    FILE *in, *out;
-    int n, s, l, q;
-    if (argc != 3)
-        return 1;
-    in = fopen(argv[1], "rb");
-    out = fopen(argv[2], "wb");
-    if (!in || !out || fread(&n, sizeof n, 1, in) != 1)
-        return 2;
-    for (s = 0; s < n; ++s) {
-        double x[5], res[1 + 2 * L];
-        float y, v, f[3], cur[L][2];
-        if (fread(x, sizeof(double), 5, in) != 5)
-            return 3;
-        y = (float)x[0];
-        v = (float)x[1];
-        for (q = 0; q < 3; ++q)
-            f[q] = (float)x[2 + q];
-        (void)v;
-        res[0] = @CALL@;
-        for (l = 0; l < L; ++l) {
-            res[1 + 2 * l] = cur[l][0];
-            res[2 + 2 * l] = cur[l][1];
-        }
-        if (fwrite(res, sizeof(double), 1 + 2 * L, out) != (size_t)(1 + 2 * L))
-            return 4;
-    }
-    fclose(in);
-    return fclose(out) != 0;
-}
-"""
-
-
-
-def _compile(cc, directory, harness: str, source=None):
-    import subprocess
-
-    (directory / "harness.c").write_text(harness)
-    exe = directory / "harness"
-    files = [str(directory / "harness.c")] + ([str(source)] if source else [])
-    proc = subprocess.run([cc, *CFLAGS, "-o", str(exe), *files, "-lm"], capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
-    return exe
-
-
-def _run(exe, records: np.ndarray, n_out: int) -> np.ndarray:
-    import subprocess
-
-    inp, outp = exe.parent / "in.bin", exe.parent / "out.bin"
-    inp.write_bytes(np.int32(records.shape[0]).tobytes() + records.astype("<f8").tobytes())
-    subprocess.run([str(exe), str(inp), str(outp)], check=True)
-    return np.fromfile(outp, "<f8").reshape(records.shape[0], n_out)
-
 
 def _phases(i):
     """``(N, L, 3)`` phase currents ia, ib, ic = -ia - ib (A)."""
@@ -230,13 +106,13 @@ def test_c_law_is_safe_and_agrees_with_model_law(cc, tmp_path, rng, kind, precis
     model = _pgnn() if kind == "pgnn" else _spline(rng)
     L = model.n_coil_sets
     write_c(model, tmp_path, name="law", precision=precision, current_limit=LIMIT)
-    exe = _compile(cc, tmp_path, LAW_HARNESS.replace("@NAME@", "law").replace("@UNAME@", "LAW"), tmp_path / "law.c")
+    exe = c_harness.compile_law(cc, tmp_path, "law")
     y, f, v = _fuzz_inputs(rng, 8000)
     k_hat = K * rng.uniform(0.9, 1.1, (y.size, L))
     zeta_hat = rng.uniform(-np.pi, np.pi, (y.size, L))
-    out = _run(exe, np.concatenate([y[:, None], v[:, None], f, k_hat, zeta_hat], axis=1), 2 + 4 * L)
-    ret, i_c = out[:, 0].astype(int), out[:, 1:1 + 2 * L].reshape(-1, L, 2)
-    ret_d, fy, delta = out[:, 1 + 2 * L].astype(int), out[:, 2 + 2 * L:2 + 3 * L], out[:, 2 + 3 * L:]
+    out = c_harness.run_law(exe, L, y, f, k_hat, zeta_hat, v=v)
+    ret, i_c, ret_d = out["ret"][:, 0], out["currents"], out["ret"][:, 1]
+    fy, delta = out["fy"], out["delta"]
 
     # what the C function received (float in single precision), and the codes it must return
     cast = (lambda a: np.asarray(a, np.float32).astype(float)) if precision == "single" else np.asarray
@@ -281,11 +157,9 @@ def test_c_lookup_table_is_safe_and_agrees_with_the_table_law(cc, tmp_path, rng,
     lut = build_lut(model, h, current_limit=LIMIT)
     (tmp_path / "tab.h").write_text(lut_header(lut, "tab", limit_source="test"))
     uses_v = lut.direction is not None
-    call = "tab_currents(y, v, f, cur)" if uses_v else "tab_currents(y, f, cur)"
-    exe = _compile(cc, tmp_path, LUT_HARNESS.replace("@NAME@", "tab").replace("@UNAME@", "TAB").replace("@CALL@", call))
+    exe = c_harness.compile_lut(cc, tmp_path, "tab", velocity=uses_v)
     y, f, v = _fuzz_inputs(rng, 8000)
-    out = _run(exe, np.concatenate([y[:, None], v[:, None], f], axis=1), 1 + 2 * L)
-    ret, i_c = out[:, 0].astype(int), out[:, 1:].reshape(-1, L, 2)
+    ret, i_c = c_harness.run_lut(exe, L, y, f, v)
 
     f32 = lambda a: np.asarray(a, np.float32)  # noqa: E731  (what the float table function computes with)
     yc, fc, vc = f32(y), f32(f), f32(v)

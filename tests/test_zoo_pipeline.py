@@ -23,7 +23,7 @@ MOTORS = [(1, 7), (1, 5), (1, 3)]
 
 
 @pytest.fixture(scope="module", params=MOTORS, ids=lambda m: f"seed{m[0]}-motor{m[1]}")
-def run(request, tmp_path_factory):
+def run(request, tmp_path_factory, release_memory):
     seed, index = request.param
     folder = tmp_path_factory.mktemp("zoo") / "motor"
     write_motor(draw_motor(seed, index), folder)
@@ -31,6 +31,8 @@ def run(request, tmp_path_factory):
     code = main(["reproduce", "--quick", "--quiet", "--plant", str(folder / "plant.csv"), "--motor",
                  str(folder / "motor.toml"), "--out", str(out)])
     assert code == 0
+    # the next motor (other L, pole pitch, data length) compiles programs of its own: drop this motor's from memory
+    release_memory()
     return json.loads((out / "results.json").read_text()), out, folder
 
 
