@@ -95,3 +95,27 @@ def test_cli_zoo_and_reproduce_rotary(tmp_path):
         assert (tmp_path / "rep" / f).is_file()
     assert main(["reproduce", "--motor", str(motor), "--plant", "x.csv", "--out", str(tmp_path / "bad")]) == 2
     assert not (tmp_path / "bad").exists()
+
+
+def test_standard_errors_predict_the_error_over_noise_seeds():
+    """The time-block sandwich standard errors predict the RMS error over the revolution: with ten times the
+    zoo's current noise (so that noise, not the basis, makes the error), the mean square error over four noise
+    seeds is within a factor 2 of the mean square predicted error, for the cogging and for the ripple."""
+    from dataclasses import replace
+
+    t = draw_rotary(0, 0)
+    t = replace(t, current_noise=10 * t.current_noise)
+    a = t.inertia / t.k0
+    orders = Orders.for_motor(t.motor)
+    refs = running_references(t.motor, a, quick_settings(), orders)
+    err, pred = [], []
+    for seed in range(4):
+        logs = [simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=100 * seed + 1 + k)
+                for k, r in enumerate(refs)]
+        res = identify(logs, t.motor, ridge=1e-10)  # a negligible ridge: the standard error has no bias part
+        e, se = identification_errors(res.model, t), res.info["standard_error"]
+        err.append([e["cogging_rms_A"], e["ripple_rms"]])
+        pred.append([se["cogging"]["rms_error"], se["ripple"]["rms_error"]])
+        assert se["ripple"]["log_time_factor_to_resolve"] >= 1.0
+    ratio = np.mean(np.square(err), axis=0) / np.mean(np.square(pred), axis=0)
+    assert np.all((ratio >= 0.5) & (ratio <= 2.0)), ratio

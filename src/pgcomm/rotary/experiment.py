@@ -21,6 +21,16 @@ commutation error (the torque disturbance the feedback must fight, as an equival
 ``(classical − row)/(classical − oracle)``. Identification: RMS error of cogging and ripple
 against the truth over the revolution (relative to the truth's RMS), and the agreement of the
 running-log table with the standstill table against the sweep's noise.
+
+**How long to log.** After the first round of running logs, the identification's standard errors
+(time-block sandwich, :func:`pgcomm.rotary.identify.identify`) say whether the cogging and the
+ripple are resolved to 5 % of their RMS and how much longer the logs would have to be; more rounds
+are recorded while that fits :attr:`RotarySettings.log_budget_share` of the sweep's time. The
+ripple needs current: a free rotor carries a large q-current only briefly (the speed swing of a
+dither ``a`` at ``f`` is ``a k0/(J 2πf)``), so a high-pole-count motor with a light rotor may end
+the budget with its ripple unresolved; the results say so (``identification.standard_error``).
+Noise streams are named (:func:`pgcomm.seeds.stream_seed`: ``"rotary running log", round, i``,
+``"rotary standstill sweep"``, ``"rotary evaluation", loop``).
 """
 
 from __future__ import annotations
@@ -31,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pgcomm.seeds import stream_seed
 from pgcomm.rotary.identify import Orders, fit_mechanics, identify, max_speed
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
@@ -59,6 +70,11 @@ class RotarySettings:
         standstill: the sweep (points, settle, average).
         eval_share: evaluation speed as a share of the speed limit.
         eval_revolutions: revolutions per direction of each evaluation run.
+        log_budget_share: the running logs may take at most this share of the standstill sweep's rig
+            time: while the identification's standard error says the cogging or the ripple is not
+            resolved (:data:`pgcomm.rotary.identify.RESOLVED_SHARE` of its RMS), more rounds of the
+            same references are recorded, as many as the standard error asks for and the budget allows
+            (what an engineer at the rig does: log until the map is resolved, then stop).
     """
 
     revolutions: float = 2.0
@@ -69,6 +85,7 @@ class RotarySettings:
     standstill: StandstillPlan = StandstillPlan()
     eval_share: float = 0.5
     eval_revolutions: float = 1.0
+    log_budget_share: float = 0.5
 
 
 def quick_settings() -> RotarySettings:
@@ -190,19 +207,46 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
     a_nom = truth.inertia / truth.k0  # the drive is tuned: its gains come from the nominal J/k
     gains = default_gains(a_nom)
     classical = LawParams.classical(motor.pole_pairs)
+    refs = running_references(motor, a_nom, settings, orders)
+    round_seconds = sum(r.n for r in refs) * ts
+    budget = settings.log_budget_share * settings.standstill.duration(ts)
+    logs = []
+
+    def record(rounds):
+        for k in rounds:
+            logs.extend(simulate(truth, r, classical, gains, seed=stream_seed(seed, "rotary running log", k, i))
+                        for i, r in enumerate(refs))
+
     with progress.stage("running logs (speed loop, two speeds, both directions, q-current dither)"):
-        refs = running_references(motor, a_nom, settings, orders)
-        logs = [simulate(truth, r, classical, gains, seed=seed * 1000 + 1 + i) for i, r in enumerate(refs)]
-        run_seconds = sum(r.n for r in refs) * ts
+        record([0])
     with progress.stage("identification from the running logs (no torque sensor)"):
         ident = identify(logs, motor, orders)
+        se = ident.info["standard_error"]
+        need = max(se["cogging"]["log_time_factor_to_resolve"], se["ripple"]["log_time_factor_to_resolve"])
+        rounds = int(min(math.ceil(need - 1e-9), max(1, math.floor(budget / round_seconds))))
+        if rounds > 1:
+            progress.info(f"standard errors: cogging {100 * se['cogging']['relative']:.1f} %, ripple "
+                          f"{100 * se['ripple']['relative']:.1f} % of their RMS after {round_seconds:.0f} s of logs: "
+                          f"recording {rounds - 1} more round(s) (budget {budget:.0f} s)")
+            record(range(1, rounds))
+            ident = identify(logs, motor, orders)
+        run_seconds = rounds * round_seconds
+        ident.info["rounds"] = rounds
+        ident.info["log_budget_s"] = budget
         mech = fit_mechanics(logs, motor, orders)
         errs = identification_errors(ident.model, truth)
         progress.info(f"cogging error {100 * errs['cogging_rel']:.1f} %, ripple error {100 * errs['ripple_rel']:.1f} "
                       f"% of the truth's RMS; ridge {ident.info['ridge']:.0e}")
+        for name in ("cogging", "ripple"):
+            se = ident.info["standard_error"][name]
+            progress.info(f"{name}: standard error {100 * se['relative']:.1f} % of its RMS, " + (
+                "resolved" if se["resolved"] else
+                f"not resolved: about {se['log_time_factor_to_resolve']:.0f}x the running logs "
+                f"({se['log_time_factor_to_resolve'] * run_seconds:.0f} s) would bring it to "
+                f"{100 * ident.info['standard_error']['resolved_share']:.0f} %"))
     with progress.stage(f"standstill sweep ({settings.standstill.points} angles, both directions)"):
         t0 = time.perf_counter()
-        sweep = run_standstill(truth, gains, settings.standstill, seed=seed * 1000 + 100)
+        sweep = run_standstill(truth, gains, settings.standstill, seed=stream_seed(seed, "rotary standstill sweep"))
         sweep_sim = time.perf_counter() - t0
     n_pts = settings.standstill.points
     tab_model = ident.model.table(n_pts)
@@ -228,7 +272,7 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         for row, law in laws.items():
             tracking[row], commutation[row] = {}, {}
             for loop, ref in evals.items():
-                log = simulate(truth, ref, law, gains, seed=seed * 1000 + 200 + (loop == "speed"))
+                log = simulate(truth, ref, law, gains, seed=stream_seed(seed, "rotary evaluation", loop))
                 ff = law.ff_a * ref.alpha + law.ff_b * ref.omega + law.ff_d * np.sign(ref.omega)
                 log["u_fb"] = log["demand"] - ff
                 if loop == "position":

@@ -214,8 +214,15 @@ def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: 
     return out, counts, v_limit, float(np.median(ts_all))
 
 
-def _solve(X, y, penalised, lam_rel, train):
-    """Ridge solution on rows ``train``; columns scaled to unit RMS first."""
+def _solve(X, y, penalised, lam_rel, train, clusters=None):
+    """Ridge solution on rows ``train``; columns scaled to unit RMS first.
+
+    With ``clusters`` (``(N,)`` int labels of the rows), also the estimate's covariance
+    ``A⁻¹ (Σ_b X_bᵀ e_b e_bᵀ X_b) A⁻¹`` (``A`` the regularised normal matrix, ``e`` the residuals,
+    ``b`` the clusters): the sandwich that holds when the rows are correlated within a cluster (the
+    overlapping filter windows of one time block) and the noise is not white (encoder quantisation,
+    friction), as long as the blocks are roughly independent. Returns ``beta`` or ``(beta, cov)``.
+    """
     scale = np.sqrt(np.mean(X[train] ** 2, axis=0))
     scale[scale == 0] = 1.0
     Xs = X[train] / scale
@@ -227,7 +234,26 @@ def _solve(X, y, penalised, lam_rel, train):
         beta = np.linalg.solve(A, b)
     except np.linalg.LinAlgError:
         beta = np.linalg.lstsq(A, b, rcond=None)[0]
-    return beta / scale
+    if clusters is None:
+        return beta / scale
+    e = y[train] - Xs @ beta
+    _, lab = np.unique(clusters[train], return_inverse=True)
+    score = np.zeros((lab.max() + 1, Xs.shape[1]))
+    np.add.at(score, lab, Xs * e[:, None])  # Σ over each cluster's rows of x_i e_i
+    a_inv = np.linalg.pinv(A)
+    cov = a_inv @ (score.T @ score) @ a_inv
+    return beta / scale, cov / np.outer(scale, scale)
+
+
+def _map_standard_error(cov_block, map_orders) -> float:
+    """Expected RMS over the revolution of a Fourier map's estimation error: ``sqrt(tr(Cov M))`` with
+    ``M = mean_θ φ(θ) φ(θ)ᵀ`` the Gram matrix of the map's columns (½ for a cosine or sine, 1 for the
+    constant): the mean over θ of ``(φ(θ)ᵀ δ)²`` for an error ``δ`` of covariance ``Cov``."""
+    h = int(max(np.max(map_orders, initial=0), 1))
+    th = 2 * math.pi * np.arange(4 * h + 4) / (4 * h + 4)  # exact for products of orders up to h
+    phi = harmonic_columns(th, map_orders)
+    gram = phi.T @ phi / th.size
+    return float(np.sqrt(max(float(np.sum(cov_block * gram)), 0.0)))
 
 
 def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
@@ -296,9 +322,11 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         lam = RIDGE_GRID[best]
     else:
         lam = float(ridge)
-    beta_k = _solve(Xk, y, pk, lam, np.ones(n_rows, bool))
+    beta_k, cov_k = _solve(Xk, y, pk, lam, np.ones(n_rows, bool), clusters=blk)
     beta = np.zeros(X.shape[1])
     beta[keep] = beta_k
+    cov = np.zeros((X.shape[1], X.shape[1]))
+    cov[np.ix_(keep, keep)] = cov_k
     cost = float(np.mean((y - Xk @ beta_k) ** 2))
     model = RotaryModel(
         motor.pole_pairs,
@@ -307,18 +335,44 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         direction=Fourier.from_vector(orders.direction, beta[o_d]),
         viscous=float(beta[-1]), inertia_ratio=float(beta[0]), k_t=motor.k_t,
         info={"method": "running logs, no torque sensor"})
+    standard_error = _standard_errors(model, cov, o_r, o_c, o_d, orders, n_rows, blk)
     info = {"windows": counts["windows"], "windows_used": int(n_rows), "windows_refused_alias": counts["alias"],
             "windows_refused_slow": counts["slow"], "speed_limit_rad_s": v_limit,
             "min_samples_per_period": float(min_samples_per_period), "highest_order": orders.highest,
             "filter_taps": int(taps), "unknowns": int(Xk.shape[1]), "ridge": float(lam),
             "ridge_chosen_by": "validation on held-out time blocks" if ridge is None else "given",
             "validation_curve": {f"{l:.0e}": c for l, c in zip(RIDGE_GRID, curve)},
-            "cost_A2": cost, "inertia_ratio": float(beta[0]), "seconds": time.perf_counter() - t0}
+            "cost_A2": cost, "inertia_ratio": float(beta[0]), "standard_error": standard_error,
+            "seconds": time.perf_counter() - t0}
     if counts["alias"]:
         info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "
                         f"{v_limit:.3g} rad/s, where order {orders.highest} has fewer than "
                         f"{min_samples_per_period:g} samples per period")
     return RotaryIdentification(model, info)
+
+
+#: Relative standard error (of a map's RMS) at which :func:`identify` calls a map resolved.
+RESOLVED_SHARE = 0.05
+
+
+def _standard_errors(model: RotaryModel, cov, o_r, o_c, o_d, orders: Orders, n_rows: int, clusters) -> dict:
+    """How well the logs determine each map: expected RMS error over the revolution, relative to the
+    map's identified RMS, and the running-log time that would bring it to :data:`RESOLVED_SHARE`.
+
+    The expected error is the noise part only (the ridge's bias and what the basis cannot represent come on
+    top); it falls as the square root of the log time at the same excitation, which gives the time needed.
+    """
+    out = {"blocks": int(np.unique(clusters).size), "resolved_share": RESOLVED_SHARE}
+    th = 2 * math.pi * np.arange(4096) / 4096
+    for name, cols, fn, map_orders in (("cogging", o_c, model.cogging, orders.cogging),
+                                       ("ripple", o_r, model.ripple, orders.ripple),
+                                       ("direction", o_d, model.direction, orders.direction)):
+        se = _map_standard_error(cov[np.ix_(cols, cols)], map_orders)
+        rms = float(np.sqrt(np.mean(fn(th) ** 2)))
+        rel = se / rms if rms > 0 else float("inf")
+        out[name] = {"rms_error": se, "rms": rms, "relative": rel, "resolved": bool(rel <= RESOLVED_SHARE),
+                     "log_time_factor_to_resolve": float(max(1.0, (rel / RESOLVED_SHARE) ** 2))}
+    return out
 
 
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,

@@ -12,6 +12,13 @@ revolution, multi-turn angles included). A NaN or infinite demand, angle or dire
 current (never a NaN into a drive); the result is clipped to ``±current_limit``; the gain
 ``1 + r`` is kept at or above :data:`MIN_GAIN` so a wildly wrong model cannot ask for an
 unbounded current.
+
+**Which angle.** A drive holds the current it computes for one update period ``T`` (its current
+reference rate). Evaluate the law at the angle the rotor has in the middle of that hold,
+:func:`hold_angle` ``= θ + ω T/2``, not at the sampled ``θ``: a compensation read at the sample's
+start lags half a period, which leaves ``2 sin(π/N)`` of a cogging harmonic that has ``N`` updates
+per period uncompensated (20 % at ``N = 16``; 0.3 % at a 20 kHz current loop and 1000 periods per
+second).
 """
 
 from __future__ import annotations
@@ -20,7 +27,7 @@ import numpy as np
 
 from pgcomm.rotary.model import RotaryModel
 
-__all__ = ["iq_command", "iq_for_torque", "MIN_GAIN"]
+__all__ = ["iq_command", "iq_for_torque", "hold_angle", "MIN_GAIN"]
 
 #: Smallest relative gain ``1 + r(θ)`` the law divides by.
 MIN_GAIN = 0.5
@@ -32,7 +39,8 @@ def iq_command(model: RotaryModel, demand, theta, direction=None, current_limit:
     Args:
         model: the identified (or true) :class:`RotaryModel`.
         demand: ``u`` (A): demanded torque divided by the mean torque constant ``k0``; any shape.
-        theta: mechanical angle (rad, multi-turn), broadcast with ``demand``.
+        theta: mechanical angle (rad, multi-turn) at which the current acts, broadcast with ``demand``
+            (:func:`hold_angle` of the sampled angle for a held current).
         direction: sign of the velocity (+1/−1/0 or an array, broadcast) or ``None`` (no
             direction term).
         current_limit: ``|i_q|`` bound (A) or ``None``.
@@ -72,3 +80,19 @@ def iq_for_torque(model: RotaryModel, torque, theta, direction=None, k_t: float 
         raise ValueError("a torque demand in N·m needs the torque constant k_t (N·m/A) > 0; "
                          "without it use iq_command with the demand in A")
     return iq_command(model, np.asarray(torque, float) / float(k), theta, direction, current_limit)
+
+
+def hold_angle(theta, velocity, hold_time: float, advance: float = 0.5) -> np.ndarray:
+    """The angle at which to evaluate the law for a current held over ``hold_time``: ``θ + advance · ω · T``.
+
+    Args:
+        theta: sampled mechanical angle (rad, multi-turn), any shape.
+        velocity: the drive's velocity estimate (rad/s), broadcast with ``theta``.
+        hold_time: ``T`` (s): the period over which the computed current is held (the current
+            reference's update period).
+        advance: share of ``T`` (½: the middle of the hold, module docstring).
+
+    Returns:
+        ``(broadcast shape)`` angle (rad); NaN where an input is NaN (the law then gives zero current).
+    """
+    return np.asarray(theta, float) + float(advance) * float(hold_time) * np.asarray(velocity, float)
