@@ -40,6 +40,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 import pgcomm.models  # noqa: F401, E402  (a computing module: enables x64 at import)
+from pgcomm._memory import release_compiled_programs, trim_heap  # noqa: E402
 
 assert jax.config.jax_enable_x64, "pgcomm's computing modules must enable JAX x64 at import"
 jax.config.update("jax_numpy_dtype_promotion", "strict")
@@ -63,16 +64,6 @@ def cc():
     pytest.skip("no C compiler (cc, gcc, clang) on PATH")
 
 
-def _trim_heap() -> None:
-    """Hand the heap that the process has freed back to the system (glibc keeps it for reuse otherwise)."""
-    import ctypes
-
-    try:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):  # not glibc: the heap stays with the process
-        pass
-
-
 def _release_memory() -> None:
     """Drop JAX's in-memory caches of traced and compiled programs and hand the freed heap back to the system.
 
@@ -82,11 +73,7 @@ def _release_memory() -> None:
     loaded from the persistent compilation cache once a command has enabled it, see
     pgcomm.cli.compile_cache_dir); the compiled code, and so every number, is the same.
     """
-    import gc
-
-    jax.clear_caches()
-    gc.collect()
-    _trim_heap()
+    release_compiled_programs()
 
 
 @pytest.fixture(scope="session")
@@ -106,7 +93,7 @@ def _trim_heap_after_test():
     """After each test, the heap its compilations freed (the compiled programs stay for the module's next tests):
     the next test's peak then starts from what the process holds, not from the last test's high-water mark."""
     yield
-    _trim_heap()
+    trim_heap()
 
 
 # ----------------------------------------------------------------------------------------- running in parallel

@@ -58,6 +58,32 @@ def test_table_file_round_trip(tmp_path):
     back = read_angle_table(tmp_path / "t.csv")
     np.testing.assert_array_equal(back.iq, t.iq)
     assert back.n == 300 and "synthetic Fourier table" in back.comments
+    assert back.current_limit is None
+
+
+def test_current_limit_travels_with_the_table(tmp_path, capsys):
+    """A table made with the motor's current limit records it; c-angle then uses it without --current-limit,
+    --current-limit still overrides, and a malformed limit line is refused with one line naming the file."""
+    t = make_table(f(2 * np.pi * np.arange(128) / 128), "model", ["synthetic"], current_limit=17.5)
+    path = write_angle_table(tmp_path / "t.csv", t)
+    assert read_angle_table(path).current_limit == 17.5
+    assert main(["export", "--format", "c-angle", "--table", str(path), "--name", "cog", "--out", str(tmp_path / "c"),
+                 "--quiet"]) == 0
+    res = json.loads((tmp_path / "c" / "results.json").read_text())
+    assert res["current_limit"] == 17.5 and "current_limit" in res["current_limit_source"]
+    assert "17.5 A on the q-current command" in (tmp_path / "c" / "cog.h").read_text()
+    assert main(["export", "--format", "c-angle", "--table", str(path), "--current-limit", "3", "--name", "cog",
+                 "--out", str(tmp_path / "c3"), "--quiet"]) == 0
+    assert json.loads((tmp_path / "c3" / "results.json").read_text())["current_limit"] == 3.0
+    bad = tmp_path / "bad.csv"
+    bad.write_text(path.read_text().replace("# current_limit: 17.5 A", "# current_limit: lots"))
+    capsys.readouterr()
+    assert main(["export", "--format", "c-angle", "--table", str(bad), "--out", str(tmp_path / "cb")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "bad.csv line" in err and "current limit" in err
+    assert not (tmp_path / "cb").exists()
+    with pytest.raises(DataError, match="positive current"):
+        make_table(np.zeros(16), "t", current_limit=-1.0)
 
 
 @pytest.mark.parametrize("n, m", [(256, 1024), (256, 3600), (255, 97), (1024, 1024)])

@@ -25,6 +25,7 @@ Steps (each a stage of the progress display):
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 
 from dataclasses import dataclass, replace
 
@@ -33,6 +34,7 @@ import jax
 import numpy as np
 
 from pgcomm import experiment
+from pgcomm._memory import release_compiled_programs
 from pgcomm.calibration import CalibrationResult
 from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw, oracle_law
 from pgcomm.compensation import fit_cogging_table, fit_harmonic_cogging
@@ -436,6 +438,15 @@ class ReproduceResult:
         return out
 
 
+@contextmanager
+def _step(progress, message: str):
+    """One step of :func:`run`: the programs of the steps before it are released first
+    (:mod:`pgcomm._memory`: the run's peak memory halves), then ``progress.stage(message)``."""
+    release_compiled_programs()
+    with progress.stage(message):
+        yield
+
+
 def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> ReproduceResult:
     """The whole experiment (module docstring) on ``setup``; returns a :class:`ReproduceResult`.
 
@@ -464,14 +475,14 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     effort_reference(setup)  # the sensorless table's stroke and speed, needed minutes later
     long_ref = refs["long"]
 
-    with progress.stage(f"data generation: {motor.n_coil_sets} coil sets x 2 data sets (Delta = -/+"
+    with _step(progress, f"data generation: {motor.n_coil_sets} coil sets x 2 data sets (Delta = -/+"
                         f"{cfg.calibration.delta:.4f} rad), {len(long_ref.r)} samples each"):
         data0 = experiment.generate(setup, long_ref, motor.k, motor.zeta, seed=seed)
 
-    with progress.stage("calibration (Algorithm 1)"):
+    with _step(progress, "calibration (Algorithm 1)"):
         cal, _ = experiment.run_calibration(setup, long_ref, seed=seed, progress=progress, first=data0)
 
-    with progress.stage("identification (Algorithm 2): PGNN and physics-only model per coil set"):
+    with _step(progress, "identification (Algorithm 2): PGNN and physics-only model per coil set"):
         t_id = time.perf_counter()
         pgnn, physics, id_res = experiment.identify_models(setup, coil_set_data_from_runs(data0), seed, progress)
         t_id = time.perf_counter() - t_id
@@ -480,14 +491,14 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
                           f"{r.cost_physics_validation:.4g} -> {r.cost_pgnn_validation:.4g} (validation), "
                           f"{r.seconds:.1f} s")
 
-    with progress.stage("identification with the direction term C^l s(dy/dt) (warm start from the PGNN)"):
+    with _step(progress, "identification with the direction term C^l s(dy/dt) (warm start from the PGNN)"):
         pgnn_dir, id_dir = experiment.identify_direction_models(
             setup, coil_set_data_from_runs(data0), [r.model for r in id_res], seed)
         for r0, r in zip(id_res, id_dir):
             progress.info(f"{r.name}: y cost (mean (Fy - Fy_hat)^2) PGNN {r0.cost_y:.4g} -> with direction term "
                           f"{r.cost_y:.4g} N^2, C_y = {float(r.model.C[0]):.3g} N, {r.seconds:.1f} s")
 
-    with progress.stage("spline model (capacity along the stroke, knots by cross-validation) and the mechanics "
+    with _step(progress, "spline model (capacity along the stroke, knots by cross-validation) and the mechanics "
                         "(mass, friction, Coulomb table) from the same data sets"):
         spline, mech = experiment.identify_spline_models(setup, coil_set_data_from_runs(data0), progress)
         sp = spline.spacing
@@ -498,7 +509,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
                       f"{float(np.min(mech.coulomb)):.3g} .. {float(np.max(mech.coulomb)):.3g} N along the stroke "
                       f"({len(mech.knots)} knots); {mech.seconds:.1f} s")
 
-    with progress.stage("without a force sensor: calibration (Algorithm 1 on m d2y/dt2) and identification of "
+    with _step(progress, "without a force sensor: calibration (Algorithm 1 on m d2y/dt2) and identification of "
                         "the y row with friction"):
         t_sl = time.perf_counter()
         cal_sl, _ = experiment.run_calibration(setup, long_ref, seed=seed, progress=progress, first=data0,
@@ -524,11 +535,11 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
     # the spline row's feedforward is its own identification's, never tuned in closed loop
     spline_law = ModelLaw(spline.model, current_limit=limit, velocity_source=ic.law_velocity)
 
-    with progress.stage(f"feedforward identification per law ({cfg.controller.ff_iterations} closed-loop passes)"):
+    with _step(progress, f"feedforward identification per law ({cfg.controller.ff_iterations} closed-loop passes)"):
         names = list(laws)
         ffs = dict(zip(names, experiment.tune_feedforward(setup, [laws[n] for n in names], long_ref, seed=stream_seed(seed, "feedforward", "rows"))))
 
-    with progress.stage("drive-style rows: anti-cogging table and harmonic fit from the classical residual, "
+    with _step(progress, "drive-style rows: anti-cogging table and harmonic fit from the classical residual, "
                         "anti-cogging table from the controller's effort (no force sensor)"):
         run_c = experiment.run_laws(setup, [laws["classical"]], long_ref, [ffs["classical"]], seeds=[stream_seed(seed, "classical run for the tables")])[0]
         residual = run_c.f_meas[:, 0] - run_c.f_star[:, 0]
@@ -551,7 +562,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
 
     rows = [row for row in ROWS if row in laws]
     runs: dict = {k: {} for k in refs}
-    with progress.stage(f"closed-loop evaluation: {len(rows)} laws x {len(refs)} references"):
+    with _step(progress, f"closed-loop evaluation: {len(rows)} laws x {len(refs)} references"):
         jobs = [(row, rname) for row in rows for rname in refs]
         out = experiment.run_laws(setup, [laws[row] for row, _ in jobs], [refs[rn] for _, rn in jobs],
                                 [ffs[row] for row, _ in jobs], seeds=[reference_seed(seed, rn) for _, rn in jobs])

@@ -387,14 +387,16 @@ def _export_table(args, out, progress, t0) -> None:
     except ValueError as e:
         raise ConfigError(f"--name: {e}") from None
     limit, limit_given = parse_current_limit(args.current_limit)
+    table = read_angle_table(args.table)
     if limit_given:
         limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"
+    elif table.current_limit is not None:
+        limit, limit_source = table.current_limit, f"{args.table} (# current_limit, the motor description's)"
     elif args.format == "c-angle":
-        raise ConfigError(f"{args.table}: a table records no current limit; give --current-limit A, the drive's "
+        raise ConfigError(f"{args.table}: the table records no current limit; give --current-limit A, the drive's "
                           "q-current limit, or --current-limit none to export a lookup without a limit")
     else:
         limit_source = "none given: the drive's own current limit applies"
-    table = read_angle_table(args.table)
     provenance = [f"input table {args.table} ({table.n} entries)", *table.comments]
     results = {"command": "export", "format": args.format, "table": str(args.table), "table_entries": table.n,
                "name": name, "current_limit": limit, "current_limit_source": limit_source}

@@ -9,7 +9,9 @@ The rotary exports (:mod:`pgcomm.export.moteus`, :mod:`pgcomm.export.odrive`,
 Table file (CSV): optional ``#`` comment lines (provenance, units) anywhere before or between the
 rows, a header with the columns ``angle`` (rad, mechanical) and ``iq`` (A) — other columns are
 ignored — and one row per angle ``θ_j`` in order, without the repeated end point ``2π``
-(:func:`read_angle_table`, :func:`write_angle_table`). A table that is not uniform, does not start
+(:func:`read_angle_table`, :func:`write_angle_table`). A comment line ``# current_limit: 17.5 A`` records the
+motor's q-current limit (the motor description's ``current_limit``), which the exports then use by default
+(DESIGN: a law's current limit travels with it). A table that is not uniform, does not start
 at 0 or does not cover exactly one revolution is refused with one line naming the file and row.
 
 The continuous function a table stands for is its **trigonometric (periodic band-limited)
@@ -55,11 +57,13 @@ class AngleTable:
         iq: ``(n,)`` compensating q current (A) at ``θ_j = 2π j / n``.
         source: where it came from (file name, for headers and messages).
         comments: the ``#`` lines of its file (without ``#``), carried into the exports' provenance.
+        current_limit: the motor's q-current limit (A) the table was made for, or ``None`` (not recorded).
     """
 
     iq: np.ndarray
     source: str = "table"
     comments: tuple = ()
+    current_limit: float | None = None
 
     @property
     def n(self) -> int:
@@ -103,13 +107,37 @@ def _check_values(iq, source) -> np.ndarray:
     return a
 
 
-def make_table(iq, source: str = "table", comments=()) -> AngleTable:
+def make_table(iq, source: str = "table", comments=(), current_limit: float | None = None) -> AngleTable:
     """An :class:`AngleTable` from ``(n,)`` currents (A) at ``2π j / n`` (e.g. a model's ``table(n)``).
 
+    Args:
+        current_limit: the motor's q-current limit (A), recorded in the file, or ``None``.
+
     Raises:
-        DataError: wrong shape, fewer than :data:`MIN_ENTRIES` values, or a non-finite value.
+        DataError: wrong shape, fewer than :data:`MIN_ENTRIES` values, a non-finite value, or a limit that
+            is not a positive finite current.
     """
-    return AngleTable(_check_values(iq, source), source, tuple(comments))
+    if current_limit is not None and not (math.isfinite(float(current_limit)) and float(current_limit) > 0):
+        raise DataError(f"{source}: current limit {current_limit} is not a positive current in A")
+    return AngleTable(_check_values(iq, source), source, tuple(comments),
+                      None if current_limit is None else float(current_limit))
+
+
+#: The comment that records a table's current limit: ``# current_limit: 17.5 A``.
+_LIMIT_PREFIX = "current_limit:"
+
+
+def _limit_from_comment(src: str, lineno: int, text: str) -> float:
+    body = text[len(_LIMIT_PREFIX):].strip()
+    value = body[:-1].strip() if body.endswith("A") else None
+    try:
+        limit = float(value) if value is not None else math.nan
+    except ValueError:
+        limit = math.nan
+    if not (math.isfinite(limit) and limit > 0):
+        raise DataError(f"{src} line {lineno}: '# {text}' is not a current limit; write '# {_LIMIT_PREFIX} 17.5 A' "
+                        "(a positive q-current in A) or leave the line out")
+    return limit
 
 
 def read_angle_table(path) -> AngleTable:
@@ -130,13 +158,17 @@ def read_angle_table(path) -> AngleTable:
         raise DataError(f"{src}: is a directory, expected a table CSV") from None
     except UnicodeDecodeError:
         raise DataError(f"{src}: not a UTF-8 text file (expected a CSV with columns angle, iq)") from None
-    comments, header, rows = [], None, []
+    comments, header, rows, limit = [], None, [], None
     for lineno, line in enumerate(text.splitlines(), start=1):
         s = line.strip()
         if not s:
             continue
         if s.startswith("#"):
-            comments.append(s[1:].strip())
+            c = s[1:].strip()
+            if c.startswith(_LIMIT_PREFIX):
+                limit = _limit_from_comment(src, lineno, c)
+            else:
+                comments.append(c)
             continue
         cells = [c.strip() for c in s.split(",")]
         if header is None:
@@ -171,7 +203,7 @@ def read_angle_table(path) -> AngleTable:
     ang = np.array([r[1] for r in rows])
     iq = np.array([r[2] for r in rows])
     _check_angles(src, lines, ang)
-    return AngleTable(iq, src, tuple(comments))
+    return AngleTable(iq, src, tuple(comments), limit)
 
 
 def _check_angles(src, lines, ang) -> None:
@@ -207,11 +239,14 @@ def _check_angles(src, lines, ang) -> None:
 def write_angle_table(path, table: AngleTable, comments=()) -> Path:
     """Write ``table`` as a table CSV (atomically): ``# comment`` lines, header ``angle,iq``, ``%.17g`` rows.
 
-    ``comments`` (default: the table's own) say where the table came from; units are added.
+    ``comments`` (default: the table's own) say where the table came from; units are added, and the
+    table's current limit when it has one.
     """
     from pgcomm.io.atomic import atomic_write_text
 
     lines = [f"# {' '.join(str(c).split())}" for c in (comments or table.comments)]
+    if table.current_limit is not None:
+        lines.append(f"# {_LIMIT_PREFIX} {table.current_limit:.9g} A")
     lines += [f"# angle: mechanical angle theta_j = 2*pi*j/{table.n} (rad) from encoder angle 0; "
               "iq: compensating q-axis current (A) added to the drive's q-current command", "angle,iq"]
     lines += ["%.17g,%.17g" % (a, v) for a, v in zip(table.angles, table.iq)]

@@ -336,7 +336,8 @@ def write_outputs(out, results: dict, truth: RotaryTruth) -> list:
 
     # the model's table (both directions averaged, as the drives hold it) in the format pgcomm export
     # --table reads: reproduce -> export moteus|odrive|c-angle without a conversion step
-    write_angle_table(out / "compensation.csv", make_table(model.table(n), "model from running logs"),
+    write_angle_table(out / "compensation.csv", make_table(model.table(n), "model from running logs",
+                                                          current_limit=truth.motor.current_limit),
                       comments=(f"pgcomm rotary model of {truth.motor.name}, identified from running logs "
                                 "without a torque sensor; forward and reverse averaged",))
     write_results(out / "results.json", results)
