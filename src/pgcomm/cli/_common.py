@@ -73,6 +73,15 @@ def add_reference_options(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--reference-sample-time", type=float, help="sample time (s) of --reference if it has no t")
 
 
+def motor_is_rotary(args) -> bool:
+    """Whether ``--motor`` declares ``kind = "rotary"`` (the rotary pipeline then runs)."""
+    if not getattr(args, "motor", None):
+        return False
+    from pgcomm.io.config import motor_kind
+
+    return motor_kind(args.motor) == "rotary"
+
+
 def require_data(args) -> None:
     """Refuse a command that needs ``--data`` without it."""
     if not args.data:

@@ -6,6 +6,14 @@ coil set's PGNN is identified from the motion, jointly with the translator's fri
 ``k̂``, ``ζ̂``, ``μ̂`` and lever arms. The moving mass comes from the motor TOML (key ``mass``);
 where the data are simulated (no ``--data``) the simulated translator's mass is known and used
 when the motor TOML has none (said).
+
+A rotary motor (``--motor`` with ``kind = "rotary"``) is identified from its drive's running logs
+(``--data``: ``t``, ``theta``, ``iq_1`` through the column mapping; a ``torque`` column in every log
+means a torque sensor) by :func:`pgcomm.rotary.identify.identify`: cogging, torque-constant ripple and
+the direction-dependent torque over the revolution, in current units, with each map's standard error
+and whether the logs resolve it. It writes ``model.json``, ``compensation.csv`` (the table
+``pgcomm export --format moteus|odrive|c-angle`` reads, with the motor's current limit),
+``results.json`` and ``identify_rotary.png``.
 """
 
 from __future__ import annotations
@@ -14,7 +22,8 @@ import sys
 import time
 from pathlib import Path
 
-from pgcomm.cli._common import add_common_options, add_data_options, read_data_logs, setup_from_args
+from pgcomm.cli._common import add_common_options, add_data_options, motor_is_rotary, read_data_logs, \
+    setup_from_args
 from pgcomm.errors import DataError
 
 HELP = ("Algorithm 2: identify the PGNN (and the physics-only model) of every coil set; "
@@ -53,6 +62,9 @@ def run(args, out: Path, progress) -> None:
     from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
+    if motor_is_rotary(args):
+        _identify_rotary(args, out, progress, t0)
+        return
     setup = _setup(args)
     sensorless = bool(args.no_force_sensor)
     _refuse_spline_without_force(args, sensorless)
@@ -174,6 +186,127 @@ def run(args, out: Path, progress) -> None:
         if sensorless:
             print(format_feedforward(feedforward))
         print(f"wrote {args.out}/model.json, model.npz, results.json, cogging.png, gain_coilset*.png")
+
+
+#: Entries of the compensation table ``identify`` writes for a rotary motor (ODrive's size; the exports resample).
+ROTARY_TABLE_ENTRIES = 3600
+
+
+def _identify_rotary(args, out: Path, progress, t0: float) -> None:
+    """``pgcomm identify --motor rotary.toml --data LOG...`` (module docstring)."""
+    import json
+    from dataclasses import replace
+
+    import numpy as np
+
+    from pgcomm import __version__
+    from pgcomm.errors import ConfigError
+    from pgcomm.export.angle_table import make_table, write_angle_table
+    from pgcomm.io.atomic import atomic_write_text
+    from pgcomm.io.config import load_rotary_motor
+    from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
+    from pgcomm.io.results import write_results
+    from pgcomm.rotary.identify import Orders, fit_mechanics, identify
+
+    for opt in ("plant", "config"):
+        if getattr(args, opt, None):
+            raise ConfigError(f"--{opt}: not used with a rotary motor (--motor {args.motor} has kind = \"rotary\")")
+    if args.family != "pgnn":
+        raise ConfigError(f"--family {args.family}: a rotary motor's model is a Fourier series on the circle; "
+                          "leave --family out")
+    if not args.data:
+        raise ConfigError(f"--data: a rotary motor ({args.motor}) is identified from its drive's running logs "
+                          "(t, theta, iq_1); the rotary twin writes some with pgcomm zoo --kind rotary --logs")
+    motor = load_rotary_motor(args.motor)
+    with progress.stage(f"read {len(args.data)} log pattern(s)"):
+        mapping = load_column_mapping(args.columns) if args.columns else None
+        logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED)
+        for lg in logs:
+            if not lg.is_rotary:
+                raise DataError(f"{lg.source}: a linear motor's log (it has 'y'), but --motor {args.motor} is rotary; "
+                                "a rotary log has the mechanical angle 'theta' in place of 'y'")
+            if "iq_1" not in lg.columns:
+                raise DataError(f"{lg.source}: no q-axis current 'iq_1' (map the drive's q-current column to iq_1 "
+                                "in --columns); rotary identification reads the current in the drive's frame")
+        n_samples = sum(lg.n_samples for lg in logs)
+        progress.info(f"{len(logs)} log(s), {n_samples} samples, {n_samples * logs[0].sample_time:.0f} s")
+        for lg in logs:
+            for note in lg.notes:
+                progress.info(f"{lg.source}: {note}")
+    torque_sensor = all("torque" in lg.columns for lg in logs) and not args.no_force_sensor
+    data = [{"name": lg.source, "t": lg.columns["t"], "theta": lg.columns["theta"], "iq_1": lg.columns["iq_1"],
+             **({"torque": lg.columns["torque"]} if torque_sensor else {})} for lg in logs]
+    orders = Orders.for_motor(motor)
+    how = "with the torque sensor" if torque_sensor else "without a torque sensor (from the motion)"
+    with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
+        res = identify(data, motor, orders, torque_sensor=torque_sensor)
+        mech = None if torque_sensor else fit_mechanics(data, motor, orders)
+        se = res.info.get("standard_error")
+        for name in ("cogging", "ripple", "direction") if se else ():
+            e = se[name]
+            progress.info(f"{name}: standard error {100 * e['relative']:.1f} % of its RMS, " + (
+                "resolved" if e["resolved"] else f"not resolved: about {e['log_time_factor_to_resolve']:.0f}x "
+                "as much running log at the same excitation would resolve it"))
+    model = replace(res.model, info={**res.model.info, "motor": motor.name, "current_limit": motor.current_limit,
+                                     "logs": [lg.source for lg in logs]})
+    n = ROTARY_TABLE_ENTRIES
+    table = model.table(n)
+    fwd_rev = model.table(n, +1) - model.table(n, -1)
+    results = {"command": "identify", "kind": "rotary", "version": __version__, "motor": motor.to_dict(),
+               "logs": [lg.source for lg in logs], "samples": n_samples, "torque_sensor": torque_sensor,
+               "identification": res.info, "mechanics_fit": mech,
+               "table": {"entries": n, "rms_A": float(np.sqrt(np.mean(table**2))),
+                         "peak_A": float(np.max(np.abs(table))),
+                         "forward_minus_reverse_rms_A": float(np.sqrt(np.mean(fwd_rev**2)))},
+               "runtime_s": time.perf_counter() - t0}
+    if motor.k_t:
+        results["table"]["rms_Nm"] = results["table"]["rms_A"] * float(motor.k_t)
+    with progress.stage("model.json, compensation.csv, results.json, identify_rotary.png"):
+        atomic_write_text(out / "model.json", json.dumps(model.to_dict(), indent=1) + "\n")
+        write_angle_table(out / "compensation.csv",
+                          make_table(table, "model from running logs", current_limit=motor.current_limit),
+                          comments=(f"pgcomm rotary model of {motor.name}, identified {how} from "
+                                    f"{len(logs)} log(s); forward and reverse averaged",))
+        write_results(out / "results.json", results)
+        _plot_rotary(out / "identify_rotary.png", model, res.info, motor)
+    if not args.quiet:
+        refused = res.info.get("windows_refused_alias")
+        print(f"rotary {motor.name}: identified {how} from {len(logs)} log(s)"
+              + (f"; {refused} windows refused as too fast for the encoder-sampled cogging" if refused else ""))
+        print(f"compensation table: {results['table']['rms_A']:.3g} A RMS, {results['table']['peak_A']:.3g} A peak "
+              f"({n} entries)")
+        print(f"wrote {args.out}/model.json, compensation.csv, results.json, identify_rotary.png "
+              f"({time.perf_counter() - t0:.0f} s)")
+
+
+def _plot_rotary(path, model, info: dict, motor, n: int = 3600) -> None:
+    """The identified maps over one revolution, each with its standard error as a band where known."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from pgcomm import plots
+
+    th = 2 * np.pi * np.arange(n) / n
+    se = info.get("standard_error") or {}
+    panels = (("cogging", "compensating q current", "A", 1.0, model.table(n)),
+              ("ripple", "torque-constant ripple", "%", 100.0, model.ripple(th)),
+              ("direction", "direction-dependent torque", "A", 1.0, model.direction(th)))
+    fig, ax = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
+    for a, (key, label, unit, scale, values) in zip(ax, panels):
+        a.plot(th, scale * values, lw=0.7, label="identified" + (" (forward and reverse averaged)"
+                                                                 if key == "cogging" else ""))
+        if key in se:
+            band = scale * se[key]["rms_error"]
+            a.fill_between(th, scale * values - band, scale * values + band, alpha=0.25, lw=0,
+                           label=f"± standard error ({100 * se[key]['relative']:.1f} % of its RMS)")
+        if key == "cogging":
+            a.plot(th, model.table(n, +1), lw=0.5, alpha=0.7, label="forward")
+            a.plot(th, model.table(n, -1), lw=0.5, alpha=0.7, label="reverse")
+        a.set_ylabel(f"{label} [{unit}]", fontsize=8)
+        a.legend(fontsize=7, loc="upper right")
+    ax[-1].set_xlabel("mechanical angle θ [rad]")
+    fig.suptitle(f"rotary {motor.name}: maps identified from running logs")
+    plots.save(fig, path)
 
 
 def _identify_spline(args, out, progress, setup, data, source, t0) -> None:

@@ -6,8 +6,8 @@ import sys
 import time
 from pathlib import Path
 
-from pgcomm.cli._common import add_common_options, add_reference_options, print_calibration, print_mse, \
-    reference_from_args, setup_from_args
+from pgcomm.cli._common import add_common_options, add_reference_options, motor_is_rotary, print_calibration, \
+    print_mse, reference_from_args, setup_from_args
 
 HELP = ("The paper's experiment on the twin (or a force-map plant): calibration, PGNN "
         "identification, all commutation laws in closed loop; report.html, results.json, figures.")
@@ -34,7 +34,7 @@ def run(args, out: Path, progress) -> None:
     from pgcomm.report import figure_captions, write_report
 
     t0 = time.perf_counter()
-    if _is_rotary(args):
+    if motor_is_rotary(args):
         return _run_rotary(args, out, progress, t0)
     setup = setup_from_args(args)
     if args.quick:
@@ -123,15 +123,6 @@ def _train_range(model, setup):
     if rng:
         return rng
     return setup.config.reference.span
-
-
-def _is_rotary(args) -> bool:
-    """Whether ``--motor`` declares ``kind = "rotary"`` (then the rotary experiment runs)."""
-    if not getattr(args, "motor", None):
-        return False
-    from pgcomm.io.config import motor_kind
-
-    return motor_kind(args.motor) == "rotary"
 
 
 def _run_rotary(args, out: Path, progress, t0: float) -> None:
