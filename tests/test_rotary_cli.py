@@ -55,6 +55,10 @@ def test_identify_rotary_logs_recovers_the_cogging(tmp_path, zoo):
     assert main(["export", "--format", "c-angle", "--table", str(out / "compensation.csv"), "--out",
                  str(tmp_path / "c"), "--quiet"]) == 0
     assert (out / "identify_rotary.png").stat().st_size > 10_000
+    # the report shows the run's own numbers (a rig's logs: no truth column) and embeds the figure
+    page = (out / "report.html").read_text()
+    assert f"{res['table']['entries']} entries" in page and "data:image/png;base64," in page
+    assert f"{100 * se['cogging']['relative']:.1f} %" in page and "truth" not in page
 
 
 def test_real_drive_log_shape_gives_the_same_model(tmp_path, zoo):

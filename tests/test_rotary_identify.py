@@ -91,7 +91,10 @@ def test_cli_zoo_and_reproduce_rotary(tmp_path):
     # the law beats no compensation and does not lose to the floor by more than noise
     assert r["tracking_mse"]["model"]["position"] < 0.1 * r["tracking_mse"]["classical"]["position"]
     assert r["timing"]["running_logs_s"] < r["timing"]["standstill_s"]
-    for f in ("model.json", "table.csv", "rotary.png"):
+    page = (tmp_path / "rep" / "report.html").read_text()
+    q = r["tracking_ratio_model_over_standstill"]
+    assert f"position loop <b>{q['position']:.2f}</b>" in page and "standstill_table" in page
+    for f in ("model.json", "table.csv", "rotary.png", "report.html"):
         assert (tmp_path / "rep" / f).is_file()
     assert main(["reproduce", "--motor", str(motor), "--plant", "x.csv", "--out", str(tmp_path / "bad")]) == 2
     assert not (tmp_path / "bad").exists()

@@ -13,7 +13,7 @@ means a torque sensor) by :func:`pgcomm.rotary.identify.identify`: cogging, torq
 the direction-dependent torque over the revolution, in current units, with each map's standard error
 and whether the logs resolve it. It writes ``model.json``, ``compensation.csv`` (the table
 ``pgcomm export --format moteus|odrive|c-angle`` reads, with the motor's current limit),
-``results.json`` and ``identify_rotary.png``.
+``results.json``, ``identify_rotary.png`` and ``report.html``.
 """
 
 from __future__ import annotations
@@ -261,7 +261,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                "runtime_s": time.perf_counter() - t0}
     if motor.k_t:
         results["table"]["rms_Nm"] = results["table"]["rms_A"] * float(motor.k_t)
-    with progress.stage("model.json, compensation.csv, results.json, identify_rotary.png"):
+    with progress.stage("model.json, compensation.csv, results.json, identify_rotary.png, report.html"):
         atomic_write_text(out / "model.json", json.dumps(model.to_dict(), indent=1) + "\n")
         write_angle_table(out / "compensation.csv",
                           make_table(table, "model from running logs", current_limit=motor.current_limit),
@@ -269,13 +269,20 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                                     f"{len(logs)} log(s); forward and reverse averaged",))
         write_results(out / "results.json", results)
         _plot_rotary(out / "identify_rotary.png", model, res.info, motor)
+        from pgcomm.rotary.report import write_rotary_report
+
+        write_rotary_report(out / "report.html", results, {
+            "The identified maps over one revolution with their standard error as a band: the compensating q "
+            "current (cogging and direction term, forward and reverse and their mean, the table that is "
+            "exported), the torque-constant ripple, and the direction-dependent torque.":
+                out / "identify_rotary.png"}, version=__version__)
     if not args.quiet:
         refused = res.info.get("windows_refused_alias")
         print(f"rotary {motor.name}: identified {how} from {len(logs)} log(s)"
               + (f"; {refused} windows refused as too fast for the encoder-sampled cogging" if refused else ""))
         print(f"compensation table: {results['table']['rms_A']:.3g} A RMS, {results['table']['peak_A']:.3g} A peak "
               f"({n} entries)")
-        print(f"wrote {args.out}/model.json, compensation.csv, results.json, identify_rotary.png "
+        print(f"wrote {args.out}/model.json, compensation.csv, results.json, identify_rotary.png, report.html "
               f"({time.perf_counter() - t0:.0f} s)")
 
 

@@ -163,7 +163,7 @@ def _run_rotary(args, out: Path, progress, t0: float) -> None:
         rexp.write_outputs(out, results, truth)
     if not args.quiet:
         _print_rotary(results)
-        print(f"wrote {args.out}/results.json, model.json, table.csv, compensation.csv, rotary.png ({results['runtime_s']:.0f} s)")
+        print(f"wrote {args.out}/results.json, model.json, table.csv, compensation.csv, rotary.png, report.html ({results['runtime_s']:.0f} s)")
 
 
 def _print_rotary(r: dict) -> None:

@@ -306,7 +306,7 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
 def write_outputs(out, results: dict, truth: RotaryTruth) -> list:
     """Write ``results.json``, ``model.json`` (identified :class:`RotaryModel`), ``table.csv`` (the
     standstill table and the model's table at the same angles), ``compensation.csv`` (the model's
-    averaged table in the format ``pgcomm export --table`` reads) and the figure into ``out``.
+    averaged table in the format ``pgcomm export --table`` reads), the figure and ``report.html`` into ``out``.
 
     Args:
         out: folder (exists); results: :func:`run`'s dict (``models`` is taken out of it);
@@ -365,4 +365,11 @@ def write_outputs(out, results: dict, truth: RotaryTruth) -> list:
     ax[2].legend(fontsize=8)
     fig.suptitle(f"rotary {truth.motor.name}: identification and tracking")
     plots.save(fig, out / "rotary.png")
-    return ["results.json", "model.json", "table.csv", "compensation.csv", "rotary.png"]
+    from pgcomm.rotary.report import write_rotary_report
+
+    write_rotary_report(out / "report.html", results, {
+        "Top: the compensating q current over one revolution, from the standstill sweep, from the model identified "
+        "from running logs, and the truth. Middle: the torque-constant ripple, identified and true. Bottom: each "
+        "row's tracking MSE over classical commutation's, position and speed loop (log scale).": out / "rotary.png"},
+        version=str(results.get("version", "")))
+    return ["results.json", "model.json", "table.csv", "compensation.csv", "rotary.png", "report.html"]

@@ -1,0 +1,129 @@
+"""Self-contained HTML report of a rotary run (``pgcomm reproduce`` or ``pgcomm identify`` on a rotary motor).
+
+Every number is read from the run's ``results.json`` dict (keys in ``docs/results.md``); the figures are
+embedded as base64 PNG with the style of the linear report (:mod:`pgcomm.report`). Units: angles in
+rad, speeds in rad/s, currents in A; the maps in current units (cogging and direction term as an
+equivalent q-current, the ripple relative).
+"""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+from pgcomm.report import CSS, figure_html
+
+__all__ = ["write_rotary_report", "ROW_DESCRIPTIONS"]
+
+#: One line per row of ``reproduce``'s table.
+ROW_DESCRIPTIONS = {
+    "classical": "no compensation (i_q = demand), with the feedforward a drive user tunes",
+    "standstill_table": "the drives' method: a standstill sweep's table added to the demand",
+    "model": "the law of the model identified from running logs without a torque sensor",
+    "oracle": "the true map inverted, true feedforward: the floor",
+}
+
+
+def _g(x, digits: int = 3, unit: str = "") -> str:
+    if x is None:
+        return "–"
+    return f"{x:.{digits}g}" + (f" {unit}" if unit else "")
+
+
+def _pct(x) -> str:
+    return "–" if x is None else f"{100 * x:.1f} %"
+
+
+def _identification_html(r: dict) -> str:
+    ident = r["identification"]
+    se = ident.get("standard_error") or {}
+    rows = []
+    has_truth = "errors" in ident  # the twin's runs know the truth; a rig's logs do not
+    for name, unit in (("cogging", "A"), ("ripple", "(relative)"), ("direction", "A")):
+        if name not in se:
+            continue
+        e = se[name]
+        truth = ident.get("errors", {}).get({"cogging": "cogging_rel", "ripple": "ripple_rel",
+                                               "direction": "direction_rel"}[name])
+        verdict = "yes" if e["resolved"] else f"no: about {e['log_time_factor_to_resolve']:.1f}× the logs"
+        rows.append(f"<tr><th>{name}</th><td>{_g(e['rms'])} {unit}</td><td>{_g(e['rms_error'])} {unit}</td>"
+                    f"<td>{_pct(e['relative'])}</td><td>{html.escape(verdict)}</td>"
+                    + (f"<td>{_pct(truth)}</td>" if has_truth else "") + "</tr>")
+    refused = ident.get("windows_refused_alias", 0)
+    limit = ident.get("speed_limit_rad_s")
+    parts = [f"<p>{ident.get('windows_used', 0)} filter windows used of {ident.get('windows', 0)}; "
+             f"{refused} refused as too fast for the encoder-sampled cogging (above {_g(limit)} rad/s the highest "
+             f"order, {ident.get('highest_order', '–')} per revolution, has fewer than "
+             f"{_g(ident.get('min_samples_per_period'))} samples per period), {ident.get('windows_refused_slow', 0)} "
+             "near standstill or reversing. Ridge "
+             f"{_g(ident.get('ridge'))} ({html.escape(str(ident.get('ridge_chosen_by', '–')))}); J/k0 "
+             f"{_g(ident.get('inertia_ratio'), 4)} A·s²/rad."
+             + (f" {ident['rounds']} round(s) of running logs." if "rounds" in ident else "") + "</p>"]
+    if rows:
+        parts.append("<p>Standard error: the expected RMS error over the revolution from the noise (one-second "
+                     "time blocks), relative to the map's RMS; a map is resolved at "
+                     f"{_pct(se.get('resolved_share'))}.</p>"
+                     "<table><tr><th>map</th><th>RMS</th><th>standard error</th><th>relative</th><th>resolved</th>"
+                     + ("<th>error against the twin's truth</th>" if has_truth else "") + "</tr>" + "".join(rows)
+                     + "</table>")
+    return "".join(parts)
+
+
+def _tracking_html(r: dict) -> str:
+    tr, cm, sh = r["tracking_mse"], r["commutation_mse"], r["reducible_share"]
+    body = "".join(
+        f"<tr><th>{row}</th><td class=desc>{html.escape(ROW_DESCRIPTIONS.get(row, ''))}</td>"
+        f"<td>{_g(v['position'])}</td><td>{_pct(sh[row]['position'])}</td><td>{_g(v['speed'])}</td>"
+        f"<td>{_pct(sh[row]['speed'])}</td><td>{_g(cm[row]['position'])}</td></tr>" for row, v in tr.items())
+    q = r["tracking_ratio_model_over_standstill"]
+    a, t = r["standstill"]["agreement"], r["timing"]
+    return (f"<p>Tracking error of the model's law over the standstill table's: position loop "
+            f"<b>{q['position']:.2f}</b>, speed loop <b>{q['speed']:.2f}</b> (target ≤ 0.5).</p>"
+            "<table><tr><th>row</th><th>law</th><th>position loop, MSE of θ* − θ [rad²]</th>"
+            "<th>share of reducible</th><th>speed loop, MSE of ω* − ω at cruise [(rad/s)²]</th>"
+            "<th>share of reducible</th><th>torque disturbance, position loop [A²]</th></tr>" + body + "</table>"
+            f"<p>Running-log table against the standstill sweep: {_g(a['rms_model_minus_sweep_A'])} A RMS apart; the "
+            f"sweep's own error against the truth {_g(a['rms_sweep_minus_truth_A'])} A "
+            f"({'within' if a.get('within_noise') else 'not within'} the sweep's noise). Rig time: running logs "
+            f"{t['running_logs_s']:.0f} s, standstill sweep {t['standstill_s']:.0f} s.</p>")
+
+
+def write_rotary_report(path, results: dict, figures: dict, *, version: str = "") -> Path:
+    """Write ``report.html`` for a rotary ``reproduce`` or ``identify`` run (atomically).
+
+    Args:
+        path: the file to write.
+        results: the run's results dict (``results.json``; ``command`` says which).
+        figures: caption -> PNG path, embedded in this order.
+        version: pgcomm's version for the header.
+
+    Returns:
+        ``path``.
+    """
+    from pgcomm.io.atomic import atomic_write_text
+
+    motor = results.get("motor", {})
+    name = motor.get("name") or f"{motor.get('slots', '?')}N{2 * int(motor.get('pole_pairs', 0))}P"
+    command = results.get("command", "reproduce")
+    if command == "reproduce":
+        title = f"Rotary motor {name} on the twin: running-log identification against the drives' standstill table"
+        sections = ("<h2>Tracking, best law against the drives' method</h2>" + _tracking_html(results)
+                    + "<h2>Identification from running logs (no torque sensor)</h2>" + _identification_html(results))
+    else:
+        t = results.get("table", {})
+        title = f"Rotary motor {name}: maps identified from {len(results.get('logs', []))} drive log(s)"
+        sections = ("<h2>Identification</h2>" + _identification_html(results)
+                    + f"<h2>Compensation table</h2><p>{t.get('entries', '–')} entries over one revolution, "
+                    f"{_g(t.get('rms_A'))} A RMS, {_g(t.get('peak_A'))} A peak; forward and reverse differ by "
+                    f"{_g(t.get('forward_minus_reverse_rms_A'))} A RMS (the table holds their mean). "
+                    "<code>compensation.csv</code> goes to <code>pgcomm export --format moteus|odrive|c-angle</code>."
+                    "</p>")
+    figs = "".join(figure_html(Path(p), cap) for cap, p in figures.items())
+    runtime = results.get("runtime_s")
+    doc = (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>pgcomm {html.escape(command)} — "
+           f"{html.escape(name)}</title>\n<style>\n{CSS}</style></head><body>\n<h1>{html.escape(title)}</h1>\n"
+           f"<p>Generated by <code>pgcomm {html.escape(command)}</code> (version {html.escape(str(version))})"
+           + (f" in {runtime:.0f} s" if runtime is not None else "")
+           + ". All numbers are those of <code>results.json</code>.</p>\n" + sections + figs + "\n</body></html>\n")
+    atomic_write_text(path, doc)
+    return Path(path)
