@@ -30,7 +30,7 @@ def _small_motor(folder: Path, index: int) -> Path:
 
 
 @pytest.fixture(scope="module")
-def fleet_dir(tmp_path_factory):
+def fleet_dir(tmp_path_factory, release_memory):
     root = tmp_path_factory.mktemp("fleet")
     for name, i in GOOD.items():
         _small_motor(root / "data" / name, i)
@@ -41,10 +41,13 @@ def fleet_dir(tmp_path_factory):
     cells[3] = "abc"
     lines[50] = ",".join(cells)
     log.write_text("\n".join(lines))
+    # the logs' simulations compiled programs in this process: released before the fleet's two worker
+    # processes start (all three at once would hold ~2.5 GB)
+    release_memory()
     return root
 
 
-def test_fleet_on_local_cluster_resumes_and_matches_identify(fleet_dir, capsys):
+def test_fleet_on_local_cluster_resumes_and_matches_identify(fleet_dir, capsys, release_memory):
     data, out = fleet_dir / "data", fleet_dir / "out"
     assert main(["fleet", "--data", str(data), "--out", str(out), "--workers", "2", "--quiet"]) == 0
     import pyarrow.parquet as pq
@@ -89,6 +92,7 @@ def test_fleet_on_local_cluster_resumes_and_matches_identify(fleet_dir, capsys):
             assert (out / name / f).is_file(), f
 
     # a rerun does no work for the finished motors: only the failed one is submitted again
+    release_memory()  # the in-process identify/calibrate runs' programs, before the workers start again
     stamps = {n: (out / n / "fleet_rows.json").stat().st_mtime_ns for n in GOOD}
     assert main(["fleet", "--data", str(data), "--out", str(out), "--workers", "2", "--quiet"]) == 0
     run = json.loads((out / "fleet.json").read_text())

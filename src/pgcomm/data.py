@@ -125,6 +125,49 @@ class CoilSetData:
         """Copy with ``velocity`` from :func:`velocity_from_positions` (per experiment label), ``sample_time`` (s)."""
         return dataclasses.replace(self, velocity=velocity_from_positions(self.y, sample_time, self.experiment))
 
+    # ---- the identification data interface (pgcomm.protocols.IdentificationData): a force sensor's data are
+    # the unfiltered case, each output sample one raw sample with all three force rows observed
+
+    @property
+    def raw(self) -> "CoilSetData":
+        """The samples the model is evaluated on: the data themselves."""
+        return self
+
+    #: Rows of ``force`` that are measured: ``Fy``, ``Fx``, ``Tz``.
+    observed = (0, 1, 2)
+
+    #: Friction columns fitted with the model: none (the force sensor measures the electromagnetic force).
+    n_friction = 0
+
+    def window_index(self) -> np.ndarray:
+        """``(N, 1)`` indices into :attr:`raw` of each output sample's regressor samples: itself."""
+        return np.arange(self.n)[:, None]
+
+    @property
+    def regressor_taps(self) -> np.ndarray:
+        """``(1,)`` filter taps of the regressor rows: ``[1]`` (unfiltered)."""
+        return np.ones(1)
+
+    def filtered(self, columns) -> np.ndarray:
+        """Raw columns ``(N,)``/``(N, k)`` at the output samples: unchanged."""
+        return np.asarray(columns, dtype=float)
+
+    def filtered_friction(self) -> np.ndarray:
+        """``(N, 0)``: no friction columns."""
+        return np.zeros((self.n, 0))
+
+    def physics_nuisance(self, pole_pitch: float) -> np.ndarray:
+        """``(N, 0)``: the physics-only fit needs no nuisance columns with force measurements."""
+        return np.zeros((self.n, 0))
+
+    def split(self, validation_fraction: float = 0.2, block_size: int = 500):
+        """``(train, validation)`` by :func:`train_validation_split`."""
+        return train_validation_split(self, validation_fraction, block_size)
+
+    def mechanics(self, friction):
+        """``None``: no friction is identified from force measurements."""
+        return None
+
 
 #: Window (s) of the Savitzky–Golay differentiator of :func:`velocity_from_positions`.
 VELOCITY_WINDOW = 0.021

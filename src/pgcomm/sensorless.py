@@ -273,9 +273,26 @@ class SensorlessData:
     def force(self) -> np.ndarray:
         return np.column_stack([self.target, np.zeros((self.n, 2))])
 
+    #: Rows of ``force`` that are measured: only the driving direction ``m ÿ_f``.
+    observed = (0,)
+
     def window_index(self) -> np.ndarray:
         """``(J, T + 1)`` indices into ``raw`` of each window's regressor samples."""
         return self.starts[:, None] + np.arange(self.filt.length + 1)
+
+    @property
+    def regressor_taps(self) -> np.ndarray:
+        """``(T + 1,)`` taps of a window's regressor rows (:attr:`AccelerationFilter.regressor_taps`)."""
+        return self.filt.regressor_taps
+
+    def physics_nuisance(self, pole_pitch: float) -> np.ndarray:
+        """``(J, B)`` filtered position-only columns (hat basis over the data's range, ``d_m/4`` apart, 4 to 200)
+        for the physics-only fit: in closed loop the current carries ``-F_cog/k``, so leaving the cogging
+        out biases ``k`` low (~0.5x); these columns stand in for it, as the calibration's offset tables do."""
+        y = self.raw.y
+        lo, hi = float(y.min()), float(y.max())
+        bins = int(np.clip((hi - lo) / (pole_pitch / 4), 4, 200))
+        return self.filtered(hat_basis(y, lo, hi, bins))
 
     def filtered(self, columns) -> np.ndarray:
         """Filtered raw columns ``(N,)``/``(N, k)`` at the output samples (:func:`filter_windows`)."""

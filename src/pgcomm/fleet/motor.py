@@ -148,6 +148,7 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     import jax.numpy as jnp
 
     from pgcomm import __version__
+    from pgcomm._memory import release_compiled_programs
     from pgcomm.calibration import calibrate_from_logs
     from pgcomm.data import coil_set_data_from_logs
     from pgcomm.evaluation import evaluate_logs, evaluation_results
@@ -175,6 +176,9 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     t_id = time.perf_counter()
     pgnn, _, res = identify_models(setup, data, seed, None, check_data=True)
     t_id = time.perf_counter() - t_id
+    # the identification's programs are the largest a worker holds: released before the evaluation and the
+    # exports compile theirs (pgcomm._memory); the next motor loads them from the worker's compile cache
+    release_compiled_programs()
     ident = identification_results(res, t_id)
     # the exports' defaults travel with the model: the motor's current limit and the calibrated commutation
     # the drive runs from now on (the anti-cogging table below is computed for it)

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from pgcomm._pytree import pytree_dataclass
-from pgcomm.data import CoilSetData, train_validation_split
+from pgcomm.data import CoilSetData
 from pgcomm.errors import DataError, ExcitationError
 from pgcomm.excitation import check_excitation
 from pgcomm.identify.layout import (
@@ -33,11 +33,10 @@ from pgcomm.identify.projection import (
     cost,
     cost_y,
     fit_physics,
-    sensorless_residual,
+    data_residual,
     split_friction,
 )
 from pgcomm.seeds import stream_seed
-from pgcomm.sensorless import SensorlessData
 from pgcomm.identify.options import IdentifyOptions
 from pgcomm.identify.result import STOP_REASONS, IdentifyResult
 from pgcomm.models import CoilSetModel, CombinedModel
@@ -174,7 +173,7 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
              progress=None) -> IdentifyResult:
     """Identify the PGNN of one coil set (Algorithm 2) by variable-projection Levenberg–Marquardt.
 
-    Steps: split the data (:func:`train_validation_split`); check excitation
+    Steps: split the data (the data's ``split``); check excitation
     (:func:`check_excitation`, raises :class:`~pgcomm.errors.ExcitationError`); fit the
     physics-only model once (the physics row of the result and ``θ_phy*`` unless given); draw
     ``options.starts`` random hidden layers from ``jax.random.PRNGKey(seed)``; iterate, for several starts at once (one batched
@@ -235,19 +234,17 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
     name = data.name
     if data.n < 10:
         raise DataError(f"{name}: too few samples ({data.n}) to identify a model")
-    sensorless = isinstance(data, SensorlessData)
-    if sensorless and o.direction:
+    if data.n_friction and o.direction:
         raise ValueError(f"{name}: without a force sensor the direction term is the Coulomb friction column; "
                          "identify with direction=False")
     if o.direction and data.velocity is None:
         raise DataError(f"{name}: the direction term needs the velocity of every sample; "
                         "build the data with CoilSetData.with_velocity(sample_time)")
     if check_data:
-        problems = check_excitation(data.raw if sensorless else data, pole_pitch)
+        problems = check_excitation(data.raw, pole_pitch)
         if problems:
             raise ExcitationError(f"{name}: data do not persistently excite the model: " + "; ".join(problems))
-    train, val = (data.split(o.validation_fraction, o.block_size) if sensorless
-                  else train_validation_split(data, o.validation_fraction, o.block_size))
+    train, val = data.split(o.validation_fraction, o.block_size)
     y_lo, y_hi = float(data.y.min()), float(data.y.max())
     y_center = 0.5 * (float(train.y.min()) + float(train.y.max()))
     y_scale = max(0.5 * (float(train.y.max()) - float(train.y.min())), 1e-9)
@@ -306,14 +303,12 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
     c_pgnn = cost(model, train, lam12, star, friction=friction)
     # sensorless: the physics model's friction from the training data, reused on validation (refitted
     # there, the 30-odd friction-table entries absorbed part of its missing cogging: 8.8 vs 25.7 N²)
-    phys_friction = sensorless_residual(physics, train)[1] if sensorless else None
+    phys_friction = data_residual(physics, train)[1]
     c_phys = cost(physics, train, friction=phys_friction)
     nan = float("nan")
     c_pgnn_val = cost(model, val, lam12, star, friction=friction) if val.n else CostTerms(nan, nan)
     c_phys_val = cost(physics, val, friction=phys_friction) if val.n else CostTerms(nan, 0.0)
-    mechanics = None
-    if sensorless:
-        mechanics = data.mechanics(friction)
+    mechanics = data.mechanics(friction)
     return IdentifyResult(
         name=name, model=model, physics_model=physics, cost_physics=c_phys.data, cost_pgnn=c_pgnn.total,
         cost_pgnn_data=c_pgnn.data, cost_physics_validation=c_phys_val.data, cost_pgnn_validation=c_pgnn_val.data,

@@ -19,7 +19,6 @@ from jax import lax
 
 from pgcomm._pytree import pytree_dataclass
 from pgcomm.data import CoilSetData
-from pgcomm.interp import hat_basis
 from pgcomm.identify.layout import (
     DEFAULT_LAMBDA,
     _Layout,
@@ -32,7 +31,6 @@ from pgcomm.identify.layout import (
 )
 from pgcomm.errors import DataError
 from pgcomm.models import HARMONIC_ORDERS, CoilSetModel, activation_fn, harmonic_basis, smooth_sign
-from pgcomm.sensorless import SensorlessData
 
 #: Samples per chunk of the accumulated sums (structured / generic Jacobian path). Small chunks
 #: keep each chunk's features in cache: 512 ran 1.6x faster than 4096 with 8 starts.
@@ -206,21 +204,17 @@ def _to_chunks(layout: _Layout, data, chunk: int, pole_pitch, y_center, y_scale)
     def padded(a, w=1):  # (k, N W) -> (C, k, c W)
         a = np.atleast_2d(a)
         a = np.concatenate([a, np.zeros((a.shape[0], pad * w))], axis=1)
-        return jnp.asarray(a.reshape(-1, n_chunks, chunk * w).transpose(1, 0, 2))
+        return jnp.asarray(a.reshape(a.shape[0], n_chunks, chunk * w).transpose(1, 0, 2))
 
-    if isinstance(data, SensorlessData):
-        raw = data.raw
-        x0, s = (np.asarray(a) for a in _known_data(layout, raw.y, raw.currents, raw.velocity, pole_pitch, y_center,
-                                                     y_scale, data.name))
-        idx = data.window_index().ravel()  # (J W,), window-major
-        w = data.filt.length + 1
-        return _Chunks(padded(x0[:, idx], w), padded(s[idx], w)[:, 0], padded(raw.currents[idx].T, w),
-                       padded(data.force.T), padded(np.ones(n))[:, 0], jnp.asarray(data.filt.regressor_taps),
-                       padded(data.filtered_friction().T))
-    x0, s = (np.asarray(a) for a in _known_data(layout, data.y, data.currents, data.velocity, pole_pitch, y_center,
+    raw = data.raw
+    x0, s = (np.asarray(a) for a in _known_data(layout, raw.y, raw.currents, raw.velocity, pole_pitch, y_center,
                                                  y_scale, data.name))
-    return _Chunks(padded(x0), padded(s)[:, 0], padded(data.currents.T), padded(data.force.T), padded(np.ones(n))[:, 0],
-                   jnp.ones(1), jnp.zeros((n_chunks, 0, chunk)))
+    windows = data.window_index()  # (n, W): each output sample's raw samples (W = 1: the sample itself)
+    w = windows.shape[1]
+    idx = windows.ravel()  # (n W,), window-major
+    return _Chunks(padded(x0[:, idx], w), padded(s[idx], w)[:, 0], padded(raw.currents[idx].T, w),
+                   padded(data.force.T), padded(np.ones(n))[:, 0], jnp.asarray(data.regressor_taps, dtype=float),
+                   padded(data.filtered_friction().T))
 
 
 def _filtered_rows(layout: _Layout, m, taps, extra):
@@ -446,40 +440,34 @@ def _generic_sums(layout: _Layout, flats, xs, theta_l, taps):
 _evaluate_jit = jax.jit(_evaluate, static_argnums=(0, 4))
 
 
-def filter_abs(data: SensorlessData, column) -> np.ndarray:
-    """``Σ_m |g'_m| |x[s_j + m]|`` ``(J,)``: bounds the filtered ``|h x|`` for any ``|h| <= 1``."""
-    return np.abs(np.asarray(column, float))[data.window_index()] @ np.abs(data.filt.regressor_taps)
+def filter_abs(data, column) -> np.ndarray:
+    """``Σ_m |g'_m| |x[s_j + m]|`` ``(n,)``: bounds the filtered ``|h x|`` for any ``|h| <= 1``
+    (``|x|`` itself for unfiltered data); ``data`` an :class:`~pgcomm.protocols.IdentificationData`."""
+    return np.abs(np.asarray(column, float))[data.window_index()] @ np.abs(np.asarray(data.regressor_taps, float))
 
 
 def fit_physics(data, pole_pitch: float) -> tuple[np.ndarray, np.ndarray]:
     """Physics-only least squares: ``min Σ_t ||F - (A cos + B sin) i||²`` (no networks, no cogging, no Λ).
 
     Solved per direction ``q`` by ``numpy.linalg.lstsq`` on the columns
-    ``[cos·ia, cos·ib, sin·ia, sin·ib]``. Sensorless data (:class:`~pgcomm.sensorless.SensorlessData`):
-    the filtered columns and the two friction columns against ``m ÿ_f``; only the y row is
-    observed, the x and z rows are 0.
+    ``[cos·ia, cos·ib, sin·ia, sin·ib]`` (through the data's filter) beside the data's nuisance and friction
+    columns (:class:`~pgcomm.protocols.IdentificationData`); rows the data do not observe are 0.
+    Sensorless data (:class:`~pgcomm.sensorless.SensorlessData`): the filtered columns, a position-only
+    nuisance for the cogging and the friction columns against ``m ÿ_f``, the y row only.
 
     Returns:
         ``(A, B)``, each ``(3, 2)`` (N/A); ``θ_phy* = theta_phy(A, B)``.
     """
-    if isinstance(data, SensorlessData):
-        raw = data.raw
-        c, s = (np.asarray(x) for x in harmonic_basis(raw.y, pole_pitch))
-        ia, ib = raw.currents[:, 0], raw.currents[:, 1]
-        # A position-only nuisance (hat basis, as the calibration's offset tables) stands in for the
-        # cogging: in closed loop the current carries -F_cog/k, so leaving it out biases k low (~0.5x).
-        lo, hi = float(raw.y.min()), float(raw.y.max())
-        bins = int(np.clip((hi - lo) / (pole_pitch / 4), 4, 200))
-        x = np.column_stack([data.filtered(np.column_stack([c * ia, c * ib, s * ia, s * ib,
-                                                            hat_basis(raw.y, lo, hi, bins)])),
-                             data.filtered_friction()])
-        coef = np.zeros((4, 3))
-        coef[:, 0] = np.linalg.lstsq(x, data.target, rcond=None)[0][:4]
-        return coef[:2].T.copy(), coef[2:].T.copy()
-    c, s = (np.asarray(x) for x in harmonic_basis(data.y, pole_pitch))
-    ia, ib = data.currents[:, 0], data.currents[:, 1]
-    x = np.column_stack([c * ia, c * ib, s * ia, s * ib])
-    coef, *_ = np.linalg.lstsq(x, data.force, rcond=None)  # (4, 3)
+    raw = data.raw
+    c, s = (np.asarray(x) for x in harmonic_basis(raw.y, pole_pitch))
+    ia, ib = raw.currents[:, 0], raw.currents[:, 1]
+    # beside the physics columns: the data's nuisance columns (sensorless: a position-only stand-in for the
+    # cogging) and its friction columns, both fitted and dropped
+    x = np.column_stack([data.filtered(np.column_stack([c * ia, c * ib, s * ia, s * ib])),
+                         data.physics_nuisance(pole_pitch), data.filtered_friction()])
+    obs = list(data.observed)
+    coef = np.zeros((4, 3))  # rows not observed stay 0
+    coef[:, obs] = np.linalg.lstsq(x, data.force[:, obs], rcond=None)[0][:4]
     return coef[:2].T.copy(), coef[2:].T.copy()
 
 
@@ -515,11 +503,7 @@ def cost(model: CoilSetModel, data, Lambda=DEFAULT_LAMBDA, theta_phy_star=None, 
     """
     if data.n == 0:
         return CostTerms(float("nan"), 0.0)
-    if isinstance(data, SensorlessData):
-        dat = float(np.mean(sensorless_residual(model, data, friction)[0] ** 2))
-    else:
-        f_hat = np.asarray(_force_jit(model, data.y, data.currents, _velocity_for(model, data)))
-        dat = float(np.sum((data.force - f_hat) ** 2) / data.n)
+    dat = float(np.sum(data_residual(model, data, friction)[0] ** 2) / data.n)
     reg = 0.0
     if theta_phy_star is not None:
         reg = float(np.sum((lambda_diagonal(Lambda) * (theta_phy(model.A, model.B) - np.asarray(theta_phy_star))) ** 2))
@@ -547,25 +531,38 @@ def cost_y(model: CoilSetModel, data, friction=None) -> float:
     """
     if data.n == 0:
         return float("nan")
-    if isinstance(data, SensorlessData):
-        return float(np.mean(sensorless_residual(model, data, friction)[0] ** 2))
-    f_hat = np.asarray(_force_jit(model, data.y, data.currents, _velocity_for(model, data)))
-    return float(np.mean((data.force[:, 0] - f_hat[:, 0]) ** 2))
+    return float(np.mean(data_residual(model, data, friction)[0][:, 0] ** 2))
 
 
-def sensorless_residual(model: CoilSetModel, data: SensorlessData, friction=None):
-    """``(r, friction)``: ``r = m ÿ_f - (F̂_y)_f - [s(ẏ), ẏ]_f (F_c, c)`` ``(J,)`` (N) of a model on sensorless data.
+def data_residual(model: CoilSetModel, data, friction=None):
+    """``(r, friction)``: the measured side minus the model through the data's filter minus the friction columns.
+
+    ``r = force[:, observed] − (F̂(raw))_f[:, observed] − filtered_friction · friction``, ``(n, len(observed))``
+    (N, N, N·m) for any :class:`~pgcomm.protocols.IdentificationData` (force-sensor data: ``force − F̂``).
+
+    Args:
+        friction: ``(n_friction,)`` coefficients; ``None``: the least-squares values for this model and data
+            (none for data without friction columns).
+    """
+    raw = data.raw
+    obs = list(data.observed)
+    f_hat = np.asarray(_force_jit(model, raw.y, raw.currents, _velocity_for(model, raw)))[:, obs]
+    rest = data.force[:, obs] - data.filtered(f_hat)
+    cols = data.filtered_friction()
+    if friction is None:
+        friction = np.linalg.lstsq(cols, rest[:, 0], rcond=None)[0] if cols.shape[1] else np.zeros(0)
+    friction = np.asarray(friction, float)
+    return rest - (cols @ friction)[:, None], friction
+
+
+def sensorless_residual(model: CoilSetModel, data, friction=None):
+    """``(r, friction)``: ``r = m ÿ_f - (F̂_y)_f - [s(ẏ), ẏ]_f (F_c, c)`` ``(J,)`` (N) of a model on sensorless data
+    (:func:`data_residual`'s driving row).
 
     ``friction`` ``(F_c, c)`` (N, N s/m); ``None``: the least-squares values for this model and data.
     """
-    raw = data.raw
-    fy = np.asarray(_force_jit(model, raw.y, raw.currents, _velocity_for(model, raw)))[:, 0]
-    rest = data.target - data.filtered(fy)
-    cols = data.filtered_friction()
-    if friction is None:
-        friction = np.linalg.lstsq(cols, rest, rcond=None)[0]
-    friction = np.asarray(friction, float)
-    return rest - cols @ friction, friction
+    r, friction = data_residual(model, data, friction)
+    return r[:, 0], friction
 
 
 def _consts(layout: _Layout, data: CoilSetData, Lambda, theta_phy_star, ridge_output, damping) -> _Consts:
@@ -586,21 +583,16 @@ def _consts(layout: _Layout, data: CoilSetData, Lambda, theta_phy_star, ridge_ou
     # Column-norm bounds that do not depend on θ_NL (|h| <= 1 for tanh/sigmoid), so the
     # damping rows are constants of the variable projection.
     # ||cos·i||, ||sin·i|| <= ||i||; filtered: ||Σ g' x|| <= ||Σ |g'| |x|||
-    if isinstance(data, SensorlessData):
-        raw = data.raw
-        absf = [np.linalg.norm(filter_abs(data, c)) for c in (raw.currents[:, 0], raw.currents[:, 1],
-                                                               np.ones(raw.n), raw.velocity)]
-        norms = {0: absf[0], 1: absf[1], 2: absf[2]}
-    else:
-        ia, ib = data.currents[:, 0], data.currents[:, 1]
-        norms = {0: np.linalg.norm(ia), 1: np.linalg.norm(ib), 2: np.sqrt(data.n)}
+    raw = data.raw
+    norms = {k: np.linalg.norm(filter_abs(data, c)) for k, c in enumerate((raw.currents[:, 0], raw.currents[:, 1],
+                                                                           np.ones(raw.n)))}
     bound = [norms[0], norms[1], norms[0], norms[1]]
     if layout.harmonics:
         bound += [norms[0], norms[1]] * 4
     if layout.direction:
         bound.append(norms[2])  # |tanh| <= 1
     if layout.friction:
-        bound += [norms[2]] * (layout.friction - 1) + [absf[3]]  # |tanh φ_j| <= 1
+        bound += [norms[2]] * (layout.friction - 1) + [np.linalg.norm(filter_abs(data, raw.velocity))]  # |tanh φ_j| <= 1
     for kind, widths in layout.blocks:
         bound += [norms[kind]] * (widths[-1] + 1)
     damp_w = damping * np.maximum(np.asarray(bound), 1e-300)
@@ -644,15 +636,15 @@ class Proposition1Result:
 
 def _prepare(theta_nl, data, Lambda, theta_phy_star, ridge_output, damping, chunk_size, method):
     layout = _Layout.of(theta_nl, method)
-    if isinstance(data, SensorlessData):
+    if data.n_friction:
         if layout.direction:
             raise ValueError("without a force sensor the direction term is the Coulomb friction column: "
                              "identify without direction=True")
         layout = dataclasses.replace(layout, friction=data.n_friction)
     if chunk_size is None:
         chunk_size = DEFAULT_CHUNK if layout.structured else DEFAULT_CHUNK_GENERIC
-        if isinstance(data, SensorlessData):  # as many raw samples per chunk as unfiltered
-            w = data.filt.length + 1
+        w = np.asarray(data.regressor_taps).shape[0]
+        if w > 1:  # windows of w raw samples: as many raw samples per chunk as unfiltered
             chunk_size = max(8, 1 << max(0, int(np.log2(max(1, chunk_size // w)))))
     star = _star_or_fit(data, theta_nl.pole_pitch, theta_phy_star)
     k = _consts(layout, data, Lambda, star, ridge_output, damping)
