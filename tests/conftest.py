@@ -104,11 +104,12 @@ def _trim_heap_after_test():
 #: at most this many worker processes, whatever the machine's core count ($PYTEST_XDIST_AUTO_NUM_WORKERS overrides)
 MAX_WORKERS = 2
 
-#: the test files that run whole commands end to end (marked ``slow``): ``reproduce --quick`` peaks at ~1.5 GB and
-#: the fleet runs two worker processes of its own, so these run one after the other on one xdist worker (two of
-#: them at once would take the suite over 3 GB), as one work unit that starts first, while the other worker takes
-#: the rest file by file
-END_TO_END = ("test_fleet.py", "test_readme_rig.py", "test_reproduce.py", "test_zoo_pipeline.py")
+#: the test files that run whole commands end to end (marked ``slow``): ``reproduce --quick`` peaks at ~1.2 GB, the
+#: fleet runs two worker processes of its own (~1.8 GB with the test's), and the interrupt tests of
+#: ``test_bad_input.py`` run ``pgcomm reproduce`` as subprocesses, so these run one after the other on one xdist
+#: worker (the fleet beside the subprocesses took the suite to 3.1 GB), as one work unit that starts first, while
+#: the other worker takes the rest file by file
+END_TO_END = ("test_bad_input.py", "test_fleet.py", "test_readme_rig.py", "test_reproduce.py", "test_zoo_pipeline.py")
 
 
 def pytest_xdist_auto_num_workers(config):
