@@ -112,6 +112,13 @@ MAX_WORKERS = 2
 END_TO_END = ("test_bad_input.py", "test_fleet.py", "test_readme_rig.py", "test_reproduce.py", "test_zoo_pipeline.py")
 
 
+#: the other files whose tests run whole commands in-process and reach ~0.9-1.2 GB: they come after the light files,
+#: so that the other worker is on light files while the end-to-end unit starts with the fleet (~1.8 GB with its two
+#: worker processes) and meets them only beside ``test_reproduce.py`` or later
+HEAVY = ("test_cli.py", "test_export_lut.py", "test_export_spline.py", "test_extensions.py", "test_identify.py",
+         "test_safe_law.py", "test_sensorless.py", "test_docs.py", "test_cli_export.py")
+
+
 def pytest_xdist_auto_num_workers(config):
     env = os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS")
     if env:
@@ -141,8 +148,8 @@ def pytest_xdist_make_scheduler(config, log):
 @pytest.hookimpl(tryfirst=True)  # the marks before -m selects on them
 def pytest_collection_modifyitems(config, items):
     """The :data:`END_TO_END` files are ``slow`` and come first (a stable sort; xdist's work units follow the
-    collection's order), so that the suite does not end on them."""
+    collection's order), so that the suite does not end on them; the :data:`HEAVY` files come last."""
     for item in items:
         if item.path.name in END_TO_END:
             item.add_marker(pytest.mark.slow)
-    items.sort(key=lambda item: item.path.name not in END_TO_END)
+    items.sort(key=lambda item: (item.path.name not in END_TO_END, item.path.name in HEAVY))

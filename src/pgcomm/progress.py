@@ -16,11 +16,15 @@ class Progress:
             command line passes a function that raises if a signal arrived whose exception
             was swallowed (a signal handler's exception raised inside a garbage-collector
             callback is only printed by Python), so an interrupt always stops the run.
+        on_stage: called at the start of every stage (not at :meth:`info`, which loops call); the command
+            line passes :func:`pgcomm._memory.release_compiled_programs`, so a command's finished stages
+            do not keep their compiled programs while the next ones compile theirs.
     """
 
-    def __init__(self, enabled: bool = True, stream=None, checkpoint=None):
+    def __init__(self, enabled: bool = True, stream=None, checkpoint=None, on_stage=None):
         self.enabled = enabled
         self._checkpoint = checkpoint
+        self._on_stage = on_stage
         self.stream = stream or sys.stderr
         self.n = 0
         self.t0 = time.perf_counter()
@@ -35,6 +39,8 @@ class Progress:
     def stage(self, msg: str):
         """Context manager around one stage; prints its start and its duration."""
         self.checkpoint()
+        if self._on_stage is not None:
+            self._on_stage()
         self.n += 1
         t = time.perf_counter()
         if self.enabled:

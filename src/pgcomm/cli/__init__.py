@@ -238,7 +238,12 @@ def _main(argv, handlers) -> int:
     module = COMMANDS[args.command]
     from pgcomm.progress import Progress
 
-    progress = Progress(enabled=not args.quiet, checkpoint=_raise_if_interrupted)
+    from pgcomm._memory import release_compiled_programs
+
+    # between stages: a finished stage's compiled programs go (reloaded from the persistent compile cache if a
+    # later stage needs them again), so a command's memory is that of its largest stage, not of all of them
+    progress = Progress(enabled=not args.quiet, checkpoint=_raise_if_interrupted,
+                        on_stage=release_compiled_programs)
     if args.command not in ("inspect",):
         _enable_compile_cache()
     try:
