@@ -30,6 +30,17 @@ by validation on held-out **time blocks** (every ``VALIDATION_EVERY``-th block o
 second of each log, never samples of the same stretch of trajectory), then refitted on all data;
 the choice and the validation curve are reported.
 
+**Orders the basis does not have.** The slot/pole combination sets the orders a healthy motor shows
+(:mod:`pgcomm.rotary.model`); a real one adds others (a chipped magnet, a wound-in tolerance: the
+standstill table, which has every order, would then beat a model that cannot hold them). So the
+identification first fits *every* order up to the basis's highest, cogging and ripple, and keeps an
+order outside the basis only when the data resolve it: ``δᵀ C⁻¹ δ`` (its cosine and sine over their
+2×2 sandwich covariance) above ``2 ln(n/α)``, the χ²₂ quantile that lets a noise-only order in with
+chance at most ``α`` = :data:`EXTRA_ORDER_ALPHA` over the ``n`` candidates of a map. The final fit
+has the basis plus those orders (``info["orders_added"]``), so its variance stays that of a
+structured model. The rows are built a chunk of windows at a time and reduced to normal equations
+(training and validation blocks apart), so the screening's hundreds of orders cost tens of MB.
+
 **With a torque sensor** (column ``torque``, N·m: the air-gap torque): ``T = k0 (1 + r) i_q +
 T_cog(θ)`` sample by sample, no filter; gives ``k0`` (N·m/A), the ripple and the cogging in N·m
 (returned in current units with ``k_t = k0``).
@@ -62,6 +73,11 @@ VALIDATION_EVERY = 4
 BLOCK_SECONDS = 1.0
 #: Ridge weights tried (relative to the mean diagonal of the scaled normal matrix).
 RIDGE_GRID = tuple(10.0 ** np.arange(-10, 0.5, 1.0))
+#: Orders outside the slot/pole basis enter the model when their amplitude is significant at this
+#: family-wise level (chance that a noise-only order gets in, per map).
+EXTRA_ORDER_ALPHA = 0.01
+#: Filter windows per block of rows built at once (memory: rows x columns x 8 bytes).
+CHUNK_WINDOWS = 512
 
 
 @dataclass(frozen=True)
@@ -147,21 +163,38 @@ def _log_arrays(log, i: int, sample_time):
 
 
 def _filt(x, starts, taps):
-    """``Σ_m taps_m x[s_j + m]`` for ``x`` ``(N,)`` or ``(N, k)``."""
-    idx = np.asarray(starts)[:, None] + np.arange(taps.size)
-    return np.tensordot(x[idx], taps, axes=([1], [0]))
+    """``Σ_m taps_m x[s_j + m]`` for ``x`` ``(N,)`` or ``(N, k)``, one tap at a time (no ``(J, m, k)`` gather)."""
+    st = np.asarray(starts)
+    out = taps[0] * x[st]
+    for m in range(1, taps.size):
+        out = out + taps[m] * x[st + m]
+    return out
 
 
-def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int):
-    """Filtered target and regressor blocks over all logs (module docstring)."""
-    g = _hann(taps)
-    g_zoh = np.convolve(g, _ZOH)  # (T+1,) on samples s .. s+T
-    g_tri = np.convolve(g, _TRI)  # (T+2,) on samples s .. s+T+1
+@dataclass
+class _Prepared:
+    """One log's arrays and its usable windows (starts, samples)."""
+
+    index: int
+    theta: np.ndarray
+    iq: np.ndarray
+    sgn: np.ndarray
+    w: np.ndarray
+    starts: np.ndarray
+    ts: float
+
+
+def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int):
+    """The usable windows of every log: the alias guard, and no window near standstill or reversing.
+
+    Returns:
+        ``(prepared, counts, v_limit, ts)``: a :class:`_Prepared` per log with windows, the window counts
+        (``windows``, ``alias``, ``slow``), the alias guard's speed limit (rad/s), the median sample time (s).
+    """
     span = taps + 2  # samples of θ one output needs: s .. s+T+1
     stride = max(1, taps // 2)
-    blocks = {k: [] for k in ("y", "acc", "rip", "cog", "dir", "visc", "sgn", "block", "log")}
     counts = {"windows": 0, "alias": 0, "slow": 0}
-    ts_all = []
+    prepared, ts_all = [], []
     v_limit = None
     for i, log in enumerate(logs):
         name, th, iq, _, ts = _log_arrays(log, i, motor.sample_time)
@@ -186,63 +219,211 @@ def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: 
         counts["windows"] += int(s_all.size)
         counts["slow"] += int(slow.sum())
         counts["alias"] += int(alias.sum())
-        st = s_all[ok]
-        if st.size == 0:
-            continue
-        sgn = np.sign(w)
-        d2 = th[2:] - 2 * th[1:-1] + th[:-2]  # d2[i-1] is Δ²θ at sample i
-        acc = _filt(d2, st, g) / ts**2  # Σ g_k Δ²θ[s+k+1]
-        phi_r = harmonic_columns(th, orders.ripple)
-        phi_c = harmonic_columns(th, orders.cogging)
-        phi_d = harmonic_columns(th, orders.direction)
-        blocks["y"].append(_filt(iq, st, g_zoh))
-        blocks["acc"].append(acc)
-        blocks["rip"].append(_filt(iq[:, None] * phi_r, st, g_zoh))
-        blocks["cog"].append(_filt(phi_c, st, g_tri))
-        blocks["dir"].append(_filt(sgn[:, None] * phi_d, st, g_tri))
-        blocks["visc"].append(_filt(w, st, g_tri))
-        blocks["sgn"].append(sgn[st + span // 2])
-        blocks["block"].append(np.floor(st * ts / BLOCK_SECONDS).astype(int))
-        blocks["log"].append(np.full(st.size, i))
-    if not blocks["y"]:
+        if np.any(ok):
+            prepared.append(_Prepared(i, th, iq, np.sign(w), w, s_all[ok], ts))
+    if not prepared:
         lim = f"{v_limit:.3g} rad/s" if v_limit is not None else "?"
         raise ExcitationError(
             f"no usable window in {len(logs)} log(s): {counts['alias']} of {counts['windows']} windows too fast for "
             f"the encoder-sampled cogging (highest order {orders.highest} per revolution needs <= {lim} for "
             f"{min_samples:g} samples per period), {counts['slow']} near standstill or reversing")
-    out = {k: np.concatenate(v) for k, v in blocks.items()}
-    return out, counts, v_limit, float(np.median(ts_all))
+    return prepared, counts, v_limit, float(np.median(ts_all))
 
 
-def _solve(X, y, penalised, lam_rel, train, clusters=None):
-    """Ridge solution on rows ``train``; columns scaled to unit RMS first.
+def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS):
+    """Filtered target and regressor blocks (module docstring), ``chunk`` windows at a time: the Fourier
+    columns are built only over the samples a chunk needs, so a basis of hundreds of orders on minutes of
+    1 kHz logs stays within a few tens of MB.
 
-    With ``clusters`` (``(N,)`` int labels of the rows), also the estimate's covariance
-    ``A⁻¹ (Σ_b X_bᵀ e_b e_bᵀ X_b) A⁻¹`` (``A`` the regularised normal matrix, ``e`` the residuals,
-    ``b`` the clusters): the sandwich that holds when the rows are correlated within a cluster (the
-    overlapping filter windows of one time block) and the noise is not white (encoder quantisation,
-    friction), as long as the blocks are roughly independent. Returns ``beta`` or ``(beta, cov)``.
+    Yields:
+        dict of ``(J,)`` / ``(J, k)`` arrays: ``y``, ``acc``, ``rip``, ``cog``, ``dir``, ``visc``, ``sgn``,
+        ``block`` (one-second time block, unique over the logs).
     """
-    scale = np.sqrt(np.mean(X[train] ** 2, axis=0))
+    g = _hann(taps)
+    g_zoh = np.convolve(g, _ZOH)  # (T+1,) on samples s .. s+T
+    g_tri = np.convolve(g, _TRI)  # (T+2,) on samples s .. s+T+1
+    span = taps + 2
+    for p in prepared:
+        for k in range(0, p.starts.size, chunk):
+            st = p.starts[k:k + chunk]
+            lo, hi = int(st[0]), int(st[-1]) + span
+            loc = st - lo
+            th, iq, sgn = p.theta[lo:hi], p.iq[lo:hi], p.sgn[lo:hi]
+            d2 = th[2:] - 2 * th[1:-1] + th[:-2]  # d2[i-1] is Δ²θ at sample i
+            phi_r = harmonic_columns(th, orders.ripple)
+            phi_c = harmonic_columns(th, orders.cogging)
+            phi_d = harmonic_columns(th, orders.direction)
+            yield {"y": _filt(iq, loc, g_zoh), "acc": _filt(d2, loc, g) / p.ts**2,
+                   "rip": _filt(iq[:, None] * phi_r, loc, g_zoh), "cog": _filt(phi_c, loc, g_tri),
+                   "dir": _filt(sgn[:, None] * phi_d, loc, g_tri), "visc": _filt(p.w[lo:hi], loc, g_tri),
+                   "sgn": sgn[loc + span // 2],
+                   "block": np.floor(st * p.ts / BLOCK_SECONDS).astype(np.int64) + 100003 * p.index}
+
+
+def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int):
+    """All filtered rows of all logs at once (for the few columns of :func:`fit_mechanics`)."""
+    prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples, taps)
+    parts = list(_chunks(prepared, orders, taps))
+    return {k: np.concatenate([c[k] for c in parts]) for k in parts[0]}, counts, v_limit, ts
+
+
+@dataclass
+class _Layout:
+    """Columns of the regression ``[J/k0, -ripple, -cogging, direction, b]`` for one set of orders: which
+    are kept (the sine of order 0 and a constant in ``r`` or ``c`` are not the model's) and penalised."""
+
+    orders: Orders
+    keep: np.ndarray
+    pen: np.ndarray
+    o_r: np.ndarray
+    o_c: np.ndarray
+    o_d: np.ndarray
+
+    @classmethod
+    def of(cls, orders: Orders) -> "_Layout":
+        nr, nc, nd = 2 * orders.ripple.size, 2 * orders.cogging.size, 2 * orders.direction.size
+        n = 2 + nr + nc + nd
+        keep = np.ones(n, bool)
+        pen = np.ones(n, bool)
+        pen[0] = pen[-1] = False  # J/k0 and b are not penalised
+        o_r = 1 + np.arange(nr)
+        o_c = 1 + nr + np.arange(nc)
+        o_d = 1 + nr + nc + np.arange(nd)
+        for j in np.flatnonzero(orders.direction == 0):
+            pen[o_d[j]] = False  # Coulomb friction: cos(0·θ)·s
+            keep[o_d[orders.direction.size + j]] = False
+        for o, cols in ((orders.ripple, o_r), (orders.cogging, o_c)):
+            for j in np.flatnonzero(o == 0):
+                keep[cols[j]] = keep[cols[o.size + j]] = False
+        return cls(orders, keep, pen, o_r, o_c, o_d)
+
+    def rows(self, ch) -> np.ndarray:
+        return np.column_stack([ch["acc"], -ch["rip"], -ch["cog"], ch["dir"], ch["visc"]])[:, self.keep]
+
+
+def _is_validation(block) -> np.ndarray:
+    return (block % VALIDATION_EVERY) == (VALIDATION_EVERY - 1)
+
+
+def _normal_equations(prepared, layout: _Layout, taps: int):
+    """Normal equations of the training and the validation rows: ``G (2, p, p)``, ``b (2, p)``,
+    ``yy (2,)``, ``n (2,)`` (index 0 training, 1 validation)."""
+    p = int(layout.keep.sum())
+    G, b, yy, n = np.zeros((2, p, p)), np.zeros((2, p)), np.zeros(2), np.zeros(2)
+    for ch in _chunks(prepared, layout.orders, taps):
+        X, y = layout.rows(ch), ch["y"]
+        val = _is_validation(ch["block"])
+        for k, m in ((0, ~val), (1, val)):
+            Xm, ym = X[m], y[m]
+            G[k] += Xm.T @ Xm
+            b[k] += Xm.T @ ym
+            yy[k] += ym @ ym
+            n[k] += ym.size
+    return G, b, yy, n
+
+
+def _ridge(G, b, n, penalty, lam_rel):
+    """Ridge solution from normal equations, columns scaled to unit RMS first; the weight is ``lam_rel``
+    times the mean diagonal of the scaled matrix. Returns ``(beta, A, scale)`` (``A`` the scaled, regularised
+    normal matrix)."""
+    scale = np.sqrt(np.diag(G) / max(n, 1.0))
     scale[scale == 0] = 1.0
-    Xs = X[train] / scale
-    A = Xs.T @ Xs
-    b = Xs.T @ y[train]
+    A = G / np.outer(scale, scale)
     lam = lam_rel * np.trace(A) / A.shape[0]
-    A = A + np.diag(lam * penalised.astype(float))
+    A = A + np.diag(lam * penalty)
+    bs = b / scale
     try:
-        beta = np.linalg.solve(A, b)
+        beta = np.linalg.solve(A, bs)
     except np.linalg.LinAlgError:
-        beta = np.linalg.lstsq(A, b, rcond=None)[0]
-    if clusters is None:
-        return beta / scale
-    e = y[train] - Xs @ beta
-    _, lab = np.unique(clusters[train], return_inverse=True)
-    score = np.zeros((lab.max() + 1, Xs.shape[1]))
-    np.add.at(score, lab, Xs * e[:, None])  # Σ over each cluster's rows of x_i e_i
+        beta = np.linalg.lstsq(A, bs, rcond=None)[0]
+    return beta / scale, A, scale
+
+
+def _fit(prepared, layout: _Layout, taps: int, ridge: float | None):
+    """Ridge fit of one layout: the weight validated on held-out time blocks (or ``ridge``), the refit on all
+    rows, and the estimate's covariance ``A⁻¹ (Σ_b X_bᵀ e_b e_bᵀ X_b) A⁻¹`` (``A`` the regularised normal
+    matrix, ``e`` the residuals, ``b`` the one-second blocks): the sandwich that holds when the rows are
+    correlated within a block (the overlapping filter windows) and the noise is not white (encoder
+    quantisation, friction), as long as the blocks are roughly independent.
+
+    Returns:
+        dict: ``beta`` (kept columns, unscaled), ``cov``, ``ridge``, ``curve`` (validation MSE per grid
+        weight, A²), ``cost`` (mean squared residual, A²), ``rows``, ``blocks``.
+    """
+    G, b, yy, n = _normal_equations(prepared, layout, taps)
+    pen = layout.pen[layout.keep].astype(float)
+    curve = []
+    if ridge is None:
+        for lam in RIDGE_GRID:
+            beta, _, _ = _ridge(G[0], b[0], n[0], pen, lam)
+            curve.append(float((yy[1] - 2 * beta @ b[1] + beta @ G[1] @ beta) / max(n[1], 1.0)))
+        lam = RIDGE_GRID[int(np.argmin(curve))]
+    else:
+        lam = float(ridge)
+    beta, A, scale = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, lam)
+    scores, sse = {}, 0.0
+    for ch in _chunks(prepared, layout.orders, taps):
+        X = layout.rows(ch)
+        e = ch["y"] - X @ beta
+        sse += float(e @ e)
+        lab, inv = np.unique(ch["block"], return_inverse=True)
+        part = np.zeros((lab.size, X.shape[1]))
+        np.add.at(part, inv, (X / scale) * e[:, None])
+        for j, c in enumerate(lab):
+            scores[c] = scores[c] + part[j] if c in scores else part[j]
+    S = np.array(list(scores.values()))
     a_inv = np.linalg.pinv(A)
-    cov = a_inv @ (score.T @ score) @ a_inv
-    return beta / scale, cov / np.outer(scale, scale)
+    cov = (a_inv @ (S.T @ S) @ a_inv) / np.outer(scale, scale)
+    rows = float(n[0] + n[1])
+    # per-block influence on the estimate, A⁻¹ s_b (unscaled): the screening's effective number of blocks
+    influence = (S @ a_inv) / scale
+    return {"beta": beta, "cov": cov, "ridge": float(lam), "curve": curve, "cost": sse / rows, "rows": int(rows),
+            "blocks": len(scores), "influence": influence}
+
+
+def _full(structured: np.ndarray) -> np.ndarray:
+    """Every order from 1 to the basis's highest, and the basis's own (order 0 where it has it)."""
+    top = int(np.max(structured, initial=0))
+    return np.union1d(np.asarray(structured, int), np.arange(1, top + 1))
+
+
+def _significant_extra_orders(fit: dict, layout: _Layout, structured: Orders, alpha: float) -> dict:
+    """Orders outside the slot/pole basis whose amplitude the data resolve: ``T² = δᵀ C⁻¹ δ`` (``δ`` the
+    order's cosine and sine, ``C`` their 2×2 sandwich covariance) above the ``1 − α/n`` quantile of its
+    null distribution (``n`` the candidate orders of the map: at most ``α`` chance over the map that a
+    noise-only order gets in). ``C`` is estimated from ``B`` time blocks, so ``T²`` follows Hotelling's
+    ``2(B−1)/(B−2) F(2, B−2)``, not χ²₂: with the 8 blocks of a short log the χ²₂ quantile let in about
+    five noise orders per map; the F quantile lets in none, and tends to χ²₂ (``2 ln(n/α)``) for long logs.
+
+    Returns:
+        ``{"cogging": int array, "ripple": int array, "threshold": {...}}``.
+    """
+    beta = np.zeros(layout.keep.size)
+    beta[layout.keep] = fit["beta"]
+    cov = np.zeros((layout.keep.size, layout.keep.size))
+    cov[np.ix_(layout.keep, layout.keep)] = fit["cov"]
+    from scipy.stats import f as f_dist
+
+    infl = np.zeros((fit["influence"].shape[0], layout.keep.size))
+    infl[:, layout.keep] = fit["influence"]
+    out = {"threshold": {}}
+    for name, cols, full, basis in (("cogging", layout.o_c, layout.orders.cogging, structured.cogging),
+                                    ("ripple", layout.o_r, layout.orders.ripple, structured.ripple)):
+        cand = np.flatnonzero(~np.isin(full, basis) & (full > 0))
+        chosen, q = [], alpha / max(cand.size, 1)
+        for j in cand:
+            ij = [cols[j], cols[full.size + j]]
+            d = beta[ij]
+            c_inv = np.linalg.pinv(cov[np.ix_(ij, ij)])
+            z2 = float(d @ c_inv @ d)
+            u = infl[:, ij]
+            share = np.einsum("bi,ij,bj->b", u, c_inv, u)  # each block's part of the variance (sums to 2)
+            b_eff = float(np.sum(share) ** 2 / max(np.sum(share**2), 1e-300))
+            if b_eff > 3 and z2 > 2.0 * (b_eff - 1) / (b_eff - 2) * float(f_dist.isf(q, 2, b_eff - 2)):
+                chosen.append(int(full[j]))
+        out["threshold"][name] = {"alpha": alpha, "candidates": int(cand.size)}
+        out[name] = np.array(chosen, int)
+    return out
 
 
 def _map_standard_error(cov_block, map_orders) -> float:
@@ -258,7 +439,7 @@ def _map_standard_error(cov_block, map_orders) -> float:
 
 def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
              min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
-             ridge: float | None = None) -> RotaryIdentification:
+             ridge: float | None = None, extra_orders: bool = True) -> RotaryIdentification:
     """Identify cogging, torque-constant ripple, the direction-dependent torque and friction.
 
     Args:
@@ -271,6 +452,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         min_samples_per_period: the alias guard (module docstring).
         taps: Hann window length (samples).
         ridge: fixed relative ridge weight instead of the validated choice.
+        extra_orders: let the data add cogging and ripple orders outside ``orders`` (module docstring,
+            "Orders the basis does not have").
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -284,65 +467,48 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     orders = orders or Orders.for_motor(motor)
     if torque_sensor:
         return _identify_torque(logs, motor, orders, t0)
-    d, counts, v_limit, ts = _design(logs, motor, orders, min_samples_per_period, taps)
-    nr, nc, nd = 2 * orders.ripple.size, 2 * orders.cogging.size, 2 * orders.direction.size
-    X = np.column_stack([d["acc"], -d["rip"], -d["cog"], d["dir"], d["visc"]])
-    y = d["y"]
-    # sine of order 0 is a zero column: drop it; penalise every Fourier column but the Coulomb term
-    keep = np.ones(X.shape[1], bool)
-    pen = np.ones(X.shape[1], bool)
-    pen[0] = False
-    pen[-1] = False
-    o_r = 1 + np.arange(nr)
-    o_c = 1 + nr + np.arange(nc)
-    o_d = 1 + nr + nc + np.arange(nd)
-    dir0 = np.flatnonzero(orders.direction == 0)
-    for j in dir0:
-        pen[o_d[j]] = False  # Coulomb friction: cos(0·θ)·s
-        keep[o_d[orders.direction.size + j]] = False
-    for o, cols in ((orders.ripple, o_r), (orders.cogging, o_c)):
-        for j in np.flatnonzero(o == 0):
-            keep[cols[j]] = keep[cols[o.size + j]] = False  # a constant in r or c is not the model's
-    Xk = X[:, keep]
-    pk = pen[keep]
-    n_rows = y.size
-    if n_rows < 2 * Xk.shape[1]:
-        raise ExcitationError(f"{n_rows} usable windows for {Xk.shape[1]} unknowns: record longer running logs "
+    prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps)
+    n_windows = sum(p.starts.size for p in prepared)
+    added = {"cogging": np.zeros(0, int), "ripple": np.zeros(0, int)}
+    screen = None
+    if extra_orders:
+        full = Orders(_full(orders.cogging), _full(orders.ripple), orders.direction)
+        n_extra = full.cogging.size + full.ripple.size - orders.cogging.size - orders.ripple.size
+        lay_full = _Layout.of(full)
+        if n_extra and n_windows >= 2 * int(lay_full.keep.sum()):
+            screen = _significant_extra_orders(_fit(prepared, lay_full, taps, ridge), lay_full, orders,
+                                               EXTRA_ORDER_ALPHA)
+            added = {k: screen[k] for k in ("cogging", "ripple")}
+    final = Orders(np.union1d(orders.cogging, added["cogging"]), np.union1d(orders.ripple, added["ripple"]),
+                   orders.direction)
+    layout = _Layout.of(final)
+    n_unknowns = int(layout.keep.sum())
+    if n_windows < 2 * n_unknowns:
+        raise ExcitationError(f"{n_windows} usable windows for {n_unknowns} unknowns: record longer running logs "
                               f"(speeds up to {v_limit:.3g} rad/s, both directions)")
-    # validation on held-out time blocks of every log
-    blk = d["block"] + 100003 * d["log"]
-    val = (blk % VALIDATION_EVERY) == (VALIDATION_EVERY - 1)
-    train = ~val
-    curve = []
-    if ridge is None:
-        for lam in RIDGE_GRID:
-            beta = _solve(Xk, y, pk, lam, train)
-            curve.append(float(np.mean((y[val] - Xk[val] @ beta) ** 2)))
-        best = int(np.argmin(curve))
-        lam = RIDGE_GRID[best]
-    else:
-        lam = float(ridge)
-    beta_k, cov_k = _solve(Xk, y, pk, lam, np.ones(n_rows, bool), clusters=blk)
-    beta = np.zeros(X.shape[1])
-    beta[keep] = beta_k
-    cov = np.zeros((X.shape[1], X.shape[1]))
-    cov[np.ix_(keep, keep)] = cov_k
-    cost = float(np.mean((y - Xk @ beta_k) ** 2))
+    fit = _fit(prepared, layout, taps, ridge)
+    beta = np.zeros(layout.keep.size)
+    beta[layout.keep] = fit["beta"]
+    cov = np.zeros((layout.keep.size, layout.keep.size))
+    cov[np.ix_(layout.keep, layout.keep)] = fit["cov"]
+    o_r, o_c, o_d = layout.o_r, layout.o_c, layout.o_d
     model = RotaryModel(
         motor.pole_pairs,
-        cogging=Fourier.from_vector(orders.cogging, beta[o_c]),
-        ripple=Fourier.from_vector(orders.ripple, beta[o_r]),
-        direction=Fourier.from_vector(orders.direction, beta[o_d]),
+        cogging=Fourier.from_vector(final.cogging, beta[o_c]),
+        ripple=Fourier.from_vector(final.ripple, beta[o_r]),
+        direction=Fourier.from_vector(final.direction, beta[o_d]),
         viscous=float(beta[-1]), inertia_ratio=float(beta[0]), k_t=motor.k_t,
         info={"method": "running logs, no torque sensor"})
-    standard_error = _standard_errors(model, cov, o_r, o_c, o_d, orders, n_rows, blk)
-    info = {"windows": counts["windows"], "windows_used": int(n_rows), "windows_refused_alias": counts["alias"],
+    standard_error = _standard_errors(model, cov, o_r, o_c, o_d, final, fit["blocks"])
+    info = {"windows": counts["windows"], "windows_used": int(n_windows), "windows_refused_alias": counts["alias"],
             "windows_refused_slow": counts["slow"], "speed_limit_rad_s": v_limit,
             "min_samples_per_period": float(min_samples_per_period), "highest_order": orders.highest,
-            "filter_taps": int(taps), "unknowns": int(Xk.shape[1]), "ridge": float(lam),
+            "filter_taps": int(taps), "unknowns": n_unknowns, "ridge": fit["ridge"],
             "ridge_chosen_by": "validation on held-out time blocks" if ridge is None else "given",
-            "validation_curve": {f"{l:.0e}": c for l, c in zip(RIDGE_GRID, curve)},
-            "cost_A2": cost, "inertia_ratio": float(beta[0]), "standard_error": standard_error,
+            "validation_curve": {f"{l:.0e}": c for l, c in zip(RIDGE_GRID, fit["curve"])},
+            "orders_added": {k: v.tolist() for k, v in added.items()},
+            "orders_screened": screen is not None,
+            "cost_A2": fit["cost"], "inertia_ratio": float(beta[0]), "standard_error": standard_error,
             "seconds": time.perf_counter() - t0}
     if counts["alias"]:
         info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "
@@ -355,14 +521,14 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
 RESOLVED_SHARE = 0.05
 
 
-def _standard_errors(model: RotaryModel, cov, o_r, o_c, o_d, orders: Orders, n_rows: int, clusters) -> dict:
+def _standard_errors(model: RotaryModel, cov, o_r, o_c, o_d, orders: Orders, blocks: int) -> dict:
     """How well the logs determine each map: expected RMS error over the revolution, relative to the
     map's identified RMS, and the running-log time that would bring it to :data:`RESOLVED_SHARE`.
 
     The expected error is the noise part only (the ridge's bias and what the basis cannot represent come on
     top); it falls as the square root of the log time at the same excitation, which gives the time needed.
     """
-    out = {"blocks": int(np.unique(clusters).size), "resolved_share": RESOLVED_SHARE}
+    out = {"blocks": int(blocks), "resolved_share": RESOLVED_SHARE}
     th = 2 * math.pi * np.arange(4096) / 4096
     for name, cols, fn, map_orders in (("cogging", o_c, model.cogging, orders.cogging),
                                        ("ripple", o_r, model.ripple, orders.ripple),

@@ -59,6 +59,14 @@ def _identification_html(r: dict) -> str:
              f"{_g(ident.get('ridge'))} ({html.escape(str(ident.get('ridge_chosen_by', '–')))}); J/k0 "
              f"{_g(ident.get('inertia_ratio'), 4)} A·s²/rad."
              + (f" {ident['rounds']} round(s) of running logs." if "rounds" in ident else "") + "</p>"]
+    added = ident.get("orders_added") or {}
+    if ident.get("orders_screened"):
+        found = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in added.items() if v)
+        parts.append("<p>Orders outside the slot/pole basis that the logs resolve (added to the model): "
+                     + (html.escape(found) if found else "none") + ".</p>")
+    elif "orders_screened" in ident:
+        parts.append("<p>Orders outside the slot/pole basis were not screened: the logs have fewer than twice as "
+                     "many windows as the full basis has unknowns.</p>")
     if rows:
         parts.append("<p>Standard error: the expected RMS error over the revolution from the noise (one-second "
                      "time blocks), relative to the map's RMS; a map is resolved at "
