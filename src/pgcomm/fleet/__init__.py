@@ -38,8 +38,8 @@ Modules: :mod:`~pgcomm.fleet.motor` (one motor: the task and its rows), :mod:`~p
 
 from pgcomm.fleet.cluster import WORKER_ENV, FleetRun, WorkerSetup, run_fleet
 from pgcomm.fleet.motor import COLUMNS, QA_QUANTITIES, ROWS_FILE, analyse_motor, find_motors, is_finished, process_motor
-from pgcomm.fleet.qa import DEFAULT_OUTLIER_Z, flag_outliers, fleet_rows, robust_z, write_fleet_table
-from pgcomm.fleet.report import write_fleet_html
+from pgcomm.fleet.qa import DEFAULT_OUTLIER_Z, flag_outliers, fleet_rows, robust_z
+from pgcomm.fleet.report import write_fleet_html, write_fleet_table
 
 __all__ = ["WORKER_ENV", "COLUMNS", "QA_QUANTITIES", "DEFAULT_OUTLIER_Z", "ROWS_FILE", "find_motors",
            "is_finished", "process_motor", "analyse_motor", "fleet_rows", "robust_z", "flag_outliers",

@@ -13,7 +13,8 @@ from pathlib import Path
 
 from pgcomm.defaults import DEFAULT_OUTLIER_Z
 from pgcomm.fleet.motor import _FAILED, _failed_row, find_motors, is_finished, process_motor
-from pgcomm.fleet.qa import fleet_rows, write_fleet_table
+from pgcomm.fleet.qa import fleet_rows
+from pgcomm.fleet.report import write_fleet_table
 
 #: Environment of a worker process: XLA and BLAS/OpenMP on one thread each (one task per worker).
 WORKER_ENV = {

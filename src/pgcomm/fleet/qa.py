@@ -1,4 +1,5 @@
-"""The fleet table and its QA: rows of every motor, robust z-scores, outliers; ``fleet.parquet`` / ``fleet.csv``.
+"""The fleet table's rows and their QA: rows of every motor, robust z-scores, outliers (the files they go
+to: :mod:`pgcomm.fleet.report`).
 """
 
 from __future__ import annotations
@@ -23,31 +24,6 @@ def fleet_rows(out_dir, names) -> list[dict]:
                 rows += [{c: r.get(c) for c in COLUMNS} for r in json.loads(path.read_text())["rows"]]
                 break
     return rows
-
-
-def write_fleet_table(out_dir, rows, threshold: float = DEFAULT_OUTLIER_Z) -> list[Path]:
-    """Write ``fleet.parquet``, ``fleet.csv`` (columns :data:`COLUMNS`) and ``fleet.html`` atomically.
-
-    Returns:
-        the three paths.
-    """
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-    import pyarrow.parquet as pq
-
-    from pgcomm.io.atomic import atomic_path
-
-    out_dir = Path(out_dir)
-    types = {"motor": pa.string(), "coil_set": pa.int64(), "status": pa.string(), "error": pa.string()}
-    table = pa.table({c: pa.array([r.get(c) for r in rows], type=types.get(c, pa.float64())) for c in COLUMNS})
-    with atomic_path(out_dir / "fleet.parquet") as tmp:
-        pq.write_table(table, str(tmp))
-    with atomic_path(out_dir / "fleet.csv") as tmp:
-        pacsv.write_csv(table, str(tmp))
-    from pgcomm.fleet.report import write_fleet_html  # the report imports the QA
-
-    html_path = write_fleet_html(out_dir / "fleet.html", rows, threshold)
-    return [out_dir / "fleet.parquet", out_dir / "fleet.csv", html_path]
 
 
 def robust_z(x) -> np.ndarray:

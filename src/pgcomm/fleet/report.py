@@ -1,4 +1,5 @@
-"""``fleet.html``: the distributions of the QA quantities with the outliers marked.
+"""The fleet's outputs: ``fleet.parquet`` / ``fleet.csv`` (the rows) and ``fleet.html`` (the distributions of
+the QA quantities with the outliers marked).
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from pgcomm.defaults import DEFAULT_OUTLIER_Z
-from pgcomm.fleet.motor import QA_QUANTITIES
+from pgcomm.fleet.motor import COLUMNS, QA_QUANTITIES
 from pgcomm.fleet.qa import flag_outliers
 
 _LABELS = {"k": "k (N/A)", "zeta": "zeta (rad)", "cogging_pp": "cogging amplitude, peak-to-peak in y (N)",
@@ -79,3 +80,25 @@ def write_fleet_html(path, rows, threshold: float = DEFAULT_OUTLIER_Z) -> Path:
     atomic_write_text(path, "\n".join(parts))
     return Path(path)
 
+
+def write_fleet_table(out_dir, rows, threshold: float = DEFAULT_OUTLIER_Z) -> list[Path]:
+    """Write ``fleet.parquet``, ``fleet.csv`` (columns :data:`COLUMNS`) and ``fleet.html`` atomically.
+
+    Returns:
+        the three paths.
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    from pgcomm.io.atomic import atomic_path
+
+    out_dir = Path(out_dir)
+    types = {"motor": pa.string(), "coil_set": pa.int64(), "status": pa.string(), "error": pa.string()}
+    table = pa.table({c: pa.array([r.get(c) for r in rows], type=types.get(c, pa.float64())) for c in COLUMNS})
+    with atomic_path(out_dir / "fleet.parquet") as tmp:
+        pq.write_table(table, str(tmp))
+    with atomic_path(out_dir / "fleet.csv") as tmp:
+        pacsv.write_csv(table, str(tmp))
+    html_path = write_fleet_html(out_dir / "fleet.html", rows, threshold)
+    return [out_dir / "fleet.parquet", out_dir / "fleet.csv", html_path]
