@@ -7,8 +7,6 @@ ripple of a short (quick-sized) run is held to 10 %, the direction map to 15 %. 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
