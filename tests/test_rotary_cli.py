@@ -94,6 +94,7 @@ def test_real_drive_log_shape_gives_the_same_model(tmp_path, zoo):
     ("no iq", "no column 'iq_1'|no q-axis current|coil set"),
     ("nan", "nan.csv row 50 column 'theta': nan is not a finite number"),
     ("family", "--family spline"),
+    ("sweep one way", "sweep.csv: the angle moves one way only"),
 ])
 def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
     log = sorted((zoo / "logs").glob("*.csv"))[0]
@@ -115,6 +116,11 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
         args += ["--data", str(p)]
     elif case == "family":
         args += ["--data", str(log), "--family", "spline"]
+    elif case == "sweep one way":
+        sweep = (zoo / "sweep" / "sweep.csv").read_text().splitlines()
+        p = tmp_path / "sweep.csv"
+        p.write_text("\n".join(sweep[: len(sweep) // 2]) + "\n")  # the forward pass only
+        args += ["--data", str(log), "--sweep", str(p)]
     capsys.readouterr()
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
@@ -122,3 +128,48 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
     assert __import__("re").search(match, err), err
     assert "Traceback" not in err
     assert not (tmp_path / "out").exists()
+
+
+def test_sweep_log_gives_the_drives_table_and_agrees_with_the_model(tmp_path, zoo):
+    """``--sweep``: the drives' table from the zoo's logged slow sweep (a revolution each way) is within 3x
+    its own noise estimate of the truth, the running-log model's table agrees with it within the two noises
+    (the same factor as the twin's comparison), and the table exports like the model's."""
+    from pgcomm.rotary.experiment import AGREEMENT_FACTOR
+
+    out = _identify(tmp_path, zoo / "motor.toml", sorted((zoo / "logs").glob("*.csv")),
+                    ["--sweep", str(zoo / "sweep" / "sweep.csv")])
+    res = json.loads((out / "results.json").read_text())
+    sw = res["standstill_sweep"]
+    assert sw["coverage"] == 1.0 and sw["table_written"] and sw["within_noise"]
+    assert sw["rms_model_minus_sweep_A"] <= AGREEMENT_FACTOR * sw["expected_rms_difference_A"]
+    table = read_angle_table(out / "standstill_table.csv")
+    assert table.n == sw["points"] and table.current_limit == pytest.approx(read_truth(zoo / "truth.json").motor
+                                                                            .current_limit)
+    tm = read_truth(zoo / "truth.json").model()
+    truth = tm.table(table.n)  # entry j at 2πj/n, both directions averaged: the drives' convention
+    err = float(np.sqrt(np.mean((table.iq - truth) ** 2)))
+    assert err <= 3 * sw["noise_A"], (err, sw["noise_A"])
+    assert "Against the drives' standstill sweep" in (out / "report.html").read_text()
+    assert main(["export", "--format", "moteus", "--table", str(out / "standstill_table.csv"), "--out",
+                 str(tmp_path / "m"), "--quiet"]) == 0
+
+
+def test_sweep_table_noise_estimate_predicts_its_error():
+    """:func:`table_from_sweep` on twin sweeps of two speeds: the RMS error against the truth is within a
+    factor 2 of the table's own noise estimate (its white-noise part), and a faster sweep is noisier."""
+    from pgcomm.rotary.standstill import sweep_reference, table_from_sweep
+    from pgcomm.rotary.twin import LawParams, default_gains, simulate
+    from pgcomm.rotary.zoo import draw_rotary
+
+    t = draw_rotary(0, 3)
+    tm = t.model()
+    noise = []
+    for secs in (20.0, 60.0):
+        log = simulate(t, sweep_reference(t.motor.sample_time, secs), LawParams.classical(t.motor.pole_pairs),
+                       default_gains(t.inertia / t.k0), seed=5)
+        sw = table_from_sweep(log["theta"], log["iq_1"], t.motor.sample_time)
+        assert sw.coverage == 1.0
+        err = float(np.sqrt(np.mean((sw.table - tm.table(sw.theta.size)) ** 2)))
+        assert 0.5 <= err / sw.noise <= 2.0, (secs, err, sw.noise)
+        noise.append(sw.noise / np.sqrt(np.mean(tm.table(sw.theta.size) ** 2)))
+    assert noise[0] > noise[1]

@@ -39,6 +39,10 @@ def configure(p) -> None:
                    help="model family: pgnn (the paper's, default) or spline (the fundamental's coefficients, "
                         "cogging and direction force tabulated along the stroke, knots by cross-validation; the "
                         "file also carries the mass, viscous friction and Coulomb table for the feedforward)")
+    p.add_argument("--sweep", nargs="+", metavar="LOG",
+                   help="rotary motors: a logged slow position sweep in both directions (t, theta, iq_1), the "
+                        "drives' own calibration: its table is computed, compared with the identified model's "
+                        "against both noises, and written as standstill_table.csv")
     p.add_argument("--no-force-sensor", action="store_true",
                    help="identify without force measurements: the y row from the motion (m ÿ + friction, the "
                         "moving mass from the motor TOML key mass), x/z rows classical with the motor's nominal "
@@ -65,6 +69,11 @@ def run(args, out: Path, progress) -> None:
     if motor_is_rotary(args):
         _identify_rotary(args, out, progress, t0)
         return
+    if args.sweep:
+        from pgcomm.errors import ConfigError
+
+        raise ConfigError("--sweep: the drives' standstill sweep is a rotary motor's comparison (--motor with "
+                          "kind = \"rotary\"); a linear motor's cogging table comes from pgcomm reproduce")
     setup = _setup(args)
     sensorless = bool(args.no_force_sensor)
     _refuse_spline_without_force(args, sensorless)
@@ -249,6 +258,13 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                 "as much running log at the same excitation would resolve it"))
     model = replace(res.model, info={**res.model.info, "motor": motor.name, "current_limit": motor.current_limit,
                                      "logs": [lg.source for lg in logs]})
+    sweep = None
+    if args.sweep:
+        with progress.stage(f"the drives' table from the standstill sweep ({len(args.sweep)} log pattern(s))"):
+            sweep, sweep_info = _sweep_table(args, mapping, model, res.info)
+            progress.info(f"sweep table: {sweep.theta.size} bins, coverage {100 * sweep.coverage:.0f} %, noise "
+                          f"{sweep_info['noise_A']:.3g} A; model minus sweep {sweep_info['rms_model_minus_sweep_A']:.3g}"
+                          f" A RMS against {sweep_info['expected_rms_difference_A']:.3g} A from the two noises")
     n = ROTARY_TABLE_ENTRIES
     table = model.table(n)
     fwd_rev = model.table(n, +1) - model.table(n, -1)
@@ -261,14 +277,25 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                "runtime_s": time.perf_counter() - t0}
     if motor.k_t:
         results["table"]["rms_Nm"] = results["table"]["rms_A"] * float(motor.k_t)
-    with progress.stage("model.json, compensation.csv, results.json, identify_rotary.png, report.html"):
+    written = ["model.json", "compensation.csv", "results.json", "identify_rotary.png", "report.html"]
+    if sweep is not None:
+        results["standstill_sweep"] = sweep_info
+        if sweep_info["table_written"]:
+            written.insert(2, "standstill_table.csv")
+    with progress.stage(", ".join(written)):
         atomic_write_text(out / "model.json", json.dumps(model.to_dict(), indent=1) + "\n")
         write_angle_table(out / "compensation.csv",
                           make_table(table, "model from running logs", current_limit=motor.current_limit),
                           comments=(f"pgcomm rotary model of {motor.name}, identified {how} from "
                                     f"{len(logs)} log(s); forward and reverse averaged",))
+        if sweep is not None and sweep_info["table_written"]:
+            write_angle_table(out / "standstill_table.csv",
+                              make_table(sweep.table, "standstill sweep", current_limit=motor.current_limit),
+                              comments=(f"the drives' table of {motor.name} from the logged sweep "
+                                        f"{', '.join(sweep_info['logs'])}: forward and reverse bin averages, "
+                                        "their mean",))
         write_results(out / "results.json", results)
-        _plot_rotary(out / "identify_rotary.png", model, res.info, motor)
+        _plot_rotary(out / "identify_rotary.png", model, res.info, motor, sweep=sweep)
         from pgcomm.rotary.report import write_rotary_report
 
         write_rotary_report(out / "report.html", results, {
@@ -282,12 +309,62 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
               + (f"; {refused} windows refused as too fast for the encoder-sampled cogging" if refused else ""))
         print(f"compensation table: {results['table']['rms_A']:.3g} A RMS, {results['table']['peak_A']:.3g} A peak "
               f"({n} entries)")
-        print(f"wrote {args.out}/model.json, compensation.csv, results.json, identify_rotary.png, report.html "
-              f"({time.perf_counter() - t0:.0f} s)")
+        if sweep is not None:
+            si = results["standstill_sweep"]
+            print(f"standstill sweep: model minus sweep table {si['rms_model_minus_sweep_A']:.3g} A RMS, "
+                  f"{si['rms_model_minus_sweep_A'] / si['expected_rms_difference_A']:.2f}x what the two noises give "
+                  f"({'within' if si['within_noise'] else 'NOT within'} the noise); the sweep took "
+                  f"{si['seconds']:.0f} s, the running logs {n_samples * logs[0].sample_time:.0f} s")
+        print(f"wrote {args.out}/{', '.join(written)} ({time.perf_counter() - t0:.0f} s)")
 
 
-def _plot_rotary(path, model, info: dict, motor, n: int = 3600) -> None:
-    """The identified maps over one revolution, each with its standard error as a band where known."""
+def _sweep_table(args, mapping, model, info: dict):
+    """The drives' table from ``--sweep`` logs and its agreement with ``model``'s table.
+
+    Returns:
+        ``(SweepTable, dict)``: the dict goes to ``results.json`` as ``standstill_sweep`` (module
+        :mod:`pgcomm.rotary.experiment`'s agreement, with the model's standard error in place of the truth).
+    """
+    import numpy as np
+
+    from pgcomm.io.logs import ROTARY_REQUIRED, read_logs
+    from pgcomm.rotary.experiment import AGREEMENT_FACTOR
+    from pgcomm.rotary.standstill import table_from_sweep
+
+    logs = read_logs(args.sweep, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED)
+    for lg in logs:
+        if not lg.is_rotary or "iq_1" not in lg.columns:
+            raise DataError(f"{lg.source}: a sweep log needs 'theta' and 'iq_1' (map the drive's columns in --columns)")
+    if len(logs) > 1:
+        # one sweep recorded in pieces: one after the other, each piece's angle as logged
+        theta = np.concatenate([lg.columns["theta"] for lg in logs])
+        iq = np.concatenate([lg.columns["iq_1"] for lg in logs])
+    else:
+        theta, iq = logs[0].columns["theta"], logs[0].columns["iq_1"]
+    try:
+        sweep = table_from_sweep(theta, iq, logs[0].sample_time)
+    except DataError as e:
+        raise DataError(f"--sweep {', '.join(lg.source for lg in logs)}: {str(e).removeprefix('sweep log: ')}") from None
+    ok = np.isfinite(sweep.table)
+    mod = 0.5 * (model.iq_comp(sweep.theta, 1.0) + model.iq_comp(sweep.theta, -1.0))
+    diff = float(np.sqrt(np.mean((mod[ok] - sweep.table[ok]) ** 2)))
+    se = (info.get("standard_error") or {}).get("cogging", {}).get("rms_error", 0.0)
+    expected = float(np.hypot(sweep.noise, se))
+    fr = np.isfinite(sweep.forward) & np.isfinite(sweep.reverse)
+    return sweep, {
+        "logs": [lg.source for lg in logs], "points": int(sweep.theta.size), "coverage": sweep.coverage,
+        "seconds": sweep.seconds, "noise_A": sweep.noise, "table_rms_A": float(np.sqrt(np.mean(sweep.table[ok] ** 2))),
+        "rms_model_minus_sweep_A": diff, "model_standard_error_A": float(se),
+        "expected_rms_difference_A": expected, "agreement_factor": AGREEMENT_FACTOR,
+        "within_noise": bool(diff <= AGREEMENT_FACTOR * expected),
+        "rms_forward_minus_reverse_A": float(np.sqrt(np.mean((sweep.forward[fr] - sweep.reverse[fr]) ** 2))),
+        "table_written": bool(ok.all())}
+
+
+def _plot_rotary(path, model, info: dict, motor, n: int = 3600, sweep=None) -> None:
+    """The identified maps over one revolution, each with its standard error as a band where known; the
+    table of a logged standstill sweep (``sweep``, :class:`pgcomm.rotary.standstill.SweepTable`) beside
+    the model's."""
     import matplotlib.pyplot as plt
     import numpy as np
 
@@ -309,6 +386,9 @@ def _plot_rotary(path, model, info: dict, motor, n: int = 3600) -> None:
         if key == "cogging":
             a.plot(th, model.table(n, +1), lw=0.5, alpha=0.7, label="forward")
             a.plot(th, model.table(n, -1), lw=0.5, alpha=0.7, label="reverse")
+            if sweep is not None:
+                a.plot(sweep.theta, sweep.table, "k", lw=0.4, alpha=0.6,
+                       label=f"standstill sweep ({sweep.seconds:.0f} s of rig time)")
         a.set_ylabel(f"{label} [{unit}]", fontsize=8)
         a.legend(fontsize=7, loc="upper right")
     ax[-1].set_xlabel("mechanical angle θ [rad]")

@@ -50,17 +50,20 @@ def run(args, out: Path, progress) -> None:
 
 
 def _run_rotary(args, out: Path, progress, n: int) -> None:
-    """``--kind rotary``: ``out/motor_NN/motor.toml`` + ``truth.json`` (+ ``logs/run{k}.csv``)."""
-    from pgcomm.rotary.zoo import draw_rotary, write_rotary_motor, write_running_logs
+    """``--kind rotary``: ``out/motor_NN/motor.toml`` + ``truth.json`` (+ ``logs/run{k}.csv`` and
+    ``sweep/sweep.csv``, a slow standstill sweep for ``pgcomm identify --sweep``)."""
+    from pgcomm.rotary.zoo import draw_rotary, write_rotary_motor, write_running_logs, write_sweep_log
     from pgcomm.zoo import motor_folder_name
 
     for i in range(1, n + 1):
         name = motor_folder_name(i, n)
-        with progress.stage(f"{name} ({i}/{n}): rotary motor and truth" + (", running logs" if args.logs else "")):
+        with progress.stage(f"{name} ({i}/{n}): rotary motor and truth"
+                            + (", running logs, standstill sweep" if args.logs else "")):
             t = draw_rotary(args.seed, i - 1)
             folder = write_rotary_motor(t, out / name)
             if args.logs:
                 write_running_logs(t, folder / "logs", seed=args.seed)
+                write_sweep_log(t, folder / "sweep", seed=args.seed)
             progress.info(f"{t.motor.name}, k_t = {t.k_t:.3g} N·m/A, J = {t.inertia:.3g} kg·m², cogging "
                           f"{100 * t.cogging.rms() / (t.k_t * 0.5 * t.motor.current_limit):.1f} % of rated torque, "
                           f"ripple {100 * t.ripple.rms():.2f} %")

@@ -96,6 +96,26 @@ def _tracking_html(r: dict) -> str:
             f"{t['running_logs_s']:.0f} s, standstill sweep {t['standstill_s']:.0f} s.</p>")
 
 
+def _sweep_html(r: dict) -> str:
+    """``identify --sweep``: the drives' table from the logged sweep against the model's."""
+    sw = r.get("standstill_sweep")
+    if not sw:
+        return ""
+    ratio = sw["rms_model_minus_sweep_A"] / sw["expected_rms_difference_A"] if sw["expected_rms_difference_A"] else \
+        float("nan")
+    return ("<h2>Against the drives' standstill sweep</h2>"
+            f"<p>The logged sweep ({html.escape(', '.join(sw['logs']))}, {sw['seconds']:.0f} s of rig time) gives a "
+            f"table of {sw['points']} bins ({_pct(sw['coverage'])} of the revolution in both directions), "
+            f"{_g(sw['table_rms_A'])} A RMS with a noise of {_g(sw['noise_A'])} A. The model's table differs from it "
+            f"by {_g(sw['rms_model_minus_sweep_A'])} A RMS, <b>{ratio:.2f}×</b> what the two noises give together "
+            f"({_g(sw['expected_rms_difference_A'])} A, the sweep's and the model's standard error): "
+            f"<b>{'within' if sw['within_noise'] else 'not within'}</b> the noise (factor "
+            f"{_g(sw['agreement_factor'])}). Forward and reverse passes differ by "
+            f"{_g(sw['rms_forward_minus_reverse_A'])} A RMS (friction and the direction-dependent torque)."
+            + (" <code>standstill_table.csv</code> holds the sweep's table in the export's format."
+               if sw.get("table_written") else "") + "</p>")
+
+
 def write_rotary_report(path, results: dict, figures: dict, *, version: str = "") -> Path:
     """Write ``report.html`` for a rotary ``reproduce`` or ``identify`` run (atomically).
 
@@ -125,7 +145,7 @@ def write_rotary_report(path, results: dict, figures: dict, *, version: str = ""
                     f"{_g(t.get('rms_A'))} A RMS, {_g(t.get('peak_A'))} A peak; forward and reverse differ by "
                     f"{_g(t.get('forward_minus_reverse_rms_A'))} A RMS (the table holds their mean). "
                     "<code>compensation.csv</code> goes to <code>pgcomm export --format moteus|odrive|c-angle</code>."
-                    "</p>")
+                    "</p>" + _sweep_html(results))
     figs = "".join(figure_html(Path(p), cap) for cap, p in figures.items())
     runtime = results.get("runtime_s")
     doc = (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>pgcomm {html.escape(command)} — "

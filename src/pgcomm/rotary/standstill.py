@@ -18,7 +18,12 @@ import numpy as np
 
 from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, simulate
 
-__all__ = ["StandstillPlan", "StandstillTable", "staircase", "run_standstill", "table_from_log"]
+__all__ = ["StandstillPlan", "StandstillTable", "staircase", "run_standstill", "table_from_log", "SweepTable",
+           "table_from_sweep", "sweep_reference", "MIN_SAMPLES_PER_BIN"]
+
+#: A bin of a logged sweep's table needs at least this many samples per direction (the table's resolution
+#: follows from the log: :func:`table_from_sweep`).
+MIN_SAMPLES_PER_BIN = 10
 
 
 @dataclass(frozen=True)
@@ -98,3 +103,109 @@ def run_standstill(truth: RotaryTruth, gains: Gains, plan: StandstillPlan = Stan
     ref, starts = staircase(plan, truth.motor.sample_time)
     log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), gains, seed=seed, n_sub=n_sub)
     return table_from_log(log, plan, starts)
+
+
+@dataclass(frozen=True)
+class SweepTable:
+    """The drives' table from a logged slow sweep (:func:`table_from_sweep`).
+
+    Attributes:
+        theta: ``(N,)`` bin centres ``2πj/N`` (rad, encoder angle in ``[0, 2π)``).
+        table: ``(N,)`` mean of the forward and reverse bin averages of ``i_q`` (A); NaN where a
+            direction did not cover the bin.
+        forward, reverse: ``(N,)`` the two passes' bin averages (A, NaN where empty).
+        noise: standard error of the table's white-noise part (A, RMS over the covered bins).
+        coverage: share of the bins covered in both directions.
+        seconds: the sweep's rig time (s).
+    """
+
+    theta: np.ndarray
+    table: np.ndarray
+    forward: np.ndarray
+    reverse: np.ndarray
+    noise: float
+    coverage: float
+    seconds: float
+
+
+def table_from_sweep(theta, iq, sample_time: float, points: int | None = None,
+                     trend_seconds: float = 0.5) -> SweepTable:
+    """The drives' anti-cogging table from a logged slow sweep in both directions (continuous or a
+    staircase of holds): ``i_q`` averaged per angle bin, forward and reverse apart, their mean.
+
+    The pass direction is the sign of the angle's trend over ``trend_seconds`` (a staircase stands
+    still within a hold, but its pass still moves one way); samples where the trend is below a
+    tenth of its median (the turn-arounds) are left out. In the mean of the two passes the Coulomb
+    and viscous friction cancel, as in the drives' own tables.
+
+    Args:
+        theta: ``(M,)`` mechanical angle (rad, multi-turn, unwrapped); iq: ``(M,)`` q-current (A).
+        sample_time: ``T_s`` (s).
+        points: bins per revolution; default the most that give every bin
+            :data:`MIN_SAMPLES_PER_BIN` samples per direction on average, at most 3600.
+        trend_seconds: window of the trend (s).
+
+    Returns:
+        :class:`SweepTable`.
+
+    Raises:
+        DataError: fewer than 64 bins' worth of samples, or no motion in one of the directions.
+    """
+    from pgcomm.errors import DataError
+
+    th = np.asarray(theta, float)
+    i = np.asarray(iq, float)
+    k = max(1, int(round(trend_seconds / sample_time / 2)))
+    if th.size < 4 * k:
+        raise DataError(f"sweep log: {th.size} samples, shorter than the {2 * trend_seconds:g} s its direction "
+                        "is judged over")
+    trend = np.zeros_like(th)
+    trend[k:-k] = th[2 * k:] - th[:-2 * k]
+    moving = np.abs(trend) > 0.1 * np.median(np.abs(trend[k:-k]))
+    fwd, rev = moving & (trend > 0), moving & (trend < 0)
+    n_min = min(int(fwd.sum()), int(rev.sum()))
+    if n_min == 0:
+        raise DataError("sweep log: the angle moves one way only; the drives' table needs a forward and a "
+                        "reverse pass")
+    n = int(points) if points else int(min(3600, n_min // MIN_SAMPLES_PER_BIN))
+    if n < 64:
+        raise DataError(f"sweep log: {n_min} samples in its shorter direction give fewer than 64 bins of "
+                        f"{MIN_SAMPLES_PER_BIN} samples over the revolution; record a longer sweep")
+    # bin j is centred on 2πj/n: the drives' table convention (entry j at angle 2πj/n)
+    b = np.round(np.mod(th, 2 * math.pi) / (2 * math.pi) * n).astype(int) % n
+
+    def passes(mask):
+        cnt = np.bincount(b[mask], minlength=n).astype(float)
+        s1 = np.bincount(b[mask], i[mask], minlength=n)
+        s2 = np.bincount(b[mask], i[mask] ** 2, minlength=n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.where(cnt > 0, s1 / cnt, np.nan)
+            var = np.where(cnt > 1, (s2 - cnt * mean**2) / (cnt - 1), np.nan)
+        return mean, var, cnt
+
+    f_mean, f_var, f_cnt = passes(fwd)
+    r_mean, r_var, r_cnt = passes(rev)
+    tab = 0.5 * (f_mean + r_mean)
+    both = np.isfinite(tab)
+    ok = both & (f_cnt > 1) & (r_cnt > 1)
+    # the white-noise part of each bin's mean of the two passes, RMS over the bins
+    noise = float(np.sqrt(np.mean(0.25 * (f_var[ok] / f_cnt[ok] + r_var[ok] / r_cnt[ok])))) if ok.any() else math.nan
+    centres = 2 * math.pi * np.arange(n) / n
+    return SweepTable(centres, tab, f_mean, r_mean, noise, float(both.mean()), float(th.size * sample_time))
+
+
+def sweep_reference(sample_time: float, revolution_seconds: float = 60.0, ramp_seconds: float = 0.5) -> Reference:
+    """A slow continuous sweep for the position loop: one revolution forward at ``2π/revolution_seconds``
+    rad/s, a short pause, one revolution back (linear speed ramps of ``ramp_seconds``): what a drive's
+    cogging calibration does when it moves instead of holding.
+
+    Returns:
+        :class:`pgcomm.rotary.twin.Reference` (position mode), about ``2 (revolution_seconds + ramp_seconds)`` s.
+    """
+    ts = float(sample_time)
+    w = 2 * math.pi / revolution_seconds
+    up = np.linspace(0.0, 1.0, max(2, int(ramp_seconds / ts)))
+    cruise = np.ones(int(round(revolution_seconds / ts)))
+    one = np.concatenate([up, cruise, up[::-1]]) * w
+    om = np.concatenate([one, np.zeros(int(0.2 / ts)), -one])
+    return Reference(np.cumsum(om) * ts, om, np.gradient(om, ts), "position")

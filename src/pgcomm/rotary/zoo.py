@@ -187,3 +187,24 @@ def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
                        delimiter=",", fmt="%.12g")
         names.append(path.name)
     return names
+
+
+def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_seconds: float = 60.0) -> Path:
+    """Simulate a slow position sweep in both directions (:func:`pgcomm.rotary.standstill.sweep_reference`,
+    classical law, the drive's tuned gains) and write it as ``folder/sweep.csv`` (``t, theta, velocity, iq_1,
+    id_1``): the drives' calibration run, for ``pgcomm identify --sweep``."""
+    from pgcomm.io.atomic import atomic_open
+    from pgcomm.rotary.standstill import sweep_reference
+    from pgcomm.rotary.twin import LawParams, default_gains, simulate
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    ref = sweep_reference(truth.motor.sample_time, revolution_seconds)
+    log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(truth.inertia / truth.k0),
+                   seed=seed * 1000 + 999)
+    path = folder / "sweep.csv"
+    with atomic_open(path) as f:
+        f.write("t,theta,velocity,iq_1,id_1\n")
+        np.savetxt(f, np.column_stack([log[c] for c in ("t", "theta", "velocity", "iq_1", "id_1")]),
+                   delimiter=",", fmt="%.12g")
+    return path
