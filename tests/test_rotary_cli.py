@@ -173,3 +173,24 @@ def test_sweep_table_noise_estimate_predicts_its_error():
         assert 0.5 <= err / sw.noise <= 2.0, (secs, err, sw.noise)
         noise.append(sw.noise / np.sqrt(np.mean(tm.table(sw.theta.size) ** 2)))
     assert noise[0] > noise[1]
+
+
+def test_sweep_table_of_a_staircase_of_holds_matches_the_hold_averages():
+    """A sweep logged as a staircase of holds (the drives' other way): binned by angle at the staircase's own
+    resolution it covers the whole revolution and is within the hold-average table's own error of the truth
+    (twice its RMS error at most: the bins also take the settling samples the hold averages leave out)."""
+    from pgcomm.rotary.standstill import StandstillPlan, run_standstill, staircase, table_from_sweep
+    from pgcomm.rotary.twin import LawParams, default_gains, simulate
+    from pgcomm.rotary.zoo import draw_rotary
+
+    t = draw_rotary(0, 0)
+    plan = StandstillPlan(points=360, settle=30, average=20)
+    gains = default_gains(t.inertia / t.k0)
+    ref, _ = staircase(plan, t.motor.sample_time)
+    log = simulate(t, ref, LawParams.classical(t.motor.pole_pairs), gains, seed=2, n_sub=5)
+    holds = run_standstill(t, gains, plan, seed=2)
+    sw = table_from_sweep(log["theta"], log["iq_1"], t.motor.sample_time, points=plan.points)
+    truth = t.model().table(plan.points)
+    rms = lambda x: float(np.sqrt(np.mean(x**2)))  # noqa: E731
+    assert sw.coverage == 1.0
+    assert rms(sw.table - truth) <= 2 * rms(holds.table - truth)

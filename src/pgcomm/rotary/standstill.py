@@ -161,6 +161,7 @@ def table_from_sweep(theta, iq, sample_time: float, points: int | None = None,
                         "is judged over")
     trend = np.zeros_like(th)
     trend[k:-k] = th[2 * k:] - th[:-2 * k]
+    trend[:k], trend[-k:] = trend[k], trend[-k - 1]  # the ends belong to the passes they start and end
     moving = np.abs(trend) > 0.1 * np.median(np.abs(trend[k:-k]))
     fwd, rev = moving & (trend > 0), moving & (trend < 0)
     n_min = min(int(fwd.sum()), int(rev.sum()))
