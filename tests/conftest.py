@@ -126,28 +126,49 @@ HEAVY = ("test_cli.py", "test_export_lut.py", "test_export_spline.py", "test_ext
 #: processes beside its own worker are the suite's largest moment (~2.1 GB), and a light file's subprocess beside
 #: them took a clean-clone run to 2.97 GiB
 ALONE = ("test_fleet.py",)
-_lock_file = None
+_lock_files: dict[str, object] = {}
+
+
+def _lock(kind: str, mode: int) -> None:
+    import fcntl
+    import tempfile
+
+    if kind not in _lock_files:
+        uid = os.environ["PYTEST_XDIST_TESTRUNUID"]
+        _lock_files[kind] = open(os.path.join(tempfile.gettempdir(), f"pgcomm-tests-{uid}.{kind}"), "a")
+    fcntl.flock(_lock_files[kind], mode)
 
 
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_protocol(item, nextitem):
     """Under xdist, every test holds a shared lock on one file per run and an :data:`ALONE` test an exclusive
-    one, so nothing else runs beside it (the lock is released between tests, so neither worker waits long)."""
-    global _lock_file
-    uid = os.environ.get("PYTEST_XDIST_TESTRUNUID")
-    if not uid:
+    one, so nothing else runs beside it; the lock is released between tests, so the other worker waits for one
+    test at most.
+
+    Linux's flock lets new shared holders in while an exclusive request waits, so the two workers' back-to-back
+    shared locks could keep an ALONE test waiting for the other worker's whole queue: a turnstile (a second lock
+    the ALONE test holds exclusively while it waits and runs, and every other test passes through shared before
+    taking its own lock) stops new tests from starting once an ALONE test is waiting.
+    """
+    import fcntl
+
+    if not os.environ.get("PYTEST_XDIST_TESTRUNUID"):
         yield
         return
-    import fcntl
-    import tempfile
-
-    if _lock_file is None:
-        _lock_file = open(os.path.join(tempfile.gettempdir(), f"pgcomm-tests-{uid}.lock"), "a")
-    fcntl.flock(_lock_file, fcntl.LOCK_EX if item.path.name in ALONE else fcntl.LOCK_SH)
+    alone = item.path.name in ALONE
+    if alone:
+        _lock("gate", fcntl.LOCK_EX)
+        _lock("lock", fcntl.LOCK_EX)
+    else:
+        _lock("gate", fcntl.LOCK_SH)
+        _lock("gate", fcntl.LOCK_UN)
+        _lock("lock", fcntl.LOCK_SH)
     try:
         yield
     finally:
-        fcntl.flock(_lock_file, fcntl.LOCK_UN)
+        _lock("lock", fcntl.LOCK_UN)
+        if alone:
+            _lock("gate", fcntl.LOCK_UN)
 
 
 def pytest_xdist_auto_num_workers(config):
