@@ -5,7 +5,8 @@ Usage: ``python bench/rotary.py [--motors 8] [--seed 0] [--quick]``. Per motor i
 standstill sweep of 3600 angles, four rows in closed loop) and prints:
 
 * cogging and torque-constant ripple RMS error over the revolution, relative to the truth's RMS
-  (target <= 5 %), and the direction map's;
+  (target <= 5 %), and the direction map's; the ripple's error also as a share of the mean torque
+  constant ``k0`` (what it costs in torque: ``k = k0 (1 + r)``);
 * tracking MSE ratio model-law / standstill table in the position and speed loops (target <= 0.5);
 * running-log vs standstill-table agreement (RMS difference vs the sweep's own error);
 * running-log time vs standstill-sweep time (rig seconds);
@@ -53,7 +54,7 @@ def main(argv=None) -> int:
         se = r["identification"]["standard_error"]
         rows.append((e["cogging_rel"], e["ripple_rel"], q["position"], q["speed"], se["ripple"]["relative"],
                      se["ripple"]["log_time_factor_to_resolve"] * tm["running_logs_s"]))
-        print(f"{i:2d} {t.motor.name:7s} {100 * e['cogging_rel']:7.1f}% {100 * e['ripple_rel']:7.1f}% "
+        print(f"{i:2d} {t.motor.name:7s} {100 * e['cogging_rel']:7.1f}% {100 * e['ripple_rel']:7.1f}% {100 * e['ripple_rms']:5.2f}% "
               f"{100 * e['direction_rel']:7.1f}% {q['position']:9.2f} {q['speed']:9.2f} "
               f"{a['rms_model_minus_sweep_A']:10.3g} {a['rms_sweep_minus_truth_A']:11.3g} "
               f"{'yes' if a['within_noise'] else 'no':>5s} {tm['running_logs_s']:6.0f} {tm['standstill_s']:7.0f} "

@@ -154,6 +154,38 @@ def test_chunked_rows_and_normal_equations_match_a_dense_ridge_solve(motor0):
     assert fit["rows"] == y.size and fit["cost"] == pytest.approx(float(np.mean((y - X @ beta) ** 2)), rel=1e-6)
 
 
+def test_ridge_bias_is_the_shift_of_a_refit_on_the_fitted_currents(motor0):
+    """Second formulation of the ridge's bias ``(A⁻¹N − I) β̂``: the ridge solution (a dense QR solve of the rows
+    augmented by the ridge) of currents that are exactly ``X β̂`` lands at ``β̂ + bias``. A strong ridge leaves a
+    map that only its noise part would call resolved unresolved; a negligible one adds no bias."""
+    from pgcomm.rotary import identify as ri
+
+    t, logs = motor0
+    orders = Orders.for_motor(t.motor)
+    prepared, _, _, _ = ri._prepare(logs, t.motor, orders, ri.MIN_SAMPLES_PER_PERIOD, ri.FILTER_TAPS)
+    rows = list(ri._chunks(prepared, orders, ri.FILTER_TAPS))
+    lay = ri._Layout.of(orders)
+    X = lay.rows({k: np.concatenate([c[k] for c in rows]) for k in rows[0]})
+    lam_rel = 1e-2
+    fit = ri._fit(prepared, lay, ri.FILTER_TAPS, ridge=lam_rel)
+    scale = np.sqrt(np.mean(X**2, axis=0))
+    Xs = X / scale
+    lam = lam_rel * np.trace(Xs.T @ Xs) / Xs.shape[1]
+    aug = np.vstack([Xs, np.diag(np.sqrt(lam * lay.pen[lay.keep].astype(float)))])
+    y_fit = X @ fit["beta"]
+    shifted = np.linalg.lstsq(aug, np.concatenate([y_fit, np.zeros(X.shape[1])]), rcond=None)[0] / scale
+    # compared through the currents they explain, against the fitted current's RMS
+    rms_y = float(np.sqrt(np.mean(y_fit**2)))
+    assert float(np.sqrt(np.mean((X @ (shifted - fit["beta"] - fit["bias"])) ** 2))) <= 1e-8 * rms_y
+    assert float(np.sqrt(np.mean((X @ fit["bias"]) ** 2))) > 1e-4 * rms_y  # the check above is not vacuous
+
+    strong = identify(logs, t.motor, ridge=1.0).info["standard_error"]
+    weak = identify(logs, t.motor, ridge=1e-10).info["standard_error"]
+    for name in ("cogging", "ripple"):
+        assert weak[name]["ridge_bias"] < 1e-6
+        assert strong[name]["ridge_bias"] > ri.RESOLVED_SHARE and not strong[name]["resolved"]
+
+
 def _strip_outside(t):
     """Zoo motor ``t`` without the cogging and ripple orders outside its slot/pole basis."""
     from dataclasses import replace

@@ -215,7 +215,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.config import load_rotary_motor
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
     from pgcomm.io.results import write_results
-    from pgcomm.rotary.identify import Orders, fit_mechanics, identify
+    from pgcomm.rotary.identify import Orders, fit_mechanics, identify, resolution_verdict
 
     for opt in ("plant", "config"):
         if getattr(args, opt, None):
@@ -253,9 +253,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         se = res.info.get("standard_error")
         for name in ("cogging", "ripple", "direction") if se else ():
             e = se[name]
-            progress.info(f"{name}: standard error {100 * e['relative']:.1f} % of its RMS, " + (
-                "resolved" if e["resolved"] else f"not resolved: about {e['log_time_factor_to_resolve']:.0f}x "
-                "as much running log at the same excitation would resolve it"))
+            progress.info(f"{name}: standard error {100 * e['relative']:.1f} % of its RMS, {resolution_verdict(e)}")
     model = replace(res.model, info={**res.model.info, "motor": motor.name, "current_limit": motor.current_limit,
                                      "logs": [lg.source for lg in logs]})
     sweep = None

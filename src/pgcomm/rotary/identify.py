@@ -59,7 +59,7 @@ from pgcomm.rotary.model import Fourier, RotaryModel, cogging_orders, direction_
     ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 
-__all__ = ["identify", "fit_mechanics", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
+__all__ = ["identify", "fit_mechanics", "resolution_verdict", "RESOLVED_SHARE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
            "RotaryIdentification"]
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used.
@@ -377,8 +377,12 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None):
     rows = float(n[0] + n[1])
     # per-block influence on the estimate, A⁻¹ s_b (unscaled): the screening's effective number of blocks
     influence = (S @ a_inv) / scale
+    # the ridge's pull towards zero: E[β̂] = A⁻¹ N β (N the unregularised scaled normal matrix), so the bias is
+    # (A⁻¹ N − I) β, estimated at β̂ (an underestimate by the same shrinkage; unscaled like beta)
+    bs = beta * scale
+    bias = (a_inv @ ((G[0] + G[1]) / np.outer(scale, scale) @ bs) - bs) / scale
     return {"beta": beta, "cov": cov, "ridge": float(lam), "curve": curve, "cost": sse / rows, "rows": int(rows),
-            "blocks": len(scores), "influence": influence}
+            "blocks": len(scores), "influence": influence, "bias": bias}
 
 
 def _full(structured: np.ndarray) -> np.ndarray:
@@ -426,15 +430,19 @@ def _significant_extra_orders(fit: dict, layout: _Layout, structured: Orders, al
     return out
 
 
-def _map_standard_error(cov_block, map_orders) -> float:
-    """Expected RMS over the revolution of a Fourier map's estimation error: ``sqrt(tr(Cov M))`` with
-    ``M = mean_θ φ(θ) φ(θ)ᵀ`` the Gram matrix of the map's columns (½ for a cosine or sine, 1 for the
-    constant): the mean over θ of ``(φ(θ)ᵀ δ)²`` for an error ``δ`` of covariance ``Cov``."""
+def _map_gram(map_orders) -> np.ndarray:
+    """``M = mean_θ φ(θ) φ(θ)ᵀ``, the Gram matrix of a Fourier map's columns over the revolution (½ for a
+    cosine or sine, 1 for the constant): the mean square over θ of the map ``φ(θ)ᵀ δ`` is ``δᵀ M δ``."""
     h = int(max(np.max(map_orders, initial=0), 1))
     th = 2 * math.pi * np.arange(4 * h + 4) / (4 * h + 4)  # exact for products of orders up to h
     phi = harmonic_columns(th, map_orders)
-    gram = phi.T @ phi / th.size
-    return float(np.sqrt(max(float(np.sum(cov_block * gram)), 0.0)))
+    return phi.T @ phi / th.size
+
+
+def _map_standard_error(cov_block, map_orders) -> float:
+    """Expected RMS over the revolution of a Fourier map's estimation error: ``sqrt(tr(Cov M))``
+    (:func:`_map_gram`) for an error ``δ`` of covariance ``Cov``."""
+    return float(np.sqrt(max(float(np.sum(cov_block * _map_gram(map_orders))), 0.0)))
 
 
 def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
@@ -491,6 +499,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     beta[layout.keep] = fit["beta"]
     cov = np.zeros((layout.keep.size, layout.keep.size))
     cov[np.ix_(layout.keep, layout.keep)] = fit["cov"]
+    bias = np.zeros(layout.keep.size)
+    bias[layout.keep] = fit["bias"]
     o_r, o_c, o_d = layout.o_r, layout.o_c, layout.o_d
     model = RotaryModel(
         motor.pole_pairs,
@@ -499,7 +509,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         direction=Fourier.from_vector(final.direction, beta[o_d]),
         viscous=float(beta[-1]), inertia_ratio=float(beta[0]), k_t=motor.k_t,
         info={"method": "running logs, no torque sensor"})
-    standard_error = _standard_errors(model, cov, o_r, o_c, o_d, final, fit["blocks"])
+    standard_error = _standard_errors(model, cov, bias, o_r, o_c, o_d, final, fit["blocks"])
     info = {"windows": counts["windows"], "windows_used": int(n_windows), "windows_refused_alias": counts["alias"],
             "windows_refused_slow": counts["slow"], "speed_limit_rad_s": v_limit,
             "min_samples_per_period": float(min_samples_per_period), "highest_order": orders.highest,
@@ -521,12 +531,17 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
 RESOLVED_SHARE = 0.05
 
 
-def _standard_errors(model: RotaryModel, cov, o_r, o_c, o_d, orders: Orders, blocks: int) -> dict:
+def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Orders, blocks: int) -> dict:
     """How well the logs determine each map: expected RMS error over the revolution, relative to the
     map's identified RMS, and the running-log time that would bring it to :data:`RESOLVED_SHARE`.
 
-    The expected error is the noise part only (the ridge's bias and what the basis cannot represent come on
-    top); it falls as the square root of the log time at the same excitation, which gives the time needed.
+    ``relative`` is the noise part; it falls as the square root of the log time at the same excitation,
+    which gives the time needed. ``ridge_bias`` is the RMS over the revolution of the ridge's pull towards
+    zero (``(A⁻¹N − I) β̂``), relative too: small when the data set the map, large when logs that do not
+    excite it leave the map to the ridge (then longer logs of the same kind do not help, and the noise part
+    alone would call a map resolved that the data never determined). A map is resolved when both together,
+    ``sqrt(relative² + ridge_bias²)``, are within :data:`RESOLVED_SHARE`. What the basis cannot represent
+    comes on top of both.
     """
     out = {"blocks": int(blocks), "resolved_share": RESOLVED_SHARE}
     th = 2 * math.pi * np.arange(4096) / 4096
@@ -534,11 +549,28 @@ def _standard_errors(model: RotaryModel, cov, o_r, o_c, o_d, orders: Orders, blo
                                        ("ripple", o_r, model.ripple, orders.ripple),
                                        ("direction", o_d, model.direction, orders.direction)):
         se = _map_standard_error(cov[np.ix_(cols, cols)], map_orders)
+        b = bias[cols]
+        b_rms = float(np.sqrt(max(float(b @ _map_gram(map_orders) @ b), 0.0)))
         rms = float(np.sqrt(np.mean(fn(th) ** 2)))
         rel = se / rms if rms > 0 else float("inf")
-        out[name] = {"rms_error": se, "rms": rms, "relative": rel, "resolved": bool(rel <= RESOLVED_SHARE),
+        b_rel = b_rms / rms if rms > 0 else float("inf")
+        out[name] = {"rms_error": se, "rms": rms, "relative": rel, "ridge_bias": b_rel,
+                     "resolved": bool(math.hypot(rel, b_rel) <= RESOLVED_SHARE),
                      "log_time_factor_to_resolve": float(max(1.0, (rel / RESOLVED_SHARE) ** 2))}
     return out
+
+
+def resolution_verdict(entry: dict) -> str:
+    """One phrase for a map's entry of ``info["standard_error"]`` (:func:`_standard_errors`): ``"resolved"``, or
+    why not and what would help: longer logs of the same kind when the noise part is too large, a different
+    excitation when the ridge sets the map (then longer logs of the same kind do not help)."""
+    if entry["resolved"]:
+        return "resolved"
+    if entry.get("ridge_bias", 0.0) > RESOLVED_SHARE:
+        return (f"not resolved: the ridge sets {100 * entry['ridge_bias']:.0f} % of it (the logs do not excite it; "
+                "log with more q-current variation, e.g. a dither or accelerations)")
+    return (f"not resolved: about {entry['log_time_factor_to_resolve']:.1f}x as much running log at the same "
+            "excitation would resolve it")
 
 
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,

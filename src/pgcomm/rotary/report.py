@@ -12,6 +12,7 @@ import html
 from pathlib import Path
 
 from pgcomm.report import CSS, figure_html
+from pgcomm.rotary.identify import resolution_verdict
 
 __all__ = ["write_rotary_report", "ROW_DESCRIPTIONS"]
 
@@ -45,7 +46,7 @@ def _identification_html(r: dict) -> str:
         e = se[name]
         truth = ident.get("errors", {}).get({"cogging": "cogging_rel", "ripple": "ripple_rel",
                                                "direction": "direction_rel"}[name])
-        verdict = "yes" if e["resolved"] else f"no: about {e['log_time_factor_to_resolve']:.1f}× the logs"
+        verdict = "yes" if e["resolved"] else resolution_verdict(e).replace("not resolved: ", "no: ", 1)
         rows.append(f"<tr><th>{name}</th><td>{_g(e['rms'])} {unit}</td><td>{_g(e['rms_error'])} {unit}</td>"
                     f"<td>{_pct(e['relative'])}</td><td>{html.escape(verdict)}</td>"
                     + (f"<td>{_pct(truth)}</td>" if has_truth else "") + "</tr>")
