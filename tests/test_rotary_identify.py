@@ -7,6 +7,8 @@ ripple of a short (quick-sized) run is held to 10 %, the direction map to 15 %. 
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -225,3 +227,27 @@ def test_screening_adds_the_order_outside_the_basis_and_no_noise_order():
         logs = [simulate(clean, r, law, gains, seed=100 * seed + 7 + k) for k, r in enumerate(refs)]
         added = identify(logs, t.motor).info["orders_added"]
         assert added == {"cogging": [], "ripple": []}, (seed, added)
+
+
+def test_a_fit_whose_torque_constant_leaves_the_laws_range_is_refused(motor0):
+    """A ripple whose peak passes 1 - MIN_GAIN (the gain the law refuses to divide by) is not a motor: the
+    identification says so in one line (where, by how much, how many windows) instead of handing it to a law;
+    a ripple just inside passes, and so does the zoo motor's own fit."""
+    from pgcomm.rotary.identify import RotaryIdentification, check_plausible
+    from pgcomm.rotary.law import MIN_GAIN
+    from pgcomm.rotary.model import Fourier, RotaryModel
+
+    def fit(amplitude):
+        model = RotaryModel(4, Fourier.zeros([]), Fourier(np.array([3]), np.array([[0.0, amplitude]])),
+                            Fourier.zeros([]))
+        return RotaryIdentification(model, {"windows_used": 383, "windows": 4622})
+
+    inside = fit(0.99 * (1 - MIN_GAIN))
+    assert check_plausible(inside) is inside
+    with pytest.raises(ExcitationError, match=r"varies by [+-]51 % of its mean at (\d\.\d{3}) rad.*383 of 4622") as e:
+        check_plausible(fit(-1.02 * (1 - MIN_GAIN)))
+    assert "\n" not in str(e.value)
+    at = float(re.search(r"at (\d\.\d{3}) rad", str(e.value)).group(1))
+    assert abs(np.sin(3 * at)) > 0.999  # the angle named is a peak of the ripple
+    t, logs = motor0
+    identify(logs, t.motor)  # does not raise

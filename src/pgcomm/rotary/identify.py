@@ -59,7 +59,7 @@ from pgcomm.rotary.model import Fourier, RotaryModel, cogging_orders, direction_
     ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 
-__all__ = ["identify", "fit_mechanics", "resolution_verdict", "RESOLVED_SHARE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
+__all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
            "RotaryIdentification"]
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used.
@@ -474,7 +474,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     t0 = time.perf_counter()
     orders = orders or Orders.for_motor(motor)
     if torque_sensor:
-        return _identify_torque(logs, motor, orders, t0)
+        return check_plausible(_identify_torque(logs, motor, orders, t0))
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps)
     n_windows = sum(p.starts.size for p in prepared)
     added = {"cogging": np.zeros(0, int), "ripple": np.zeros(0, int)}
@@ -524,7 +524,35 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "
                         f"{v_limit:.3g} rad/s, where order {orders.highest} has fewer than "
                         f"{min_samples_per_period:g} samples per period")
-    return RotaryIdentification(model, info)
+    return check_plausible(RotaryIdentification(model, info))
+
+
+def check_plausible(result: RotaryIdentification) -> RotaryIdentification:
+    """Refuse a model that is not a motor: a torque constant that falls below :data:`pgcomm.rotary.law.MIN_GAIN`
+    of its mean somewhere on the revolution (``|r(θ)| > 1 − MIN_GAIN``; a real ripple is a few per cent). Such a
+    fit comes from logs that do not determine the maps (e.g. a dither that reverses the speed, so that the few
+    windows left carry nearly the same current at every angle), and its law would fight the feedback where the
+    law clamps the gain.
+
+    Returns:
+        ``result`` unchanged.
+
+    Raises:
+        ExcitationError: the ripple's peak, where, and how many windows the fit had.
+    """
+    from pgcomm.rotary.law import MIN_GAIN
+
+    th = 2 * math.pi * np.arange(4096) / 4096
+    r = result.model.ripple(th)
+    j = int(np.argmax(np.abs(r)))
+    if not np.isfinite(r[j]) or abs(r[j]) > 1.0 - MIN_GAIN:
+        used = result.info.get("windows_used")
+        raise ExcitationError(
+            f"the identified torque constant varies by {100 * r[j]:+.0f} % of its mean at {th[j]:.3f} rad (a motor's "
+            f"ripple is a few per cent; the law refuses below {100 * MIN_GAIN:.0f} %): the logs do not determine the "
+            "model" + (f" ({used} of {result.info.get('windows')} filter windows used)" if used is not None else "")
+            + "; log at steady speeds in both directions with a q-current dither that keeps the speed's sign")
+    return result
 
 
 #: Relative standard error (of a map's RMS) at which :func:`identify` calls a map resolved.
