@@ -251,3 +251,27 @@ def test_a_fit_whose_torque_constant_leaves_the_laws_range_is_refused(motor0):
     assert abs(np.sin(3 * at)) > 0.999  # the angle named is a peak of the ripple
     t, logs = motor0
     identify(logs, t.motor)  # does not raise
+
+
+def test_map_error_quantile_against_monte_carlo():
+    """The RMS error a map stays below with a given probability (Satterthwaite on the map's error covariance)
+    against the empirical quantile of 200 000 draws: exact when the weights are equal (within the draws' own
+    spread), close when they differ by two orders of magnitude."""
+    from pgcomm.rotary import identify as ri
+    from pgcomm.rotary.model import harmonic_columns
+
+    rng = np.random.default_rng(7)
+    orders = np.array([0, 3, 7, 12])
+    n = harmonic_columns(np.zeros(1), orders).shape[1]
+    gram = ri._map_gram(orders)
+    a = rng.normal(size=(n, n)) * np.logspace(-1, 0, n)
+    live = np.diag(gram) > 0  # order 0 has a cosine column only (its sine column is zero)
+    equal = np.zeros((n, n))
+    equal[np.ix_(live, live)] = 0.01 * np.linalg.inv(gram[np.ix_(live, live)])
+    for cov, tol in ((equal, 0.01), (a @ a.T, 0.025)):
+        draws = rng.multivariate_normal(np.zeros(n), cov, size=200_000)
+        rms = np.sqrt(np.einsum("ki,ij,kj->k", draws, gram, draws))
+        for level in (0.5, 0.9):
+            q = ri._map_error_quantile(cov, orders, level)
+            assert q == pytest.approx(float(np.quantile(rms, level)), rel=tol)
+        assert ri._map_standard_error(cov, orders) == pytest.approx(float(np.sqrt(np.mean(rms**2))), rel=0.01)

@@ -72,7 +72,8 @@ class RotarySettings:
         eval_revolutions: revolutions per direction of each evaluation run.
         log_budget_share: the running logs may take at most this share of the standstill sweep's rig
             time: while the identification's standard error says the cogging or the ripple is not
-            resolved (:data:`pgcomm.rotary.identify.RESOLVED_SHARE` of its RMS), more rounds of the
+            resolved (within :data:`pgcomm.rotary.identify.RESOLVED_SHARE` of its RMS with probability
+            :data:`~pgcomm.rotary.identify.RESOLVED_CONFIDENCE`), more rounds of the
             same references are recorded, as many as the standard error asks for and the budget allows
             (what an engineer at the rig does: log until the map is resolved, then stop).
     """

@@ -59,7 +59,7 @@ from pgcomm.rotary.model import Fourier, RotaryModel, cogging_orders, direction_
     ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 
-__all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
+__all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE", "RESOLVED_CONFIDENCE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
            "RotaryIdentification"]
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used.
@@ -439,6 +439,26 @@ def _map_gram(map_orders) -> np.ndarray:
     return phi.T @ phi / th.size
 
 
+def _map_error_quantile(cov_block, map_orders, level: float) -> float:
+    """The ``level`` quantile of a Fourier map's RMS error over the revolution, for an error ``δ ~ N(0, Cov)``.
+
+    The mean square ``δᵀ M δ`` (:func:`_map_gram`) is a weighted sum of χ²₁ variables with weights ``λ``, the
+    eigenvalues of ``Lᵀ Cov L`` (``M = L Lᵀ``); Satterthwaite's approximation takes it as ``(Σλ) χ²_ν / ν`` with
+    ``ν = (Σλ)² / Σλ²`` degrees of freedom (exact when the weights are equal). Returns the RMS error (the map's
+    units) that the noise part stays below with probability ``level``.
+    """
+    from scipy.stats import chi2
+
+    d, v = np.linalg.eigh(_map_gram(map_orders))
+    L = v * np.sqrt(np.clip(d, 0.0, None))  # M = L Lᵀ; M is singular where a column is zero (the sine of order 0)
+    lam = np.clip(np.linalg.eigvalsh(L.T @ cov_block @ L), 0.0, None)
+    total = float(np.sum(lam))
+    if total <= 0.0:
+        return 0.0
+    nu = total**2 / float(np.sum(lam**2))
+    return float(np.sqrt(total * chi2.ppf(level, nu) / nu))
+
+
 def _map_standard_error(cov_block, map_orders) -> float:
     """Expected RMS over the revolution of a Fourier map's estimation error: ``sqrt(tr(Cov M))``
     (:func:`_map_gram`) for an error ``δ`` of covariance ``Cov``."""
@@ -557,34 +577,40 @@ def check_plausible(result: RotaryIdentification) -> RotaryIdentification:
 
 #: Relative standard error (of a map's RMS) at which :func:`identify` calls a map resolved.
 RESOLVED_SHARE = 0.05
+#: ... with this probability: a map is called resolved when the noise part of its error stays within
+#: :data:`RESOLVED_SHARE` with this probability (its expected size within the target would be missed half the time).
+RESOLVED_CONFIDENCE = 0.9
 
 
 def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Orders, blocks: int) -> dict:
     """How well the logs determine each map: expected RMS error over the revolution, relative to the
     map's identified RMS, and the running-log time that would bring it to :data:`RESOLVED_SHARE`.
 
-    ``relative`` is the noise part; it falls as the square root of the log time at the same excitation,
-    which gives the time needed. ``ridge_bias`` is the RMS over the revolution of the ridge's pull towards
-    zero (``(A⁻¹N − I) β̂``), relative too: small when the data set the map, large when logs that do not
-    excite it leave the map to the ridge (then longer logs of the same kind do not help, and the noise part
-    alone would call a map resolved that the data never determined). A map is resolved when both together,
-    ``sqrt(relative² + ridge_bias²)``, are within :data:`RESOLVED_SHARE`. What the basis cannot represent
-    comes on top of both.
+    ``relative`` is the noise part (its expected RMS), ``relative_at_confidence`` the size it stays below with
+    probability :data:`RESOLVED_CONFIDENCE` (:func:`_map_error_quantile`); both fall as the square root of the
+    log time at the same excitation, which gives the time needed. ``ridge_bias`` is the RMS over the revolution
+    of the ridge's pull towards zero (``(A⁻¹N − I) β̂``), relative too: small when the data set the map, large
+    when logs that do not excite it leave the map to the ridge (then longer logs of the same kind do not help,
+    and the noise part alone would call a map resolved that the data never determined). A map is resolved when
+    ``sqrt(relative_at_confidence² + ridge_bias²)`` is within :data:`RESOLVED_SHARE`. What the basis cannot
+    represent comes on top of both.
     """
-    out = {"blocks": int(blocks), "resolved_share": RESOLVED_SHARE}
+    out = {"blocks": int(blocks), "resolved_share": RESOLVED_SHARE, "confidence": RESOLVED_CONFIDENCE}
     th = 2 * math.pi * np.arange(4096) / 4096
     for name, cols, fn, map_orders in (("cogging", o_c, model.cogging, orders.cogging),
                                        ("ripple", o_r, model.ripple, orders.ripple),
                                        ("direction", o_d, model.direction, orders.direction)):
         se = _map_standard_error(cov[np.ix_(cols, cols)], map_orders)
+        se_q = _map_error_quantile(cov[np.ix_(cols, cols)], map_orders, RESOLVED_CONFIDENCE)
         b = bias[cols]
         b_rms = float(np.sqrt(max(float(b @ _map_gram(map_orders) @ b), 0.0)))
         rms = float(np.sqrt(np.mean(fn(th) ** 2)))
         rel = se / rms if rms > 0 else float("inf")
         b_rel = b_rms / rms if rms > 0 else float("inf")
-        out[name] = {"rms_error": se, "rms": rms, "relative": rel, "ridge_bias": b_rel,
-                     "resolved": bool(math.hypot(rel, b_rel) <= RESOLVED_SHARE),
-                     "log_time_factor_to_resolve": float(max(1.0, (rel / RESOLVED_SHARE) ** 2))}
+        rel_q = se_q / rms if rms > 0 else float("inf")
+        out[name] = {"rms_error": se, "rms": rms, "relative": rel, "relative_at_confidence": rel_q,
+                     "ridge_bias": b_rel, "resolved": bool(math.hypot(rel_q, b_rel) <= RESOLVED_SHARE),
+                     "log_time_factor_to_resolve": float(max(1.0, (rel_q / RESOLVED_SHARE) ** 2))}
     return out
 
 

@@ -70,8 +70,9 @@ def _identification_html(r: dict) -> str:
                      "many windows as the full basis has unknowns.</p>")
     if rows:
         parts.append("<p>Standard error: the expected RMS error over the revolution from the noise (one-second "
-                     "time blocks), relative to the map's RMS; a map is resolved at "
-                     f"{_pct(se.get('resolved_share'))}.</p>"
+                     "time blocks), relative to the map's RMS; a map is resolved when its error from the noise "
+                     f"stays within {_pct(se.get('resolved_share'))} with probability "
+                     f"{_pct(se.get('confidence'))} and the regularisation's bias adds little.</p>"
                      "<table><tr><th>map</th><th>RMS</th><th>standard error</th><th>relative</th><th>resolved</th>"
                      + ("<th>error against the twin's truth</th>" if has_truth else "") + "</tr>" + "".join(rows)
                      + "</table>")
