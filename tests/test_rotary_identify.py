@@ -275,3 +275,16 @@ def test_map_error_quantile_against_monte_carlo():
             q = ri._map_error_quantile(cov, orders, level)
             assert q == pytest.approx(float(np.quantile(rms, level)), rel=tol)
         assert ri._map_standard_error(cov, orders) == pytest.approx(float(np.sqrt(np.mean(rms**2))), rel=0.01)
+
+
+def test_resolution_verdict_says_what_would_help():
+    """Resolved; not resolved for noise (the factor rounded up, so a factor just above 1 never reads 1.0x); not
+    resolved because the ridge sets the map (then it names the excitation, not the log time)."""
+    from pgcomm.rotary.identify import RESOLVED_SHARE, resolution_verdict
+
+    assert resolution_verdict({"resolved": True, "ridge_bias": 0.0, "log_time_factor_to_resolve": 1.0}) == "resolved"
+    noise = resolution_verdict({"resolved": False, "ridge_bias": 0.0, "log_time_factor_to_resolve": 1.02})
+    assert "1.1x the running log so far" in noise and "ridge" not in noise
+    assert "2.4x" in resolution_verdict({"resolved": False, "ridge_bias": 0.0, "log_time_factor_to_resolve": 2.31})
+    ridge = resolution_verdict({"resolved": False, "ridge_bias": 2 * RESOLVED_SHARE, "log_time_factor_to_resolve": 1.0})
+    assert "ridge sets 10 %" in ridge and "dither" in ridge

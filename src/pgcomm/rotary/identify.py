@@ -623,8 +623,9 @@ def resolution_verdict(entry: dict) -> str:
     if entry.get("ridge_bias", 0.0) > RESOLVED_SHARE:
         return (f"not resolved: the ridge sets {100 * entry['ridge_bias']:.0f} % of it (the logs do not excite it; "
                 "log with more q-current variation, e.g. a dither or accelerations)")
-    return (f"not resolved: about {entry['log_time_factor_to_resolve']:.1f}x as much running log at the same "
-            "excitation would resolve it")
+    # rounded up to a tenth: a factor just above 1 would otherwise read "1.0x", as if no more log were needed
+    factor = max(1.1, math.ceil(10 * entry["log_time_factor_to_resolve"]) / 10)
+    return (f"not resolved: about {factor:.1f}x the running log so far, at the same excitation, would resolve it")
 
 
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
