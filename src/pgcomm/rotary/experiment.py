@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.seeds import stream_seed
-from pgcomm.rotary.identify import RESOLVED_SHARE, Orders, fit_mechanics, identify, max_speed, resolution_verdict
+from pgcomm.rotary.identify import Orders, fit_mechanics, identify, max_speed, resolution_verdict
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, RotaryTruth, default_gains, simulate
@@ -240,9 +240,8 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
                       f"% of the truth's RMS; ridge {ident.info['ridge']:.0e}")
         for name in ("cogging", "ripple"):
             se = ident.info["standard_error"][name]
-            progress.info(f"{name}: standard error {100 * se['relative']:.1f} % of its RMS, {resolution_verdict(se)}"
-                          + ("" if se["resolved"] or se["ridge_bias"] > RESOLVED_SHARE else
-                             f" ({se['log_time_factor_to_resolve'] * run_seconds:.0f} s)"))
+            progress.info(f"{name}: standard error {100 * se['relative']:.1f} % of its RMS, "
+                          f"{resolution_verdict(se, run_seconds)}")
     with progress.stage(f"standstill sweep ({settings.standstill.points} angles, both directions)"):
         t0 = time.perf_counter()
         sweep = run_standstill(truth, gains, settings.standstill, seed=stream_seed(seed, "rotary standstill sweep"))

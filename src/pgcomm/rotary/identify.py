@@ -59,7 +59,8 @@ from pgcomm.rotary.model import Fourier, RotaryModel, cogging_orders, direction_
     ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 
-__all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE", "RESOLVED_CONFIDENCE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
+__all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE",
+           "RESOLVED_CONFIDENCE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
            "RotaryIdentification"]
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used.
@@ -439,17 +440,17 @@ def _map_gram(map_orders) -> np.ndarray:
     return phi.T @ phi / th.size
 
 
-def _map_error_quantile(cov_block, map_orders, level: float) -> float:
+def _map_error_quantile(cov_block, gram, level: float) -> float:
     """The ``level`` quantile of a Fourier map's RMS error over the revolution, for an error ``δ ~ N(0, Cov)``.
 
-    The mean square ``δᵀ M δ`` (:func:`_map_gram`) is a weighted sum of χ²₁ variables with weights ``λ``, the
+    The mean square ``δᵀ M δ`` (``gram`` = ``M``, :func:`_map_gram`) is a weighted sum of χ²₁ variables with weights ``λ``, the
     eigenvalues of ``Lᵀ Cov L`` (``M = L Lᵀ``); Satterthwaite's approximation takes it as ``(Σλ) χ²_ν / ν`` with
     ``ν = (Σλ)² / Σλ²`` degrees of freedom (exact when the weights are equal). Returns the RMS error (the map's
     units) that the noise part stays below with probability ``level``.
     """
     from scipy.stats import chi2
 
-    d, v = np.linalg.eigh(_map_gram(map_orders))
+    d, v = np.linalg.eigh(gram)
     L = v * np.sqrt(np.clip(d, 0.0, None))  # M = L Lᵀ; M is singular where a column is zero (the sine of order 0)
     lam = np.clip(np.linalg.eigvalsh(L.T @ cov_block @ L), 0.0, None)
     total = float(np.sum(lam))
@@ -459,10 +460,10 @@ def _map_error_quantile(cov_block, map_orders, level: float) -> float:
     return float(np.sqrt(total * chi2.ppf(level, nu) / nu))
 
 
-def _map_standard_error(cov_block, map_orders) -> float:
+def _map_standard_error(cov_block, gram) -> float:
     """Expected RMS over the revolution of a Fourier map's estimation error: ``sqrt(tr(Cov M))``
-    (:func:`_map_gram`) for an error ``δ`` of covariance ``Cov``."""
-    return float(np.sqrt(max(float(np.sum(cov_block * _map_gram(map_orders))), 0.0)))
+    (``gram`` = ``M``, :func:`_map_gram`) for an error ``δ`` of covariance ``Cov``."""
+    return float(np.sqrt(max(float(np.sum(cov_block * gram)), 0.0)))
 
 
 def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
@@ -600,10 +601,11 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
     for name, cols, fn, map_orders in (("cogging", o_c, model.cogging, orders.cogging),
                                        ("ripple", o_r, model.ripple, orders.ripple),
                                        ("direction", o_d, model.direction, orders.direction)):
-        se = _map_standard_error(cov[np.ix_(cols, cols)], map_orders)
-        se_q = _map_error_quantile(cov[np.ix_(cols, cols)], map_orders, RESOLVED_CONFIDENCE)
+        gram, c = _map_gram(map_orders), cov[np.ix_(cols, cols)]
+        se = _map_standard_error(c, gram)
+        se_q = _map_error_quantile(c, gram, RESOLVED_CONFIDENCE)
         b = bias[cols]
-        b_rms = float(np.sqrt(max(float(b @ _map_gram(map_orders) @ b), 0.0)))
+        b_rms = float(np.sqrt(max(float(b @ gram @ b), 0.0)))
         rms = float(np.sqrt(np.mean(fn(th) ** 2)))
         rel = se / rms if rms > 0 else float("inf")
         b_rel = b_rms / rms if rms > 0 else float("inf")
@@ -614,10 +616,11 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
     return out
 
 
-def resolution_verdict(entry: dict) -> str:
+def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     """One phrase for a map's entry of ``info["standard_error"]`` (:func:`_standard_errors`): ``"resolved"``, or
-    why not and what would help: longer logs of the same kind when the noise part is too large, a different
-    excitation when the ridge sets the map (then longer logs of the same kind do not help)."""
+    why not and what would help: longer logs of the same kind when the noise part is too large (with
+    ``log_seconds``, the seconds of running log so far, also the total it would take), a different excitation
+    when the ridge sets the map (then longer logs of the same kind do not help)."""
     if entry["resolved"]:
         return "resolved"
     if entry.get("ridge_bias", 0.0) > RESOLVED_SHARE:
@@ -625,7 +628,8 @@ def resolution_verdict(entry: dict) -> str:
                 "log with more q-current variation, e.g. a dither or accelerations)")
     # rounded up to a tenth: a factor just above 1 would otherwise read "1.0x", as if no more log were needed
     factor = max(1.1, math.ceil(10 * entry["log_time_factor_to_resolve"]) / 10)
-    return (f"not resolved: about {factor:.1f}x the running log so far, at the same excitation, would resolve it")
+    total = "" if log_seconds is None else f" ({factor * log_seconds:.0f} s)"
+    return f"not resolved: about {factor:.1f}x the running log so far{total}, at the same excitation, would resolve it"
 
 
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
