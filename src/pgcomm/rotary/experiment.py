@@ -54,6 +54,11 @@ ROWS = ("classical", "standstill_table", "model", "oracle")
 #: Running-log and standstill tables agree "within the noise of the sweep" when their RMS difference is at
 #: most this factor times the sweep's own RMS error against the truth (sqrt(2) for two equally good tables).
 AGREEMENT_FACTOR = 1.5
+#: The evaluation runs at a share of the speed at which the highest cogging order still has this many
+#: samples per period: a compensation held for a sample cannot follow a harmonic much faster (the
+#: identification's alias guard, :data:`pgcomm.rotary.identify.MIN_SAMPLES_PER_PERIOD`, is looser: it
+#: only has to integrate the torque along the path, not cancel it).
+EVAL_MIN_SAMPLES_PER_PERIOD = 8.0
 
 
 @dataclass(frozen=True)
@@ -140,7 +145,7 @@ def tracking_references(truth_motor, orders: Orders, settings: RotarySettings) -
     """Evaluation references: ``position`` (forward then back at the evaluation speed, position loop)
     and ``speed`` (the same profile in the speed loop)."""
     ts = truth_motor.sample_time
-    w = settings.eval_share * max_speed(orders, ts)
+    w = settings.eval_share * max_speed(orders, ts, EVAL_MIN_SAMPLES_PER_PERIOD)
     n_cruise = int(math.ceil(settings.eval_revolutions * 2 * math.pi / w / ts))
     n_ramp = int(0.2 / ts)
     om_f, al_f = _ramp_profile(w, n_cruise, n_ramp, ts)
@@ -222,14 +227,22 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         record([0])
     with progress.stage("identification from the running logs (no torque sensor)"):
         ident = identify(logs, motor, orders)
-        se = ident.info["standard_error"]
-        need = max(se["cogging"]["log_time_factor_to_resolve"], se["ripple"]["log_time_factor_to_resolve"])
-        rounds = int(min(math.ceil(need - 1e-9), max(1, math.floor(budget / round_seconds))))
-        if rounds > 1:
+        rounds, max_rounds = 1, max(1, math.floor(budget / round_seconds))
+        # log until both maps are resolved or the budget is spent; the standard error of a short log is itself
+        # uncertain, so the need is re-estimated after every batch rather than trusted from the first round
+        while rounds < max_rounds:
+            se = ident.info["standard_error"]
+            need = max(se["cogging"]["log_time_factor_to_resolve"], se["ripple"]["log_time_factor_to_resolve"])
+            if need <= 1.0:
+                break
+            more = int(min(math.ceil(rounds * need - 1e-9), max_rounds)) - rounds
+            if more < 1:
+                break
             progress.info(f"standard errors: cogging {100 * se['cogging']['relative']:.1f} %, ripple "
-                          f"{100 * se['ripple']['relative']:.1f} % of their RMS after {round_seconds:.0f} s of logs: "
-                          f"recording {rounds - 1} more round(s) (budget {budget:.0f} s)")
-            record(range(1, rounds))
+                          f"{100 * se['ripple']['relative']:.1f} % of their RMS after {rounds * round_seconds:.0f} s "
+                          f"of logs: recording {more} more round(s) (budget {budget:.0f} s)")
+            record(range(rounds, rounds + more))
+            rounds += more
             ident = identify(logs, motor, orders)
         run_seconds = rounds * round_seconds
         ident.info["rounds"] = rounds

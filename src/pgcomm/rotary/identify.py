@@ -11,12 +11,18 @@ front of ``i_q`` fixes the scale (only ratios are observable). Least squares on:
     i_q,f = (J/k0) θ̈_f − Σ r_h (i_q φ_h)_f − Σ c_h φ_h,f + Σ d_h (s φ_h)_f + b ω_f
 
 **The filter** is :mod:`pgcomm.sensorless`'s idea: a short zero-phase Hann window ``g`` on the
-second difference of the encoder angle, and the *same* window on every regressor, with the
-kernel that makes the discrete second difference exact: a current held over a sample (ZOH)
-gives ``Δ²θ[i] = T_s²/(2J)(T[i−1] + T[i])`` (taps ``g * [½, ½]``); a torque that is a smooth
-function of time (cogging, drag, friction) gives the triangle kernel, exact for quadratics:
-``T_s²/J (T[i−1]/12 + 5 T[i]/6 + T[i+1]/12)`` (taps ``g * [1/12, 5/6, 1/12]``). With the wrong
-kernel the highest cogging harmonic at 8 samples per period came out ~5 % small.
+second difference of the encoder angle, and the *same* window on every regressor.
+
+**The kernel.** The second difference is exact: ``Δ²θ[j] = T_s²/J (∫₀¹ x T(t_{j−1} + x T_s) dx +
+∫₀¹ (1 − x) T(t_j + x T_s) dx)``, the torque weighted by a triangle over the two sample intervals
+around ``t_j``. A current held over a sample (ZOH) gives weights ``½, ½`` on ``i_q[j−1], i_q[j]``. A
+torque that is a function of the angle (cogging, the ripple's ``r(θ) i_q``, the drag) is integrated
+along the rotor's path: per interval, four-point Gauss–Legendre on the cubic through the four encoder
+samples around it (:func:`_interval_weights`). This stays exact when a harmonic turns by a large
+phase within a sample: at 3 samples per period of the highest cogging order, with the noise off, the
+cogging comes out within 0.15 % of the truth on the zoo. (The earlier kernel took the torque as a
+quadratic in time, ``[1/12, 5/6, 1/12]`` on the samples, which needs about 8 samples per period; the
+speed of the running logs, and so the dither current they can carry, is bounded by this number.)
 
 **Alias guard.** A window is used only where the highest modelled harmonic has at least
 ``MIN_SAMPLES_PER_PERIOD`` samples per period at the window's fastest speed (DESIGN: "refuse
@@ -63,8 +69,10 @@ __all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict",
            "RESOLVED_CONFIDENCE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
            "RotaryIdentification"]
 
-#: Fewest samples per period of the highest modelled harmonic for a window to be used.
-MIN_SAMPLES_PER_PERIOD = 8.0
+#: Fewest samples per period of the highest modelled harmonic for a window to be used. The kernel is
+#: exact along the path (module docstring); below ~3 the cubic between encoder samples no longer follows a
+#: cogging-driven speed ripple and the interpolation's error grows (0.3 % at 2.2 on the zoo, noise off).
+MIN_SAMPLES_PER_PERIOD = 3.0
 #: Hann window length (samples) of the acceleration filter; stride half of it.
 FILTER_TAPS = 6
 #: Windows slower than this share of the log's 95th-percentile speed anywhere are left out.
@@ -121,6 +129,10 @@ class RotaryIdentification:
 
 _ZOH = np.array([0.5, 0.5])
 _TRI = np.array([1.0 / 12.0, 5.0 / 6.0, 1.0 / 12.0])
+#: Gauss–Legendre nodes and weights on [0, 1] for the per-interval integrals (exact for degree 7; at three
+#: samples per period of the highest order the phase turns 2.1 rad per interval: error ~1e-5).
+_GL_NODES = 0.5 * (1.0 + np.polynomial.legendre.leggauss(4)[0])
+_GL_WEIGHTS = 0.5 * np.polynomial.legendre.leggauss(4)[1]
 
 
 def _hann(n: int) -> np.ndarray:
@@ -231,6 +243,45 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
     return prepared, counts, v_limit, float(np.median(ts_all))
 
 
+def _extended(theta: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """``theta[lo − 1 : hi + 1]``, extended linearly past either end of the log (the interpolation's outer
+    points)."""
+    n = theta.size
+    idx = np.arange(lo - 1, hi + 1)
+    out = theta[np.clip(idx, 0, n - 1)].astype(float)
+    if lo == 0:
+        out[0] = 2.0 * theta[0] - theta[min(1, n - 1)]
+    if hi >= n:
+        out[-1] = 2.0 * theta[n - 1] - theta[max(n - 2, 0)]
+    return out
+
+
+def _interval_weights(theta_ext: np.ndarray, orders, n_int: int):
+    """The exact second-difference weights of a Fourier map over each sample interval (module docstring,
+    "The kernel"): ``A_k = ∫₀¹ x φ(θ(t_k + x T_s)) dx`` and ``B_k = ∫₀¹ (1 − x) φ(θ(t_k + x T_s)) dx``
+    for the intervals ``k = 0 .. n_int − 1``, by Gauss–Legendre quadrature on the cubic through the four
+    encoder samples around the interval.
+
+    Args:
+        theta_ext: ``(n_int + 3,)`` angles (rad, multi-turn), ``theta_ext[k + 1]`` the sample at ``t_k``.
+        orders: ``(n,)`` harmonics per revolution.
+
+    Returns:
+        ``(A, B)``, each ``(n_int, 2n)`` (cosines, then sines).
+    """
+    pts = np.stack([theta_ext[j:j + n_int] for j in range(4)], axis=1)  # θ_{k-1}, θ_k, θ_{k+1}, θ_{k+2}
+    ncol = 2 * np.asarray(orders).size
+    A = np.zeros((n_int, ncol))
+    B = np.zeros((n_int, ncol))
+    for x, w in zip(_GL_NODES, _GL_WEIGHTS):
+        lag = np.array([-x * (x - 1) * (x - 2) / 6, (x + 1) * (x - 1) * (x - 2) / 2,
+                        -(x + 1) * x * (x - 2) / 2, (x + 1) * x * (x - 1) / 6])
+        phi = harmonic_columns(pts @ lag, orders)
+        A += (w * x) * phi
+        B += (w * (1.0 - x)) * phi
+    return A, B
+
+
 def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS):
     """Filtered target and regressor blocks (module docstring), ``chunk`` windows at a time: the Fourier
     columns are built only over the samples a chunk needs, so a basis of hundreds of orders on minutes of
@@ -251,12 +302,18 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS):
             loc = st - lo
             th, iq, sgn = p.theta[lo:hi], p.iq[lo:hi], p.sgn[lo:hi]
             d2 = th[2:] - 2 * th[1:-1] + th[:-2]  # d2[i-1] is Δ²θ at sample i
-            phi_r = harmonic_columns(th, orders.ripple)
-            phi_c = harmonic_columns(th, orders.cogging)
-            phi_d = harmonic_columns(th, orders.direction)
+            # Δ²θ at sample j weighs interval j-1 (held iq[j-1]) rising and interval j (iq[j]) falling
+            th_ext = _extended(p.theta, lo, hi)
+            n_int = hi - lo - 1
+            a_r, b_r = _interval_weights(th_ext, orders.ripple, n_int)
+            a_c, b_c = _interval_weights(th_ext, orders.cogging, n_int)
+            a_d, b_d = _interval_weights(th_ext, orders.direction, n_int)
+            iq_i, sg_i = iq[:n_int, None], sgn[:n_int, None]
             yield {"y": _filt(iq, loc, g_zoh), "acc": _filt(d2, loc, g) / p.ts**2,
-                   "rip": _filt(iq[:, None] * phi_r, loc, g_zoh), "cog": _filt(phi_c, loc, g_tri),
-                   "dir": _filt(sgn[:, None] * phi_d, loc, g_tri), "visc": _filt(p.w[lo:hi], loc, g_tri),
+                   "rip": _filt(iq_i * a_r, loc, g) + _filt(iq_i * b_r, loc + 1, g),
+                   "cog": _filt(a_c, loc, g) + _filt(b_c, loc + 1, g),
+                   "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
+                   "visc": _filt(p.w[lo:hi], loc, g_tri),
                    "sgn": sgn[loc + span // 2],
                    "block": np.floor(st * p.ts / BLOCK_SECONDS).astype(np.int64) + 100003 * p.index}
 
