@@ -293,3 +293,58 @@ def test_resolution_verdict_says_what_would_help():
         {"resolved": False, "ridge_bias": 0.0, "log_time_factor_to_resolve": 2.31}, log_seconds=10.0)
     ridge = resolution_verdict({"resolved": False, "ridge_bias": 2 * RESOLVED_SHARE, "log_time_factor_to_resolve": 1.0})
     assert "ridge sets 10 %" in ridge and "dither" in ridge
+
+
+def test_interval_weights_are_the_path_integrals():
+    """``A_k = ∫₀¹ x φ(θ(t_k + x T)) dx`` and ``B_k = ∫₀¹ (1 − x) φ(...) dx`` on a path that is quadratic in
+    time (a constant acceleration: the cubic through the samples is then exact), with the highest order
+    turning 2π/3 per sample (the alias guard's 3 samples per period) at the start and 30 % more at the end,
+    against a 20 000-point midpoint rule. Tolerance: the four-point Gauss–Legendre remainder on [0, 1],
+    ``(4!)⁴ / (9 (8!)³) · max|f⁽⁸⁾|`` with ``f = x cos(a + c x)``, ``|f⁽⁸⁾| ≤ c⁸ + 8 c⁷`` (``c`` the largest
+    phase turned in an interval), for columns of scale 1; the midpoint rule adds ``c² / (24 · 20000²)``."""
+    from pgcomm.rotary.identify import _extended, _interval_weights
+
+    ts, n = 1e-3, 40
+    orders = np.array([1, 7, 30, 120])
+    omega = 2 * np.pi / (3 * ts * orders.max())  # 3 samples per period of order 120
+    alpha = 0.3 * omega / (n * ts)  # the speed changes by 30 % over the stretch
+    path = lambda t: 0.4 + omega * t + 0.5 * alpha * t**2  # noqa: E731
+    theta = path(ts * np.arange(n))
+    lo, hi = 5, 25
+    c = orders.max() * (omega + alpha * n * ts) * ts
+    tol = 24.0**4 / (9 * 40320.0**3) * (c**8 + 8 * c**7) + c**2 / (24 * 20000.0**2)
+    A, B = _interval_weights(_extended(theta, lo, hi), orders, hi - lo - 1)
+    m = 20000
+    x = (np.arange(m) + 0.5) / m
+    for j, k in enumerate(range(lo, hi - 1)):
+        th = path(ts * (k + x))
+        ph = np.mod(th, 2 * np.pi)[:, None] * orders[None, :]
+        phi = np.concatenate([np.cos(ph), np.sin(ph)], axis=1)
+        np.testing.assert_allclose(A[j], (x[:, None] * phi).mean(axis=0), atol=tol, rtol=0)
+        np.testing.assert_allclose(B[j], ((1 - x)[:, None] * phi).mean(axis=0), atol=tol, rtol=0)
+    # the ends of a log: the sample before the first is extrapolated linearly, off by α T² (the second
+    # difference), which the cubic weighs by at most |x(x-1)(x-2)/6| ≤ 0.065 on [0, 1]; order 1 turns it 1:1
+    A0, _ = _interval_weights(_extended(theta, 0, 10), orders[:1], 9)
+    th = path(ts * x)
+    np.testing.assert_allclose(A0[0], [(x * np.cos(th)).mean(), (x * np.sin(th)).mean()],
+                               atol=0.065 * alpha * ts**2 + tol, rtol=0)
+
+
+def test_noise_free_identification_at_three_samples_per_period():
+    """With the current and encoder noise off, zoo motor 4 (18N16P, cogging up to order 432, logs at up to the
+    alias guard's 3 samples per period) gives its cogging within 0.5 % of the truth's RMS (measured 0.11 %:
+    what is left is the order outside the basis and the friction's smooth sign; sample-by-sample kernels
+    that take the torque as quadratic in time err by tens of percent here)."""
+    from dataclasses import replace
+
+    t = draw_rotary(0, 4)
+    t = replace(t, current_noise=0.0, encoder_counts=2**30)
+    a = t.inertia / t.k0
+    orders = Orders.for_motor(t.motor)
+    refs = running_references(t.motor, a, quick_settings(), orders)
+    logs = [simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=k)
+            for k, r in enumerate(refs)]
+    res = identify(logs, t.motor)
+    assert res.info["min_samples_per_period"] == 3.0
+    assert res.info["windows_refused_alias"] < 0.2 * res.info["windows"]
+    assert identification_errors(res.model, t)["cogging_rel"] <= 0.005
