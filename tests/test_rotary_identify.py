@@ -348,3 +348,30 @@ def test_noise_free_identification_at_three_samples_per_period():
     assert res.info["min_samples_per_period"] == 3.0
     assert res.info["windows_refused_alias"] < 0.2 * res.info["windows"]
     assert identification_errors(res.model, t)["cogging_rel"] <= 0.005
+
+
+def test_outside_order_limit_is_what_the_screening_sees():
+    """``outside_order_limit`` is the RMS of the largest outside order the screening would miss: zoo motor 3 without
+    its outside orders reports a limit for the cogging; the same motor with order 43 planted at twice that RMS gets
+    order 43 added (its ``T²`` is then about four times the threshold, missed with chance well below 1e-3), and the
+    limit sits between the noise part's tenth and ten times it (it falls with the noise: both are set by the
+    same covariance)."""
+    from dataclasses import replace
+
+    from pgcomm.rotary.model import Fourier
+
+    t = _strip_outside(draw_rotary(0, 3))
+    a = t.inertia / t.k0
+    orders = Orders.for_motor(t.motor)
+    refs = running_references(t.motor, a, replace(quick_settings(), revolutions=3.0), orders)
+    law, gains = LawParams.classical(t.motor.pole_pairs), default_gains(a)
+    logs = [simulate(t, r, law, gains, seed=11 + k) for k, r in enumerate(refs)]
+    se = identify(logs, t.motor).info["standard_error"]["cogging"]
+    lim = se["outside_order_limit"]
+    assert 0.1 * se["relative"] < lim < 10 * se["relative"]
+    rms_abs = 2.0 * lim * se["rms"] * t.k0  # N·m; the map is in current units
+    planted = Fourier(np.concatenate([t.cogging.orders, [43]]),
+                      np.concatenate([t.cogging.coef, [[rms_abs * np.sqrt(2.0), 0.0]]]))
+    t2 = replace(t, cogging=planted)
+    logs = [simulate(t2, r, law, gains, seed=11 + k) for k, r in enumerate(refs)]
+    assert 43 in identify(logs, t2.motor).info["orders_added"]["cogging"]

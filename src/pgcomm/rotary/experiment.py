@@ -25,7 +25,8 @@ running-log table with the standstill table against the sweep's noise.
 **How long to log.** After the first round of running logs, the identification's standard errors
 (time-block sandwich, :func:`pgcomm.rotary.identify.identify`) say whether the cogging and the
 ripple are resolved to 5 % of their RMS and how much longer the logs would have to be; more rounds
-are recorded while that fits :attr:`RotarySettings.log_budget_share` of the sweep's time. The
+are recorded while that fits :attr:`RotarySettings.log_budget_share` of the sweep's time, and the need
+is estimated again after every batch (the standard error of a short log is itself uncertain). The
 ripple needs current: a free rotor carries a large q-current only briefly (the speed swing of a
 dither ``a`` at ``f`` is ``a k0/(J 2πf)``), so a high-pole-count motor with a light rotor may end
 the budget with its ripple unresolved; the results say so (``identification.standard_error``).
