@@ -291,6 +291,9 @@ def test_resolution_verdict_says_what_would_help():
     assert "1.1x the running log so far" in noise and "ridge" not in noise
     assert "2.4x the running log so far (24 s)" in resolution_verdict(
         {"resolved": False, "ridge_bias": 0.0, "log_time_factor_to_resolve": 2.31}, log_seconds=10.0)
+    parts = resolution_verdict({"resolved": False, "ridge_bias": 0.0, "log_time_factor_to_resolve": 1.6,
+                                "relative_at_confidence": 0.052, "outside_order_limit": 0.038})
+    assert "noise up to 5.2 % at 90 %" in parts and "outside the basis up to 3.8 %" in parts and "1.6x" in parts
     ridge = resolution_verdict({"resolved": False, "ridge_bias": 2 * RESOLVED_SHARE, "log_time_factor_to_resolve": 1.0})
     assert "ridge sets 10 %" in ridge and "dither" in ridge
 

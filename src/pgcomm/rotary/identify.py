@@ -700,8 +700,9 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
 def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     """One phrase for a map's entry of ``info["standard_error"]`` (:func:`_standard_errors`): ``"resolved"``, or
     why not and what would help: longer logs of the same kind when the noise part is too large (with
-    ``log_seconds``, the seconds of running log so far, also the total it would take), a different excitation
-    when the ridge sets the map (then longer logs of the same kind do not help)."""
+    ``log_seconds``, the seconds of running log so far, also the total it would take; with the noise part at
+    :data:`RESOLVED_CONFIDENCE` and the outside-order limit it weighs, when the entry has them), a different
+    excitation when the ridge sets the map (then longer logs of the same kind do not help)."""
     if entry["resolved"]:
         return "resolved"
     if entry.get("ridge_bias", 0.0) > RESOLVED_SHARE:
@@ -710,7 +711,15 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     # rounded up to a tenth: a factor just above 1 would otherwise read "1.0x", as if no more log were needed
     factor = max(1.1, math.ceil(10 * entry["log_time_factor_to_resolve"]) / 10)
     total = "" if log_seconds is None else f" ({factor * log_seconds:.0f} s)"
-    return f"not resolved: about {factor:.1f}x the running log so far{total}, at the same excitation, would resolve it"
+    # what the verdict weighs, so a standard error below 5 % next to "not resolved" reads as intended
+    parts = []
+    if entry.get("relative_at_confidence") is not None:
+        parts.append(f"noise up to {100 * entry['relative_at_confidence']:.1f} % at {100 * RESOLVED_CONFIDENCE:.0f} %")
+    if entry.get("outside_order_limit") is not None:
+        parts.append(f"an unseen order outside the basis up to {100 * entry['outside_order_limit']:.1f} %")
+    why = f" ({', '.join(parts)})" if parts else ""
+    return (f"not resolved{why}: about {factor:.1f}x the running log so far{total}, at the same excitation, "
+            "would resolve it")
 
 
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
