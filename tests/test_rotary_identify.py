@@ -378,3 +378,24 @@ def test_outside_order_limit_is_what_the_screening_sees():
     t2 = replace(t, cogging=planted)
     logs = [simulate(t2, r, law, gains, seed=11 + k) for k, r in enumerate(refs)]
     assert 43 in identify(logs, t2.motor).info["orders_added"]["cogging"]
+
+
+def test_rounds_of_running_logs_do_not_retrace_the_same_path(motor0):
+    """The twin has no process noise, so two logs of one reference from one angle retrace one path with one
+    encoder quantisation error in every sample (more rounds would not average it); ``running_log`` starts each
+    log at an angle drawn from its seed, and the quantisation errors of two rounds are then uncorrelated
+    (|correlation| within 4/sqrt(N) of zero, N samples)."""
+    from pgcomm.rotary.experiment import running_log
+
+    t, _ = motor0
+    a = t.inertia / t.k0
+    ref = running_references(t.motor, a, quick_settings(), Orders.for_motor(t.motor))[0]
+    law, gains = LawParams.classical(t.motor.pole_pairs), default_gains(a)
+    same = [simulate(t, ref, law, gains, seed=s) for s in (1, 2)]
+    e_same = [g["theta"] - g["theta_true"] for g in same]
+    assert np.corrcoef(e_same[0], e_same[1])[0, 1] > 0.99  # the twin's determinism: why rounds need their own start
+    runs = [running_log(t, ref, law, gains, s) for s in (1, 2)]
+    e = [g["theta"] - g["theta_true"] for g in runs]
+    assert abs(runs[0]["theta"][0] - runs[1]["theta"][0]) > 1e3 * 2 * np.pi / t.encoder_counts
+    c = np.corrcoef(e[0], e[1])[0, 1]
+    assert abs(c) < 4 / np.sqrt(e[0].size)

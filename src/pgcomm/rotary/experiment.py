@@ -48,7 +48,7 @@ from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, RotaryTruth, default_gains, simulate
 
-__all__ = ["RotarySettings", "running_references", "tracking_references", "run", "identification_errors",
+__all__ = ["RotarySettings", "running_references", "running_log", "tracking_references", "run", "identification_errors",
            "ROWS", "quick_settings"]
 
 ROWS = ("classical", "standstill_table", "model", "oracle")
@@ -142,6 +142,23 @@ def running_references(truth_motor, inertia_ratio: float, settings: RotarySettin
     return refs
 
 
+def running_log(truth: RotaryTruth, ref: Reference, law: LawParams, gains, seed: int) -> dict:
+    """One running log (:func:`pgcomm.rotary.twin.simulate`) that starts at an angle drawn from ``seed``.
+
+    A rig never starts two logs at the same angle to a fraction of an encoder count; the twin, without process
+    noise, would: every round of the same reference would then retrace the same path, with the same encoder
+    quantisation error in every sample, and more rounds would not average it (on 16-bit encoders the screening
+    took that repeated error for a dozen orders outside the basis).
+
+    Args:
+        truth: the twin; ref: a speed-loop :class:`Reference`; law, gains: as for ``simulate``;
+        seed: the log's noise seed (also draws the start angle, uniform over the revolution).
+    """
+    start = float(np.random.default_rng([int(seed), 0x57A7]).uniform(0.0, 2 * math.pi))
+    shifted = Reference(np.asarray(ref.theta, float) + start, ref.omega, ref.alpha, ref.mode, ref.dither)
+    return simulate(truth, shifted, law, gains, seed=seed)
+
+
 def tracking_references(truth_motor, orders: Orders, settings: RotarySettings) -> dict:
     """Evaluation references: ``position`` (forward then back at the evaluation speed, position loop)
     and ``speed`` (the same profile in the speed loop)."""
@@ -221,7 +238,7 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
 
     def record(rounds):
         for k in rounds:
-            logs.extend(simulate(truth, r, classical, gains, seed=stream_seed(seed, "rotary running log", k, i))
+            logs.extend(running_log(truth, r, classical, gains, stream_seed(seed, "rotary running log", k, i))
                         for i, r in enumerate(refs))
 
     with progress.stage("running logs (speed loop, two speeds, both directions, q-current dither)"):
