@@ -7,7 +7,9 @@ standstill sweep of 3600 angles, four rows in closed loop) and prints:
 * cogging and torque-constant ripple RMS error over the revolution, relative to the truth's RMS
   (target <= 5 %), and the direction map's; the ripple's error also as a share of the mean torque
   constant ``k0`` (what it costs in torque: ``k = k0 (1 + r)``);
-* tracking MSE ratio model-law / standstill table in the position and speed loops (target <= 0.5);
+* tracking MSE ratio model-law / standstill table in the position and speed loops (target <= 0.5), and the
+  oracle's ratio (floor p/s: what the true map achieves; where it is above 0.5 the target is out of any law's reach
+  and the summary gives the model's excess over the oracle instead);
 * running-log vs standstill-table agreement (RMS difference vs the sweep's own error);
 * running-log time vs standstill-sweep time (rig seconds);
 * the ripple's standard error (the identification's own estimate, relative to its RMS) and the
@@ -41,7 +43,7 @@ def main(argv=None) -> int:
     settings = quick_settings() if args.quick else RotarySettings()
     print(f"{'#':>2} {'motor':7s} {'cog err':>8s} {'rip err':>8s} {'dir err':>8s} {'pos ratio':>9s} "
           f"{'spd ratio':>9s} {'tab diff A':>10s} {'sweep err A':>11s} {'agree':>5s} {'run s':>6s} {'sweep s':>7s} "
-          f"{'wall s':>6s} {'rip SE':>7s} {'s to 5%':>7s} orders added (outside the slot/pole basis)")
+          f"{'wall s':>6s} {'rip SE':>7s} {'s to 5%':>7s} {'floor p/s':>9s} orders added (outside the slot/pole basis)")
     rows = []
     for i in range(args.motors):
         t = draw_rotary(args.seed, i)
@@ -52,13 +54,21 @@ def main(argv=None) -> int:
         a = r["standstill"]["agreement"]
         tm = r["timing"]
         se = r["identification"]["standard_error"]
+        mse = r["tracking_mse"]
+        # the oracle (the true map) over the table: the ratio no law can beat in this run (encoder, loop)
+        floor = {k: mse["oracle"][k] / mse["standstill_table"][k] for k in ("position", "speed")}
+        # the part of the table's MSE above that floor which the model leaves
+        excess = {k: (mse["model"][k] - mse["oracle"][k]) / max(mse["standstill_table"][k] - mse["oracle"][k], 1e-300)
+                  for k in ("position", "speed")}
         rows.append((e["cogging_rel"], e["ripple_rel"], q["position"], q["speed"], se["ripple"]["relative"],
-                     se["ripple"]["log_time_factor_to_resolve"] * tm["running_logs_s"]))
+                     se["ripple"]["log_time_factor_to_resolve"] * tm["running_logs_s"], excess["position"],
+                     excess["speed"], floor["position"], floor["speed"]))
         print(f"{i:2d} {t.motor.name:7s} {100 * e['cogging_rel']:7.1f}% {100 * e['ripple_rel']:7.1f}% {100 * e['ripple_rms']:5.2f}% "
               f"{100 * e['direction_rel']:7.1f}% {q['position']:9.2f} {q['speed']:9.2f} "
               f"{a['rms_model_minus_sweep_A']:10.3g} {a['rms_sweep_minus_truth_A']:11.3g} "
               f"{'yes' if a['within_noise'] else 'no':>5s} {tm['running_logs_s']:6.0f} {tm['standstill_s']:7.0f} "
               f"{time.perf_counter() - t0:6.0f} {100 * rows[-1][4]:6.1f}% {rows[-1][5]:7.0f} "
+              f"{floor['position']:4.2f}/{floor['speed']:4.2f} "
               f"{r['identification']['orders_added']}", flush=True)
     import numpy as np
 
@@ -67,7 +77,10 @@ def main(argv=None) -> int:
           f"tracking ratio position {np.median(arr[:, 2]):.2f}, speed {np.median(arr[:, 3]):.2f}; "
           f"cogging <= 5 % on {int(np.sum(arr[:, 0] <= 0.05))}/{len(rows)}, ripple <= 5 % on "
           f"{int(np.sum(arr[:, 1] <= 0.05))}/{len(rows)}, position ratio <= 0.5 on {int(np.sum(arr[:, 2] <= 0.5))}"
-          f"/{len(rows)}, speed ratio <= 0.5 on {int(np.sum(arr[:, 3] <= 0.5))}/{len(rows)}")
+          f"/{len(rows)}, speed ratio <= 0.5 on {int(np.sum(arr[:, 3] <= 0.5))}/{len(rows)}; where the oracle itself is above "
+          f"0.5 of the table (floor p/s), the model's excess over the oracle / the table's: position "
+          f"{', '.join(f'{x:.2f}' for x in arr[arr[:, 8] > 0.5, 6]) or '-'}, speed "
+          f"{', '.join(f'{x:.2f}' for x in arr[arr[:, 9] > 0.5, 7]) or '-'}")
     return 0
 
 
