@@ -46,7 +46,7 @@ def _identification_html(r: dict) -> str:
         e = se[name]
         truth = ident.get("errors", {}).get({"cogging": "cogging_rel", "ripple": "ripple_rel",
                                                "direction": "direction_rel"}[name])
-        verdict = "yes" if e["resolved"] else resolution_verdict(e).replace("not resolved: ", "no: ", 1)
+        verdict = "yes" if e["resolved"] else "no" + resolution_verdict(e).removeprefix("not resolved")
         rows.append(f"<tr><th>{name}</th><td>{_g(e['rms'])} {unit}</td><td>{_g(e['rms_error'])} {unit}</td>"
                     f"<td>{_pct(e['relative'])}</td><td>{html.escape(verdict)}</td>"
                     + (f"<td>{_pct(truth)}</td>" if has_truth else "") + "</tr>")
@@ -72,7 +72,8 @@ def _identification_html(r: dict) -> str:
         parts.append("<p>Standard error: the expected RMS error over the revolution from the noise (one-second "
                      "time blocks), relative to the map's RMS; a map is resolved when its error from the noise "
                      f"stays within {_pct(se.get('resolved_share'))} with probability "
-                     f"{_pct(se.get('confidence'))} and the regularisation's bias adds little.</p>"
+                     f"{_pct(se.get('confidence'))}, together with the largest order outside the slot/pole basis "
+                     "the screening would not have seen and the regularisation's bias.</p>"
                      "<table><tr><th>map</th><th>RMS</th><th>standard error</th><th>relative</th><th>resolved</th>"
                      + ("<th>error against the twin's truth</th>" if has_truth else "") + "</tr>" + "".join(rows)
                      + "</table>")
