@@ -399,3 +399,26 @@ def test_rounds_of_running_logs_do_not_retrace_the_same_path(motor0):
     assert abs(runs[0]["theta"][0] - runs[1]["theta"][0]) > 1e3 * 2 * np.pi / t.encoder_counts
     c = np.corrcoef(e[0], e[1])[0, 1]
     assert abs(c) < 4 / np.sqrt(e[0].size)
+
+
+def test_reproduce_fills_the_log_budget_unless_told_to_stop_when_resolved():
+    """By default the rotary experiment records rounds for the whole budget (half the sweep's time); with
+    ``stop_when_resolved`` it stops earlier, with both maps resolved (zoo motor 0, quick settings: its maps
+    resolve within the budget)."""
+    import math
+    from dataclasses import replace
+
+    from pgcomm.rotary.experiment import run
+
+    t = draw_rotary(0, 0)
+    s = quick_settings()
+    full = run(t, s, seed=3)
+    ident = full["identification"]
+    refs = running_references(t.motor, t.inertia / t.k0, s, Orders.for_motor(t.motor))
+    round_s = sum(r.n for r in refs) * t.motor.sample_time
+    assert ident["rounds"] == max(1, math.floor(ident["log_budget_s"] / round_s))
+    assert "first_round_standard_error" in ident
+    early = run(t, replace(s, stop_when_resolved=True), seed=3)["identification"]
+    assert early["rounds"] < ident["rounds"]
+    se = early["standard_error"]
+    assert se["cogging"]["resolved"] and se["ripple"]["resolved"]
