@@ -305,7 +305,7 @@ def test_interval_weights_are_the_path_integrals():
     against a 20 000-point midpoint rule. Tolerance: the four-point Gauss–Legendre remainder on [0, 1],
     ``(4!)⁴ / (9 (8!)³) · max|f⁽⁸⁾|`` with ``f = x cos(a + c x)``, ``|f⁽⁸⁾| ≤ c⁸ + 8 c⁷`` (``c`` the largest
     phase turned in an interval), for columns of scale 1; the midpoint rule adds ``c² / (24 · 20000²)``."""
-    from pgcomm.rotary.identify import _extended, _interval_weights
+    from pgcomm.rotary.identify import _extended, _interval_weights, _path_angles
 
     ts, n = 1e-3, 40
     orders = np.array([1, 7, 30, 120])
@@ -316,7 +316,7 @@ def test_interval_weights_are_the_path_integrals():
     lo, hi = 5, 25
     c = orders.max() * (omega + alpha * n * ts) * ts
     tol = 24.0**4 / (9 * 40320.0**3) * (c**8 + 8 * c**7) + c**2 / (24 * 20000.0**2)
-    A, B = _interval_weights(_extended(theta, lo, hi), orders, hi - lo - 1)
+    A, B = _interval_weights(_path_angles(_extended(theta, lo, hi), hi - lo - 1), orders)
     m = 20000
     x = (np.arange(m) + 0.5) / m
     for j, k in enumerate(range(lo, hi - 1)):
@@ -327,7 +327,7 @@ def test_interval_weights_are_the_path_integrals():
         np.testing.assert_allclose(B[j], ((1 - x)[:, None] * phi).mean(axis=0), atol=tol, rtol=0)
     # the ends of a log: the sample before the first is extrapolated linearly, off by α T² (the second
     # difference), which the cubic weighs by at most |x(x-1)(x-2)/6| ≤ 0.065 on [0, 1]; order 1 turns it 1:1
-    A0, _ = _interval_weights(_extended(theta, 0, 10), orders[:1], 9)
+    A0, _ = _interval_weights(_path_angles(_extended(theta, 0, 10), 9), orders[:1])
     th = path(ts * x)
     np.testing.assert_allclose(A0[0], [(x * np.cos(th)).mean(), (x * np.sin(th)).mean()],
                                atol=0.065 * alpha * ts**2 + tol, rtol=0)
