@@ -422,3 +422,28 @@ def test_reproduce_fills_the_log_budget_unless_told_to_stop_when_resolved():
     assert early["rounds"] < ident["rounds"]
     se = early["standard_error"]
     assert se["cogging"]["resolved"] and se["ripple"]["resolved"]
+
+
+def test_the_log_mix_a_drive_user_has_gives_the_cogging_and_an_honest_ripple_verdict():
+    """Issue 18's real logs: constant speeds, accelerations, a slow sweep, no dither
+    (:func:`pgcomm.rotary.experiment.drive_log_mix`, zoo motor 0). From the constant-speed runs alone the cogging
+    is within the issue's 5 % and resolved, and the ripple, which only q-current varying at a given angle shows,
+    is called not resolved while its error is above 5 % (the verdict does not pass a map the logs do not hold).
+    The accelerating runs carry that current: adding them (half as long again) cuts the ripple's standard error
+    by more than the factor sqrt(1.5) that the extra time alone would give, here at least twofold. The slow sweep
+    passed with them in ``--data`` keeps the cogging within 5 % and adds no order outside the basis that the
+    running logs did not."""
+    from pgcomm.rotary.experiment import drive_log_mix
+
+    t = draw_rotary(0, 0)
+    logs = drive_log_mix(t, seed=3)
+    const = identify(logs["const"], t.motor)
+    e, se = identification_errors(const.model, t), const.info["standard_error"]
+    assert e["cogging_rel"] <= 0.05 and se["cogging"]["resolved"]
+    assert e["ripple_rel"] > 0.05 and not se["ripple"]["resolved"]
+    accel = identify(logs["const"] + logs["accel"], t.motor)
+    assert accel.info["standard_error"]["ripple"]["relative"] <= 0.5 * se["ripple"]["relative"]
+    every = identify(logs["const"] + logs["accel"] + logs["sweep"], t.motor)
+    assert identification_errors(every.model, t)["cogging_rel"] <= 0.05
+    for k, v in every.info["orders_added"].items():
+        assert set(v) <= set(accel.info["orders_added"][k]), (k, v)

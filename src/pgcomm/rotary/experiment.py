@@ -50,8 +50,8 @@ from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, RotaryTruth, default_gains, simulate
 
-__all__ = ["RotarySettings", "running_references", "running_log", "tracking_references", "run", "identification_errors",
-           "ROWS", "quick_settings"]
+__all__ = ["RotarySettings", "running_references", "running_log", "drive_log_mix", "tracking_references", "run",
+           "identification_errors", "ROWS", "quick_settings"]
 
 ROWS = ("classical", "standstill_table", "model", "oracle")
 #: Running-log and standstill tables agree "within the noise of the sweep" when their RMS difference is at
@@ -165,6 +165,54 @@ def running_log(truth: RotaryTruth, ref: Reference, law: LawParams, gains, seed:
     start = float(np.random.default_rng([int(seed), 0x57A7]).uniform(0.0, 2 * math.pi))
     shifted = Reference(np.asarray(ref.theta, float) + start, ref.omega, ref.alpha, ref.mode, ref.dither)
     return simulate(truth, shifted, law, gains, seed=seed)
+
+
+def drive_log_mix(truth: RotaryTruth, seed: int = 0) -> dict:
+    """The logs a drive user already has, without a dither (issue 18's real logs), in the drive's speed loop with
+    the classical law and its tuned feedforward:
+
+    * ``const``: four runs of 8 s at 0.3 and 0.6 of the alias guard's speed limit, both directions;
+    * ``accel``: two runs (one per direction) of repeated speed ramps between 0.2 and 0.9 of the limit at half
+      the current limit's acceleration (each ramp at least 50 ms);
+    * ``sweep``: the drives' slow sweep, a revolution each way in 60 s (position loop).
+
+    Args:
+        truth: the twin; seed: noise seed (streams ``"drive log mix", k``; each run starts at its own angle).
+
+    Returns:
+        ``{"const": [log, ...], "accel": [...], "sweep": [log]}``, logs as :func:`pgcomm.rotary.twin.simulate`'s.
+    """
+    from pgcomm.rotary.standstill import sweep_reference
+
+    m = truth.motor
+    ts = m.sample_time
+    a = truth.inertia / truth.k0
+    gains = default_gains(a)
+    # the feedforward a drive user tunes (the twin's true values: these logs are for identification)
+    law = LawParams.classical(m.pole_pairs, a, truth.viscous / truth.k0, truth.coulomb / truth.k0)
+    v_lim = max_speed(Orders.for_motor(m), ts)
+    logs = {"const": [], "accel": [], "sweep": []}
+    k = 0
+    for share in (0.3, 0.6):
+        for sign in (1.0, -1.0):
+            om, al = _ramp_profile(sign * share * v_lim, int(8 / ts), int(0.3 / ts), ts)
+            k += 1
+            logs["const"].append(running_log(truth, Reference(np.cumsum(om) * ts, om, al, "speed"), law, gains,
+                                             stream_seed(seed, "drive log mix", k)))
+    w = 0.9 * v_lim
+    acc = min(0.5 * (m.current_limit or 10.0) / a, w / 0.05)
+    for sign in (1.0, -1.0):
+        up = np.linspace(0.2 * w, w, max(2, int(0.8 * w / acc / ts)))
+        hold_hi, hold_lo = np.full(int(0.05 / ts), w), np.full(int(0.05 / ts), 0.2 * w)
+        seg = np.concatenate([up, hold_hi, up[::-1], hold_lo])
+        start = np.linspace(0.0, 0.2 * w, int(0.3 / ts))
+        om = sign * np.concatenate([start, np.tile(seg, max(1, int(8.0 / (seg.size * ts)))), start[::-1]])
+        k += 1
+        logs["accel"].append(running_log(truth, Reference(np.cumsum(om) * ts, om, np.gradient(om, ts), "speed"),
+                                         law, gains, stream_seed(seed, "drive log mix", k)))
+    logs["sweep"].append(simulate(truth, sweep_reference(ts, 60.0), LawParams.classical(m.pole_pairs), gains,
+                                  seed=stream_seed(seed, "drive log mix", "sweep")))
+    return logs
 
 
 def tracking_references(truth_motor, orders: Orders, settings: RotarySettings) -> dict:
