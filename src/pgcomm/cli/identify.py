@@ -245,6 +245,18 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     torque_sensor = all("torque" in lg.columns for lg in logs) and not args.no_force_sensor
     data = [{"name": lg.source, "t": lg.columns["t"], "theta": lg.columns["theta"], "iq_1": lg.columns["iq_1"],
              **({"torque": lg.columns["torque"]} if torque_sensor else {})} for lg in logs]
+    slots_detected = None
+    if motor.slots is None:
+        from pgcomm.rotary.slots import detect_slots
+
+        with progress.stage(f"slot count from the logs (not in {args.motor}): every cogging order the logs carry"):
+            q, slots_detected = detect_slots(data, motor.pole_pairs, motor.sample_time)
+            motor = replace(motor, slots=q)
+            others = [x for x in slots_detected["slots_with_that_fundamental"] if x != q]
+            progress.info(f"cogging fundamental {slots_detected['cogging_fundamental']} per revolution (orders seen, "
+                          f"strongest first: {', '.join(map(str, slots_detected['orders_seen'][:8]))}): slots = {q}, "
+                          f"{motor.name}" + (f" (also {', '.join(map(str, others))} slots have that fundamental; "
+                                             "set slots in the motor TOML if you know it)" if others else ""))
     orders = Orders.for_motor(motor)
     how = "with the torque sensor" if torque_sensor else "without a torque sensor (from the motion)"
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
@@ -269,6 +281,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     results = {"command": "identify", "kind": "rotary", "version": __version__, "motor": motor.to_dict(),
                "logs": [lg.source for lg in logs], "samples": n_samples, "torque_sensor": torque_sensor,
                "identification": res.info, "mechanics_fit": mech,
+               **({"slots_detected": slots_detected} if slots_detected is not None else {}),
                "table": {"entries": n, "rms_A": float(np.sqrt(np.mean(table**2))),
                          "peak_A": float(np.max(np.abs(table))),
                          "forward_minus_reverse_rms_A": float(np.sqrt(np.mean(fwd_rev**2)))},

@@ -141,6 +141,9 @@ def _run_rotary(args, out: Path, progress, t0: float) -> None:
         if getattr(args, opt, None):
             raise ConfigError(f"--{opt}: not used with a rotary motor (--motor {args.motor} has kind = \"rotary\")")
     motor = load_rotary_motor(args.motor)
+    if motor.slots is None:
+        raise ConfigError(f"{args.motor}: key 'slots' missing: reproduce builds a twin of the motor and needs its slot "
+                          "count (pgcomm identify reads it from running logs)")
     truth_path = args.truth or (Path(args.motor).parent / "truth.json")
     if args.truth or truth_path.is_file():
         truth = read_truth(truth_path)

@@ -23,7 +23,8 @@ A rotary motor on a field-oriented drive has ``kind = "rotary"`` (linear is the 
 
     kind = "rotary"
     pole_pairs = 7            # p: the electrical period 2π/p replaces the pole pitch
-    slots = 12                # Q: with p it sets the cogging orders (LCM(Q, 2p) per revolution)
+    slots = 12                # Q: with p it sets the cogging orders (LCM(Q, 2p) per revolution);
+                              # leave it out if unknown: identify reads it from the logs
     sample_time = 0.001       # the drive's control and logging period (s)
     k_t = 0.1                 # optional, torque constant (N·m/A); needed only to report N·m
     inertia = 2e-4            # optional, rotor + load (kg·m²)
@@ -602,7 +603,7 @@ ROTARY_PLAUSIBLE = {
     "friction": (0.0, 1e4, "N·m"),
 }
 _ROTARY_INT = ("pole_pairs", "slots", "encoder_counts")
-_ROTARY_REQUIRED = ("kind", "pole_pairs", "slots", "sample_time")
+_ROTARY_REQUIRED = ("kind", "pole_pairs", "sample_time")
 
 
 def _kind(doc: dict, file: str) -> str:
@@ -666,7 +667,7 @@ def load_rotary_motor(path):
                 hint = "; did you give degrees?"
             raise ConfigError(f"{file}: {key} = {_fmt(v)}{u} is implausible (expected {lo:g}–{hi:g}{u}{hint})")
         vals[key] = int(v) if key in _ROTARY_INT else x
-    if vals["slots"] % 3:
+    if "slots" in vals and vals["slots"] % 3:
         raise ConfigError(f"{file}: slots = {vals['slots']} is not a multiple of 3 (a three-phase winding)")
     try:
         return RotaryMotor(**vals)
@@ -679,8 +680,9 @@ def rotary_motor_to_toml(motor) -> str:
     lines = ["# pgcomm rotary motor description (SI units: rad, s, A, N·m, kg·m²)",
              'kind = "rotary"',
              f"pole_pairs = {int(motor.pole_pairs)}  # p: electrical period 2π/p",
-             f"slots = {int(motor.slots)}  # Q: {motor.name}, cogging at LCM(Q, 2p) = {motor.cogging_fundamental} "
-             "periods per revolution",
+             (f"slots = {int(motor.slots)}  # Q: {motor.name}, cogging at LCM(Q, 2p) = {motor.cogging_fundamental} "
+              "periods per revolution" if motor.slots is not None
+              else "# slots unknown: pgcomm identify reads them from the logs"),
              f"sample_time = {_toml_float(motor.sample_time)}  # the drive's period (s)"]
     for key, comment in (("k_t", "torque constant (N·m/A)"), ("inertia", "rotor + load (kg·m²)"),
                          ("current_limit", "q-current limit (A)"), ("friction", "Coulomb friction (N·m)")):

@@ -11,6 +11,7 @@ sensor. This subpackage mirrors the linear pipeline for them:
 * :mod:`pgcomm.rotary.twin`: the rotary PMSM twin on a FOC drive in closed loop (``lax.scan``);
 * :mod:`pgcomm.rotary.zoo`: random plausible motors (slot/pole combinations, tolerances);
 * :mod:`pgcomm.rotary.identify`: least squares from running logs, with or without torque sensor;
+* :mod:`pgcomm.rotary.slots`: the slot count from running logs, when the motor description lacks it;
 * :mod:`pgcomm.rotary.standstill`: the drives' method (hold at N angles both ways, average ``i_q``);
 * :mod:`pgcomm.rotary.law`: the commutation law ``i_q = (T* − cog − dir)/k_t(θ)``, safe for any input;
 * :mod:`pgcomm.rotary.experiment`: ``pgcomm reproduce`` on a rotary motor (all rows, figures).

@@ -295,14 +295,14 @@ def _interval_weights(path: np.ndarray, orders):
     return A, B
 
 
-def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS):
+def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, block_seconds: float = BLOCK_SECONDS):
     """Filtered target and regressor blocks (module docstring), ``chunk`` windows at a time: the Fourier
     columns are built only over the samples a chunk needs, so a basis of hundreds of orders on minutes of
     1 kHz logs stays within a few tens of MB.
 
     Yields:
         dict of ``(J,)`` / ``(J, k)`` arrays: ``y``, ``acc``, ``rip``, ``cog``, ``dir``, ``visc``, ``sgn``,
-        ``block`` (one-second time block, unique over the logs).
+        ``block`` (time block of ``block_seconds``, unique over the logs).
     """
     g = _hann(taps)
     g_zoh = np.convolve(g, _ZOH)  # (T+1,) on samples s .. s+T
@@ -328,7 +328,7 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS):
                    "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
                    "visc": _filt(p.w[lo:hi], loc, g_tri),
                    "sgn": sgn[loc + span // 2],
-                   "block": np.floor(st * p.ts / BLOCK_SECONDS).astype(np.int64) + 100003 * p.index}
+                   "block": np.floor(st * p.ts / block_seconds).astype(np.int64) + 100003 * p.index}
 
 
 def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int):
@@ -376,12 +376,12 @@ def _is_validation(block) -> np.ndarray:
     return (block % VALIDATION_EVERY) == (VALIDATION_EVERY - 1)
 
 
-def _normal_equations(prepared, layout: _Layout, taps: int):
+def _normal_equations(prepared, layout: _Layout, taps: int, block_seconds: float = BLOCK_SECONDS):
     """Normal equations of the training and the validation rows: ``G (2, p, p)``, ``b (2, p)``,
     ``yy (2,)``, ``n (2,)`` (index 0 training, 1 validation)."""
     p = int(layout.keep.sum())
     G, b, yy, n = np.zeros((2, p, p)), np.zeros((2, p)), np.zeros(2), np.zeros(2)
-    for ch in _chunks(prepared, layout.orders, taps):
+    for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds):
         X, y = layout.rows(ch), ch["y"]
         val = _is_validation(ch["block"])
         for k, m in ((0, ~val), (1, val)):
@@ -410,7 +410,7 @@ def _ridge(G, b, n, penalty, lam_rel):
     return beta / scale, A, scale
 
 
-def _fit(prepared, layout: _Layout, taps: int, ridge: float | None):
+def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_seconds: float = BLOCK_SECONDS):
     """Ridge fit of one layout: the weight validated on held-out time blocks (or ``ridge``), the refit on all
     rows, and the estimate's covariance ``A⁻¹ (Σ_b X_bᵀ e_b e_bᵀ X_b) A⁻¹`` (``A`` the regularised normal
     matrix, ``e`` the residuals, ``b`` the one-second blocks): the sandwich that holds when the rows are
@@ -421,7 +421,7 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None):
         dict: ``beta`` (kept columns, unscaled), ``cov``, ``ridge``, ``curve`` (validation MSE per grid
         weight, A²), ``cost`` (mean squared residual, A²), ``rows``, ``blocks``.
     """
-    G, b, yy, n = _normal_equations(prepared, layout, taps)
+    G, b, yy, n = _normal_equations(prepared, layout, taps, block_seconds)
     pen = layout.pen[layout.keep].astype(float)
     curve = []
     if ridge is None:
@@ -433,7 +433,7 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None):
         lam = float(ridge)
     beta, A, scale = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, lam)
     scores, sse = {}, 0.0
-    for ch in _chunks(prepared, layout.orders, taps):
+    for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds):
         X = layout.rows(ch)
         e = ch["y"] - X @ beta
         sse += float(e @ e)
@@ -471,9 +471,10 @@ def _significant_extra_orders(fit: dict, layout: _Layout, structured: Orders, al
     five noise orders per map; the F quantile lets in none, and tends to χ²₂ (``2 ln(n/α)``) for long logs.
 
     Returns:
-        ``{"cogging": int array, "ripple": int array, "threshold": {...}, "blind_rms": {map: (n,) array}}``:
-        the orders added per map, and per candidate order the RMS over θ of the largest amplitude it could
-        have without passing, at the many-block threshold ``2 ln(n/α)`` (the map's units).
+        ``{"cogging": int array, "ripple": int array, "threshold": {...}, "blind_rms": {map: (n,) array},
+        "statistic": {map: (orders, T², threshold) arrays}}``: the orders added per map, per candidate order
+        the RMS over θ of the largest amplitude it could have without passing, at the many-block threshold
+        ``2 ln(n/α)`` (the map's units), and each candidate's ``T²`` with the threshold it had to pass.
     """
     beta = np.zeros(layout.keep.size)
     beta[layout.keep] = fit["beta"]
@@ -487,7 +488,7 @@ def _significant_extra_orders(fit: dict, layout: _Layout, structured: Orders, al
     for name, cols, full, basis in (("cogging", layout.o_c, layout.orders.cogging, structured.cogging),
                                     ("ripple", layout.o_r, layout.orders.ripple, structured.ripple)):
         cand = np.flatnonzero(~np.isin(full, basis) & (full > 0))
-        chosen, q, blind = [], alpha / max(cand.size, 1), []
+        chosen, q, blind, stat = [], alpha / max(cand.size, 1), [], []
         for j in cand:
             ij = [cols[j], cols[full.size + j]]
             d = beta[ij]
@@ -497,6 +498,7 @@ def _significant_extra_orders(fit: dict, layout: _Layout, structured: Orders, al
             share = np.einsum("bi,ij,bj->b", u, c_inv, u)  # each block's part of the variance (sums to 2)
             b_eff = float(np.sum(share) ** 2 / max(np.sum(share**2), 1e-300))
             thr = 2.0 * (b_eff - 1) / (b_eff - 2) * float(f_dist.isf(q, 2, b_eff - 2)) if b_eff > 3 else np.inf
+            stat.append((int(full[j]), z2, thr))
             if z2 > thr:
                 chosen.append(int(full[j]))
             # the RMS over θ (|δ|/√2) of the largest order this candidate could have and still not pass (δ on the
@@ -507,6 +509,8 @@ def _significant_extra_orders(fit: dict, layout: _Layout, structured: Orders, al
                                                                   0.0) / 2.0))
         out["threshold"][name] = {"alpha": alpha, "candidates": int(cand.size)}
         out.setdefault("blind_rms", {})[name] = np.asarray(blind)
+        st = np.array(stat, float).reshape(-1, 3)
+        out.setdefault("statistic", {})[name] = (st[:, 0].astype(int), st[:, 1], st[:, 2])
         out[name] = np.array(chosen, int)
     return out
 

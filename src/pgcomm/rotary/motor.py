@@ -14,7 +14,8 @@ class RotaryMotor:
 
     Attributes:
         pole_pairs: ``p``; the electrical period ``2π/p`` (rad) takes the linear pole pitch's place.
-        slots: ``Q`` stator slots; with ``p`` it sets the cogging orders (``LCM(Q, 2p)`` etc.).
+        slots: ``Q`` stator slots; with ``p`` it sets the cogging orders (``LCM(Q, 2p)`` etc.); ``None``
+            when unknown (``pgcomm identify`` then reads it from the logs, :mod:`pgcomm.rotary.slots`).
         sample_time: the drive's control and logging period (s), e.g. 0.001.
         k_t: nominal torque constant (N·m/A, q-axis, peak-current convention) or ``None``;
             only needed to report N·m.
@@ -28,7 +29,7 @@ class RotaryMotor:
     """
 
     pole_pairs: int
-    slots: int
+    slots: int | None = None
     sample_time: float = 1e-3
     k_t: float | None = None
     inertia: float | None = None
@@ -42,7 +43,7 @@ class RotaryMotor:
     def __post_init__(self):
         if int(self.pole_pairs) != self.pole_pairs or self.pole_pairs < 1:
             raise ValueError(f"pole_pairs = {self.pole_pairs} must be a positive integer")
-        if int(self.slots) != self.slots or self.slots < 3:
+        if self.slots is not None and (int(self.slots) != self.slots or self.slots < 3):
             raise ValueError(f"slots = {self.slots} must be an integer >= 3")
         if not (self.sample_time > 0 and math.isfinite(self.sample_time)):
             raise ValueError(f"sample_time = {self.sample_time} must be positive")
@@ -53,17 +54,17 @@ class RotaryMotor:
         return 2.0 * math.pi / self.pole_pairs
 
     @property
-    def cogging_fundamental(self) -> int:
-        """``LCM(Q, 2p)``: cogging periods per revolution."""
-        return math.lcm(int(self.slots), 2 * int(self.pole_pairs))
+    def cogging_fundamental(self) -> int | None:
+        """``LCM(Q, 2p)``: cogging periods per revolution (``None`` while the slots are unknown)."""
+        return None if self.slots is None else math.lcm(int(self.slots), 2 * int(self.pole_pairs))
 
     @property
     def name(self) -> str:
-        """Slot/pole combination, e.g. ``"12N14P"``."""
-        return f"{self.slots}N{2 * self.pole_pairs}P"
+        """Slot/pole combination, e.g. ``"12N14P"`` (``"?N14P"`` while the slots are unknown)."""
+        return f"{'?' if self.slots is None else self.slots}N{2 * self.pole_pairs}P"
 
     def to_dict(self) -> dict:
-        return {"kind": "rotary", "pole_pairs": int(self.pole_pairs), "slots": int(self.slots),
+        return {"kind": "rotary", "pole_pairs": int(self.pole_pairs), "slots": None if self.slots is None else int(self.slots),
                 "sample_time": self.sample_time, "k_t": self.k_t, "inertia": self.inertia,
                 "current_limit": self.current_limit, "commutation_offset": self.commutation_offset,
                 "encoder_counts": self.encoder_counts, "friction": self.friction}

@@ -60,6 +60,14 @@ def _identification_html(r: dict) -> str:
              f"{_g(ident.get('ridge'))} ({html.escape(str(ident.get('ridge_chosen_by', '–')))}); J/k0 "
              f"{_g(ident.get('inertia_ratio'), 4)} A·s²/rad."
              + (f" {ident['rounds']} round(s) of running logs." if "rounds" in ident else "") + "</p>"]
+    det = r.get("slots_detected")
+    if det:
+        others = [q for q in det.get("slots_with_that_fundamental", []) if q != det["slots"]]
+        parts.append(f"<p>Slot count not in the motor description: the logs show a cogging fundamental of "
+                     f"{det['cogging_fundamental']} per revolution (orders seen, strongest first: "
+                     f"{html.escape(', '.join(map(str, det.get('orders_seen', [])[:8])))}), taken as {det['slots']} "
+                     "slots" + (f"; {html.escape(', '.join(map(str, others)))} slots have the same fundamental (set "
+                                "<code>slots</code> in the motor TOML if you know it)" if others else "") + ".</p>")
     added = ident.get("orders_added") or {}
     if ident.get("orders_screened"):
         found = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in added.items() if v)

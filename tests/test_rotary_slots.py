@@ -1,0 +1,79 @@
+"""The slot count from running logs (:mod:`pgcomm.rotary.slots`), for motors whose description leaves it out.
+
+Against the twin's truth on zoo motors with the quick running logs (a few seconds each): the cogging fundamental
+``LCM(Q, 2p)`` and the slot count are the truth's (9N6P, 12N8P, 12N14P: the last has 84 slots beside 12 with
+the same fundamental, which only the slot sidebands tell apart); a motor without cogging gets no invented
+fundamental. Through the CLI, a motor TOML without ``slots`` gives the same compensation table as with them
+(same orders, same fit: equal to the CSV's rounding), and ``reproduce``, which builds a twin, asks for them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from pgcomm.errors import ExcitationError
+from pgcomm.rotary.experiment import quick_settings, running_log, running_references
+from pgcomm.rotary.identify import Orders
+from pgcomm.rotary.model import Fourier
+from pgcomm.rotary.slots import detect_slots
+from pgcomm.rotary.twin import LawParams, default_gains
+from pgcomm.rotary.zoo import draw_rotary
+
+
+def _logs(truth):
+    m = truth.motor
+    a = truth.inertia / truth.k0
+    refs = running_references(m, a, quick_settings(), Orders.for_motor(m))
+    return [running_log(truth, r, LawParams.classical(m.pole_pairs), default_gains(a), k) for k, r in enumerate(refs)]
+
+
+@pytest.mark.parametrize("index", [0, 1, 3])
+def test_the_logs_give_the_cogging_fundamental_and_the_slots(index):
+    truth = draw_rotary(0, index)
+    m = truth.motor
+    q, info = detect_slots(_logs(truth), m.pole_pairs, m.sample_time)
+    assert info["cogging_fundamental"] == m.cogging_fundamental
+    assert q == m.slots, info
+    assert m.cogging_fundamental in info["orders_seen"]
+    assert m.slots in info["slots_with_that_fundamental"]
+
+
+def test_no_cogging_no_invented_fundamental():
+    truth = replace(draw_rotary(0, 0), cogging=Fourier.zeros([]))
+    with pytest.raises(ExcitationError, match="no cogging fundamental .* set slots in the motor TOML"):
+        detect_slots(_logs(truth), truth.motor.pole_pairs, truth.motor.sample_time)
+
+
+def test_identify_without_slots_gives_the_same_table(tmp_path):
+    import json
+
+    from pgcomm.cli import main
+    from pgcomm.export.angle_table import read_angle_table
+
+    assert main(["zoo", "--kind", "rotary", "--motors", "1", "--logs", "--out", str(tmp_path / "z"), "--quiet"]) == 0
+    folder = tmp_path / "z" / "motor_01"
+    text = (folder / "motor.toml").read_text()
+    (folder / "noslots.toml").write_text("".join(l for l in text.splitlines(True) if not l.startswith("slots")))
+    logs = str(folder / "logs" / "*.csv")
+    for name, motor in (("with", "motor.toml"), ("without", "noslots.toml")):
+        assert main(["identify", "--motor", str(folder / motor), "--data", logs, "--out", str(tmp_path / name),
+                     "--quiet"]) == 0
+    a = read_angle_table(tmp_path / "with" / "compensation.csv").iq
+    b = read_angle_table(tmp_path / "without" / "compensation.csv").iq
+    np.testing.assert_allclose(b, a, rtol=0, atol=1e-9 * np.max(np.abs(a)))
+    res = json.loads((tmp_path / "without" / "results.json").read_text())
+    assert res["motor"]["slots"] == 9 and res["slots_detected"]["cogging_fundamental"] == 18
+    assert "Slot count not in the motor description" in (tmp_path / "without" / "report.html").read_text()
+
+
+def test_reproduce_needs_the_slots(tmp_path, capsys):
+    from pgcomm.cli import main
+
+    (tmp_path / "m.toml").write_text('kind = "rotary"\npole_pairs = 3\nsample_time = 0.001\n')
+    assert main(["reproduce", "--motor", str(tmp_path / "m.toml"), "--quick", "--out", str(tmp_path / "o")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "key 'slots' missing" in err[0] and "Traceback" not in err[0]
+    assert not (tmp_path / "o").exists()
