@@ -34,6 +34,11 @@ which needs ``--torque-constant`` and which stock firmware cannot load (:mod:`pg
 ``--entries`` resamples, ``--current-limit`` is required as for the law). ``--current-limit`` clips the
 moteus/ODrive entries when given. Each prints and stores in ``results.json`` its resampling and
 quantisation error (RMS and max, A) and the assumptions it rests on.
+
+``--format c-rotary --model MODEL.json`` exports a rotary model file (``pgcomm identify`` on a rotary motor)
+as the whole law in C99, ``NAME.h``: cogging, the direction-dependent drag and the torque-constant ripple
+that divides the demand, which no drive table can apply (:mod:`pgcomm.export.rotary_law`; ``--entries``
+sets the table size, default 16 per period of the model's highest order; the limit as for ``c``).
 """
 
 from __future__ import annotations
@@ -55,7 +60,7 @@ TABLE_FORMATS = ("moteus", "odrive", "c-angle")
 
 #: Default ``--name`` per format.
 DEFAULT_NAMES = {"c": "pgcomm_law", "lut": "pgcomm_lut", "moteus": "pgcomm_moteus", "odrive": "pgcomm_odrive",
-                 "c-angle": "pgcomm_angle_lut"}
+                 "c-angle": "pgcomm_angle_lut", "c-rotary": "pgcomm_rotary_law"}
 
 
 def configure(p) -> None:
@@ -63,21 +68,23 @@ def configure(p) -> None:
     from pgcomm.defaults import DEFAULT_RESOLUTION
 
     p.add_argument("--model", type=Path, metavar="MODEL.json",
-                   help="model file (pgcomm identify); for --format c and lut")
+                   help="model file (pgcomm identify); for --format c and lut, and a rotary one for c-rotary")
     p.add_argument("--table", type=Path, metavar="TABLE.csv",
                    help="compensation table over one revolution (columns angle rad, iq A); for --format moteus, "
                         "odrive and c-angle")
-    p.add_argument("--format", required=True, choices=("c", "lut") + TABLE_FORMATS,
+    p.add_argument("--format", required=True, choices=("c", "lut") + TABLE_FORMATS + ("c-rotary",),
                    help="c: self-contained C99 law; lut: lookup table (CSV + C header) and anti-cogging table; "
                         "moteus: conf set lines of motor.cogging_dq_comp; odrive: ODrive 0.5.x cogging_map (JSON); "
-                        "c-angle: C99 lookup of the table by mechanical angle")
+                        "c-angle: C99 lookup of the table by mechanical angle; c-rotary: a rotary model's whole "
+                        "law (cogging, drag, ripple) as C99")
     p.add_argument("--torque-constant", type=float, metavar="NM_PER_A",
                    help="the ODrive's motor.config.torque_constant (N m/A), for --format odrive (its map is in N m)")
     p.add_argument("--entries", type=int, metavar="N",
-                   help="table size for --format c-angle (default: the input table's)")
+                   help="table size for --format c-angle (default: the input table's) and c-rotary (default: 16 "
+                        "per period of the model's highest order)")
     add_out_option(p)
     p.add_argument("--precision", choices=("double", "single"), default="double",
-                   help="C scalar type for --format c and c-angle (default double)")
+                   help="C scalar type for --format c, c-angle and c-rotary (default double)")
     p.add_argument("--resolution", type=float, default=DEFAULT_RESOLUTION, metavar="M",
                    help=f"table spacing in m for --format lut (default {DEFAULT_RESOLUTION:g} m)")
     p.add_argument("--name", help="C identifier for file names and symbols "
@@ -213,6 +220,8 @@ def run(args, out: Path, progress) -> None:
     t0 = time.perf_counter()
     if args.format in TABLE_FORMATS:
         return _export_table(args, out, progress, t0)
+    if args.format == "c-rotary":
+        return _export_rotary_law(args, out, progress, t0)
     if args.model is None:
         raise ConfigError(f"--format {args.format} exports a model file: give --model MODEL.json")
     if args.table is not None:
@@ -445,6 +454,80 @@ def _odrive(args, table, out, name, limit, provenance):
              "NOT loadable by stock ODrive firmware (cogging_map has no protocol entry in 0.5.x); see the JSON",
              "assumes: " + "; ".join(ASSUMPTIONS[:3])]
     return path, om.as_dict(), lines
+
+
+def _load_rotary_model(path):
+    """A rotary model file (``pgcomm identify`` on a rotary motor), or one line saying what is wrong."""
+    import json
+
+    from pgcomm.errors import DataError
+    from pgcomm.rotary.model import RotaryModel
+
+    try:
+        with open(path, encoding="utf-8") as f:
+            doc = json.load(f)
+    except FileNotFoundError:
+        raise DataError(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DataError(f"{path}: not a JSON model file ({' '.join(str(e).split())})") from None
+    if not isinstance(doc, dict) or doc.get("schema") != "pgcomm.rotary_model":
+        what = doc.get("schema") if isinstance(doc, dict) else None
+        raise DataError(f"{path}: not a rotary model (schema {what!r}; --format c-rotary exports the model.json of "
+                        "pgcomm identify on a rotary motor, --format c a linear one)")
+    try:
+        return RotaryModel.from_dict(doc)
+    except (KeyError, TypeError, ValueError, IndexError) as e:
+        raise DataError(f"{path}: rotary model file unreadable ({' '.join(str(e).split())})") from None
+
+
+def _export_rotary_law(args, out, progress, t0) -> None:
+    """``--format c-rotary --model MODEL.json``: the whole rotary law as C99 (module docstring)."""
+    from pgcomm.export.c import check_c_name
+    from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
+    from pgcomm.io.results import write_results
+
+    if args.model is None:
+        raise ConfigError("--format c-rotary exports a rotary model file: give --model MODEL.json (pgcomm identify "
+                          "on a rotary motor)")
+    if args.table is not None:
+        raise ConfigError("--format c-rotary exports --model, not --table (a table's formats: "
+                          f"{', '.join(TABLE_FORMATS)})")
+    if args.entries is not None and not 8 <= args.entries <= 1 << 20:
+        raise ConfigError(f"--entries {args.entries}: expected a table size from 8 to {1 << 20}")
+    name = args.name or DEFAULT_NAMES[args.format]
+    try:
+        check_c_name(name)
+    except ValueError as e:
+        raise ConfigError(f"--name: {e}") from None
+    limit, limit_given = parse_current_limit(args.current_limit)
+    model = _load_rotary_model(args.model)
+    if limit_given:
+        limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"
+    else:
+        recorded = model.info.get("current_limit") if isinstance(model.info, dict) else None
+        if recorded is None:
+            raise ConfigError(f"{args.model}: the model file records no current limit (its motor description had "
+                              "no current_limit); give --current-limit A, the drive's q-current limit, or "
+                              "--current-limit none to export a law without a limit")
+        limit, limit_source = float(recorded), "from the model file"
+    try:
+        tables = build_rotary_law(model, args.entries, args.precision, limit, str(args.model))
+    except ValueError as e:
+        raise ConfigError(f"{args.model}: {e}") from None
+    with progress.stage(f"c-rotary law from {args.model}: {tables.n} entries per map"):
+        path = write_rotary_law(tables, out / f"{name}.h", name, limit_source,
+                                [f"model file {args.model} ({model.info.get('motor', 'rotary motor')})"])
+    results = {"command": "export", "format": "c-rotary", "model": str(args.model), "name": name,
+               "current_limit": limit, "current_limit_source": limit_source, "files": [path.name],
+               "c_rotary": tables.as_dict(), "runtime_s": time.perf_counter() - t0}
+    write_results(out / "results.json", results)
+    if not args.quiet:
+        e = tables.errors
+        print(f"C law {name}: {tables.n} entries per map ({args.precision}, {tables.as_dict()['bytes']} bytes); "
+              f"interpolation max: cogging {e['cogging']['max']:.3g} A, drag {e['direction']['max']:.3g} A, gain "
+              f"{e['gain']['max']:.3g}; the law vs the model's: max {e['law']['max']:.3g} A; current limit "
+              f"{_limit_text(limit, limit_source)}")
+        print(f"wrote {args.out}/{path.name}, results.json")
 
 
 def _c_angle(args, table, out, name, limit, limit_source, provenance):
