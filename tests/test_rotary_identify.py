@@ -96,6 +96,10 @@ def test_cli_zoo_and_reproduce_rotary(tmp_path):
     assert f"position loop <b>{q['position']:.2f}</b>" in page and "standstill_table" in page
     for f in ("model.json", "table.csv", "rotary.png", "report.html"):
         assert (tmp_path / "rep" / f).is_file()
+    # the model file carries the motor's current limit, so the whole law exports to C without --current-limit
+    assert main(["export", "--format", "c-rotary", "--model", str(tmp_path / "rep" / "model.json"), "--out",
+                 str(tmp_path / "claw"), "--quiet"]) == 0
+    assert read_results(tmp_path / "claw" / "results.json")["current_limit"] == pytest.approx(r["motor"]["current_limit"])
     assert main(["reproduce", "--motor", str(motor), "--plant", "x.csv", "--out", str(tmp_path / "bad")]) == 2
     assert not (tmp_path / "bad").exists()
 

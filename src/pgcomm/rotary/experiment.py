@@ -417,7 +417,11 @@ def write_outputs(out, results: dict, truth: RotaryTruth) -> list:
     out = Path(out)
     models = results.pop("models")
     model, tm, table = models["model"], models["truth"], models["table"]
-    atomic_write_text(out / "model.json", json.dumps(model.to_dict(), indent=1) + "\n")
+    from dataclasses import replace
+
+    # as identify writes it: the motor and its current limit travel with the model (export --format c-rotary)
+    saved = replace(model, info={**model.info, "motor": truth.motor.name, "current_limit": truth.motor.current_limit})
+    atomic_write_text(out / "model.json", json.dumps(saved.to_dict(), indent=1) + "\n")
     n = table.size
     th = 2 * math.pi * np.arange(n) / n
     with atomic_open(out / "table.csv") as f:
