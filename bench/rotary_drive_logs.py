@@ -8,9 +8,12 @@ standstill position sweep in both directions, no dither. This builds that mix on
 ``accel``, ``sweep``) and identifies, without a torque sensor, from ``const``, ``const + accel`` and all three, printing per set:
 log seconds, cogging and ripple error against the twin's truth (RMS over the revolution relative to the
 truth's RMS), their standard errors and verdicts, ``J/k0``'s error, the orders added outside the basis.
+Then the laws in closed loop on the same harness as ``pgcomm reproduce``
+(:func:`pgcomm.rotary.experiment.closed_loop`): each set's model, the drives' standstill table (3600-point
+sweep) and the oracle, as tracking MSE over the table's (position and speed loop).
 What it shows: the cogging comes out of any of these sets; the ripple needs q-current that varies at a
 given angle (accelerations, a dither), and without it the verdict says "not resolved" rather than report a
-ripple the logs do not hold.
+ripple the logs do not hold; and what the law gains over the table from the logs a user already has.
 """
 
 from __future__ import annotations
@@ -28,9 +31,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--motors", default="0,1,2,3", help="zoo indices, comma-separated")
     args = ap.parse_args(argv)
-    from pgcomm.rotary.experiment import drive_log_mix, identification_errors
-    from pgcomm.rotary.identify import identify, resolution_verdict
+    from pgcomm.rotary.experiment import RotarySettings, closed_loop, drive_log_mix, identification_errors
+    from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
+    from pgcomm.rotary.standstill import run_standstill
+    from pgcomm.rotary.twin import LawParams, default_gains
     from pgcomm.rotary.zoo import draw_rotary
+    from pgcomm.seeds import stream_seed
 
     for idx in (int(x) for x in args.motors.split(",")):
         truth = draw_rotary(args.seed, idx)
@@ -39,6 +45,13 @@ def main(argv=None) -> int:
         logs = drive_log_mix(truth, args.seed)
         print(f"zoo seed {args.seed} motor {idx} {m.name} (logs simulated in {time.perf_counter() - t0:.0f} s)",
               flush=True)
+        gains = default_gains(truth.inertia / truth.k0)
+        sweep = run_standstill(truth, gains, RotarySettings().standstill, seed=stream_seed(args.seed, "rotary standstill sweep"))
+        mech = fit_mechanics(logs["const"] + logs["accel"], m)
+        classical = LawParams.classical(m.pole_pairs)
+        laws = {"standstill_table": LawParams(classical.model, sweep.table, mech["inertia_ratio"], mech["viscous"],
+                                              mech["coulomb"]),
+                "oracle": LawParams(truth.model(), None, truth.inertia / truth.k0, truth.viscous / truth.k0, 0.0)}
         for name, sets in (("const", ("const",)), ("const+accel", ("const", "accel")),
                            ("const+accel+sweep", ("const", "accel", "sweep"))):
             data = [lg for s in sets for lg in logs[s]]
@@ -64,6 +77,13 @@ def main(argv=None) -> int:
                   f"{100 * err['inertia_ratio_rel']:.1f} %; added {added or '-'} [{time.perf_counter() - t0:.0f} s]",
                   flush=True)
             assert resolution_verdict(se["ripple"])  # the CLI's phrase exists for every entry
+            laws[name] = LawParams(res.model, None, res.model.inertia_ratio, res.model.viscous, 0.0)
+        tracking, _ = closed_loop(truth, laws, gains, RotarySettings(), args.seed)
+        table = tracking["standstill_table"]
+        for row, mse in tracking.items():
+            if row != "standstill_table":
+                print(f"  tracking {row:18s} over the standstill table: position {mse['position'] / table['position']:.3f}, "
+                      f"speed {mse['speed'] / table['speed']:.3f}", flush=True)
     return 0
 
 

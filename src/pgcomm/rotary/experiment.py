@@ -50,8 +50,8 @@ from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, RotaryTruth, default_gains, simulate
 
-__all__ = ["RotarySettings", "running_references", "running_log", "drive_log_mix", "tracking_references", "run",
-           "identification_errors", "ROWS", "quick_settings"]
+__all__ = ["RotarySettings", "running_references", "running_log", "drive_log_mix", "tracking_references",
+           "closed_loop", "run", "identification_errors", "ROWS", "quick_settings"]
 
 ROWS = ("classical", "standstill_table", "model", "oracle")
 #: Running-log and standstill tables agree "within the noise of the sweep" when their RMS difference is at
@@ -263,6 +263,34 @@ def _commutation_error(truth: RotaryTruth, log: dict, ref: Reference, gains_u_fb
     return net / k0 - (log["u_fb"] + truth.inertia / k0 * ref.alpha)
 
 
+def closed_loop(truth: RotaryTruth, laws: dict, gains, settings: RotarySettings, seed: int = 0) -> tuple[dict, dict]:
+    """Each law in the position and the speed loop on :func:`tracking_references` (the same noise per loop).
+
+    Args:
+        truth: the twin; laws: ``{row: LawParams}``; gains: the drive's :class:`Gains`;
+        settings: :class:`RotarySettings` (evaluation speed and length); seed: noise seed.
+
+    Returns:
+        ``(tracking, commutation)``: per row and loop, the tracking MSE (position rad², speed (rad/s)² over
+        the cruise) and the commutation error's MSE (A², module docstring).
+    """
+    tracking, commutation = {}, {}
+    evals = tracking_references(truth.motor, Orders.for_motor(truth.motor), settings)
+    for row, law in laws.items():
+        tracking[row], commutation[row] = {}, {}
+        for loop, ref in evals.items():
+            log = simulate(truth, ref, law, gains, seed=stream_seed(seed, "rotary evaluation", loop))
+            ff = law.ff_a * ref.alpha + law.ff_b * ref.omega + law.ff_d * np.sign(ref.omega)
+            log["u_fb"] = log["demand"] - ff
+            if loop == "position":
+                tracking[row][loop] = float(np.mean((ref.theta - log["theta_true"]) ** 2))
+            else:
+                cruise = np.abs(ref.omega) >= 0.999 * np.max(np.abs(ref.omega))
+                tracking[row][loop] = float(np.mean((ref.omega - log["omega_true"])[cruise] ** 2))
+            commutation[row][loop] = float(np.mean(_commutation_error(truth, log, ref) ** 2))
+    return tracking, commutation
+
+
 def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: int = 0, progress=None) -> dict:
     """The whole rotary experiment on ``truth`` (module docstring); returns the results dict.
 
@@ -358,21 +386,8 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         "model": LawParams(ident.model, None, ident.model.inertia_ratio, ident.model.viscous, 0.0),
         "oracle": LawParams(truth.model(), None, a_nom, truth.viscous / truth.k0, 0.0),
     }
-    tracking, commutation = {}, {}
-    evals = tracking_references(motor, orders, settings)
     with progress.stage("laws in closed loop (position and speed loops)"):
-        for row, law in laws.items():
-            tracking[row], commutation[row] = {}, {}
-            for loop, ref in evals.items():
-                log = simulate(truth, ref, law, gains, seed=stream_seed(seed, "rotary evaluation", loop))
-                ff = law.ff_a * ref.alpha + law.ff_b * ref.omega + law.ff_d * np.sign(ref.omega)
-                log["u_fb"] = log["demand"] - ff
-                if loop == "position":
-                    tracking[row][loop] = float(np.mean((ref.theta - log["theta_true"]) ** 2))
-                else:
-                    cruise = np.abs(ref.omega) >= 0.999 * np.max(np.abs(ref.omega))
-                    tracking[row][loop] = float(np.mean((ref.omega - log["omega_true"])[cruise] ** 2))
-                commutation[row][loop] = float(np.mean(_commutation_error(truth, log, ref) ** 2))
+        tracking, commutation = closed_loop(truth, laws, gains, settings, seed)
     share = {}
     for row in ROWS:
         share[row] = {}
