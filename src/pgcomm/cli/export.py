@@ -367,10 +367,24 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
         print(f"wrote {args.out}/{paths[0].name}, {paths[1].name}, {cog_path.name}, results.json")
 
 
+def _entries_name_limit(args) -> tuple[str, float | None, bool]:
+    """``--entries`` checked, ``--name`` (default per format) checked as a C identifier, ``--current-limit`` parsed:
+    ``(name, limit, limit_given)``."""
+    from pgcomm.export.c import check_c_name
+
+    if args.entries is not None and not 8 <= args.entries <= 1 << 20:
+        raise ConfigError(f"--entries {args.entries}: expected a table size from 8 to {1 << 20}")
+    name = args.name or DEFAULT_NAMES[args.format]
+    try:
+        check_c_name(name)
+    except ValueError as e:
+        raise ConfigError(f"--name: {e}") from None
+    return (name, *parse_current_limit(args.current_limit))
+
+
 def _export_table(args, out, progress, t0) -> None:
     """``--format moteus|odrive|c-angle``: a compensation table over one revolution for a rotary drive."""
     from pgcomm.export.angle_table import read_angle_table
-    from pgcomm.export.c import check_c_name
     from pgcomm.io.results import write_results
 
     if args.table is None:
@@ -388,14 +402,7 @@ def _export_table(args, out, progress, t0) -> None:
                           "motor.config.torque_constant (its cogging_map is in N m: entry = k_t x iq_comp)")
     if k is not None and not (math.isfinite(k) and 0 < k <= 1e3):
         raise ConfigError(f"--torque-constant {k:g}: expected the motor's torque constant in N m/A (0 < k_t <= 1000)")
-    if args.entries is not None and not 8 <= args.entries <= 1 << 20:
-        raise ConfigError(f"--entries {args.entries}: expected a table size from 8 to {1 << 20}")
-    name = args.name or DEFAULT_NAMES[args.format]
-    try:
-        check_c_name(name)
-    except ValueError as e:
-        raise ConfigError(f"--name: {e}") from None
-    limit, limit_given = parse_current_limit(args.current_limit)
+    name, limit, limit_given = _entries_name_limit(args)
     table = read_angle_table(args.table)
     if limit_given:
         limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"
@@ -482,7 +489,6 @@ def _load_rotary_model(path):
 
 def _export_rotary_law(args, out, progress, t0) -> None:
     """``--format c-rotary --model MODEL.json``: the whole rotary law as C99 (module docstring)."""
-    from pgcomm.export.c import check_c_name
     from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
     from pgcomm.io.results import write_results
 
@@ -492,14 +498,7 @@ def _export_rotary_law(args, out, progress, t0) -> None:
     if args.table is not None:
         raise ConfigError("--format c-rotary exports --model, not --table (a table's formats: "
                           f"{', '.join(TABLE_FORMATS)})")
-    if args.entries is not None and not 8 <= args.entries <= 1 << 20:
-        raise ConfigError(f"--entries {args.entries}: expected a table size from 8 to {1 << 20}")
-    name = args.name or DEFAULT_NAMES[args.format]
-    try:
-        check_c_name(name)
-    except ValueError as e:
-        raise ConfigError(f"--name: {e}") from None
-    limit, limit_given = parse_current_limit(args.current_limit)
+    name, limit, limit_given = _entries_name_limit(args)
     model = _load_rotary_model(args.model)
     if limit_given:
         limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"

@@ -40,7 +40,8 @@ from pgcomm.export.angle_table import (
     resample_periodic,
 )
 
-__all__ = ["AngleLut", "build_angle_lut", "angle_lut_header", "write_angle_lut", "angle_lut_values"]
+__all__ = ["AngleLut", "build_angle_lut", "angle_lut_header", "write_angle_lut", "angle_lut_values",
+           "interpolate_periodic", "c_entry_coordinate", "c_limit"]
 
 
 @dataclass(frozen=True)
@@ -107,19 +108,47 @@ def build_angle_lut(table: AngleTable, entries: int | None = None, precision: st
     return AngleLut(g, precision, current_limit, err, clipped, table.source)
 
 
+def interpolate_periodic(values: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Periodic linear interpolation of ``values`` (``(N,)``, at ``θ_j = 2π j / N``) at finite angles ``theta``
+    (rad, any shape), as the generated C computes it (:func:`c_entry_coordinate`)."""
+    n = values.size
+    u = np.asarray(theta, dtype=np.float64) * (n / (2.0 * math.pi))
+    u = u - n * np.floor(u / n)
+    u = np.where((u >= 0) & (u < n), u, 0.0)
+    k = np.minimum(np.floor(u).astype(np.int64), n - 1)
+    t = u - k
+    return values[k] * (1.0 - t) + values[(k + 1) % n] * t
+
+
+def c_entry_coordinate(T: str, U: str, fl: str, out: str) -> list[str]:
+    """C statements that turn ``theta`` into the entry ``k`` and the fraction ``t`` of a table of ``U_N`` entries
+    (``U_PER_RAD`` per radian), reduced modulo one revolution; a non-finite ``theta`` or coordinate sets ``*out``
+    to zero and returns 2. Declares nothing: the function has ``T u, t; int k;``."""
+    return ["    /* a non-finite angle gives zero current and code 2 */\n",
+            f"    if (!isfinite(theta)) {{\n        *{out} = 0;\n        return 2;\n    }}\n",
+            f"    u = theta * {U}_PER_RAD;\n",
+            f"    if (!isfinite(u)) {{\n        *{out} = 0;\n        return 2;\n    }}\n",
+            "    /* entry coordinate in [0, N]; N itself only by rounding, read as entry 0 */\n",
+            f"    u = u - ({T}){U}_N * {fl}(u / ({T}){U}_N);\n",
+            f"    if (!(u >= 0) || u >= ({T}){U}_N)\n        u = 0;\n",
+            f"    k = (int)u;\n    if (k > {U}_N - 1)\n        k = {U}_N - 1;\n",
+            f"    t = u - ({T})k;\n"]
+
+
+def c_limit(U: str, out: str) -> list[str]:
+    """C statements that clip ``*out`` to ``± U_CURRENT_LIMIT`` and return 1 when they do."""
+    return [f"    if (*{out} > {U}_CURRENT_LIMIT) {{\n        *{out} = {U}_CURRENT_LIMIT;\n        return 1;\n    }}\n",
+            f"    if (*{out} < -{U}_CURRENT_LIMIT) {{\n        *{out} = -{U}_CURRENT_LIMIT;\n        return 1;\n    }}\n"]
+
+
 def angle_lut_values(lut: AngleLut, theta, iq_star=None):
     """The header's lookup in float64 NumPy: ``(codes, currents)`` for angles ``theta`` (rad).
 
     ``iq_star=None``: ``NAME_comp`` (codes 0/2); else ``NAME_iq`` with the command ``iq_star`` (A).
     """
     th = np.asarray(theta, dtype=np.float64)
-    n = lut.n
     ok = np.isfinite(th)
-    u = np.where(ok, th, 0.0) * (n / (2.0 * math.pi))
-    u = u - n * np.floor(u / n)
-    k = np.minimum(np.floor(u).astype(np.int64), n - 1)
-    t = u - k
-    c = lut.values[k] * (1.0 - t) + lut.values[(k + 1) % n] * t
+    c = interpolate_periodic(lut.values, np.where(ok, th, 0.0))
     if iq_star is None:
         return np.where(ok, 0, 2), np.where(ok, c, 0.0)
     s = np.asarray(iq_star, dtype=np.float64)
@@ -182,15 +211,7 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
             f"static const {T} {name}_table[{U}_N] = {{\n{vals}\n}};\n\n",
             f"static inline int {name}_comp({T} theta, {T} *iq_comp)\n{{\n",
             f"    {T} u, t;\n    int k;\n\n",
-            "    /* a non-finite angle gives zero current and code 2 */\n",
-            "    if (!isfinite(theta)) {\n        *iq_comp = 0;\n        return 2;\n    }\n",
-            f"    u = theta * {U}_PER_RAD;\n",
-            "    if (!isfinite(u)) {\n        *iq_comp = 0;\n        return 2;\n    }\n",
-            "    /* entry coordinate in [0, N]; N itself only by rounding, read as entry 0 */\n",
-            f"    u = u - ({T}){U}_N * {fl}(u / ({T}){U}_N);\n",
-            f"    if (!(u >= 0) || u >= ({T}){U}_N)\n        u = 0;\n",
-            f"    k = (int)u;\n    if (k > {U}_N - 1)\n        k = {U}_N - 1;\n",
-            f"    t = u - ({T})k;\n",
+            *c_entry_coordinate(T, U, fl, "iq_comp"),
             f"    *iq_comp = {name}_table[k] * (1 - t) + {name}_table[(k + 1) % {U}_N] * t;\n",
             "    return 0;\n}\n\n",
             f"static inline int {name}_iq({T} theta, {T} iq_star, {T} *iq)\n{{\n",
@@ -200,8 +221,7 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
             "    *iq = iq_star + c;\n",
             "    if (!isfinite(*iq)) {\n        *iq = 0;\n        return 2;\n    }\n"]
     if lut.current_limit is not None:
-        out += [f"    if (*iq > {U}_CURRENT_LIMIT) {{\n        *iq = {U}_CURRENT_LIMIT;\n        return 1;\n    }}\n",
-                f"    if (*iq < -{U}_CURRENT_LIMIT) {{\n        *iq = -{U}_CURRENT_LIMIT;\n        return 1;\n    }}\n"]
+        out += c_limit(U, "iq")
     out += ["    return 0;\n}\n\n", f"#endif /* {guard} */\n"]
     return "".join(out)
 
