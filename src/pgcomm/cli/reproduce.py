@@ -163,7 +163,7 @@ def _run_rotary(args, out: Path, progress, t0: float) -> None:
                    truth_source=source)
     results["runtime_s"] = time.perf_counter() - t0
     with progress.stage("results.json, model.json, table.csv, figure"):
-        rexp.write_outputs(out, results, truth)
+        _write_rotary_outputs(out, results, truth)
     if not args.quiet:
         _print_rotary(results)
         print(f"wrote {args.out}/results.json, model.json, table.csv, compensation.csv, rotary.png, report.html ({results['runtime_s']:.0f} s)")
@@ -182,3 +182,81 @@ def _print_rotary(r: dict) -> None:
         print(f"{row:18s} {v['position']:17.3g} {v['speed']:18.3g} {r['commutation_mse'][row]['position']:17.3g}")
     q = r["tracking_ratio_model_over_standstill"]
     print(f"tracking model/standstill table: position {q['position']:.2f}, speed {q['speed']:.2f}")
+
+
+def _write_rotary_outputs(out, results: dict, truth) -> list:
+    """Write ``results.json``, ``model.json`` (identified :class:`pgcomm.rotary.model.RotaryModel`), ``table.csv`` (the
+    standstill table and the model's table at the same angles), ``compensation.csv`` (the model's
+    averaged table in the format ``pgcomm export --table`` reads), the figure and ``report.html`` into ``out``.
+
+    Args:
+        out: folder (exists); results: :func:`pgcomm.rotary.experiment.run`'s dict (``models`` is taken out of it);
+        truth: the twin (for the figures).
+
+    Returns:
+        names of the files written.
+    """
+    import json
+    import math
+
+    import numpy as np
+
+    from pgcomm import plots
+    from pgcomm.io.atomic import atomic_open, atomic_write_text
+    from pgcomm.io.results import write_results
+
+    out = Path(out)
+    models = results.pop("models")
+    model, tm, table = models["model"], models["truth"], models["table"]
+    from dataclasses import replace
+
+    # as identify writes it: the motor and its current limit travel with the model (export --format c-rotary)
+    saved = replace(model, info={**model.info, "motor": truth.motor.name, "current_limit": truth.motor.current_limit})
+    atomic_write_text(out / "model.json", json.dumps(saved.to_dict(), indent=1) + "\n")
+    n = table.size
+    th = 2 * math.pi * np.arange(n) / n
+    with atomic_open(out / "table.csv") as f:
+        f.write("theta,standstill_table,model_table,model_forward,model_reverse\n")
+        np.savetxt(f, np.column_stack([th, table, model.table(n), model.table(n, +1), model.table(n, -1)]),
+                   delimiter=",", fmt="%.9g")
+    from pgcomm.export.angle_table import make_table, write_angle_table
+
+    # the model's table (both directions averaged, as the drives hold it) in the format pgcomm export
+    # --table reads: reproduce -> export moteus|odrive|c-angle without a conversion step
+    write_angle_table(out / "compensation.csv", make_table(model.table(n), "model from running logs",
+                                                          current_limit=truth.motor.current_limit),
+                      comments=(f"pgcomm rotary model of {truth.motor.name}, identified from running logs "
+                                "without a torque sensor; forward and reverse averaged",))
+    write_results(out / "results.json", results)
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(3, 1, figsize=(10, 9))
+    ax[0].plot(th, table, lw=0.6, label="standstill table (drives' method)")
+    ax[0].plot(th, model.table(n), lw=0.8, label="model from running logs")
+    ax[0].plot(th, tm.table(n), "k--", lw=0.6, label="truth")
+    ax[0].set_ylabel("compensating $i_q$ [A]")
+    ax[0].legend(fontsize=8)
+    ax[1].plot(th, 100 * model.ripple(th), label="identified")
+    ax[1].plot(th, 100 * tm.ripple(th), "k--", label="truth")
+    ax[1].set_ylabel("torque-constant ripple [%]")
+    ax[1].set_xlabel("mechanical angle θ [rad]")
+    ax[1].legend(fontsize=8)
+    rows = list(results["tracking_mse"])
+    x = np.arange(len(rows))
+    for k, loop in enumerate(("position", "speed")):
+        vals = [results["tracking_mse"][r][loop] / results["tracking_mse"]["classical"][loop] for r in rows]
+        ax[2].bar(x + 0.4 * k, vals, 0.4, label=f"{loop} loop")
+    ax[2].set_xticks(x + 0.2, rows)
+    ax[2].set_yscale("log")
+    ax[2].set_ylabel("tracking MSE / classical")
+    ax[2].legend(fontsize=8)
+    fig.suptitle(f"rotary {truth.motor.name}: identification and tracking")
+    plots.save(fig, out / "rotary.png")
+    from pgcomm.rotary.report import write_rotary_report
+
+    write_rotary_report(out / "report.html", results, {
+        "Top: the compensating q current over one revolution, from the standstill sweep, from the model identified "
+        "from running logs, and the truth. Middle: the torque-constant ripple, identified and true. Bottom: each "
+        "row's tracking MSE over classical commutation's, position and speed loop (log scale).": out / "rotary.png"},
+        version=str(results.get("version", "")))
+    return ["results.json", "model.json", "table.csv", "compensation.csv", "rotary.png", "report.html"]
