@@ -14,7 +14,7 @@ import pytest
 
 from pgcomm.errors import ExcitationError
 from pgcomm.rotary.experiment import identification_errors, quick_settings, running_references
-from pgcomm.rotary.identify import Orders, identify, max_speed
+from pgcomm.rotary.identify import Orders, identify, max_speed, resolution_verdict
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, default_gains, simulate
 from pgcomm.rotary.zoo import draw_rotary
@@ -298,6 +298,9 @@ def test_resolution_verdict_says_what_would_help():
     parts = resolution_verdict({"resolved": False, "ridge_bias": 0.0, "log_time_factor_to_resolve": 1.6,
                                 "relative_at_confidence": 0.052, "outside_order_limit": 0.038})
     assert "noise up to 5.2 % at 90 %" in parts and "outside the basis up to 3.8 %" in parts and "1.6x" in parts
+    hinted = resolution_verdict({"resolved": False, "ridge_bias": 0.0, "log_time_factor_to_resolve": 30.0,
+                                 "excitation_hint": "more q-current variation"})
+    assert hinted.endswith("would resolve it; more q-current variation") and "30.0x" in hinted
     ridge = resolution_verdict({"resolved": False, "ridge_bias": 2 * RESOLVED_SHARE, "log_time_factor_to_resolve": 1.0})
     assert "ridge sets 10 %" in ridge and "dither" in ridge
 
@@ -445,6 +448,7 @@ def test_the_log_mix_a_drive_user_has_gives_the_cogging_and_an_honest_ripple_ver
     e, se = identification_errors(const.model, t), const.info["standard_error"]
     assert e["cogging_rel"] <= 0.05 and se["cogging"]["resolved"]
     assert e["ripple_rel"] > 0.05 and not se["ripple"]["resolved"]
+    assert "dither" in resolution_verdict(se["ripple"]) and "excitation_hint" not in se["cogging"]
     accel = identify(logs["const"] + logs["accel"], t.motor)
     assert accel.info["standard_error"]["ripple"]["relative"] <= 0.5 * se["ripple"]["relative"]
     every = identify(logs["const"] + logs["accel"] + logs["sweep"], t.motor)
