@@ -435,7 +435,9 @@ def test_the_log_mix_a_drive_user_has_gives_the_cogging_and_an_honest_ripple_ver
     """Issue 18's real logs: constant speeds, accelerations, a slow sweep, no dither
     (:func:`pgcomm.rotary.experiment.drive_log_mix`, zoo motor 0). From the constant-speed runs alone the cogging
     is within the issue's 5 % and resolved, and the ripple, which only q-current varying at a given angle shows,
-    is called not resolved while its error is above 5 % (the verdict does not pass a map the logs do not hold).
+    is called not resolved while its error is above 5 %, with the hint that a dither or accelerations would help.
+    (Not on every motor: with a coarse encoder, constant speeds bias the maps beyond their standard error, see
+    docs/rotary.md, "Constant speeds with a coarse encoder are a trap".)
     The accelerating runs carry that current: adding them (half as long again) cuts the ripple's standard error
     by more than the factor sqrt(1.5) that the extra time alone would give, here at least twofold. The slow sweep
     passed with them in ``--data`` keeps the cogging within 5 % and adds no order outside the basis that the
