@@ -155,7 +155,9 @@ def write_rotary_report(path, results: dict, figures: dict, *, version: str = ""
                     + f"<h2>Compensation table</h2><p>{t.get('entries', '–')} entries over one revolution, "
                     f"{_g(t.get('rms_A'))} A RMS, {_g(t.get('peak_A'))} A peak; forward and reverse differ by "
                     f"{_g(t.get('forward_minus_reverse_rms_A'))} A RMS (the table holds their mean). "
-                    "<code>compensation.csv</code> goes to <code>pgcomm export --format moteus|odrive|c-angle</code>."
+                    "<code>compensation.csv</code> goes to <code>pgcomm export --format moteus|odrive|c-angle</code>; "
+                    "the whole law, with the direction term and the ripple that a drive's table cannot hold, to "
+                    "<code>pgcomm export --format c-rotary --model model.json</code>."
                     "</p>" + _sweep_html(results))
     figs = "".join(figure_html(Path(p), cap) for cap, p in figures.items())
     runtime = results.get("runtime_s")
