@@ -232,13 +232,7 @@ def run(args, out: Path, progress) -> None:
         raise ConfigError(f"--f-max must be a positive force in N, got {args.f_max}")
     if not (math.isfinite(args.resolution) and args.resolution > 0):
         raise ConfigError(f"--resolution must be a positive length in m, got {args.resolution}")
-    name = args.name or DEFAULT_NAMES[args.format]
-    from pgcomm.export.c import check_c_name
-
-    try:
-        check_c_name(name)
-    except ValueError as e:
-        raise ConfigError(f"--name: {e}") from None
+    name = _c_name(args)
 
     # no progress stage around the (fast) load: a refused file then prints exactly one line
     model, metadata = load_model(args.model)
@@ -370,16 +364,21 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
 def _entries_name_limit(args) -> tuple[str, float | None, bool]:
     """``--entries`` checked, ``--name`` (default per format) checked as a C identifier, ``--current-limit`` parsed:
     ``(name, limit, limit_given)``."""
-    from pgcomm.export.c import check_c_name
-
     if args.entries is not None and not 8 <= args.entries <= 1 << 20:
         raise ConfigError(f"--entries {args.entries}: expected a table size from 8 to {1 << 20}")
+    return (_c_name(args), *parse_current_limit(args.current_limit))
+
+
+def _c_name(args) -> str:
+    """``--name`` (default per format), checked as a C identifier prefix."""
+    from pgcomm.export.c import check_c_name
+
     name = args.name or DEFAULT_NAMES[args.format]
     try:
         check_c_name(name)
     except ValueError as e:
         raise ConfigError(f"--name: {e}") from None
-    return (name, *parse_current_limit(args.current_limit))
+    return name
 
 
 def _export_table(args, out, progress, t0) -> None:

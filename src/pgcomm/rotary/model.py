@@ -80,7 +80,7 @@ def cogging_orders(slots: int, pole_pairs: int, multiples: int = 3, low: int = 2
     return np.array(sorted(orders), int)
 
 
-def ripple_orders(slots: int, pole_pairs: int, low: int = 3) -> np.ndarray:
+def ripple_orders(slots: int | None, pole_pairs: int, low: int = 3) -> np.ndarray:
     """Harmonics per revolution of the torque-constant ripple.
 
     Eccentricity gives order 1 (and 2), magnet tolerances the low orders and an imbalance of the
@@ -88,11 +88,14 @@ def ripple_orders(slots: int, pole_pairs: int, low: int = 3) -> np.ndarray:
     give the classical 6th-electrical torque ripple, order ``6p`` (and ``12p``); the slots
     modulate the gain at order ``Q``.
 
+    Args:
+        slots: ``Q``, or ``None`` for the orders that do not depend on it (while the slot count is unknown).
+
     Returns:
         sorted unique ``(n,)`` int array.
     """
     p = int(pole_pairs)
-    orders = set(range(1, low + 1)) | {2 * p, 6 * p, 12 * p, int(slots)}
+    orders = set(range(1, low + 1)) | {2 * p, 6 * p, 12 * p} | (set() if slots is None else {int(slots)})
     return np.array(sorted(orders), int)
 
 

@@ -35,7 +35,7 @@ import math
 import numpy as np
 
 from pgcomm.errors import ExcitationError
-from pgcomm.rotary.model import cogging_orders, fundamental_cogging_order
+from pgcomm.rotary.model import cogging_orders, fundamental_cogging_order, ripple_orders
 
 __all__ = ["detect_slots", "MAX_SLOTS", "MAX_ORDER"]
 
@@ -56,18 +56,17 @@ def _highest_order(logs, sample_time: float) -> int:
     at most :data:`MAX_ORDER`: nine in ten samples pass the identification's alias guard."""
     from pgcomm.rotary.identify import MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, _log_arrays
 
-    speeds, steps = [], []
+    steps = []  # rad per sample, at speed
     for i, log in enumerate(logs):
-        _, th, _, _, ts = _log_arrays(log, i, sample_time)
+        _, th, _, _, _ = _log_arrays(log, i, sample_time)
         if th.size < 3:
             continue
-        v = np.abs(np.gradient(th, ts))
-        speeds.append(v[v > MIN_SPEED_SHARE * float(np.percentile(v, 95))])
-        steps.append(np.full(speeds[-1].size, ts))
-    if not speeds or not np.concatenate(speeds).size:
+        d = np.abs(np.gradient(th))
+        steps.append(d[d > MIN_SPEED_SHARE * float(np.percentile(d, 95))])
+    v = np.concatenate(steps) if steps else np.zeros(0)
+    if not v.size:
         raise ExcitationError("no sample at speed in the logs: the slot count is read from running logs "
                               "(set slots in the motor TOML)")
-    v = np.concatenate(speeds) * np.concatenate(steps)  # rad per sample
     return int(min(MAX_ORDER, math.floor(2 * math.pi / (MIN_SAMPLES_PER_PERIOD * float(np.percentile(v, 90))))))
 
 
@@ -100,7 +99,8 @@ def detect_slots(logs, pole_pairs: int, sample_time: float) -> tuple[int, dict]:
         raise ExcitationError(f"the logs are too fast to show the cogging: order {2 * p} (2p) has fewer than "
                               f"{MIN_SAMPLES_PER_PERIOD:g} samples per period at their usual speed; set slots in the "
                               "motor TOML or log slower")
-    ripple = np.array(sorted(h for h in {1, 2, 3, 2 * p, 6 * p, 12 * p} if h <= top), int)
+    ripple = ripple_orders(None, p)
+    ripple = ripple[ripple <= top]
     every = Orders(np.arange(1, top + 1), ripple, direction_orders(p))
     motor = RotaryMotor(pole_pairs=p, slots=None, sample_time=sample_time)
     prepared, _, _, _ = _prepare(logs, motor, every, MIN_SAMPLES_PER_PERIOD, FILTER_TAPS)
