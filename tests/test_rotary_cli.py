@@ -59,6 +59,10 @@ def test_identify_rotary_logs_recovers_the_cogging(tmp_path, zoo):
     page = (out / "report.html").read_text()
     assert f"{res['table']['entries']} entries" in page and "data:image/png;base64," in page
     assert f"{100 * se['cogging']['relative']:.1f} %" in page and "truth" not in page
+    # the encoder's step is read from the logged angle (a CSV round trip keeps its lattice) and reported
+    quant = res["identification"]["quantisation"]
+    assert quant["counts_per_revolution"] == [truth.encoder_counts] and quant["logs_on_lattice"] == quant["logs"]
+    assert f"lattice of {truth.encoder_counts} counts per revolution" in page
 
 
 def test_real_drive_log_shape_gives_the_same_model(tmp_path, zoo):

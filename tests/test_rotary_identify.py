@@ -130,12 +130,13 @@ def test_standard_errors_predict_the_error_over_noise_seeds():
 
 def test_chunked_rows_and_normal_equations_match_a_dense_ridge_solve(motor0):
     """Second formulation: rows built in chunks of any size are the same rows, and the ridge solution from
-    the accumulated normal equations is the one a QR solve of the stacked rows (augmented by the ridge) gives."""
+    the accumulated normal equations is the one a QR solve of the stacked rows (augmented by the ridge) gives
+    (without the encoder's quantisation correction, which tests/test_rotary_quantisation.py checks)."""
     from pgcomm.rotary import identify as ri
 
     t, logs = motor0
     orders = Orders.for_motor(t.motor)
-    prepared, _, _, _ = ri._prepare(logs, t.motor, orders, ri.MIN_SAMPLES_PER_PERIOD, ri.FILTER_TAPS)
+    prepared, _, _, _ = ri._prepare(logs, t.motor, orders, ri.MIN_SAMPLES_PER_PERIOD, ri.FILTER_TAPS, None)
     big = list(ri._chunks(prepared, orders, ri.FILTER_TAPS))
     small = list(ri._chunks(prepared, orders, ri.FILTER_TAPS, chunk=37))
     rows = {}

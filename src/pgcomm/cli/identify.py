@@ -263,6 +263,14 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         res = identify(data, motor, orders, torque_sensor=torque_sensor)
         mech = None if torque_sensor else fit_mechanics(data, motor, orders)
         se = res.info.get("standard_error")
+        quant = res.info.get("quantisation")
+        if quant and quant["logs_on_lattice"]:
+            progress.info(f"encoder: {quant['logs_on_lattice']} of {quant['logs']} logged angle(s) on a "
+                          f"{'/'.join(map(str, quant['counts_per_revolution']))}-count lattice; its quantisation is "
+                          f"{100 * quant['noise_share']:.0f} % of the acceleration the maps do not explain, taken out "
+                          "of J/k0 (errors in variables)" + ("; capped: the logs hardly carry the rotor's acceleration "
+                                                            "above the encoder's noise, log accelerations or a dither"
+                                                            if quant["correction_capped"] else ""))
         for name in ("cogging", "ripple", "direction") if se else ():
             e = se[name]
             progress.info(f"{name}: standard error {100 * e['relative']:.1f} % of its RMS, {resolution_verdict(e)}")

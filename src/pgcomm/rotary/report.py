@@ -60,6 +60,16 @@ def _identification_html(r: dict) -> str:
              f"{_g(ident.get('ridge'))} ({html.escape(str(ident.get('ridge_chosen_by', '–')))}); J/k0 "
              f"{_g(ident.get('inertia_ratio'), 4)} A·s²/rad."
              + (f" {ident['rounds']} round(s) of running logs." if "rounds" in ident else "") + "</p>"]
+    quant = ident.get("quantisation") or {}
+    if quant.get("logs_on_lattice"):
+        parts.append(f"<p>The logged angle sits on an encoder's lattice of "
+                     f"{html.escape('/'.join(map(str, quant['counts_per_revolution'])))} counts per revolution "
+                     f"({quant['logs_on_lattice']} of {quant['logs']} logs). Its quantisation noise, "
+                     f"{_pct(quant['noise_share'])} of the acceleration the maps and friction do not explain, is taken "
+                     "out of the normal equations (errors in variables), so that it does not pull J/k0 down and the "
+                     "maps with it" + ("; the correction was capped: the logs hardly carry the rotor's acceleration "
+                                       "above the encoder's noise (log accelerations or a dither)"
+                                       if quant.get("correction_capped") else "") + ".</p>")
     det = r.get("slots_detected")
     if det:
         others = [q for q in det.get("slots_with_that_fundamental", []) if q != det["slots"]]
