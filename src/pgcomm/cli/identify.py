@@ -266,11 +266,11 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         quant = res.info.get("quantisation")
         if quant and quant["logs_on_lattice"]:
             progress.info(f"encoder: {quant['logs_on_lattice']} of {quant['logs']} logged angle(s) on a "
-                          f"{'/'.join(map(str, quant['counts_per_revolution']))}-count lattice; its quantisation is "
-                          f"{100 * quant['noise_share']:.0f} % of the acceleration the maps do not explain, taken out "
-                          "of J/k0 (errors in variables)" + ("; capped: the logs hardly carry the rotor's acceleration "
-                                                            "above the encoder's noise, log accelerations or a dither"
-                                                            if quant["correction_capped"] else ""))
+                          f"{'/'.join(map(str, quant['counts_per_revolution']))}-count lattice; its rounding noise "
+                          f"({_share(quant['noise_share'])} of the acceleration the maps do not explain) is taken "
+                          "out of the normal equations, so that it does not pull J/k0 down"
+                          + ("; capped: the logs hardly carry the rotor's acceleration above the encoder's noise, "
+                             "log accelerations or a dither" if quant["correction_capped"] else ""))
         for name in ("cogging", "ripple", "direction") if se else ():
             e = se[name]
             progress.info(f"{name}: standard error {100 * e['relative']:.1f} % of its RMS, {resolution_verdict(e)}")
@@ -514,3 +514,8 @@ def format_feedforward(ff: dict) -> str:
     """One line: the identified mechanics as the feedforward's parameters."""
     return (f"feedforward: m = {ff['mass']:.4g} kg, f_v = {ff['viscous']:.4g} N s/m, f_c = {ff['coulomb']:.4g} N "
             "(identified with the y row; offered as the feedforward's parameters)")
+
+
+def _share(x: float) -> str:
+    """A share as per cent, two significant digits, or "under 0.1 %"."""
+    return "under 0.1 %" if x < 1e-3 else f"{100 * x:.2g} %"
