@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from pgcomm.rotary import identify as ri
-from pgcomm.rotary.quantisation import acceleration_noise, encoder_step
+from pgcomm.rotary.quantisation import acceleration_noise, angle_noise, encoder_step
 
 
 def _path(n, ts, seed):
@@ -35,6 +35,23 @@ def test_encoder_step_is_read_from_the_rounded_angle(counts):
     # a log written to text with 7 significant digits after the point in rad stays on the lattice
     if q > 1e-4:
         assert encoder_step(np.round(logged, 7)) == pytest.approx(q, rel=1e-4)
+
+
+def test_an_angle_stored_as_float32_keeps_its_encoder_and_counts_the_storage_noise():
+    """A multi-turn angle (50-110 rad) stored as float32 sits on float32's grid (4-8e-6 rad) as well as on the
+    encoder's (2^16 counts, 9.6e-5 rad): the encoder's is found (a strict lattice test took float32's grid), and
+    the noise the storage adds is counted.
+    Second formulation: the variance of the actual float32 rounding errors, within 5 % (the estimate comes from
+    20 000 second differences: its own sampling error is about 1.5 %)."""
+    q = 2 * math.pi / 2**16
+    th = 50.0 + 3.0 * np.arange(20000) * 1e-3 + 0.01 * np.sin(2 * np.pi * 7e-3 * np.arange(20000))
+    exact = q * np.round(th / q)
+    stored = exact.astype(np.float32).astype(float)
+    # the step to 0.5 % (float32 moves each sample by up to a sixth of a step, in a pattern that repeats with the
+    # angle, so the least-squares step carries a small bias; 0.5 % of the step is 1 % of the noise variance)
+    assert encoder_step(stored) == pytest.approx(q, rel=5e-3)
+    extra = angle_noise(stored, q) - q * q / 12
+    assert extra == pytest.approx(float(np.var(stored - exact)), rel=0.05)
 
 
 def test_a_smooth_angle_is_not_on_a_lattice():
@@ -57,7 +74,7 @@ def test_acceleration_noise_against_a_monte_carlo_of_rounded_paths():
             th = _path(100000, ts, seed)
             e = q * np.round(th / q) - th
             sq.append(np.convolve(e, k, mode="valid") ** 2 / ts**4)
-        assert float(np.mean(np.concatenate(sq))) == pytest.approx(acceleration_noise(q, taps, ts), rel=0.05)
+        assert float(np.mean(np.concatenate(sq))) == pytest.approx(acceleration_noise(q * q / 12, taps, ts), rel=0.05)
 
 
 def test_the_correction_takes_the_encoder_noise_out_of_the_inertia():
@@ -111,7 +128,8 @@ def test_the_corrected_fit_is_the_dense_solve_of_the_corrected_normal_equations(
     lam_rel = 1e-6
     fit = ri._fit(prepared, lay, ri.FILTER_TAPS, ridge=lam_rel)
     G = X.T @ X
-    w = acceleration_noise(q, ri._hann(ri.FILTER_TAPS), t.motor.sample_time)
+    assert all(angle_noise(lg["theta"], q) == pytest.approx(q * q / 12, rel=1e-9) for lg in logs)  # exactly on it
+    w = acceleration_noise(q * q / 12, ri._hann(ri.FILTER_TAPS), t.motor.sample_time)
     # the share: the noise over what the other columns leave of the acceleration (a QR solve of the rows)
     rest = X[:, 0] - X[:, 1:] @ np.linalg.lstsq(X[:, 1:], X[:, 0], rcond=None)[0]
     share = y.size * w / float(rest @ rest)

@@ -252,7 +252,8 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
         counts["alias"] += int(alias.sum())
         if np.any(ok):
             q = quantisation.encoder_step(th) if isinstance(encoder_step, str) else encoder_step
-            noise = 0.0 if q is None else quantisation.acceleration_noise(q, _hann(taps), ts)
+            noise = 0.0 if q is None else quantisation.acceleration_noise(quantisation.angle_noise(th, q), _hann(taps),
+                                                                          ts)
             prepared.append(_Prepared(i, th, iq, np.sign(w), w, s_all[ok], ts, q, noise))
     if not prepared:
         lim = f"{v_limit:.3g} rad/s" if v_limit is not None else "?"

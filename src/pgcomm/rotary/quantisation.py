@@ -8,6 +8,8 @@ variance::
 
     W = q²/12 · Σ_m k_m² / T_s⁴        (k = Hann window ⊛ [1, −2, 1])
 
+(plus what the log's storage adds off the lattice, :func:`angle_noise`).
+
 This noise sits in a *regressor*: least squares then pulls ``J/k0`` towards zero by the share of the
 acceleration's variance it makes up (errors in variables), and the maps absorb what ``J/k0`` misses. At a
 constant speed the true acceleration is the small, angle-periodic speed ripple, so a 16–17-bit encoder's
@@ -24,13 +26,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["encoder_step", "acceleration_noise", "LATTICE_TOLERANCE"]
+__all__ = ["encoder_step", "angle_noise", "acceleration_noise", "LATTICE_RMS", "LATTICE_OUTLIERS"]
 
-#: A logged angle is on an encoder's lattice when its first and second differences are within this share of a
-#: step of a whole number of steps (a CSV written with 7 significant digits per radian stays well inside it).
-LATTICE_TOLERANCE = 0.05
-#: ...for at least this share of the samples (a few glitches, a wrap of a single-turn column, are allowed).
-LATTICE_SHARE = 0.99
+#: A logged angle is on an encoder's lattice when its first and second differences are whole numbers of a step
+#: up to a small extra noise (an angle stored as float32, or written to text with few digits): their distance to
+#: the nearest whole number has an RMS of at most this many steps (0.29 where there is no lattice) ...
+LATTICE_RMS = 0.1
+#: ... and at most this share of them is more than a quarter step off (glitches, a wrap of a single-turn column).
+LATTICE_OUTLIERS = 0.01
 #: Fewest nonzero second differences needed to trust a step (a multiple of the step passes the lattice test
 #: on ``n`` of them with chance about ``2^-n``).
 MIN_STEPS = 50
@@ -44,9 +47,10 @@ def encoder_step(theta) -> float | None:
     At any speed the rotor crosses counts irregularly, so the second differences of the logged angle are whole
     numbers of counts and most of them are ``0`` or ``±1`` count. The most frequent nonzero second differences
     are tried, the largest first; a step is kept when the first and second differences are whole numbers of it
-    (:data:`LATTICE_TOLERANCE`, :data:`LATTICE_SHARE`), refined by least squares. An angle from the drive's
-    observer or PLL is not on a lattice; an angle written with few digits is on the lattice of its last digit
-    as well, and the encoder's coarser one is found.
+    up to a small extra noise (:data:`LATTICE_RMS`, :data:`LATTICE_OUTLIERS`), refined by least squares. An angle from the drive's
+    observer or PLL is not on a lattice; an angle written with few digits, or stored as float32, is on the
+    lattice of its last digit as well, and the encoder's coarser one is found (:func:`angle_noise` counts what
+    the storage adds).
 
     Args:
         theta: ``(N,)`` logged angle (rad, multi-turn or wrapped; the offset does not matter).
@@ -71,9 +75,37 @@ def encoder_step(theta) -> float | None:
         counts = np.round(nz / c)
         used = counts > 0
         q = float(np.sum(nz[used] * counts[used]) / np.sum(counts[used] ** 2))
-        if all(np.mean(np.abs(d / q - np.round(d / q)) <= LATTICE_TOLERANCE) >= LATTICE_SHARE for d in (d2, d1)):
+        if all(_on_lattice(d / q) for d in (d2, d1)):
             return q
     return None
+
+
+def _off(r: np.ndarray) -> np.ndarray:
+    return r - np.round(r)
+
+
+def _on_lattice(r: np.ndarray) -> bool:
+    off = np.abs(_off(r))
+    near = off <= 0.25
+    return bool(np.mean(near) >= 1.0 - LATTICE_OUTLIERS and np.sqrt(np.mean(off[near] ** 2)) <= LATTICE_RMS)
+
+
+def angle_noise(theta, q: float) -> float:
+    """Variance (rad²) of the white noise in a logged angle on a lattice of step ``q``: the rounding, ``q²/12``,
+    plus what sits off the lattice (float32 storage, few digits in a text file), from the second differences'
+    distance to whole steps (``Δ²`` of white noise has 6 times its variance; glitches beyond a quarter step left
+    out).
+
+    Args:
+        theta: ``(N,)`` logged angle (rad); q: its encoder step (rad, :func:`encoder_step`).
+
+    Returns:
+        The variance (rad²).
+    """
+    off = _off(np.diff(np.asarray(theta, float), 2) / q)
+    off = off[np.abs(off) <= 0.25]
+    extra = float(np.mean(off**2)) / 6.0 if off.size else 0.0
+    return q * q * (1.0 / 12.0 + extra)
 
 
 def _round_significant(x: np.ndarray, digits: int) -> np.ndarray:
@@ -82,16 +114,16 @@ def _round_significant(x: np.ndarray, digits: int) -> np.ndarray:
     return np.round(x / 10.0**e, digits - 1) * 10.0**e
 
 
-def acceleration_noise(q: float, taps: np.ndarray, sample_time: float) -> float:
-    """Variance of the encoder's quantisation noise in a filtered acceleration (module docstring).
+def acceleration_noise(variance: float, taps: np.ndarray, sample_time: float) -> float:
+    """Variance of a logged angle's white noise in a filtered acceleration (module docstring).
 
     Args:
-        q: encoder step (rad).
+        variance: the angle noise's variance (rad²), :func:`angle_noise`; ``q²/12`` for rounding alone.
         taps: ``(T,)`` the filter applied to the second difference (sums to 1).
         sample_time: ``T_s`` (s).
 
     Returns:
-        ``W`` ((rad/s²)²): ``q²/12 · Σ (taps ⊛ [1, −2, 1])² / T_s⁴``.
+        ``W`` ((rad/s²)²): ``variance · Σ (taps ⊛ [1, −2, 1])² / T_s⁴``.
     """
     k = np.convolve(np.asarray(taps, float), [1.0, -2.0, 1.0])
-    return float(q * q / 12.0 * np.sum(k * k) / sample_time**4)
+    return float(variance * np.sum(k * k) / sample_time**4)
