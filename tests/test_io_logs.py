@@ -277,6 +277,27 @@ def test_mixed_sample_times(tmp_path):
         read_log(p)
 
 
+def test_time_stored_as_float32_is_taken_as_its_uniform_grid(tmp_path):
+    """A 1 kHz time column stored as float32 (300 s: its values are up to 15 µs, 1.5 % of a step, off the grid)
+    is uniform up to its own rounding: read as the exact grid, with a note; the sample time is the grid's to
+    1e-9 of itself. A sample 10 % of a step off (a jittering sampler) is still refused."""
+    n = 300_001
+    t32 = (np.arange(n) * 1e-3).astype(np.float32).astype(float)
+    assert np.max(np.abs(t32 - np.arange(n) * 1e-3)) > 0.01e-3  # the rounding this test is about
+    cols = {"t": t32, "theta": np.linspace(0.0, 1.0, n), "iq_1": np.zeros(n)}
+    p = tmp_path / "f32.parquet"
+    write_log(p, Log(cols, 1e-3))
+    lg = read_log(p, required=("theta",))
+    assert lg.sample_time == pytest.approx(1e-3, rel=1e-9)
+    np.testing.assert_allclose(lg.columns["t"], np.arange(n) * lg.sample_time, rtol=0, atol=1e-12)
+    assert any("off a uniform grid" in note for note in lg.notes)
+    t = np.arange(200) * 1e-3
+    t[100] += 0.1e-3
+    p = _write_csv(tmp_path / "jitter.csv", {"t": t, "theta": np.zeros(200), "iq_1": np.zeros(200)})
+    with pytest.raises(DataError, match=r"jitter.csv row 101 column 't': time step changes from 0.001 s to 0.0011 s"):
+        read_log(p, required=("theta",))
+
+
 def test_time_not_increasing(tmp_path):
     cols = _columns()
     cols["t"][10] = cols["t"][9]

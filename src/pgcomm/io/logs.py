@@ -112,6 +112,7 @@ __all__ = [
     "FORCE_COLUMNS",
     "KNOWN_COLUMNS",
     "TIME_TOLERANCE",
+    "TIME_JITTER",
 ]
 
 #: Columns a log must have (``t`` may be replaced by a given sample time).
@@ -133,8 +134,12 @@ _COIL_RE = re.compile(r"^(ia|ib|Fy_ref|delta|iq|id)_([0-9]+)$")
 #: Optional per-coil-set voltages ``vq_{l}``, ``vd_{l}`` (V): logged, never a coil set's inputs.
 _VOLT_RE = re.compile(r"^(vq|vd)_([1-9][0-9]*)$")
 
-#: Relative tolerance on the uniformity of ``t`` steps.
+#: Relative tolerance between a given sample time and the one ``t`` has; below it ``t`` is uniform as stored.
 TIME_TOLERANCE = 1e-6
+#: ``t`` is uniform when every sample is within this share of a step of the uniform grid from its first to its
+#: last value: a time stored as float32 (7.6e-6 s apart at 100 s) or with few digits is accepted and replaced by
+#: the grid (with a note); a dropped sample or a change of the sample time moves samples by whole steps.
+TIME_JITTER = 0.05
 
 #: Plausibility bounds that catch a wrong unit: a controller sample beyond 0.1 s (t in ms), a
 #: position beyond 10 m (y or r in mm).
@@ -556,7 +561,7 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
         DataError: unreadable file, unsupported suffix, missing columns (with
             the closest match among the file's columns), incomplete coil sets,
             non-numeric or empty cells, NaN/inf, ``t`` not strictly increasing
-            or not uniform (relative tolerance :data:`TIME_TOLERANCE`), fewer than
+            or not uniform (each sample within :data:`TIME_JITTER` of a step of its grid), fewer than
             2 rows, or no sample time.
         ConfigError: a bad column mapping.
     """
@@ -695,15 +700,23 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
                 f"{src} row {i + 2} {kind} {lab('t')}: t = {t[i + 1]:.17g} s is not after t = {t[i]:.17g} s of row {i + 1}"
                 " (t must be strictly increasing)"
             )
-        dt0 = dt[0]
-        off = np.flatnonzero(np.abs(dt - dt0) > TIME_TOLERANCE * dt0)
-        if off.size:
-            i = int(off[0])
+        est = (t[-1] - t[0]) / (n - 1)
+        # uniform up to the rounding of t's own values (float32, few digits in a text file): every sample within
+        # TIME_JITTER of a step of the grid; a change of the sample time or a dropped sample moves them by steps
+        dev = t - (t[0] + est * np.arange(n))
+        if np.max(np.abs(dev)) > TIME_JITTER * est:
+            dt0 = dt[0]
+            off = np.flatnonzero(np.abs(dt - dt0) > TIME_JITTER * dt0)
+            i = int(off[0]) if off.size else int(np.argmax(np.abs(dev))) - 1
             raise DataError(
                 f"{src} row {i + 2} {kind} {lab('t')}: time step changes from {dt0:.9g} s to {dt[i]:.9g} s "
-                f"(t must be uniformly sampled, relative tolerance {TIME_TOLERANCE:g}; split or resample the log)"
+                f"(t must be uniformly sampled, each sample within {100 * TIME_JITTER:g} % of a step of its grid; "
+                "split or resample the log)"
             )
-        est = (t[-1] - t[0]) / (n - 1)
+        if np.max(np.abs(dev)) > TIME_TOLERANCE * est:
+            notes.append(f"t: samples up to {np.max(np.abs(dev)) * 1e6:.3g} µs off a uniform grid of {est:.9g} s "
+                         "(the rounding of its stored values), taken as that grid")
+            cols["t"] = t = t[0] + est * np.arange(n)
         ts = est
         for cand, what in ((given_ts, "given"), (file_ts, "in the file metadata")):
             if cand is None:
