@@ -70,6 +70,8 @@ def main(argv=None) -> int:
                 verdict = "resolved" if e["resolved"] else "NOT resolved"
                 if not e["resolved"] and e.get("ridge_bias", 0) > 0.05:
                     verdict += " (ridge)"
+                elif not e["resolved"] and e.get("quantisation_bias", 0) > 0.05:
+                    verdict += " (encoder)"
                 return f"{key} {100 * err[key + '_rel']:6.1f} % (se {100 * e['relative']:5.1f} %, {verdict})"
 
             added = {k: v for k, v in res.info["orders_added"].items() if v}

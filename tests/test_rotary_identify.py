@@ -304,6 +304,24 @@ def test_resolution_verdict_says_what_would_help():
     assert hinted.endswith("would resolve it; more q-current variation") and "30.0x" in hinted
     ridge = resolution_verdict({"resolved": False, "ridge_bias": 2 * RESOLVED_SHARE, "log_time_factor_to_resolve": 1.0})
     assert "ridge sets 10 %" in ridge and "dither" in ridge
+    # the encoder's rounding: named among the parts when it weighs, and the verdict when it alone reaches the share
+    part = resolution_verdict({"resolved": False, "ridge_bias": 0.0, "quantisation_bias": 0.026,
+                               "log_time_factor_to_resolve": 1.2, "relative_at_confidence": 0.045})
+    assert "the encoder's rounding up to 2.6 %" in part and "1.2x" in part
+    enc = resolution_verdict({"resolved": False, "ridge_bias": 0.01, "quantisation_bias": 0.76,
+                              "log_time_factor_to_resolve": float("inf"), "excitation_hint": "more q-current"})
+    assert "encoder's rounding could move it by 76 %" in enc and "accelerations" in enc and "x the running" not in enc
+
+
+def test_the_log_time_factor_leaves_room_for_what_longer_logs_do_not_change():
+    """The noise part falls as the square root of the log time; the ridge's pull and the encoder's rounding do not,
+    so the factor brings the noise within what the share leaves beside them: ``noise² / (share² − fixed²)``."""
+    from pgcomm.rotary.identify import RESOLVED_SHARE, _time_factor
+
+    assert _time_factor(0.5 * RESOLVED_SHARE, 0.0) == 1.0
+    assert _time_factor(2 * RESOLVED_SHARE, 0.0) == pytest.approx(4.0)
+    assert _time_factor(RESOLVED_SHARE, 0.6 * RESOLVED_SHARE) == pytest.approx(1 / 0.64)
+    assert _time_factor(0.1 * RESOLVED_SHARE, RESOLVED_SHARE) == float("inf")
 
 
 def test_interval_weights_are_the_path_integrals():

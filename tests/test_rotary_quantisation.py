@@ -101,6 +101,12 @@ def test_the_correction_takes_the_encoder_noise_out_of_the_inertia():
     assert plain.model.inertia_ratio < truth and err_plain > 0.05 * truth  # the attenuation this test is about
     assert abs(fixed.model.inertia_ratio - truth) <= err_plain / 3
     assert abs(fixed.model.inertia_ratio - clean.model.inertia_ratio) <= err_plain / 3
+    # what the verdict takes as uncertain (the fit with half the correction) lies between the two fits
+    shift = qi["inertia_ratio_shift"]
+    assert plain.model.inertia_ratio - fixed.model.inertia_ratio < shift < 0.0
+    for name in ("cogging", "ripple"):
+        assert fixed.info["standard_error"][name]["quantisation_bias"] > 0.0
+        assert plain.info["standard_error"][name]["quantisation_bias"] == 0.0
 
 
 def test_the_corrected_fit_is_the_dense_solve_of_the_corrected_normal_equations():

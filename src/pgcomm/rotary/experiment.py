@@ -343,7 +343,8 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
             need = max(se["cogging"]["log_time_factor_to_resolve"], se["ripple"]["log_time_factor_to_resolve"])
             if need <= 1.0:
                 break
-            more = int(min(math.ceil(rounds * need - 1e-9), max_rounds)) - rounds
+            # an infinite need (the ridge or the encoder alone reach the share): the budget is all there is
+            more = (int(min(math.ceil(rounds * need - 1e-9), max_rounds)) if math.isfinite(need) else max_rounds) - rounds
             if more < 1:
                 break
             progress.info(f"standard errors: cogging {100 * se['cogging']['relative']:.1f} %, ripple "

@@ -98,6 +98,10 @@ CHUNK_WINDOWS = 512
 #: share of the acceleration's part that the maps and friction do not explain: beyond it the logs do not carry
 #: the rotor's acceleration above the encoder's noise, and ``J/k0`` would be noise over almost nothing.
 MAX_NOISE_SHARE = 0.75
+#: The share of the encoder-noise correction taken as uncertain in the verdict: on the twin, the noise the
+#: acceleration actually carries (with the drive's loop reacting to it) was 0.83-1.44 times the white model's
+#: (zoo seed 1, 12N14P and 18N16P, per constant-speed log).
+QUANTISATION_UNCERTAINTY = 0.5
 
 
 @dataclass(frozen=True)
@@ -489,6 +493,14 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
     else:
         lam = float(ridge)
     beta, A, scale = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, lam)
+    # what the correction leaves (the drive's loop reacting to the rounding; at a constant speed the rounding cycles
+    # with the fraction of counts per sample and is not white): the fit's shift were the correction
+    # QUANTISATION_UNCERTAINTY smaller (smaller keeps the matrix positive definite)
+    shift = np.zeros_like(beta)
+    if factor * float(np.sum(noise)) > 0.0:
+        A2 = A.copy()
+        A2[0, 0] += QUANTISATION_UNCERTAINTY * factor * float(np.sum(noise)) / scale[0] ** 2
+        shift = np.linalg.solve(A2, (b[0] + b[1]) / scale) / scale - beta
     scores, sse = {}, 0.0
     for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds):
         X = layout.rows(ch)
@@ -513,7 +525,7 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
     bias = (a_inv @ ((G[0] + G[1]) / np.outer(scale, scale) @ bs) - bs) / scale
     return {"beta": beta, "cov": cov, "ridge": float(lam), "curve": curve, "cost": sse / rows, "rows": int(rows),
             "blocks": len(scores), "influence": influence, "bias": bias, "noise_share": share,
-            "noise_factor": factor}
+            "noise_factor": factor, "quantisation_shift": shift}
 
 
 def _full(structured: np.ndarray) -> np.ndarray:
@@ -669,6 +681,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     cov[np.ix_(layout.keep, layout.keep)] = fit["cov"]
     bias = np.zeros(layout.keep.size)
     bias[layout.keep] = fit["bias"]
+    shift = np.zeros(layout.keep.size)
+    shift[layout.keep] = fit["quantisation_shift"]
     o_r, o_c, o_d = layout.o_r, layout.o_c, layout.o_d
     model = RotaryModel(
         motor.pole_pairs,
@@ -680,7 +694,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     blind = None
     if screen is not None:
         blind = {k: float(np.median(v)) for k, v in screen["blind_rms"].items() if np.size(v)}
-    standard_error = _standard_errors(model, cov, bias, o_r, o_c, o_d, final, fit["blocks"], blind)
+    standard_error = _standard_errors(model, cov, bias, o_r, o_c, o_d, final, fit["blocks"], blind, shift)
     info = {"windows": counts["windows"], "windows_used": int(n_windows), "windows_refused_alias": counts["alias"],
             "windows_refused_slow": counts["slow"], "speed_limit_rad_s": v_limit,
             "min_samples_per_period": float(min_samples_per_period), "highest_order": orders.highest,
@@ -705,7 +719,8 @@ def _quantisation_info(prepared, fit: dict) -> dict:
     return {"encoder_step_rad": float(np.median(steps)) if steps else None,
             "counts_per_revolution": sorted({round(2 * math.pi / q) for q in steps}),
             "logs_on_lattice": sum(p.step is not None for p in prepared), "logs": len(prepared),
-            "noise_share": fit["noise_share"], "correction_capped": fit["noise_factor"] < 1.0}
+            "noise_share": fit["noise_share"], "correction_capped": fit["noise_factor"] < 1.0,
+            "inertia_ratio_shift": float(fit["quantisation_shift"][0])}
 
 
 def check_plausible(result: RotaryIdentification) -> RotaryIdentification:
@@ -744,7 +759,7 @@ RESOLVED_CONFIDENCE = 0.9
 
 
 def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Orders, blocks: int,
-                     blind: dict | None = None) -> dict:
+                     blind: dict | None = None, shift=None) -> dict:
     """How well the logs determine each map: expected RMS error over the revolution, relative to the
     map's identified RMS, and the running-log time that would bring it to :data:`RESOLVED_SHARE`.
 
@@ -759,9 +774,13 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
     the revolution of the largest order outside the slot/pole basis that the screening would not have added (the
     median over the candidate orders, :func:`_significant_extra_orders`), relative too: the part of a real map
     the logs could still hide. It falls with the noise, as the square root of the log time. A map is resolved
-    when ``sqrt(relative_at_confidence² + outside_order_limit² + ridge_bias²)`` is within
+    when ``sqrt(relative_at_confidence² + outside_order_limit² + ridge_bias² + quantisation_bias²)`` is within
     :data:`RESOLVED_SHARE`: without the limit, a map whose noise part was within 5 % came out at 5-5.4 % on
     three zoo motors, with the zoo's outside order (3 % of the map's RMS) unseen.
+
+    ``quantisation_bias`` (``shift``: the fit's shift were the encoder-noise correction
+    :data:`QUANTISATION_UNCERTAINTY` smaller, :func:`_fit`) is the RMS of that shift over the revolution, relative:
+    what the correction may leave. It does not fall with longer logs of the same kind.
     """
     out = {"blocks": int(blocks), "resolved_share": RESOLVED_SHARE, "confidence": RESOLVED_CONFIDENCE}
     th = 2 * math.pi * np.arange(4096) / 4096
@@ -777,13 +796,15 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
         rel = se / rms if rms > 0 else float("inf")
         b_rel = b_rms / rms if rms > 0 else float("inf")
         rel_q = se_q / rms if rms > 0 else float("inf")
+        sh = np.zeros(len(cols)) if shift is None else shift[cols]
+        q_rel = float(np.sqrt(max(float(sh @ gram @ sh), 0.0))) / rms if rms > 0 else float("inf")
         lim = (blind or {}).get(name)
         lim_rel = (float(lim) / rms if rms > 0 else float("inf")) if lim is not None else None
         noise = math.hypot(rel_q, lim_rel or 0.0)
         out[name] = {"rms_error": se, "rms": rms, "relative": rel, "relative_at_confidence": rel_q,
-                     "outside_order_limit": lim_rel, "ridge_bias": b_rel,
-                     "resolved": bool(math.hypot(noise, b_rel) <= RESOLVED_SHARE),
-                     "log_time_factor_to_resolve": float(max(1.0, (noise / RESOLVED_SHARE) ** 2))}
+                     "outside_order_limit": lim_rel, "ridge_bias": b_rel, "quantisation_bias": q_rel,
+                     "resolved": bool(math.hypot(noise, b_rel, q_rel) <= RESOLVED_SHARE),
+                     "log_time_factor_to_resolve": _time_factor(noise, math.hypot(b_rel, q_rel))}
     # the ripple is seen only through q-current that varies at a given angle: its need falls with the square of that
     # variation, which constant-speed logs hardly carry (zoo 9N6P: 34 s of constant speeds left its standard error at
     # 22 %, 17 s of accelerations added brought it to 4.4 %)
@@ -792,18 +813,33 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
     return out
 
 
+def _time_factor(noise: float, fixed: float) -> float:
+    """How many times the log so far brings the noise part (falling as the square root of the log time) within
+    what :data:`RESOLVED_SHARE` leaves beside the parts longer logs do not change (``fixed``); ``inf`` if none."""
+    room = RESOLVED_SHARE**2 - fixed**2
+    if room <= 0.0:
+        return float("inf")
+    return float(max(1.0, noise**2 / room))
+
+
 def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     """One phrase for a map's entry of ``info["standard_error"]`` (:func:`_standard_errors`): ``"resolved"``, or
     why not and what would help (and the entry's ``excitation_hint``, the ripple's: more q-current variation):
     longer logs of the same kind when the noise part is too large (with
     ``log_seconds``, the seconds of running log so far, also the total it would take; with the noise part at
     :data:`RESOLVED_CONFIDENCE` and the outside-order limit it weighs, when the entry has them), a different
-    excitation when the ridge sets the map (then longer logs of the same kind do not help)."""
+    excitation when the ridge sets the map or the encoder's rounding could move it by more than the share (then
+    longer logs of the same kind do not help)."""
     if entry["resolved"]:
         return "resolved"
-    if entry.get("ridge_bias", 0.0) > RESOLVED_SHARE:
+    ridge, quant = entry.get("ridge_bias", 0.0), entry.get("quantisation_bias", 0.0)
+    if math.hypot(ridge, quant) >= RESOLVED_SHARE and ridge >= quant:
         return (f"not resolved: the ridge sets {100 * entry['ridge_bias']:.0f} % of it (the logs do not excite it; "
                 "log with more q-current variation, e.g. a dither or accelerations)")
+    if math.hypot(ridge, quant) >= RESOLVED_SHARE:
+        return (f"not resolved: the encoder's rounding could move it by {100 * entry['quantisation_bias']:.0f} % (the "
+                "logs hardly carry the rotor's acceleration above it; log accelerations or a dither, or use a finer "
+                "encoder)")
     # rounded up to a tenth: a factor just above 1 would otherwise read "1.0x", as if no more log were needed
     factor = max(1.1, math.ceil(10 * entry["log_time_factor_to_resolve"]) / 10)
     total = "" if log_seconds is None else f" ({factor * log_seconds:.0f} s)"
@@ -813,6 +849,8 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
         parts.append(f"noise up to {100 * entry['relative_at_confidence']:.1f} % at {100 * RESOLVED_CONFIDENCE:.0f} %")
     if entry.get("outside_order_limit") is not None:
         parts.append(f"an unseen order outside the basis up to {100 * entry['outside_order_limit']:.1f} %")
+    if entry.get("quantisation_bias", 0.0) >= 0.1 * RESOLVED_SHARE:
+        parts.append(f"the encoder's rounding up to {100 * entry['quantisation_bias']:.1f} %")
     why = f" ({', '.join(parts)})" if parts else ""
     hint = f"; {entry['excitation_hint']}" if entry.get("excitation_hint") else ""
     return (f"not resolved{why}: about {factor:.1f}x the running log so far{total}, at the same excitation, "
