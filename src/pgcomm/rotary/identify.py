@@ -355,9 +355,9 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
                    "acc_noise": np.full(st.size, p.acc_noise)}
 
 
-def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int):
+def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect"):
     """All filtered rows of all logs at once (for the few columns of :func:`fit_mechanics`)."""
-    prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples, taps)
+    prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples, taps, encoder_step)
     parts = list(_chunks(prepared, orders, taps))
     return {k: np.concatenate([c[k] for c in parts]) for k in parts[0]}, counts, v_limit, ts
 
@@ -858,16 +858,17 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
 
 
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
-                  min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS) -> dict:
+                  min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
+                  encoder_step="detect") -> dict:
     """The feedforward a drive user tunes: ``i_q ≈ (J/k0) θ̈ + b ω + d0 sign(ω)`` fitted on the same
     windows as :func:`identify`, without any position dependence, with the same correction for the encoder's
-    quantisation (:mod:`pgcomm.rotary.quantisation`).
+    quantisation (:mod:`pgcomm.rotary.quantisation`; ``encoder_step`` as in :func:`identify`).
 
     Returns:
         ``{"inertia_ratio": A·s²/rad, "viscous": A·s/rad, "coulomb": A}``.
     """
     orders = orders or Orders.for_motor(motor)
-    d, _, _, _ = _design(logs, motor, orders, min_samples_per_period, taps)
+    d, _, _, _ = _design(logs, motor, orders, min_samples_per_period, taps, encoder_step)
     # the Coulomb column is the order-0 direction column (cos 0 · s)
     j0 = int(np.flatnonzero(orders.direction == 0)[0]) if np.any(orders.direction == 0) else None
     s_col = d["dir"][:, j0] if j0 is not None else np.sign(d["visc"])
