@@ -298,6 +298,31 @@ def test_time_stored_as_float32_is_taken_as_its_uniform_grid(tmp_path):
         read_log(p, required=("theta",))
 
 
+def test_dropped_samples_are_gaps_when_asked_and_refused_otherwise(tmp_path):
+    """A 1 kHz rotary log with samples dropped in two places (3, then 1), its angle wrapped to one revolution and
+    turning at about 40 rad/s: refused by default (the same line as any change of the sample time); with
+    ``gaps=True`` read with its gaps (the rows after which samples are missing), ``t`` on its 1 ms grid, the angle
+    unwrapped across the gaps (the motion over a gap is that of its time), and a note."""
+    n = 3000
+    keep = np.setdiff1d(np.arange(n), [1000, 1001, 1002, 2000])
+    t = keep * 1e-3
+    w = 40.0 + 5.0 * np.sin(2 * np.pi * t)
+    theta = 40.0 * t - 5.0 / (2 * np.pi) * np.cos(2 * np.pi * t)
+    cols = {"t": t, "theta": np.mod(theta, 2 * np.pi), "velocity": w, "iq_1": np.zeros(t.size)}
+    p = _write_csv(tmp_path / "gaps.csv", cols)
+    with pytest.raises(DataError, match=r"gaps.csv row 1001 column 't': time step changes from 0.001 s to 0.004 s"):
+        read_log(p, required=("theta",))
+    lg = read_log(p, required=("theta",), gaps=True)
+    assert lg.gaps == (999, 1996) and lg.segments() == [(0, 1000), (1000, 1997), (1997, t.size)]
+    assert lg.sample_time == pytest.approx(1e-3, rel=1e-9)
+    np.testing.assert_allclose(lg.columns["t"], keep * lg.sample_time, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(lg.columns["theta"], theta - theta[0] + lg.columns["theta"][0], rtol=0, atol=1e-9)
+    assert any("4 dropped sample(s) in 2 gap(s), the first after row 1000" in note for note in lg.notes)
+    # the stretches between the gaps are uniform
+    for a, b in lg.segments():
+        assert np.allclose(np.diff(lg.columns["t"][a:b]), lg.sample_time, rtol=1e-9, atol=0)
+
+
 def test_time_not_increasing(tmp_path):
     cols = _columns()
     cols["t"][10] = cols["t"][9]

@@ -229,7 +229,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     motor = load_rotary_motor(args.motor)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         mapping = load_column_mapping(args.columns) if args.columns else None
-        logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED)
+        logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED, gaps=True)
         for lg in logs:
             if not lg.is_rotary:
                 raise DataError(f"{lg.source}: a linear motor's log (it has 'y'), but --motor {args.motor} is rotary; "
@@ -243,8 +243,10 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
             for note in lg.notes:
                 progress.info(f"{lg.source}: {note}")
     torque_sensor = all("torque" in lg.columns for lg in logs) and not args.no_force_sensor
-    data = [{"name": lg.source, "t": lg.columns["t"], "theta": lg.columns["theta"], "iq_1": lg.columns["iq_1"],
-             **({"torque": lg.columns["torque"]} if torque_sensor else {})} for lg in logs]
+    # a log with dropped samples is the stretches between them: no filter window may difference across a gap
+    data = [{"name": lg.source if len(lg.gaps) == 0 else f"{lg.source} rows {a + 1}-{b}",
+             **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *(("torque",) if torque_sensor else ()))}}
+            for lg in logs for a, b in lg.segments()]
     slots_detected = None
     if motor.slots is None:
         from pgcomm.rotary.slots import detect_slots

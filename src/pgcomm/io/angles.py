@@ -42,7 +42,7 @@ def unwrap_angle(theta, sample_time: float, velocity=None, source: str = "log", 
 
     Args:
         theta: ``(N,)`` mechanical angle (rad), wrapped or continuous.
-        sample_time: ``T_s`` (s), > 0.
+        sample_time: ``T_s`` (s), > 0; or ``(N − 1,)`` the time of each step (a log with dropped samples).
         velocity: ``(N,)`` angular velocity (rad/s) logged with it, or ``None``.
         source, label: file and column for messages (``label`` as the log reader prints columns,
             e.g. ``"'pos' (theta)"``).
@@ -60,9 +60,10 @@ def unwrap_angle(theta, sample_time: float, velocity=None, source: str = "log", 
     if th.size < 2:
         return th, 0
     d = np.diff(th)
+    dts = np.broadcast_to(np.asarray(sample_time, dtype=np.float64), d.shape)
     if velocity is not None:
         w = np.asarray(velocity, dtype=np.float64)
-        pred = 0.5 * (w[1:] + w[:-1]) * sample_time
+        pred = 0.5 * (w[1:] + w[:-1]) * dts
     else:
         pred = np.zeros_like(d)
     r = d - pred
@@ -78,11 +79,11 @@ def unwrap_angle(theta, sample_time: float, velocity=None, source: str = "log", 
                    "revolution)")
         elif velocity is not None:
             why = (f"ambiguous: the logged velocity {0.5 * (w[i] + w[i + 1]):.6g} rad/s predicts a step of "
-                   f"{pred[i]:.6g} rad per {sample_time:.6g} s sample and the jump is {e[i]:.3g} rad away from that "
+                   f"{pred[i]:.6g} rad per {dts[i]:.6g} s sample and the jump is {e[i]:.3g} rad away from that "
                    "plus any whole revolution (check the velocity's unit and sign, or the log for a glitch)")
         else:
             why = (f"ambiguous: {e[i]:.3g} rad from any whole revolution, more than a quarter revolution per "
-                   f"{sample_time:.6g} s sample (add the velocity column so that fast motion can be told from a "
+                   f"{dts[i]:.6g} s sample (add the velocity column so that fast motion can be told from a "
                    "wrap, or check the log for a glitch)")
         raise DataError(f"{source} {rows}: {jump}: {why}")
     n = int(np.sum(np.abs(k)))

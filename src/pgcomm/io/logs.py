@@ -331,6 +331,9 @@ class Log:
             (0: the file's angle was continuous, or the log has no ``theta``).
         notes: what the reader did beyond unit conversion, one sentence each (wraps removed,
             a missing ``id_{l}`` taken as 0 A), for the user's report.
+        gaps: rows ``i`` (0-based) after which samples were dropped (``t[i+1] − t[i]`` a whole number of
+            sample times above one; only when :func:`read_log` was asked to accept them): the log is then
+            uniform between them, and :meth:`segments` gives those stretches.
     """
 
     columns: dict
@@ -338,6 +341,7 @@ class Log:
     source: str = "log"
     angle_wraps: int = 0
     notes: tuple = ()
+    gaps: tuple = ()
 
     def __post_init__(self):
         cols = {}
@@ -356,6 +360,11 @@ class Log:
         if not (0.0 < ts < math.inf):
             raise DataError(f"{self.source}: sample time {ts:g} s must be positive and finite")
         self.sample_time = ts
+
+    def segments(self) -> list[tuple[int, int]]:
+        """``[(start, stop), ...]``: the row ranges between dropped samples (the whole log when there are none)."""
+        cuts = [0, *(int(i) + 1 for i in self.gaps), self.n_samples]
+        return [(a, b) for a, b in zip(cuts[:-1], cuts[1:])]
 
     def __len__(self) -> int:
         return self.n_samples
@@ -540,7 +549,8 @@ def _first_bad(a: np.ndarray) -> int | None:
     return int(np.flatnonzero(~np.isfinite(a))[0])
 
 
-def read_log(path, sample_time: float | None = None, columns=None, required=REQUIRED, min_coil_sets: int = 1) -> Log:
+def read_log(path, sample_time: float | None = None, columns=None, required=REQUIRED, min_coil_sets: int = 1,
+             gaps: bool = False) -> Log:
     """Read and validate one log file.
 
     Args:
@@ -552,6 +562,9 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
             :class:`ColumnMapping` (see module docstring).
         required: log-format columns that must be present.
         min_coil_sets: minimum number of coil sets ``L`` the log must describe.
+        gaps: accept dropped samples (steps of ``t`` that are whole numbers of sample times): the log keeps
+            them in :attr:`Log.gaps`, with a note; its user must not difference across them (the rotary
+            identification uses each stretch between them as a log). Otherwise a dropped sample is refused.
 
     Returns:
         :class:`Log` whose columns use log-format names and SI units; it always
@@ -685,6 +698,7 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
         raise DataError(f"{src} row {i + 1} {kind} {lab(name)}: {cols[name][i]} is not a finite number")
 
     # Time base.
+    gap_rows: tuple = ()
     given_ts = sample_time if sample_time is not None else mapping.sample_time
     if given_ts is not None:
         given_ts = float(given_ts)
@@ -703,7 +717,16 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
         est = (t[-1] - t[0]) / (n - 1)
         # uniform up to the rounding of t's own values (float32, few digits in a text file): every sample within
         # TIME_JITTER of a step of the grid; a change of the sample time or a dropped sample moves them by steps
-        dev = t - (t[0] + est * np.arange(n))
+        grid = np.arange(n, dtype=float)
+        dev = t - (t[0] + est * grid)
+        if gaps and np.max(np.abs(dev)) > TIME_JITTER * est:
+            # dropped samples: every sample on a grid of the median step, its index jumping where samples are missing
+            step = float(np.median(dt))
+            idx = np.rint((t - t[0]) / step)
+            if np.max(np.abs(t - (t[0] + step * idx))) <= TIME_JITTER * step and np.all(np.diff(idx) >= 1):
+                grid = idx
+                est = float(np.polyfit(grid, t, 1)[0])
+                dev = t - (t[0] + est * grid)
         if np.max(np.abs(dev)) > TIME_JITTER * est:
             dt0 = dt[0]
             off = np.flatnonzero(np.abs(dt - dt0) > TIME_JITTER * dt0)
@@ -716,7 +739,13 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
         if np.max(np.abs(dev)) > TIME_TOLERANCE * est:
             notes.append(f"t: samples up to {np.max(np.abs(dev)) * 1e6:.3g} µs off a uniform grid of {est:.9g} s "
                          "(the rounding of its stored values), taken as that grid")
-            cols["t"] = t = t[0] + est * np.arange(n)
+            cols["t"] = t = t[0] + est * grid
+        jumps = np.flatnonzero(np.diff(grid) > 1.5)
+        if jumps.size:
+            dropped = int(round(float(np.sum(np.diff(grid)[jumps] - 1))))
+            notes.append(f"t: {dropped} dropped sample(s) in {jumps.size} gap(s), the first after row {jumps[0] + 1} "
+                         f"(t = {t[jumps[0]]:.9g} s); the stretches between them are used as {jumps.size + 1} logs")
+            gap_rows = tuple(int(i) for i in jumps)
         ts = est
         for cand, what in ((given_ts, "given"), (file_ts, "in the file metadata")):
             if cand is None:
@@ -755,7 +784,8 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
     if rotary:
         from pgcomm.io.angles import unwrap_angle
 
-        cols["theta"], angle_wraps = unwrap_angle(cols["theta"], ts, cols.get("velocity"), src, lab("theta"))
+        steps = np.diff(cols["t"]) if gap_rows else ts  # the motion over a gap is that of its time
+        cols["theta"], angle_wraps = unwrap_angle(cols["theta"], steps, cols.get("velocity"), src, lab("theta"))
         if angle_wraps:
             notes.append(f"theta: {angle_wraps} wrap(s) of one revolution removed (the file's angle was wrapped; "
                          "the log's theta is continuous)")
@@ -766,10 +796,11 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
                     if big * 1e-3 <= MAX_POSITION else "")
             raise DataError(f"{src} {kind} {lab(name)}: |{name}| reaches {big:.6g} m, implausible for a linear "
                             f"motor (at most {MAX_POSITION:g} m){hint}")
-    return Log(cols, ts, src, angle_wraps, tuple(notes))
+    return Log(cols, ts, src, angle_wraps, tuple(notes), gap_rows)
 
 
-def read_logs(patterns, sample_time: float | None = None, columns=None, required=REQUIRED, min_coil_sets: int = 1) -> list[Log]:
+def read_logs(patterns, sample_time: float | None = None, columns=None, required=REQUIRED, min_coil_sets: int = 1,
+              gaps: bool = False) -> list[Log]:
     """Read several logs given as file names or glob patterns.
 
     Each pattern is expanded with :func:`glob.glob` (sorted; ``**`` recursive);
@@ -794,4 +825,4 @@ def read_logs(patterns, sample_time: float | None = None, columns=None, required
                 files.append(m)
     if not files:
         raise DataError("no log files given")
-    return [read_log(f, sample_time, mapping, required, min_coil_sets) for f in files]
+    return [read_log(f, sample_time, mapping, required, min_coil_sets, gaps) for f in files]
