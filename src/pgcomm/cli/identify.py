@@ -267,9 +267,11 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         se = res.info.get("standard_error")
         quant = res.info.get("quantisation")
         if quant and quant["logs_on_lattice"]:
+            from pgcomm.rotary.report import share_text
+
             progress.info(f"encoder: {quant['logs_on_lattice']} of {quant['logs']} logged angle(s) on a "
                           f"{'/'.join(map(str, quant['counts_per_revolution']))}-count lattice; its rounding noise "
-                          f"({_share(quant['noise_share'])} of the acceleration the maps do not explain) is taken "
+                          f"({share_text(quant['noise_share'])} of the acceleration the maps do not explain) is taken "
                           "out of the normal equations, so that it does not pull J/k0 down"
                           + ("; capped: the logs hardly carry the rotor's acceleration above the encoder's noise, "
                              "log accelerations or a dither" if quant["correction_capped"] else ""))
@@ -516,8 +518,3 @@ def format_feedforward(ff: dict) -> str:
     """One line: the identified mechanics as the feedforward's parameters."""
     return (f"feedforward: m = {ff['mass']:.4g} kg, f_v = {ff['viscous']:.4g} N s/m, f_c = {ff['coulomb']:.4g} N "
             "(identified with the y row; offered as the feedforward's parameters)")
-
-
-def _share(x: float) -> str:
-    """A share as per cent, two significant digits, or "under 0.1 %"."""
-    return "under 0.1 %" if x < 1e-3 else f"{100 * x:.2g} %"

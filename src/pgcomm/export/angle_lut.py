@@ -41,7 +41,7 @@ from pgcomm.export.angle_table import (
 )
 
 __all__ = ["AngleLut", "build_angle_lut", "angle_lut_header", "write_angle_lut", "angle_lut_values",
-           "interpolate_periodic", "c_entry_coordinate", "c_limit"]
+           "interpolate_periodic", "c_entry_coordinate", "c_limit", "c_current_tail"]
 
 
 @dataclass(frozen=True)
@@ -141,6 +141,14 @@ def c_limit(U: str, out: str) -> list[str]:
             f"    if (*{out} < -{U}_CURRENT_LIMIT) {{\n        *{out} = -{U}_CURRENT_LIMIT;\n        return 1;\n    }}\n"]
 
 
+def c_current_tail(U: str, out: str, limited: bool, guard: str) -> list[str]:
+    """The end of a law function and of its header: zero current and code 2 for a non-finite ``*out``, the clip
+    to the limit (:func:`c_limit`) when ``limited``, ``return 0``, and the include guard's ``#endif``."""
+    return ([f"    if (!isfinite(*{out})) {{\n        *{out} = 0;\n        return 2;\n    }}\n"]
+            + (c_limit(U, out) if limited else [])
+            + ["    return 0;\n}\n\n", f"#endif /* {guard} */\n"])
+
+
 def angle_lut_values(lut: AngleLut, theta, iq_star=None):
     """The header's lookup in float64 NumPy: ``(codes, currents)`` for angles ``theta`` (rad).
 
@@ -219,10 +227,7 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
             "    if (!(isfinite(theta) && isfinite(iq_star)) || " + f"{name}_comp(theta, &c) != 0) {{\n",
             "        *iq = 0;\n        return 2;\n    }\n",
             "    *iq = iq_star + c;\n",
-            "    if (!isfinite(*iq)) {\n        *iq = 0;\n        return 2;\n    }\n"]
-    if lut.current_limit is not None:
-        out += c_limit(U, "iq")
-    out += ["    return 0;\n}\n\n", f"#endif /* {guard} */\n"]
+            *c_current_tail(U, "iq", lut.current_limit is not None, guard)]
     return "".join(out)
 
 

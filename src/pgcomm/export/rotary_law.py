@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pgcomm.export.angle_lut import c_entry_coordinate, c_limit, interpolate_periodic
+from pgcomm.export.angle_lut import c_current_tail, c_entry_coordinate, interpolate_periodic
 from pgcomm.rotary.law import MIN_GAIN, iq_command
 from pgcomm.rotary.model import RotaryModel
 
@@ -214,10 +214,7 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
             f"    g = {name}_gain[k] * (1 - t) + {name}_gain[k1] * t;\n",
             "    sg = (s > 0) ? 1 : ((s < 0) ? -1 : 0);\n",
             "    *iq = (demand - c + d * sg) / g;\n",
-            "    if (!isfinite(*iq)) {\n        *iq = 0;\n        return 2;\n    }\n"]
-    if tables.current_limit is not None:
-        out += c_limit(U, "iq")
-    out += ["    return 0;\n}\n\n", f"#endif /* {guard} */\n"]
+            *c_current_tail(U, "iq", tables.current_limit is not None, guard)]
     return "".join(out)
 
 

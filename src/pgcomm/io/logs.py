@@ -744,7 +744,7 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
         if jumps.size:
             dropped = int(round(float(np.sum(np.diff(grid)[jumps] - 1))))
             notes.append(f"t: {dropped} dropped sample(s) in {jumps.size} gap(s), the first after row {jumps[0] + 1} "
-                         f"(t = {t[jumps[0]]:.9g} s); the stretches between them are used as {jumps.size + 1} logs")
+                         f"(t = {t[jumps[0]]:.9g} s): {jumps.size + 1} uniform stretches between them")
             gap_rows = tuple(int(i) for i in jumps)
         ts = est
         for cand, what in ((given_ts, "given"), (file_ts, "in the file metadata")):

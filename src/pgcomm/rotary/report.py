@@ -35,6 +35,11 @@ def _pct(x) -> str:
     return "–" if x is None else f"{100 * x:.1f} %"
 
 
+def share_text(x: float) -> str:
+    """A share as per cent with two significant digits, or "under 0.1 %"."""
+    return "under 0.1 %" if x < 1e-3 else f"{100 * x:.2g} %"
+
+
 def _identification_html(r: dict) -> str:
     ident = r["identification"]
     se = ident.get("standard_error") or {}
@@ -65,7 +70,7 @@ def _identification_html(r: dict) -> str:
         parts.append(f"<p>The logged angle sits on an encoder's lattice of "
                      f"{html.escape('/'.join(map(str, quant['counts_per_revolution'])))} counts per revolution "
                      f"({quant['logs_on_lattice']} of {quant['logs']} logs). Its quantisation noise, "
-                     f"{'under 0.1 %' if quant['noise_share'] < 1e-3 else _pct(quant['noise_share'])} of the acceleration "
+                     f"{share_text(quant['noise_share'])} of the acceleration "
                      "the maps and friction do not explain, is taken "
                      "out of the normal equations (errors in variables), so that it does not pull J/k0 down and the "
                      "maps with it" + ("; the correction was capped: the logs hardly carry the rotor's acceleration "
