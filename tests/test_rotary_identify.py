@@ -43,6 +43,30 @@ def test_identification_without_torque_sensor_matches_the_truth(motor0):
     assert res.info["windows_used"] > 0
 
 
+def test_a_current_offset_is_the_cogging_maps_constant_and_moves_nothing_else(motor0):
+    """A current sensor's offset ``i0`` (1 % of the limit) in every log: the torque is ``k0 (1 + r)(i_q − i0)``, so
+    the cogging map's constant comes out as ``−i0`` and its angle-dependent part moves by ``−i0 r(θ)``; the
+    ripple, the direction map and ``J/k0`` are those of the offset-free fit within a fifth of their standard
+    errors (the same windows, the same noise: only the offset differs). Before the constant was in the model,
+    the offset went into the ripple (153 % of its RMS)."""
+    t, logs = motor0
+    i0 = 0.01 * t.motor.current_limit
+    plain = identify(logs, t.motor)
+    shifted = identify([dict(lg, iq_1=lg["iq_1"] + i0) for lg in logs], t.motor)
+    c = shifted.model.cogging
+    c0 = float(c.coef[c.orders == 0, 0].sum())
+    se = shifted.info["standard_error"]
+    assert c0 == pytest.approx(-i0 + float(plain.model.cogging.coef[plain.model.cogging.orders == 0, 0].sum()),
+                               abs=0.2 * se["cogging"]["rms_error"] + 1e-3 * i0)
+    th = 2 * np.pi * np.arange(4096) / 4096
+    rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
+    expected = plain.model.cogging(th) - i0 * plain.model.ripple(th) - i0
+    assert rms(shifted.model.cogging(th) - expected) <= 0.2 * se["cogging"]["rms_error"] + 1e-3 * i0
+    assert rms(shifted.model.ripple(th) - plain.model.ripple(th)) <= 0.2 * se["ripple"]["rms_error"]
+    assert rms(shifted.model.direction(th) - plain.model.direction(th)) <= 0.2 * se["direction"]["rms_error"]
+    assert shifted.model.inertia_ratio == pytest.approx(plain.model.inertia_ratio, rel=1e-3)
+
+
 def test_identification_with_torque_sensor(motor0):
     t, logs = motor0
     res = identify(logs, t.motor, torque_sensor=True)

@@ -19,7 +19,8 @@ revolution, the motor obeys::
     J θ̈ = k0 [ (1 + r(θ)) i_q + c(θ) − d(θ) s(ω) − b ω ]
 
 ``r`` (-) the relative torque-constant ripple (mean zero), ``c`` (A) the cogging torque as an
-equivalent q-current, ``d`` (A) the direction-dependent torque (Coulomb friction and the motor's
+equivalent q-current (an identified one may have an order 0: a constant load or the current sensor's offset,
+compensated with it), ``d`` (A) the direction-dependent torque (Coulomb friction and the motor's
 own drag, e.g. hysteresis) as an equivalent current, ``s(ω) = sign(ω)``, ``b`` (A·s/rad) viscous
 friction, and ``J/k0`` (A·s²/rad) the one mechanical parameter. Multiply by ``k0`` for N·m when
 ``k_t`` is known.
@@ -172,7 +173,8 @@ class RotaryModel:
 
     Attributes:
         pole_pairs: ``p``.
-        cogging: :class:`Fourier` ``c(θ)`` (A): cogging torque as an equivalent q-current.
+        cogging: :class:`Fourier` ``c(θ)`` (A): cogging torque as an equivalent q-current (with a constant
+            load or current offset at order 0, when identified).
         ripple: :class:`Fourier` ``r(θ)`` (-): relative torque-constant ripple (no order 0).
         direction: :class:`Fourier` ``d(θ)`` (A): direction-dependent drag (with Coulomb friction, order 0).
         viscous: ``b`` (A·s/rad).
