@@ -215,7 +215,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.config import load_rotary_motor
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
     from pgcomm.io.results import write_results
-    from pgcomm.rotary.identify import Orders, fit_mechanics, identify, resolution_verdict
+    from pgcomm.rotary.identify import Orders, delay_text, fit_mechanics, identify, resolution_verdict
 
     for opt in ("plant", "config"):
         if getattr(args, opt, None):
@@ -263,7 +263,11 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     how = "with the torque sensor" if torque_sensor else "without a torque sensor (from the motion)"
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
         res = identify(data, motor, orders, torque_sensor=torque_sensor)
-        mech = None if torque_sensor else fit_mechanics(data, motor, orders)
+        timing = res.info.get("current_delay") or {}
+        mech = None if torque_sensor else fit_mechanics(data, motor, orders,
+                                                       current_delay=timing.get("samples", 0))
+        if delay_text(timing):
+            progress.info(delay_text(timing))
         se = res.info.get("standard_error")
         quant = res.info.get("quantisation")
         if quant and quant["logs_on_lattice"]:

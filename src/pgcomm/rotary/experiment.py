@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.seeds import stream_seed
-from pgcomm.rotary.identify import Orders, fit_mechanics, identify, max_speed, resolution_verdict
+from pgcomm.rotary.identify import Orders, delay_text, fit_mechanics, identify, max_speed, resolution_verdict
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, RotaryTruth, default_gains, simulate
@@ -329,13 +329,17 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         record([0])
     with progress.stage("identification from the running logs (no torque sensor)"):
         ident = identify(logs, motor, orders)
+        # the current's timing is the drive's: detected once, kept for the longer logs
+        delay = ident.info["current_delay"]["samples"]
         rounds, max_rounds = 1, max(1, math.floor(budget / round_seconds))
         first = {k: dict(ident.info["standard_error"][k]) for k in ("cogging", "ripple")}
+        first_timing = dict(ident.info["current_delay"])
+        progress.info(delay_text(first_timing))
         if not settings.stop_when_resolved and max_rounds > 1:
             progress.info(f"recording the rest of the budget: {max_rounds - 1} more round(s) ({budget:.0f} s)")
             record(range(1, max_rounds))
             rounds = max_rounds
-            ident = identify(logs, motor, orders)
+            ident = identify(logs, motor, orders, current_delay=delay)
         # log until both maps are resolved or the budget is spent; the standard error of a short log is itself
         # uncertain, so the need is re-estimated after every batch rather than trusted from the first round
         while rounds < max_rounds:
@@ -352,12 +356,13 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
                           f"of logs: recording {more} more round(s) (budget {budget:.0f} s)")
             record(range(rounds, rounds + more))
             rounds += more
-            ident = identify(logs, motor, orders)
+            ident = identify(logs, motor, orders, current_delay=delay)
         run_seconds = rounds * round_seconds
         ident.info["rounds"] = rounds
         ident.info["first_round_standard_error"] = first
         ident.info["log_budget_s"] = budget
-        mech = fit_mechanics(logs, motor, orders)
+        ident.info["current_delay"] = {**first_timing, "samples": delay}
+        mech = fit_mechanics(logs, motor, orders, current_delay=delay)
         errs = identification_errors(ident.model, truth)
         progress.info(f"cogging error {100 * errs['cogging_rel']:.1f} %, ripple error {100 * errs['ripple_rel']:.1f} "
                       f"% of the truth's RMS; ridge {ident.info['ridge']:.0e}")

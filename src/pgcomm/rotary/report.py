@@ -12,9 +12,9 @@ import html
 from pathlib import Path
 
 from pgcomm.report import CSS, figure_html
-from pgcomm.rotary.identify import resolution_verdict
+from pgcomm.rotary.identify import delay_text, resolution_verdict
 
-__all__ = ["write_rotary_report", "ROW_DESCRIPTIONS"]
+__all__ = ["write_rotary_report", "ROW_DESCRIPTIONS", "share_text"]
 
 #: One line per row of ``reproduce``'s table.
 ROW_DESCRIPTIONS = {
@@ -65,6 +65,9 @@ def _identification_html(r: dict) -> str:
              f"{_g(ident.get('ridge'))} ({html.escape(str(ident.get('ridge_chosen_by', '–')))}); J/k0 "
              f"{_g(ident.get('inertia_ratio'), 4)} A·s²/rad."
              + (f" {ident['rounds']} round(s) of running logs." if "rounds" in ident else "") + "</p>"]
+    timing = delay_text(ident.get("current_delay"))
+    if timing:
+        parts.append(f"<p>Timing: {html.escape(timing)}.</p>")
     quant = ident.get("quantisation") or {}
     if quant.get("logs_on_lattice"):
         parts.append(f"<p>The logged angle sits on an encoder's lattice of "
