@@ -215,7 +215,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.config import load_rotary_motor
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
     from pgcomm.io.results import write_results
-    from pgcomm.rotary.identify import Orders, delay_text, fit_mechanics, identify, resolution_verdict
+    from pgcomm.rotary.identify import Orders, delay_text, fit_mechanics, identify, pll_text, resolution_verdict
 
     for opt in ("plant", "config"):
         if getattr(args, opt, None):
@@ -264,10 +264,14 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
         res = identify(data, motor, orders, torque_sensor=torque_sensor)
         timing = res.info.get("current_delay") or {}
-        mech = None if torque_sensor else fit_mechanics(data, motor, orders,
-                                                       current_delay=timing.get("samples", 0))
-        if delay_text(timing):
-            progress.info(delay_text(timing))
+        estimate = res.info.get("angle_pll") or {}
+        pll = (None if estimate.get("natural_frequency_rad_s") is None
+               else (estimate["natural_frequency_rad_s"], estimate["damping"]))
+        mech = None if torque_sensor else fit_mechanics(data, motor, orders, current_delay=timing.get("samples", 0),
+                                                       angle_pll=pll)
+        for text in (pll_text(estimate), delay_text(timing)):
+            if text:
+                progress.info(text)
         se = res.info.get("standard_error")
         quant = res.info.get("quantisation")
         if quant and quant["logs_on_lattice"]:

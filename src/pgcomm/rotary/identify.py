@@ -43,6 +43,16 @@ and ripple 66-294 % off, and one such fit still called its cogging resolved. The
 repeated with the current shifted by :data:`CURRENT_DELAYS` samples and the delay whose residual is smallest is
 taken when it fits clearly better than the log as written (:func:`_current_delay`); the results report it.
 
+**The angle's estimate.** Open drives log the angle their PLL estimates from the encoder (ODrive's ``pos_estimate``,
+a type-2 loop of 1000 rad/s by default), not the encoder's count: its acceleration is the rotor's through
+``(k_p s + k_i)/(s² + k_p s + k_i)``, which at 1000 rad/s halves a cogging harmonic at 3 samples per period. Read
+as the rotor's, such a log gave the cogging 8-12 % off, still called resolved, and the ripple 34-124 % (zoo 9N6P
+and 12N14P). A raw encoder angle sits on the encoder's lattice; where no logged angle does, the basis fit is
+repeated with the angle corrected for a PLL (:func:`pll_corrected`) of each natural frequency in
+:data:`PLL_FREQUENCIES` and dampings :data:`PLL_DAMPINGS`, and the best is taken when it fits clearly better
+than the angle as logged, by a likelihood ratio and by :data:`PLL_MIN_GAIN` (:func:`_angle_pll`); the results
+report it.
+
 **Regularisation.** A ridge on the Fourier coefficients (columns scaled to unit RMS; the
 mechanical columns ``J/k0``, ``b`` and the Coulomb term are not penalised), its weight chosen
 by validation on held-out **time blocks** (every ``VALIDATION_EVERY``-th block of about one
@@ -81,7 +91,7 @@ from pgcomm.rotary.motor import RotaryMotor
 
 __all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE",
            "RESOLVED_CONFIDENCE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
-           "RotaryIdentification", "delay_text", "CURRENT_DELAYS"]
+           "RotaryIdentification", "delay_text", "pll_text", "pll_corrected", "CURRENT_DELAYS", "PLL_FREQUENCIES"]
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used. The kernel is
 #: exact along the path (module docstring); below ~3 the cubic between encoder samples no longer follows a
@@ -109,9 +119,20 @@ MAX_NOISE_SHARE = 0.75
 #: :func:`identify` tries (:func:`_current_delay`): drives sample the current and the encoder at different
 #: points of their cycle, and loggers write a column a cycle late.
 CURRENT_DELAYS = (-2, -1, 0, 1, 2)
-#: How much better (``n_eff ln(cost_0 / cost_d)``, a likelihood ratio) a delay must fit than the log as written
-#: to be taken: the χ²₁ quantile at 0.1 %.
-CURRENT_DELAY_EVIDENCE = 10.83
+#: How much better (``n_eff ln(cost_as_logged / cost)``, a likelihood ratio, :func:`_evidence`) another reading of
+#: the logs (a shifted current, a PLL's angle) must fit than the logs as written to be taken: the χ²₁ quantile at
+#: 0.1 %.
+READING_EVIDENCE = 10.83
+#: Natural frequencies (rad/s) of a drive's angle-estimating PLL tried when no logged angle sits on an encoder's
+#: lattice (:func:`_angle_pll`): ODrive's encoder bandwidth defaults to 1000 rad/s.
+PLL_FREQUENCIES = tuple(float(x) for x in np.geomspace(50.0, 5000.0, 13))
+#: Dampings tried at the best natural frequency (1: ODrive's ``k_i = k_p² / 4``).
+PLL_DAMPINGS = (1.0, 0.707)
+#: A PLL's reading is taken only where it also lowers the residual by this factor: significance alone is not
+#: enough, since an angle with noise of its own (off any lattice, the rounding left in) fits a PLL of 1.6-2.3 kHz
+#: 1.16-1.26x better (zoo 9N6P at 2^15 counts with 0.2-0.5 counts of noise); ODrive's 1000 rad/s fits 3.8-4.6x
+#: better, 300 rad/s 33-51x. A PLL above about 2000 rad/s is read as logged (its lag moved the cogging by 2-4 %).
+PLL_MIN_GAIN = 1.5
 #: The share of the encoder-noise correction taken as uncertain in the verdict: on the twin, the noise the
 #: acceleration actually carries (with the drive's loop reacting to it) was 0.83-1.44 times the white model's
 #: (zoo seed 1, 12N14P and 18N16P, per constant-speed log).
@@ -373,10 +394,10 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
 
 
 def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect",
-            current_delay: int = 0):
+            current_delay: int = 0, angle_pll=None):
     """All filtered rows of all logs at once (for the few columns of :func:`fit_mechanics`)."""
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples, taps, encoder_step)
-    parts = list(_chunks(_with_delay(prepared, current_delay), orders, taps))
+    parts = list(_chunks(_with_delay(_with_pll(prepared, angle_pll), current_delay), orders, taps))
     return {k: np.concatenate([c[k] for c in parts]) for k in parts[0]}, counts, v_limit, ts
 
 
@@ -662,41 +683,126 @@ def _with_delay(prepared, delay: int) -> list:
     return [replace(p, iq=_shifted(p.iq, delay)) for p in prepared]
 
 
+def _basis_cost(prepared, layout: "_Layout", taps: int) -> tuple[float, float]:
+    """The ridge-validated fit of ``layout`` (encoder-noise corrected): its mean squared residual (A², from the
+    normal equations) and the rows, ``(cost, rows)``."""
+    G, b, yy, n, noise = _normal_equations(prepared, layout, taps)
+    G, _, _ = _quantisation_correction(G, noise)
+    pen = layout.pen[layout.keep].astype(float)
+    curve = []
+    for lam in RIDGE_GRID:
+        beta, _, _ = _ridge(G[0], b[0], n[0], pen, lam)
+        curve.append(float((yy[1] - 2 * beta @ b[1] + beta @ G[1] @ beta) / max(n[1], 1.0)))
+    beta, _, _ = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, RIDGE_GRID[int(np.argmin(curve))])
+    gt, bt, yt = G[0] + G[1], b[0] + b[1], yy[0] + yy[1]
+    rows = float(n[0] + n[1])
+    return max(float(yt - 2 * beta @ bt + beta @ gt @ beta), 1e-300) / max(rows, 1.0), rows
+
+
+def _evidence(cost_plain: float, cost_best: float, rows: float, taps: int) -> float:
+    """``n_eff ln(cost_plain / cost_best)``, ``n_eff`` the rows times ``stride / span`` (the filter windows overlap):
+    the likelihood ratio of a better-fitting reading of the logs over the logs as written."""
+    n_eff = rows * max(1, taps // 2) / (taps + 2)
+    return n_eff * math.log(cost_plain / cost_best) if cost_plain > 0 else 0.0
+
+
 def _current_delay(prepared, layout: "_Layout", taps: int) -> dict:
     """The delay (samples) of the logged q-current behind the current that acted (module docstring, "The current's
     timing"): the ridge-validated fit of ``layout`` with the current shifted by each of :data:`CURRENT_DELAYS`,
-    its mean squared residual from the normal equations; a delay other than 0 only where
-    ``n_eff ln(cost_0 / cost_d) > CURRENT_DELAY_EVIDENCE`` with ``n_eff`` the rows times ``stride / span`` (the
-    filter windows overlap).
+    its mean squared residual from the normal equations; a delay other than 0 only where its likelihood ratio
+    (:func:`_evidence`) exceeds :data:`READING_EVIDENCE`.
 
     Returns:
         ``{"samples": int, "cost_by_delay": {delay: A²}, "evidence": float}``.
     """
-    costs = {}
-    rows = 0.0
+    costs, rows = {}, 0.0
     for d in CURRENT_DELAYS:
-        G, b, yy, n, noise = _normal_equations(_with_delay(prepared, d), layout, taps)
-        G, _, _ = _quantisation_correction(G, noise)
-        pen = layout.pen[layout.keep].astype(float)
-        curve = []
-        for lam in RIDGE_GRID:
-            beta, _, _ = _ridge(G[0], b[0], n[0], pen, lam)
-            curve.append(float((yy[1] - 2 * beta @ b[1] + beta @ G[1] @ beta) / max(n[1], 1.0)))
-        beta, _, _ = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, RIDGE_GRID[int(np.argmin(curve))])
-        gt, bt, yt = G[0] + G[1], b[0] + b[1], yy[0] + yy[1]
-        rows = float(n[0] + n[1])
-        costs[d] = max(float(yt - 2 * beta @ bt + beta @ gt @ beta), 1e-300) / max(rows, 1.0)
+        costs[d], rows = _basis_cost(_with_delay(prepared, d), layout, taps)
     best = min(costs, key=costs.get)
-    n_eff = rows * max(1, taps // 2) / (taps + 2)
-    evidence = n_eff * math.log(costs[0] / costs[best]) if costs[0] > 0 else 0.0
-    chosen = best if evidence > CURRENT_DELAY_EVIDENCE else 0
+    evidence = _evidence(costs[0], costs[best], rows, taps)
+    chosen = best if evidence > READING_EVIDENCE else 0
     return {"samples": int(chosen), "cost_by_delay": {int(k): v for k, v in costs.items()}, "evidence": float(evidence)}
+
+
+def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: float, damping: float) -> np.ndarray:
+    """The rotor's angle from a drive's estimate of it: the output of a type-2 phase-locked loop,
+    ``θ̂ = (k_p s + k_i) / (s² + k_p s + k_i) θ`` with ``k_p = 2 ζ ω_n``, ``k_i = ω_n²`` (ODrive's encoder PLL:
+    ``ζ = 1``, ``ω_n`` its bandwidth). Solved for ``θ``: ``θ = θ̂ + s² / (k_p s + k_i) θ̂``, applied in the
+    frequency domain up to the log's Nyquist frequency (a second difference and a bilinear low-pass at the log's
+    rate would take 0.4x of the correction at 3 samples per period, where the cogging's highest order sits): to
+    ``θ̂`` less the line through its ends, extended oddly (continuous with its slope, so only a few samples at each
+    end feel the extension).
+
+    Args:
+        theta: ``(N,)`` the logged estimate (rad); sample_time: s; natural_frequency: ``ω_n`` (rad/s);
+        damping: ``ζ``.
+
+    Returns:
+        ``(N,)`` rad.
+    """
+    th = np.asarray(theta, float)
+    n = th.size
+    if n < 3:
+        return th.copy()
+    kp, ki = 2.0 * damping * natural_frequency, natural_frequency**2
+    x = th - np.linspace(th[0], th[-1], n)
+    ext = np.concatenate([x, -x[-2:0:-1]])
+    s = 2j * np.pi * np.fft.rfftfreq(ext.size, float(sample_time))
+    # the line's correction is zero: s² kills it
+    return th + np.fft.irfft(np.fft.rfft(ext) * (s * s / (kp * s + ki)), ext.size)[:n]
+
+
+def _with_pll(prepared, pll) -> list:
+    if pll is None:
+        return prepared
+    return [replace(p, theta=pll_corrected(p.theta, p.ts, *pll)) for p in prepared]
+
+
+def _angle_pll(prepared, layout: "_Layout", taps: int) -> dict:
+    """Whether the logged angle reads as a drive's PLL estimate (module docstring, "The angle's estimate"): the
+    basis fit with the angle corrected for each natural frequency of :data:`PLL_FREQUENCIES` at ``ζ = 1``, then
+    each :data:`PLL_DAMPINGS` at the best frequency and its neighbours, against the angle as logged; a PLL only
+    where its likelihood ratio (:func:`_evidence`) exceeds :data:`READING_EVIDENCE` and it lowers the residual by
+    :data:`PLL_MIN_GAIN`.
+
+    Returns:
+        ``{"natural_frequency_rad_s": float | None, "damping": float | None, "cost_as_logged": A², "cost": A²,
+        "evidence": float, "cost_by_frequency": {ω_n: A²}}`` (``None``: read as logged).
+    """
+    plain, rows = _basis_cost(prepared, layout, taps)
+    grid = np.asarray(PLL_FREQUENCIES, float)
+    by_freq = {float(w): _basis_cost(_with_pll(prepared, (w, 1.0)), layout, taps)[0] for w in grid}
+    costs = np.array([by_freq[float(w)] for w in grid])
+    j = int(np.argmin(costs))
+    best, best_cost = (float(grid[j]), 1.0), by_freq[float(grid[j])]
+    if 0 < j < grid.size - 1:
+        # the grid is 1.47x per step: the minimum of a parabola in ln ω_n through the best point and its neighbours
+        x, y = np.log(grid[j - 1:j + 2]), np.log(costs[j - 1:j + 2])
+        den = y[0] - 2 * y[1] + y[2]
+        if den > 0:
+            w = float(np.exp(x[1] + 0.5 * (y[0] - y[2]) / den * (x[1] - x[0])))
+            c = _basis_cost(_with_pll(prepared, (w, 1.0)), layout, taps)[0]
+            by_freq[w] = c
+            if c < best_cost:
+                best, best_cost = (w, 1.0), c
+    for z in PLL_DAMPINGS:
+        if z == 1.0:
+            continue
+        for w in grid[max(0, j - 1):j + 2]:
+            c = _basis_cost(_with_pll(prepared, (float(w), z)), layout, taps)[0]
+            if c < best_cost:
+                best, best_cost = (float(w), float(z)), c
+    evidence = _evidence(plain, best_cost, rows, taps)
+    taken = evidence > READING_EVIDENCE and plain >= PLL_MIN_GAIN * best_cost
+    return {"natural_frequency_rad_s": best[0] if taken else None, "damping": best[1] if taken else None,
+            "cost_as_logged": plain, "cost": best_cost if taken else plain, "evidence": float(evidence),
+            "cost_by_frequency": by_freq}
 
 
 def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
              min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
              ridge: float | None = None, extra_orders: bool = True, encoder_step="detect",
-             current_delay="detect") -> RotaryIdentification:
+             current_delay="detect", angle_pll="detect") -> RotaryIdentification:
     """Identify cogging, torque-constant ripple, the direction-dependent torque and friction.
 
     Args:
@@ -716,6 +822,9 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             the correction off.
         current_delay: samples by which the logged q-current lags the current that acted over each sample (an
             int), or ``"detect"`` (module docstring, "The current's timing").
+        angle_pll: ``(ω_n rad/s, ζ)`` of the PLL whose estimate the logged angle is, ``None`` for the encoder's own
+            angle, or ``"detect"``: tried when no logged angle sits on an encoder's lattice (module docstring, "The
+            angle's estimate").
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -731,6 +840,20 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         return check_plausible(_identify_torque(logs, motor, orders, t0))
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
     n_windows = sum(p.starts.size for p in prepared)
+    if isinstance(angle_pll, str):
+        estimate = {"natural_frequency_rad_s": None, "damping": None, "searched": False}
+        # a raw encoder angle sits on its lattice (read here even when the correction is turned off: the
+        # rounding's noise in the acceleration, uncorrected, reads as a PLL's high-frequency gain)
+        steps = [p.step if isinstance(encoder_step, str) else quantisation.encoder_step(p.theta) for p in prepared]
+        if all(q is None for q in steps):
+            estimate = {**_angle_pll(prepared, _Layout.of(orders), taps), "searched": True}
+        pll = None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
+                                                                         estimate["damping"])
+    else:
+        pll = None if angle_pll is None else (float(angle_pll[0]), float(angle_pll[1]))
+        estimate = {"natural_frequency_rad_s": None if pll is None else pll[0],
+                    "damping": None if pll is None else pll[1], "searched": False}
+    prepared = _with_pll(prepared, pll)
     if isinstance(current_delay, str):
         timing = _current_delay(prepared, _Layout.of(orders), taps)
     else:
@@ -784,7 +907,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             "orders_added": {k: v.tolist() for k, v in added.items()},
             "orders_screened": screen is not None,
             "cost_A2": fit["cost"], "inertia_ratio": float(beta[0]), "standard_error": standard_error,
-            "quantisation": _quantisation_info(prepared, fit), "current_delay": timing,
+            "quantisation": _quantisation_info(prepared, fit), "current_delay": timing, "angle_pll": estimate,
             "seconds": time.perf_counter() - t0}
     if counts["alias"]:
         info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "
@@ -954,19 +1077,37 @@ def delay_text(timing: dict) -> str | None:
             "cycle than the encoder, or the logger writes it late)")
 
 
+def pll_text(estimate: dict) -> str | None:
+    """One sentence on how the logged angle was read (``info["angle_pll"]`` of :func:`identify`), or ``None`` when
+    nothing was searched or given."""
+    if not estimate:
+        return None
+    w = estimate.get("natural_frequency_rad_s")
+    if w is None and not estimate.get("searched"):
+        return None
+    if w is None:
+        return ("the logged angle is not on an encoder's lattice, and it fits best as the rotor's angle (no drive "
+                "PLL's lag found in it)")
+    how = (f"it fits {estimate['cost_as_logged'] / estimate['cost']:.2g}x better so"
+           if estimate.get("searched") else "as given")
+    return (f"the logged angle is read as a drive's PLL estimate of natural frequency {w:.3g} rad/s and damping "
+            f"{estimate['damping']:.3g}, and its lag taken out ({how}; log the encoder's count if the drive has it)")
+
+
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
                   min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
-                  encoder_step="detect", current_delay: int = 0) -> dict:
+                  encoder_step="detect", current_delay: int = 0, angle_pll=None) -> dict:
     """The feedforward a drive user tunes: ``i_q ≈ (J/k0) θ̈ + b ω + d0 sign(ω)`` fitted on the same
     windows as :func:`identify`, without any position dependence, with the same correction for the encoder's
-    quantisation (:mod:`pgcomm.rotary.quantisation`; ``encoder_step`` as in :func:`identify`) and the current
-    shifted by ``current_delay`` samples (the one :func:`identify` reports, ``info["current_delay"]["samples"]``).
+    quantisation (:mod:`pgcomm.rotary.quantisation`; ``encoder_step`` as in :func:`identify`), the current
+    shifted by ``current_delay`` samples and the angle read through ``angle_pll`` (the ones :func:`identify`
+    reports: ``info["current_delay"]["samples"]``, ``info["angle_pll"]``'s natural frequency and damping).
 
     Returns:
         ``{"inertia_ratio": A·s²/rad, "viscous": A·s/rad, "coulomb": A}``.
     """
     orders = orders or Orders.for_motor(motor)
-    d, _, _, _ = _design(logs, motor, orders, min_samples_per_period, taps, encoder_step, current_delay)
+    d, _, _, _ = _design(logs, motor, orders, min_samples_per_period, taps, encoder_step, current_delay, angle_pll)
     # the Coulomb column is the order-0 direction column (cos 0 · s)
     j0 = int(np.flatnonzero(orders.direction == 0)[0]) if np.any(orders.direction == 0) else None
     s_col = d["dir"][:, j0] if j0 is not None else np.sign(d["visc"])

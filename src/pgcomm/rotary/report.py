@@ -12,7 +12,7 @@ import html
 from pathlib import Path
 
 from pgcomm.report import CSS, figure_html
-from pgcomm.rotary.identify import delay_text, resolution_verdict
+from pgcomm.rotary.identify import delay_text, pll_text, resolution_verdict
 
 __all__ = ["write_rotary_report", "ROW_DESCRIPTIONS", "share_text"]
 
@@ -65,9 +65,9 @@ def _identification_html(r: dict) -> str:
              f"{_g(ident.get('ridge'))} ({html.escape(str(ident.get('ridge_chosen_by', '–')))}); J/k0 "
              f"{_g(ident.get('inertia_ratio'), 4)} A·s²/rad."
              + (f" {ident['rounds']} round(s) of running logs." if "rounds" in ident else "") + "</p>"]
-    timing = delay_text(ident.get("current_delay"))
-    if timing:
-        parts.append(f"<p>Timing: {html.escape(timing)}.</p>")
+    for label, text in (("Angle", pll_text(ident.get("angle_pll"))), ("Timing", delay_text(ident.get("current_delay")))):
+        if text:
+            parts.append(f"<p>{label}: {html.escape(text)}.</p>")
     quant = ident.get("quantisation") or {}
     if quant.get("logs_on_lattice"):
         parts.append(f"<p>The logged angle sits on an encoder's lattice of "
