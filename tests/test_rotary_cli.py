@@ -151,6 +151,47 @@ def test_a_current_logged_a_sample_late_is_found_and_shifted(tmp_path, zoo, caps
     assert np.sqrt(np.mean((tb - ta) ** 2)) <= 0.2 * se
 
 
+def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_path, zoo, capsys):
+    """The shape of an open drive's log: the angle its PLL estimates (ODrive's, 1000 rad/s at 16 kHz) and the
+    q-current a sample late, under the drive's own column names: identify says how it read both, reports them,
+    writes the report, and its table is within 5 % of the truth's RMS."""
+    from scipy.interpolate import CubicSpline
+
+    from _drive_pll import odrive_pll
+    from pgcomm.io.logs import read_log
+
+    made = []
+    for k, path in enumerate(sorted((zoo / "logs").glob("*.csv"))):
+        c = read_log(path, required=("theta",)).columns
+        t = c["t"]
+        fine = t[0] + 1e-3 / 16 * np.arange(t.size * 16)
+        th = odrive_pll(fine, CubicSpline(t, c["theta"])(fine), 1000.0, 16)
+        iq = np.concatenate([[c["iq_1"][0]], c["iq_1"][:-1]])
+        p = tmp_path / f"drive{k}.csv"
+        with open(p, "w") as f:
+            f.write("time_s,pos_rad,Iq\n")
+            np.savetxt(f, np.column_stack([t, th, iq]), delimiter=",", fmt="%.9g")
+        made.append(p)
+    (tmp_path / "map.toml").write_text('[columns]\nt = "time_s"\ntheta = "pos_rad"\niq_1 = "Iq"\n')
+    capsys.readouterr()
+    out = tmp_path / "id"
+    assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, made), "--columns",
+                 str(tmp_path / "map.toml"), "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "read as a drive's PLL estimate of natural frequency" in err
+    assert "1 sample(s) late against the angle" in err
+    ident = json.loads((out / "results.json").read_text())["identification"]
+    assert ident["angle_pll"]["natural_frequency_rad_s"] == pytest.approx(1000.0, rel=0.3)
+    assert ident["current_delay"]["samples"] == 1
+    assert "PLL estimate" in (out / "report.html").read_text()
+    truth = read_truth(zoo / "truth.json").model()
+    table = read_angle_table(out / "compensation.csv")
+    th = 2 * math.pi * np.arange(table.n) / table.n
+    ref = truth.table(table.n)
+    assert np.sqrt(np.mean((table.iq - ref) ** 2)) <= 0.05 * np.sqrt(np.mean(ref**2))
+    assert th.size == table.n
+
+
 @pytest.mark.parametrize("case, match", [
     ("no data", "--data: a rotary motor"),
     ("linear log", "column 'theta' missing; found t, y"),

@@ -18,6 +18,7 @@ from pgcomm.rotary.identify import Orders, identify, max_speed, resolution_verdi
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, default_gains, simulate
 from pgcomm.rotary.zoo import draw_rotary
+from _drive_pll import odrive_pll
 
 
 @pytest.fixture(scope="module")
@@ -538,23 +539,6 @@ def test_the_log_mix_a_drive_user_has_gives_the_cogging_and_an_honest_ripple_ver
         assert set(v) <= set(accel.info["orders_added"][k]), (k, v)
 
 
-def _odrive_pll(t_fine, theta_fine, bandwidth, every):
-    """ODrive's encoder PLL (``k_p = 2 bw``, ``k_i = k_p² / 4``) run at the fine rate, sampled every ``every``-th
-    step: the estimate a drive logs."""
-    kp, ki = 2.0 * bandwidth, bandwidth**2
-    dt = t_fine[1] - t_fine[0]
-    pe, ve = theta_fine[0], (theta_fine[1] - theta_fine[0]) / dt
-    out = np.empty(t_fine.size // every)
-    for k in range(out.size * every):
-        pe += dt * ve
-        e = theta_fine[k] - pe
-        pe += dt * kp * e
-        ve += dt * ki * e
-        if k % every == 0:  # the estimate after the update with the encoder's reading at the log's sample
-            out[k // every] = pe
-    return out
-
-
 def test_pll_correction_inverts_a_drive_pll():
     """A rotor at 20 rad/s with a speed ripple at 40 and 300 Hz (the cogging's range at 1 kHz) seen through a PLL
     of 1000 rad/s, ζ = 1, in closed form (a type-2 loop follows the ramp exactly; each tone is scaled and turned
@@ -580,7 +564,7 @@ def test_pll_correction_inverts_a_drive_pll():
     np.testing.assert_allclose(pll_corrected(line, ts, bw, 1.0), line, rtol=0, atol=1e-9 * np.max(np.abs(line)))
     every = 16
     fine = np.arange(0, 2.0, ts / every)
-    odrive = _odrive_pll(fine, 20.0 * fine + sum(a * np.sin(2 * np.pi * f * fine) for f, a in tones), bw, every)
+    odrive = odrive_pll(fine, 20.0 * fine + sum(a * np.sin(2 * np.pi * f * fine) for f, a in tones), bw, every)
     share = kp * ts / every
     assert rms(odrive[inner] - logged[inner]) <= 1.5 * share * err
     assert rms(pll_corrected(odrive, ts, bw, 1.0)[inner] - truth[inner]) <= 1.5 * share * err
@@ -602,7 +586,7 @@ def test_an_angle_logged_through_a_drive_pll_is_read_as_one(motor0):
     for lg in logs:
         tt = np.asarray(lg["t"])
         fine = tt[0] + ts / every * np.arange(tt.size * every)
-        moved.append(dict(lg, theta=_odrive_pll(fine, CubicSpline(tt, lg["theta_true"])(fine), 1000.0, every)))
+        moved.append(dict(lg, theta=odrive_pll(fine, CubicSpline(tt, lg["theta_true"])(fine), 1000.0, every)))
     found = identify(moved, t.motor)
     est = found.info["angle_pll"]
     assert est["searched"] and est["natural_frequency_rad_s"] == pytest.approx(1000.0, rel=0.1)

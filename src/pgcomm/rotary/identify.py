@@ -767,14 +767,15 @@ def _angle_pll(prepared, layout: "_Layout", taps: int) -> dict:
 
     Returns:
         ``{"natural_frequency_rad_s": float | None, "damping": float | None, "cost_as_logged": A², "cost": A²,
-        "evidence": float, "cost_by_frequency": {ω_n: A²}}`` (``None``: read as logged).
+        "evidence": float, "cost_by_frequency": {"ω_n": A²}}`` (``None``: read as logged; the frequencies as
+        strings of 4 digits, the results' keys).
     """
     plain, rows = _basis_cost(prepared, layout, taps)
     grid = np.asarray(PLL_FREQUENCIES, float)
-    by_freq = {float(w): _basis_cost(_with_pll(prepared, (w, 1.0)), layout, taps)[0] for w in grid}
-    costs = np.array([by_freq[float(w)] for w in grid])
+    costs = np.array([_basis_cost(_with_pll(prepared, (w, 1.0)), layout, taps)[0] for w in grid])
+    by_freq = {f"{w:.4g}": float(c) for w, c in zip(grid, costs)}  # results keys are strings
     j = int(np.argmin(costs))
-    best, best_cost = (float(grid[j]), 1.0), by_freq[float(grid[j])]
+    best, best_cost = (float(grid[j]), 1.0), float(costs[j])
     if 0 < j < grid.size - 1:
         # the grid is 1.47x per step: the minimum of a parabola in ln ω_n through the best point and its neighbours
         x, y = np.log(grid[j - 1:j + 2]), np.log(costs[j - 1:j + 2])
@@ -782,7 +783,7 @@ def _angle_pll(prepared, layout: "_Layout", taps: int) -> dict:
         if den > 0:
             w = float(np.exp(x[1] + 0.5 * (y[0] - y[2]) / den * (x[1] - x[0])))
             c = _basis_cost(_with_pll(prepared, (w, 1.0)), layout, taps)[0]
-            by_freq[w] = c
+            by_freq[f"{w:.4g}"] = c
             if c < best_cost:
                 best, best_cost = (w, 1.0), c
     for z in PLL_DAMPINGS:
@@ -797,6 +798,50 @@ def _angle_pll(prepared, layout: "_Layout", taps: int) -> dict:
     return {"natural_frequency_rad_s": best[0] if taken else None, "damping": best[1] if taken else None,
             "cost_as_logged": plain, "cost": best_cost if taken else plain, "evidence": float(evidence),
             "cost_by_frequency": by_freq}
+
+
+def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, angle_pll) -> tuple[dict, dict]:
+    """How to read the logs: the angle (a drive's PLL estimate or the rotor's, :func:`_angle_pll`) and the current's
+    delay (:func:`_current_delay`), each detected or as given. Each masks the other (a current a sample late hid
+    ODrive's PLL: the PLL's reading fitted worse than the angle as logged), so where both are detected and the delay
+    is not 0 the angle is read again with the delay taken out, and the delay again with that reading.
+
+    Returns:
+        ``(angle_pll, current_delay)``: the results' entries.
+    """
+    layout = _Layout.of(orders)
+    search_pll = False
+    if isinstance(angle_pll, str):
+        # a raw encoder angle sits on its lattice (read here even when the correction is turned off: the
+        # rounding's noise in the acceleration, uncorrected, reads as a PLL's high-frequency gain)
+        steps = [p.step if isinstance(encoder_step, str) else quantisation.encoder_step(p.theta) for p in prepared]
+        search_pll = all(q is None for q in steps)
+        pll = None
+    else:
+        pll = None if angle_pll is None else (float(angle_pll[0]), float(angle_pll[1]))
+    estimate = {"natural_frequency_rad_s": None if pll is None else pll[0], "damping": None if pll is None else pll[1],
+                "searched": False}
+    timing = {"samples": 0 if isinstance(current_delay, str) else int(current_delay), "cost_by_delay": None,
+              "evidence": None}
+
+    def read_angle():
+        found = {**_angle_pll(_with_delay(prepared, timing["samples"]), layout, taps), "searched": True}
+        w = found["natural_frequency_rad_s"]
+        return found, (None if w is None else (w, found["damping"]))
+
+    if search_pll:
+        estimate, pll = read_angle()
+    for _ in range(2):
+        if isinstance(current_delay, str):
+            timing = _current_delay(_with_pll(prepared, pll), layout, taps)
+        if not (search_pll and timing["samples"] != 0):
+            break
+        before = pll
+        estimate, pll = read_angle()
+        if pll == before:
+            break
+    timing["detected"] = isinstance(current_delay, str)
+    return estimate, timing
 
 
 def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
@@ -840,26 +885,10 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         return check_plausible(_identify_torque(logs, motor, orders, t0))
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
     n_windows = sum(p.starts.size for p in prepared)
-    if isinstance(angle_pll, str):
-        estimate = {"natural_frequency_rad_s": None, "damping": None, "searched": False}
-        # a raw encoder angle sits on its lattice (read here even when the correction is turned off: the
-        # rounding's noise in the acceleration, uncorrected, reads as a PLL's high-frequency gain)
-        steps = [p.step if isinstance(encoder_step, str) else quantisation.encoder_step(p.theta) for p in prepared]
-        if all(q is None for q in steps):
-            estimate = {**_angle_pll(prepared, _Layout.of(orders), taps), "searched": True}
-        pll = None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
-                                                                         estimate["damping"])
-    else:
-        pll = None if angle_pll is None else (float(angle_pll[0]), float(angle_pll[1]))
-        estimate = {"natural_frequency_rad_s": None if pll is None else pll[0],
-                    "damping": None if pll is None else pll[1], "searched": False}
-    prepared = _with_pll(prepared, pll)
-    if isinstance(current_delay, str):
-        timing = _current_delay(prepared, _Layout.of(orders), taps)
-    else:
-        timing = {"samples": int(current_delay), "cost_by_delay": None, "evidence": None}
-    timing["detected"] = isinstance(current_delay, str)
-    prepared = _with_delay(prepared, timing["samples"])
+    estimate, timing = _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll)
+    pll = None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
+                                                                     estimate["damping"])
+    prepared = _with_delay(_with_pll(prepared, pll), timing["samples"])
     added = {"cogging": np.zeros(0, int), "ripple": np.zeros(0, int)}
     screen = None
     if extra_orders:
@@ -1060,6 +1089,11 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
             f"would resolve it{hint}")
 
 
+def _times(ratio: float) -> str:
+    """A factor for a sentence: ``"1.9x"``, ``"190x"``."""
+    return f"{ratio:.0f}x" if ratio >= 10 else f"{ratio:.2g}x"
+
+
 def delay_text(timing: dict) -> str | None:
     """One sentence on the logged current's timing (``info["current_delay"]`` of
     :func:`pgcomm.rotary.identify.identify`), or ``None`` when it was given rather than detected."""
@@ -1070,10 +1104,10 @@ def delay_text(timing: dict) -> str | None:
     if d == 0:
         near = [costs[k] / costs[0] for k in (-1, 1) if k in costs and costs.get(0)]
         return ("the logged q-current is in time with the angle" + (
-            f" (shifted by one sample it fits {min(near):.2g}x worse)" if near else ""))
+            f" (shifted by one sample it fits {_times(min(near))} worse)" if near else ""))
     ratio = costs[0] / costs[d] if costs.get(d) else float("nan")
     return (f"the logged q-current is {abs(d)} sample(s) {'late' if d > 0 else 'early'} against the angle: used "
-            f"shifted by {d} (it fits {ratio:.2g}x better so; the drive samples its current at another point of its "
+            f"shifted by {d} (it fits {_times(ratio)} better so; the drive samples its current at another point of its "
             "cycle than the encoder, or the logger writes it late)")
 
 
@@ -1088,9 +1122,9 @@ def pll_text(estimate: dict) -> str | None:
     if w is None:
         return ("the logged angle is not on an encoder's lattice, and it fits best as the rotor's angle (no drive "
                 "PLL's lag found in it)")
-    how = (f"it fits {estimate['cost_as_logged'] / estimate['cost']:.2g}x better so"
+    how = (f"it fits {_times(estimate['cost_as_logged'] / estimate['cost'])} better so"
            if estimate.get("searched") else "as given")
-    return (f"the logged angle is read as a drive's PLL estimate of natural frequency {w:.3g} rad/s and damping "
+    return (f"the logged angle is read as a drive's PLL estimate of natural frequency {w:.0f} rad/s and damping "
             f"{estimate['damping']:.3g}, and its lag taken out ({how}; log the encoder's count if the drive has it)")
 
 
