@@ -192,6 +192,30 @@ def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_pat
     assert th.size == table.n
 
 
+def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, zoo, capsys):
+    """A drive whose positive q-current turns the rotor against its angle's direction (each zoo log with iq_1
+    negated): identify says J/k0 is negative and returns the table the drive needs, the negated table of the logs
+    as written, within a ten-thousandth of its peak (the same fit with every current's sign turned)."""
+    from pgcomm.io.logs import read_log
+
+    logs = sorted((zoo / "logs").glob("*.csv"))
+    neg = []
+    for k, path in enumerate(logs):
+        c = read_log(path, required=("theta",)).columns
+        p = tmp_path / f"neg{k}.csv"
+        with open(p, "w") as f:
+            f.write("t,theta,iq_1\n")
+            np.savetxt(f, np.column_stack([c["t"], c["theta"], -c["iq_1"]]), delimiter=",", fmt="%.15g")
+        neg.append(p)
+    a = _identify(tmp_path / "a", zoo / "motor.toml", logs)
+    capsys.readouterr()
+    out = tmp_path / "b"
+    assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, neg), "--out", str(out)]) == 0
+    assert "is negative: a positive q-current turns the rotor against" in capsys.readouterr().err
+    ta, tb = read_angle_table(a / "compensation.csv").iq, read_angle_table(out / "compensation.csv").iq
+    np.testing.assert_allclose(tb, -ta, rtol=0, atol=1e-4 * np.max(np.abs(ta)))
+
+
 @pytest.mark.parametrize("case, match", [
     ("no data", "--data: a rotary motor"),
     ("linear log", "column 'theta' missing; found t, y"),

@@ -272,6 +272,10 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         for text in (pll_text(estimate), delay_text(timing)):
             if text:
                 progress.info(text)
+        if (res.model.inertia_ratio or 0.0) < 0.0:
+            progress.info(f"J/k0 = {res.model.inertia_ratio:.4g} A·s²/rad is negative: a positive q-current turns the "
+                          "rotor against the logged angle's direction (the drive's sign convention); the maps and "
+                          "tables are in the drive's own signs, as its compensation needs them")
         se = res.info.get("standard_error")
         quant = res.info.get("quantisation")
         if quant and quant["logs_on_lattice"]:
