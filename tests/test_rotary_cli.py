@@ -190,6 +190,16 @@ def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_pat
     ref = truth.table(table.n)
     assert np.sqrt(np.mean((table.iq - ref) ** 2)) <= 0.05 * np.sqrt(np.mean(ref**2))
     assert th.size == table.n
+    # the same readings given on the command line: nothing searched, the same table
+    given = tmp_path / "given"
+    w, z = ident["angle_pll"]["natural_frequency_rad_s"], ident["angle_pll"]["damping"]
+    assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, made), "--columns",
+                 str(tmp_path / "map.toml"), "--out", str(given), "--quiet", "--current-delay", "1",
+                 "--angle-pll", f"{w!r},{z!r}"]) == 0
+    again = json.loads((given / "results.json").read_text())["identification"]
+    assert again["angle_pll"]["searched"] is False and again["current_delay"]["detected"] is False
+    np.testing.assert_allclose(read_angle_table(given / "compensation.csv").iq, table.iq, rtol=0,
+                               atol=1e-9 * np.max(np.abs(table.iq)))
 
 
 def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, zoo, capsys):
@@ -223,6 +233,8 @@ def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, z
     ("nan", "nan.csv row 50 column 'theta': nan is not a finite number"),
     ("family", "--family spline"),
     ("sweep one way", "sweep.csv: the angle moves one way only"),
+    ("delay", "--current-delay 0.5: an integer number of samples"),
+    ("pll", "--angle-pll 1000,-1: a natural frequency in rad/s and optionally a damping, both positive"),
 ])
 def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
     log = sorted((zoo / "logs").glob("*.csv"))[0]
@@ -249,6 +261,10 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
         p = tmp_path / "sweep.csv"
         p.write_text("\n".join(sweep[: len(sweep) // 2]) + "\n")  # the forward pass only
         args += ["--data", str(log), "--sweep", str(p)]
+    elif case == "delay":
+        args += ["--data", str(log), "--current-delay", "0.5"]
+    elif case == "pll":
+        args += ["--data", str(log), "--angle-pll", "1000,-1"]
     capsys.readouterr()
     assert main(args) == 2
     err = capsys.readouterr().err.strip()

@@ -43,6 +43,13 @@ def configure(p) -> None:
                    help="rotary motors: a logged slow position sweep in both directions (t, theta, iq_1), the "
                         "drives' own calibration: its table is computed, compared with the identified model's "
                         "against both noises, and written as standstill_table.csv")
+    p.add_argument("--current-delay", metavar="N",
+                   help="rotary motors: samples by which the logged q-current lags the current that acted over each "
+                        "sample (an integer; default: detected, the fit repeated with the current shifted by -2..2)")
+    p.add_argument("--angle-pll", metavar="W[,ZETA]",
+                   help="rotary motors: the logged angle is a drive's PLL estimate of natural frequency W rad/s "
+                        "(damping ZETA, default 1; ODrive's encoder bandwidth), or 'none' for the encoder's own "
+                        "angle (default: detected when no logged angle sits on an encoder's lattice)")
     p.add_argument("--no-force-sensor", action="store_true",
                    help="identify without force measurements: the y row from the motion (m ÿ + friction, the "
                         "moving mass from the motor TOML key mass), x/z rows classical with the motor's nominal "
@@ -74,6 +81,12 @@ def run(args, out: Path, progress) -> None:
 
         raise ConfigError("--sweep: the drives' standstill sweep is a rotary motor's comparison (--motor with "
                           "kind = \"rotary\"); a linear motor's cogging table comes from pgcomm reproduce")
+    for opt in ("current_delay", "angle_pll"):
+        if getattr(args, opt, None) is not None:
+            from pgcomm.errors import ConfigError
+
+            raise ConfigError(f"--{opt.replace('_', '-')}: how a rotary drive's log is read (--motor with kind = "
+                              "\"rotary\")")
     setup = _setup(args)
     sensorless = bool(args.no_force_sensor)
     _refuse_spline_without_force(args, sensorless)
@@ -201,6 +214,36 @@ def run(args, out: Path, progress) -> None:
 ROTARY_TABLE_ENTRIES = 3600
 
 
+def _reading_options(args):
+    """``--current-delay`` and ``--angle-pll`` as :func:`pgcomm.rotary.identify.identify` takes them (``"detect"``
+    when left out); one line naming the option on a bad value."""
+    import math
+
+    from pgcomm.errors import ConfigError
+
+    delay = "detect"
+    if args.current_delay is not None:
+        try:
+            delay = int(args.current_delay)
+        except ValueError:
+            raise ConfigError(f"--current-delay {args.current_delay}: an integer number of samples, e.g. 1") from None
+    pll = "detect"
+    if args.angle_pll is not None:
+        if args.angle_pll.strip().lower() == "none":
+            pll = None
+        else:
+            parts = args.angle_pll.split(",")
+            try:
+                w, z = float(parts[0]), float(parts[1]) if len(parts) > 1 else 1.0
+            except ValueError:
+                w = z = float("nan")
+            if len(parts) > 2 or not (math.isfinite(w) and w > 0 and math.isfinite(z) and z > 0):
+                raise ConfigError(f"--angle-pll {args.angle_pll}: a natural frequency in rad/s and optionally a "
+                                  "damping, both positive (e.g. 1000 or 1000,0.707), or none")
+            pll = (w, z)
+    return delay, pll
+
+
 def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     """``pgcomm identify --motor rotary.toml --data LOG...`` (module docstring)."""
     import json
@@ -227,6 +270,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         raise ConfigError(f"--data: a rotary motor ({args.motor}) is identified from its drive's running logs "
                           "(t, theta, iq_1); the rotary twin writes some with pgcomm zoo --kind rotary --logs")
     motor = load_rotary_motor(args.motor)
+    current_delay, angle_pll = _reading_options(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         mapping = load_column_mapping(args.columns) if args.columns else None
         logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED, gaps=True)
@@ -262,7 +306,8 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     orders = Orders.for_motor(motor)
     how = "with the torque sensor" if torque_sensor else "without a torque sensor (from the motion)"
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
-        res = identify(data, motor, orders, torque_sensor=torque_sensor)
+        res = identify(data, motor, orders, torque_sensor=torque_sensor, current_delay=current_delay,
+                       angle_pll=angle_pll)
         timing = res.info.get("current_delay") or {}
         estimate = res.info.get("angle_pll") or {}
         pll = (None if estimate.get("natural_frequency_rad_s") is None
