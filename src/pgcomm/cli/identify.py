@@ -258,7 +258,8 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.config import load_rotary_motor
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
     from pgcomm.io.results import write_results
-    from pgcomm.rotary.identify import Orders, delay_text, fit_mechanics, identify, pll_text, resolution_verdict
+    from pgcomm.rotary.identify import Orders, apply_reading, delay_text, detect_reading, fit_mechanics, identify, \
+        pll_text, resolution_verdict
 
     for opt in ("plant", "config"):
         if getattr(args, opt, None):
@@ -297,6 +298,15 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
 
         with progress.stage(f"slot count from the logs (not in {args.motor}): every cogging order the logs carry"):
             q, slots_detected = detect_slots(data, motor.pole_pairs, motor.sample_time)
+            # a late current or a PLL's angle hides the cogging's orders (zoo 9N6P: 18 slots counted for 9): read the
+            # logs with the first count's basis, and count again on the logs so read
+            est, timing = detect_reading(data, replace(motor, slots=q), current_delay=current_delay,
+                                         angle_pll=angle_pll)
+            pll = None if est["natural_frequency_rad_s"] is None else (est["natural_frequency_rad_s"], est["damping"])
+            if pll is not None or timing["samples"]:
+                read = [apply_reading(d, timing["samples"], pll, motor.sample_time) for d in data]
+                q, slots_detected = detect_slots(read, motor.pole_pairs, motor.sample_time)
+                slots_detected["counted_after_reading"] = True
             motor = replace(motor, slots=q)
             others = [x for x in slots_detected["slots_with_that_fundamental"] if x != q]
             progress.info(f"cogging fundamental {slots_detected['cogging_fundamental']} per revolution (orders seen, "

@@ -91,7 +91,8 @@ from pgcomm.rotary.motor import RotaryMotor
 
 __all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE",
            "RESOLVED_CONFIDENCE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
-           "RotaryIdentification", "delay_text", "pll_text", "pll_corrected", "CURRENT_DELAYS", "PLL_FREQUENCIES"]
+           "RotaryIdentification", "delay_text", "pll_text", "pll_corrected", "detect_reading", "apply_reading",
+           "CURRENT_DELAYS", "PLL_FREQUENCIES"]
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used. The kernel is
 #: exact along the path (module docstring); below ~3 the cubic between encoder samples no longer follows a
@@ -842,6 +843,36 @@ def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, a
             break
     timing["detected"] = isinstance(current_delay, str)
     return estimate, timing
+
+
+def detect_reading(logs, motor: RotaryMotor, orders: Orders | None = None, *, current_delay="detect",
+                   angle_pll="detect", encoder_step="detect", min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD,
+                   taps: int = FILTER_TAPS) -> tuple[dict, dict]:
+    """How :func:`identify` would read ``logs`` (the angle's PLL and the current's delay, module docstring), without
+    the identification: e.g. to read the logs before counting the slots from them (a late current or a PLL's angle
+    hides the cogging's orders).
+
+    Returns:
+        ``(angle_pll, current_delay)``: the entries :func:`identify` reports in its ``info``.
+    """
+    orders = orders or Orders.for_motor(motor)
+    prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
+    return _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll)
+
+
+def apply_reading(log: dict, current_delay: int, angle_pll, sample_time: float) -> dict:
+    """``log`` (a dict with ``theta`` and ``iq_1``) as :func:`identify` reads it: the current shifted by
+    ``current_delay`` samples (edges repeated), the angle corrected for ``angle_pll`` (``(ω_n, ζ)`` or ``None``,
+    :func:`pll_corrected`; ``sample_time`` in s where the log has no ``t``). A new dict; the other columns as they
+    are."""
+    out = dict(log)
+    key = "iq_1" if "iq_1" in log else "iq"
+    out[key] = _shifted(np.asarray(log[key], float), int(current_delay))
+    if angle_pll is not None:
+        t = np.asarray(log["t"], float) if "t" in log else None
+        ts = float(np.median(np.diff(t))) if t is not None and t.size > 1 else float(sample_time)
+        out["theta"] = pll_corrected(np.asarray(log["theta"], float), ts, *angle_pll)
+    return out
 
 
 def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
