@@ -372,6 +372,13 @@ def test_resolution_verdict_says_what_would_help():
     enc = resolution_verdict({"resolved": False, "ridge_bias": 0.01, "quantisation_bias": 0.76,
                               "log_time_factor_to_resolve": float("inf"), "excitation_hint": "more q-current"})
     assert "encoder's rounding could move it by 76 %" in enc and "accelerations" in enc and "x the running" not in enc
+    # a drive PLL's reading of the angle: likewise
+    part = resolution_verdict({"resolved": False, "ridge_bias": 0.0, "pll_bias": 0.034,
+                               "log_time_factor_to_resolve": 1.3, "relative_at_confidence": 0.035})
+    assert "the PLL's reading up to 3.4 %" in part and "1.3x" in part
+    pll = resolution_verdict({"resolved": False, "ridge_bias": 0.01, "quantisation_bias": 0.02, "pll_bias": 0.079,
+                              "log_time_factor_to_resolve": float("inf")})
+    assert "PLL's reading of the angle could move it by 8 %" in pll and "encoder's count" in pll
 
 
 def test_the_log_time_factor_leaves_room_for_what_longer_logs_do_not_change():
@@ -595,7 +602,16 @@ def test_an_angle_logged_through_a_drive_pll_is_read_as_one(motor0):
     e_found = identification_errors(found.model, t)["cogging_rel"]
     e_logged = identification_errors(as_logged.model, t)["cogging_rel"]
     assert e_found <= min(e_logged / 3, 0.05)
+    # what the reading may leave counts in the verdict: 0.4 of the maps' move from the angle as logged (the same
+    # move between the two identifications, whose screening and ridge may differ a little)
+    from pgcomm.rotary.identify import PLL_UNCERTAINTY
+
+    th = 2 * np.pi * np.arange(4096) / 4096
+    rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
+    move = rms(as_logged.model.cogging(th) - found.model.cogging(th)) / rms(found.model.cogging(th))
+    assert found.info["standard_error"]["cogging"]["pll_bias"] == pytest.approx(PLL_UNCERTAINTY * move, rel=0.3)
     plain = identify(logs, t.motor)
+    assert plain.info["standard_error"]["cogging"]["pll_bias"] == 0.0
     assert plain.info["angle_pll"] == {"natural_frequency_rad_s": None, "damping": None, "searched": False}
     q = 2 * np.pi / t.encoder_counts
     rng = np.random.default_rng(3)

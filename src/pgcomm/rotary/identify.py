@@ -51,7 +51,8 @@ and 12N14P). A raw encoder angle sits on the encoder's lattice; where no logged 
 repeated with the angle corrected for a PLL (:func:`pll_corrected`) of each natural frequency in
 :data:`PLL_FREQUENCIES` and dampings :data:`PLL_DAMPINGS`, and the best is taken when it fits clearly better
 than the angle as logged, by a likelihood ratio and by :data:`PLL_MIN_GAIN` (:func:`_angle_pll`); the results
-report it.
+report it, and :data:`PLL_UNCERTAINTY` of the maps' move from the angle as logged counts against "resolved"
+(``pll_bias``).
 
 **Regularisation.** A ridge on the Fourier coefficients (columns scaled to unit RMS; the
 mechanical columns ``J/k0``, ``b`` and the Coulomb term are not penalised), its weight chosen
@@ -134,6 +135,10 @@ PLL_DAMPINGS = (1.0, 0.707)
 #: 1.16-1.26x better (zoo 9N6P at 2^15 counts with 0.2-0.5 counts of noise); ODrive's 1000 rad/s fits 3.8-4.6x
 #: better, 300 rad/s 33-51x. A PLL above about 2000 rad/s is read as logged (its lag moved the cogging by 2-4 %).
 PLL_MIN_GAIN = 1.5
+#: The share of a PLL reading's move of the maps (from the angle as logged) taken as uncertain in the verdict: on the
+#: sixteen motors of zoo seeds 0 and 1 through ODrive's discrete PLL, the reading left 10-40 % of the as-logged
+#: cogging error (ODrive's loop differs from the continuous model by about ``k_p dt``).
+PLL_UNCERTAINTY = 0.4
 #: The share of the encoder-noise correction taken as uncertain in the verdict: on the twin, the noise the
 #: acceleration actually carries (with the drive's loop reacting to it) was 0.83-1.44 times the white model's
 #: (zoo seed 1, 12N14P and 18N16P, per constant-speed log).
@@ -919,6 +924,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     estimate, timing = _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll)
     pll = None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
                                                                      estimate["damping"])
+    as_logged = _with_delay(prepared, timing["samples"])
     prepared = _with_delay(_with_pll(prepared, pll), timing["samples"])
     added = {"cogging": np.zeros(0, int), "ripple": np.zeros(0, int)}
     screen = None
@@ -946,6 +952,10 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     bias[layout.keep] = fit["bias"]
     shift = np.zeros(layout.keep.size)
     shift[layout.keep] = fit["quantisation_shift"]
+    reading = np.zeros(layout.keep.size)
+    if pll is not None:
+        # what a PLL's reading may leave: a share of the maps' move from the angle as logged (module docstring)
+        reading[layout.keep] = PLL_UNCERTAINTY * (_fit(as_logged, layout, taps, fit["ridge"])["beta"] - fit["beta"])
     o_r, o_c, o_d = layout.o_r, layout.o_c, layout.o_d
     model = RotaryModel(
         motor.pole_pairs,
@@ -957,7 +967,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     blind = None
     if screen is not None:
         blind = {k: float(np.median(v)) for k, v in screen["blind_rms"].items() if np.size(v)}
-    standard_error = _standard_errors(model, cov, bias, o_r, o_c, o_d, final, fit["blocks"], blind, shift)
+    standard_error = _standard_errors(model, cov, bias, o_r, o_c, o_d, final, fit["blocks"], blind, shift, reading)
     info = {"windows": counts["windows"], "windows_used": int(n_windows), "windows_refused_alias": counts["alias"],
             "windows_refused_slow": counts["slow"], "speed_limit_rad_s": v_limit,
             "min_samples_per_period": float(min_samples_per_period), "highest_order": orders.highest,
@@ -1022,7 +1032,7 @@ RESOLVED_CONFIDENCE = 0.9
 
 
 def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Orders, blocks: int,
-                     blind: dict | None = None, shift=None) -> dict:
+                     blind: dict | None = None, shift=None, reading=None) -> dict:
     """How well the logs determine each map: expected RMS error over the revolution, relative to the
     map's identified RMS, and the running-log time that would bring it to :data:`RESOLVED_SHARE`.
 
@@ -1044,6 +1054,10 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
     ``quantisation_bias`` (``shift``: the fit's shift were the encoder-noise correction
     :data:`QUANTISATION_UNCERTAINTY` smaller, :func:`_fit`) is the RMS of that shift over the revolution, relative:
     what the correction may leave. It does not fall with longer logs of the same kind.
+
+    ``pll_bias`` (``reading``: :data:`PLL_UNCERTAINTY` times the fit's move from the angle as logged to the angle read
+    through a drive's PLL, :func:`_angle_pll`; zero when the angle is the encoder's) is the RMS of that over the
+    revolution, relative: what the PLL's reading may leave. It counts like the quantisation bias.
     """
     out = {"blocks": int(blocks), "resolved_share": RESOLVED_SHARE, "confidence": RESOLVED_CONFIDENCE}
     th = 2 * math.pi * np.arange(4096) / 4096
@@ -1061,13 +1075,16 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
         rel_q = se_q / rms if rms > 0 else float("inf")
         sh = np.zeros(len(cols)) if shift is None else shift[cols]
         q_rel = float(np.sqrt(max(float(sh @ gram @ sh), 0.0))) / rms if rms > 0 else float("inf")
+        rd = np.zeros(len(cols)) if reading is None else reading[cols]
+        p_rel = float(np.sqrt(max(float(rd @ gram @ rd), 0.0))) / rms if rms > 0 else float("inf")
         lim = (blind or {}).get(name)
         lim_rel = (float(lim) / rms if rms > 0 else float("inf")) if lim is not None else None
         noise = math.hypot(rel_q, lim_rel or 0.0)
+        fixed = math.hypot(b_rel, q_rel, p_rel)
         out[name] = {"rms_error": se, "rms": rms, "relative": rel, "relative_at_confidence": rel_q,
                      "outside_order_limit": lim_rel, "ridge_bias": b_rel, "quantisation_bias": q_rel,
-                     "resolved": bool(math.hypot(noise, b_rel, q_rel) <= RESOLVED_SHARE),
-                     "log_time_factor_to_resolve": _time_factor(noise, math.hypot(b_rel, q_rel))}
+                     "pll_bias": p_rel, "resolved": bool(math.hypot(noise, fixed) <= RESOLVED_SHARE),
+                     "log_time_factor_to_resolve": _time_factor(noise, fixed)}
     # the ripple is seen only through q-current that varies at a given angle: its need falls with the square of that
     # variation, which constant-speed logs hardly carry (zoo 9N6P: 34 s of constant speeds left its standard error at
     # 22 %, 17 s of accelerations added brought it to 4.4 %)
@@ -1099,6 +1116,10 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     if math.hypot(ridge, quant) >= RESOLVED_SHARE and ridge >= quant:
         return (f"not resolved: the ridge sets {100 * entry['ridge_bias']:.0f} % of it (the logs do not excite it; "
                 "log with more q-current variation, e.g. a dither or accelerations)")
+    pll = entry.get("pll_bias", 0.0)
+    if math.hypot(ridge, quant, pll) >= RESOLVED_SHARE and pll >= quant and pll >= ridge:
+        return (f"not resolved: the drive PLL's reading of the angle could move it by {100 * pll:.0f} % (log the "
+                "encoder's count if the drive has it)")
     if math.hypot(ridge, quant) >= RESOLVED_SHARE:
         return (f"not resolved: the encoder's rounding could move it by {100 * entry['quantisation_bias']:.0f} % (the "
                 "logs hardly carry the rotor's acceleration above it; log accelerations or a dither, or use a finer "
@@ -1114,6 +1135,8 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
         parts.append(f"an unseen order outside the basis up to {100 * entry['outside_order_limit']:.1f} %")
     if entry.get("quantisation_bias", 0.0) >= 0.1 * RESOLVED_SHARE:
         parts.append(f"the encoder's rounding up to {100 * entry['quantisation_bias']:.1f} %")
+    if entry.get("pll_bias", 0.0) >= 0.1 * RESOLVED_SHARE:
+        parts.append(f"the PLL's reading up to {100 * entry['pll_bias']:.1f} %")
     why = f" ({', '.join(parts)})" if parts else ""
     hint = f"; {entry['excitation_hint']}" if entry.get("excitation_hint") else ""
     return (f"not resolved{why}: about {factor:.1f}x the running log so far{total}, at the same excitation, "
