@@ -133,7 +133,9 @@ PLL_DAMPINGS = (1.0, 0.707)
 #: A PLL's reading is taken only where it also lowers the residual by this factor: significance alone is not
 #: enough, since an angle with noise of its own (off any lattice, the rounding left in) fits a PLL of 1.6-2.3 kHz
 #: 1.16-1.26x better (zoo 9N6P at 2^15 counts with 0.2-0.5 counts of noise); ODrive's 1000 rad/s fits 3.8-4.6x
-#: better, 300 rad/s 33-51x. A PLL above about 2000 rad/s is read as logged (its lag moved the cogging by 2-4 %).
+#: better on 9N6P and 12N14P, 300 rad/s 33-51x, but only 1.31x on zoo seed 1's 36N42P, which this gate reads as
+#: logged (its cogging then 6.2 % off): the one miss of sixteen. A PLL above about 2000 rad/s is read as logged
+#: (its lag moved the cogging by 2-4 %).
 PLL_MIN_GAIN = 1.5
 #: The share of a PLL reading's move of the maps (from the angle as logged) taken as uncertain in the verdict: on the
 #: sixteen motors of zoo seeds 0 and 1 through ODrive's discrete PLL, the reading left 10-40 % of the as-logged
