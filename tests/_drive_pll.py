@@ -18,3 +18,30 @@ def odrive_pll(t_fine, theta_fine, bandwidth, every):
         if k % every == 0:  # the estimate after the update with the encoder's reading at the log's sample
             out[k // every] = pe
     return out
+
+
+def pll_and_late(c: dict, bandwidth: float = 1000.0, every: int = 16):
+    """A zoo log's columns ``c`` as an open drive logs them: ``(t, angle, iq)`` with the angle through ODrive's PLL
+    (``bandwidth`` rad/s, run ``every`` times per sample on the cubic through the encoder samples) and the
+    q-current written one sample late."""
+    from scipy.interpolate import CubicSpline
+
+    t = c["t"]
+    fine = t[0] + (t[1] - t[0]) / every * np.arange(t.size * every)
+    th = odrive_pll(fine, CubicSpline(t, c["theta"])(fine), bandwidth, every)
+    return t, th, np.concatenate([[c["iq_1"][0]], c["iq_1"][:-1]])
+
+
+def rewrite_logs(paths, folder, prefix: str, rows, header: str = "t,theta,iq_1", fmt: str = "%.15g") -> list:
+    """Each CSV log of ``paths`` read, its columns turned into the rows ``rows(columns)`` returns (an ``(N, k)``
+    array), and written as ``folder/{prefix}{k}.csv`` under ``header``. Returns the new paths."""
+    from pgcomm.io.logs import read_log
+
+    out = []
+    for k, path in enumerate(paths):
+        p = folder / f"{prefix}{k}.csv"
+        with open(p, "w") as f:
+            f.write(header + "\n")
+            np.savetxt(f, rows(read_log(path, required=("theta",)).columns), delimiter=",", fmt=fmt)
+        out.append(p)
+    return out

@@ -21,6 +21,8 @@ from pgcomm.export.angle_table import read_angle_table
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.zoo import read_truth
 
+from _drive_pll import pll_and_late, rewrite_logs
+
 
 @pytest.fixture(scope="module")
 def zoo(tmp_path_factory):
@@ -96,19 +98,15 @@ def test_logs_with_dropped_samples_are_used_between_the_gaps(tmp_path, zoo, caps
     """Each zoo log with 5 rows dropped in its middle: identify says so and uses the stretches between the gaps
     (no filter window across one), and the compensation table moves from the intact logs' by less than its own
     standard error (RMS over the table; the gapped logs are 0.4 % shorter)."""
-    from pgcomm.io.logs import read_log
 
     logs = sorted((zoo / "logs").glob("*.csv"))
-    gapped = []
-    for k, path in enumerate(logs):
-        c = read_log(path, required=("theta",)).columns
+
+    def rows(c):
         keep = np.ones(c["t"].size, bool)
         keep[c["t"].size // 2:c["t"].size // 2 + 5] = False
-        p = tmp_path / f"gapped{k}.csv"
-        with open(p, "w") as f:
-            f.write("t,theta,iq_1\n")
-            np.savetxt(f, np.column_stack([c["t"], c["theta"], c["iq_1"]])[keep], delimiter=",", fmt="%.15g")
-        gapped.append(p)
+        return np.column_stack([c["t"], c["theta"], c["iq_1"]])[keep]
+
+    gapped = rewrite_logs(logs, tmp_path, "gapped", rows)
     a = _identify(tmp_path / "a", zoo / "motor.toml", logs)
     capsys.readouterr()
     out = tmp_path / "b"
@@ -124,18 +122,10 @@ def test_a_current_logged_a_sample_late_is_found_and_shifted(tmp_path, zoo, caps
     the angle): identify says so, reports the delay, and the compensation table is the intact logs' within a
     fifth of its standard error (only the first and last sample of each log differ). As logged, the same delay
     is reported as none."""
-    from pgcomm.io.logs import read_log
 
     logs = sorted((zoo / "logs").glob("*.csv"))
-    late = []
-    for k, path in enumerate(logs):
-        c = read_log(path, required=("theta",)).columns
-        iq = np.concatenate([[c["iq_1"][0]], c["iq_1"][:-1]])
-        p = tmp_path / f"late{k}.csv"
-        with open(p, "w") as f:
-            f.write("t,theta,iq_1\n")
-            np.savetxt(f, np.column_stack([c["t"], c["theta"], iq]), delimiter=",", fmt="%.15g")
-        late.append(p)
+    late = rewrite_logs(logs, tmp_path, "late",
+                        lambda c: np.column_stack([c["t"], c["theta"], np.concatenate([[c["iq_1"][0]], c["iq_1"][:-1]])]))
     capsys.readouterr()
     a = tmp_path / "a"
     assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, logs), "--out", str(a)]) == 0
@@ -155,23 +145,9 @@ def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_pat
     """The shape of an open drive's log: the angle its PLL estimates (ODrive's, 1000 rad/s at 16 kHz) and the
     q-current a sample late, under the drive's own column names: identify says how it read both, reports them,
     writes the report, and its table is within 5 % of the truth's RMS."""
-    from scipy.interpolate import CubicSpline
 
-    from _drive_pll import odrive_pll
-    from pgcomm.io.logs import read_log
-
-    made = []
-    for k, path in enumerate(sorted((zoo / "logs").glob("*.csv"))):
-        c = read_log(path, required=("theta",)).columns
-        t = c["t"]
-        fine = t[0] + 1e-3 / 16 * np.arange(t.size * 16)
-        th = odrive_pll(fine, CubicSpline(t, c["theta"])(fine), 1000.0, 16)
-        iq = np.concatenate([[c["iq_1"][0]], c["iq_1"][:-1]])
-        p = tmp_path / f"drive{k}.csv"
-        with open(p, "w") as f:
-            f.write("time_s,pos_rad,Iq\n")
-            np.savetxt(f, np.column_stack([t, th, iq]), delimiter=",", fmt="%.9g")
-        made.append(p)
+    made = rewrite_logs(sorted((zoo / "logs").glob("*.csv")), tmp_path, "drive",
+                        lambda c: np.column_stack(pll_and_late(c)), header="time_s,pos_rad,Iq", fmt="%.9g")
     (tmp_path / "map.toml").write_text('[columns]\nt = "time_s"\ntheta = "pos_rad"\niq_1 = "Iq"\n')
     capsys.readouterr()
     out = tmp_path / "id"
@@ -186,10 +162,8 @@ def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_pat
     assert "PLL estimate" in (out / "report.html").read_text()
     truth = read_truth(zoo / "truth.json").model()
     table = read_angle_table(out / "compensation.csv")
-    th = 2 * math.pi * np.arange(table.n) / table.n
     ref = truth.table(table.n)
     assert np.sqrt(np.mean((table.iq - ref) ** 2)) <= 0.05 * np.sqrt(np.mean(ref**2))
-    assert th.size == table.n
     # the same readings given on the command line: nothing searched, the same table
     given = tmp_path / "given"
     w, z = ident["angle_pll"]["natural_frequency_rad_s"], ident["angle_pll"]["damping"]
@@ -206,17 +180,9 @@ def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, z
     """A drive whose positive q-current turns the rotor against its angle's direction (each zoo log with iq_1
     negated): identify says J/k0 is negative and returns the table the drive needs, the negated table of the logs
     as written, within a ten-thousandth of its peak (the same fit with every current's sign turned)."""
-    from pgcomm.io.logs import read_log
 
     logs = sorted((zoo / "logs").glob("*.csv"))
-    neg = []
-    for k, path in enumerate(logs):
-        c = read_log(path, required=("theta",)).columns
-        p = tmp_path / f"neg{k}.csv"
-        with open(p, "w") as f:
-            f.write("t,theta,iq_1\n")
-            np.savetxt(f, np.column_stack([c["t"], c["theta"], -c["iq_1"]]), delimiter=",", fmt="%.15g")
-        neg.append(p)
+    neg = rewrite_logs(logs, tmp_path, "neg", lambda c: np.column_stack([c["t"], c["theta"], -c["iq_1"]]))
     a = _identify(tmp_path / "a", zoo / "motor.toml", logs)
     capsys.readouterr()
     out = tmp_path / "b"

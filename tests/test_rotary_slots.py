@@ -22,6 +22,8 @@ from pgcomm.rotary.slots import detect_slots
 from pgcomm.rotary.twin import LawParams, default_gains
 from pgcomm.rotary.zoo import draw_rotary
 
+from _drive_pll import pll_and_late, rewrite_logs
+
 
 def _logs(truth):
     m = truth.motor
@@ -76,29 +78,15 @@ def test_slots_are_counted_on_the_logs_as_read(tmp_path):
     gives the slots, within a millionth of the table's peak (the same readings, the same fit)."""
     import json
 
-    from scipy.interpolate import CubicSpline
-
-    from _drive_pll import odrive_pll
     from pgcomm.cli import main
     from pgcomm.export.angle_table import read_angle_table
-    from pgcomm.io.logs import read_log
 
     assert main(["zoo", "--kind", "rotary", "--motors", "1", "--logs", "--out", str(tmp_path / "z"), "--quiet"]) == 0
     folder = tmp_path / "z" / "motor_01"
     text = (folder / "motor.toml").read_text()
     (folder / "noslots.toml").write_text("".join(l for l in text.splitlines(True) if not l.startswith("slots")))
-    made = []
-    for k, path in enumerate(sorted((folder / "logs").glob("*.csv"))):
-        c = read_log(path, required=("theta",)).columns
-        t = c["t"]
-        fine = t[0] + 1e-3 / 16 * np.arange(t.size * 16)
-        th = odrive_pll(fine, CubicSpline(t, c["theta"])(fine), 1000.0, 16)
-        iq = np.concatenate([[c["iq_1"][0]], c["iq_1"][:-1]])
-        p = tmp_path / f"drive{k}.csv"
-        with open(p, "w") as f:
-            f.write("t,theta,iq_1\n")
-            np.savetxt(f, np.column_stack([t, th, iq]), delimiter=",", fmt="%.12g")
-        made.append(str(p))
+    made = [str(p) for p in rewrite_logs(sorted((folder / "logs").glob("*.csv")), tmp_path, "drive",
+                                          lambda c: np.column_stack(pll_and_late(c)), fmt="%.12g")]
     for name, motor in (("with", "motor.toml"), ("without", "noslots.toml")):
         assert main(["identify", "--motor", str(folder / motor), "--data", *made, "--out", str(tmp_path / name),
                      "--quiet"]) == 0
