@@ -26,8 +26,10 @@ LIMIT = 4.0  # A
 
 
 def model(ripple_scale=1.0):
-    """A 12N14P-like model: cogging at 84, 168 and the low orders (A), drag with Coulomb (A), ripple (-)."""
-    cog = Fourier(np.array([1, 12, 84, 168]), np.array([[0.02, -0.01], [0.05, 0.03], [0.4, -0.2], [0.06, 0.05]]))
+    """A 12N14P-like model: cogging at 84, 168 and the low orders with a constant torque (order 0: a load or a
+    current offset, as identify returns it) (A), drag with Coulomb (A), ripple (-)."""
+    cog = Fourier(np.array([0, 1, 12, 84, 168]),
+                  np.array([[0.3, 0.0], [0.02, -0.01], [0.05, 0.03], [0.4, -0.2], [0.06, 0.05]]))
     drag = Fourier(np.array([0, 1, 14]), np.array([[0.15, 0.0], [0.03, 0.02], [0.01, -0.02]]))
     rip = Fourier(np.array([1, 14, 42]), ripple_scale * np.array([[0.01, 0.005], [0.02, -0.01], [0.008, 0.004]]))
     return RotaryModel(7, cog, rip, drag, info={"current_limit": LIMIT})
