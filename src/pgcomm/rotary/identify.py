@@ -509,6 +509,16 @@ def _ridge(G, b, n, penalty, lam_rel):
     return beta / scale, A, scale
 
 
+def _validated_ridge(G, b, yy, n, pen) -> tuple[float, list]:
+    """The ridge weight of :data:`RIDGE_GRID` with the smallest mean squared residual on the validation rows (index 1
+    of the normal equations), fitted on the training rows (index 0); ``(weight, curve)``."""
+    curve = []
+    for lam in RIDGE_GRID:
+        beta, _, _ = _ridge(G[0], b[0], n[0], pen, lam)
+        curve.append(float((yy[1] - 2 * beta @ b[1] + beta @ G[1] @ beta) / max(n[1], 1.0)))
+    return RIDGE_GRID[int(np.argmin(curve))], curve
+
+
 def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_seconds: float = BLOCK_SECONDS):
     """Ridge fit of one layout: the weight validated on held-out time blocks (or ``ridge``), the refit on all
     rows, and the estimate's covariance ``A⁻¹ (Σ_b X_bᵀ e_b e_bᵀ X_b) A⁻¹`` (``A`` the regularised normal
@@ -527,10 +537,7 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
     pen = layout.pen[layout.keep].astype(float)
     curve = []
     if ridge is None:
-        for lam in RIDGE_GRID:
-            beta, _, _ = _ridge(G[0], b[0], n[0], pen, lam)
-            curve.append(float((yy[1] - 2 * beta @ b[1] + beta @ G[1] @ beta) / max(n[1], 1.0)))
-        lam = RIDGE_GRID[int(np.argmin(curve))]
+        lam, curve = _validated_ridge(G, b, yy, n, pen)
     else:
         lam = float(ridge)
     beta, A, scale = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, lam)
@@ -689,11 +696,7 @@ def _basis_cost(prepared, layout: "_Layout", taps: int) -> tuple[float, float]:
     G, b, yy, n, noise = _normal_equations(prepared, layout, taps)
     G, _, _ = _quantisation_correction(G, noise)
     pen = layout.pen[layout.keep].astype(float)
-    curve = []
-    for lam in RIDGE_GRID:
-        beta, _, _ = _ridge(G[0], b[0], n[0], pen, lam)
-        curve.append(float((yy[1] - 2 * beta @ b[1] + beta @ G[1] @ beta) / max(n[1], 1.0)))
-    beta, _, _ = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, RIDGE_GRID[int(np.argmin(curve))])
+    beta, _, _ = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, _validated_ridge(G, b, yy, n, pen)[0])
     gt, bt, yt = G[0] + G[1], b[0] + b[1], yy[0] + yy[1]
     rows = float(n[0] + n[1])
     return max(float(yt - 2 * beta @ bt + beta @ gt @ beta), 1e-300) / max(rows, 1.0), rows
