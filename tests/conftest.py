@@ -127,6 +127,26 @@ HEAVY = ("test_cli.py", "test_export_lut.py", "test_export_spline.py", "test_ext
 #: them took a clean-clone run to 2.97 GiB
 ALONE = ("test_fleet.py",)
 _lock_files: dict[str, object] = {}
+#: the environment variable naming the folder of the run's lock files: the controller makes it before the workers
+#: start (they inherit it) and removes it once they have ended, so no run leaves lock files in the temp folder
+LOCK_FOLDER = "PGCOMM_TEST_LOCK_FOLDER"
+
+
+def pytest_configure(config):
+    import tempfile
+
+    if not hasattr(config, "workerinput") and LOCK_FOLDER not in os.environ:
+        os.environ[LOCK_FOLDER] = tempfile.mkdtemp(prefix="pgcomm-tests-")
+        config._pgcomm_lock_folder = os.environ[LOCK_FOLDER]
+
+
+def pytest_unconfigure(config):
+    import shutil
+
+    folder = getattr(config, "_pgcomm_lock_folder", None)
+    if folder:
+        shutil.rmtree(folder, ignore_errors=True)
+        os.environ.pop(LOCK_FOLDER, None)
 
 
 def _lock(kind: str, mode: int) -> None:
@@ -135,7 +155,8 @@ def _lock(kind: str, mode: int) -> None:
 
     if kind not in _lock_files:
         uid = os.environ["PYTEST_XDIST_TESTRUNUID"]
-        _lock_files[kind] = open(os.path.join(tempfile.gettempdir(), f"pgcomm-tests-{uid}.{kind}"), "a")
+        folder = os.environ.get(LOCK_FOLDER) or tempfile.gettempdir()
+        _lock_files[kind] = open(os.path.join(folder, f"pgcomm-tests-{uid}.{kind}"), "a")
     fcntl.flock(_lock_files[kind], mode)
 
 
