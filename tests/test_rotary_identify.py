@@ -608,7 +608,8 @@ def test_an_angle_logged_through_a_drive_pll_is_read_as_one(motor0):
 
     th = 2 * np.pi * np.arange(4096) / 4096
     rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
-    same = dict(extra_orders=False, ridge=found.info["ridge"], current_delay=found.info["current_delay"]["samples"])
+    same = dict(extra_orders=False, ridge=found.info["ridge"], current_delay=found.info["current_delay"]["samples"],
+                time_lines=found.info["time_lines"]["hz"])
     read = identify(moved, t.motor, angle_pll=(est["natural_frequency_rad_s"], est["damping"]), **same)
     raw = identify(moved, t.motor, angle_pll=None, **same)
     move = rms(raw.model.cogging(th) - read.model.cogging(th)) / rms(read.model.cogging(th))

@@ -53,6 +53,15 @@ repeated with the angle corrected for a PLL (:func:`pll_corrected`) of each natu
 than the angle as logged by a likelihood ratio (:func:`_angle_pll`); the results report it, and :data:`PLL_UNCERTAINTY` of the maps' move from the angle as logged counts against "resolved"
 (``pll_bias``).
 
+**Time-periodic disturbances.** A rig adds torque at fixed frequencies whatever the rotor's speed: a current
+sensor's mains pickup (the current loop turns it into torque), a fan or a pump on the frame, a resonance the drive
+keeps exciting. At one speed such a line is an order of the revolution; in logs at several speeds it spreads over
+orders the basis does not have. A 50 Hz pickup of 1 % of the current limit put the cogging 10-21 % off and the ripple
+119-240 % (zoo 9N6P and 12N14P). The residuals of the basis fit are searched for lines at one frequency in the logs of
+two different speeds (:func:`_time_lines`); a line the logged current carries twice as strongly is its own (a
+dither's), and one an order of the revolution explains as well is that order. Each line found is fitted beside
+the maps, a cosine and a sine per log (a log's phase is its own), and the results report it.
+
 **Regularisation.** A ridge on the Fourier coefficients (columns scaled to unit RMS; the
 mechanical columns ``J/k0``, ``b`` and the Coulomb term are not penalised), its weight chosen
 by validation on held-out **time blocks** (every ``VALIDATION_EVERY``-th block of about one
@@ -124,6 +133,30 @@ CURRENT_DELAYS = (-2, -1, 0, 1, 2)
 #: the logs (a shifted current, a PLL's angle) must fit than the logs as written to be taken: the χ²₁ quantile at
 #: 0.1 %.
 READING_EVIDENCE = 10.83
+#: Time-periodic disturbances (:func:`_time_lines`): at most this many lines, from at most this many peaks examined
+MAX_LINES = 4
+MAX_LINE_CANDIDATES = 8
+#: ... above this frequency (Hz): slower content of a few-second log is the speed's own drift
+LINE_MIN_HZ = 2.0
+#: ... the spectra zero-padded to this many times the longest log, their noise floors the running median over this
+#: many bins of each log's own periodogram
+LINE_PADDING = 4
+LINE_FLOOR_BINS = 65
+#: ... a log counts as at constant speed (a line there could be an order of the revolution) when its speed's
+#: interquartile range is within this share of its median, and as showing a line when its normalised periodogram there exceeds this
+LINE_CONSTANT_SPEED = 0.1
+LINE_SPEED_SECONDS = 0.25
+LINE_LOG_SUPPORT = 6.0
+#: ... a line is a disturbance only where the residual's is at least this share of the logged current's line at that
+#: frequency. A torque disturbance ``d`` (or a current sensor's pickup, which the current loop turns into one) leaves
+#: ``d`` in the residual and ``T d`` in the current (``T`` the speed loop's complementary sensitivity), a share of
+#: ``1/|T|``: at least 0.5 for up to 6 dB of peaking (0.69-0.92 measured, zoo 9N6P and 12N14P, 50 Hz pickup). Where
+#: the current carries a line twice the residual's it is its cause (the user's dither, an excitation) and the
+#: residual is the model's misfit of it (0.007-0.34 measured at the running logs' dither frequencies)
+LINE_CURRENT_SHARE = 0.5
+#: ... the orders tried as the line's other explanation, and the χ² level a line must pass against the best of them
+MAX_LINE_ORDERS = 4
+LINE_EVIDENCE_LEVEL = 1e-3
 #: Natural frequencies (rad/s) of a drive's angle-estimating PLL tried when no logged angle sits on an encoder's
 #: lattice (:func:`_angle_pll`): ODrive's encoder bandwidth defaults to 1000 rad/s.
 PLL_FREQUENCIES = tuple(float(x) for x in np.geomspace(50.0, 5000.0, 13))
@@ -355,7 +388,8 @@ def _interval_weights(path: np.ndarray, orders):
     return A, B
 
 
-def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, block_seconds: float = BLOCK_SECONDS):
+def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, block_seconds: float = BLOCK_SECONDS,
+            lines=()):
     """Filtered target and regressor blocks (module docstring), ``chunk`` windows at a time: the Fourier
     columns are built only over the samples a chunk needs, so a basis of hundreds of orders on minutes of
     1 kHz logs stays within a few tens of MB.
@@ -363,13 +397,17 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
     Yields:
         dict of ``(J,)`` / ``(J, k)`` arrays: ``y``, ``acc``, ``rip``, ``cog``, ``dir``, ``visc``, ``sgn``,
         ``block`` (time block of ``block_seconds``, unique over the logs), ``acc_noise`` (the encoder's noise
-        variance in ``acc``, (rad/s²)²).
+        variance in ``acc``, (rad/s²)²), ``row`` (each window's first sample in its log), ``log`` (the log's
+        position in ``prepared``) and, with ``lines``, ``line`` (``(J, 2 len(lines))``: a cosine and a sine of each time
+        frequency of ``lines`` (Hz) over the log's own time, through the current's kernel and filter: a
+        time-periodic disturbance, module docstring).
     """
     g = _hann(taps)
     g_zoh = np.convolve(g, _ZOH)  # (T+1,) on samples s .. s+T
     g_tri = np.convolve(g, _TRI)  # (T+2,) on samples s .. s+T+1
     span = taps + 2
-    for p in prepared:
+    freqs = 2.0 * np.pi * np.asarray(lines, float)
+    for pos, p in enumerate(prepared):
         for k in range(0, p.starts.size, chunk):
             st = p.starts[k:k + chunk]
             lo, hi = int(st[0]), int(st[-1]) + span
@@ -383,7 +421,9 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
             a_c, b_c = _interval_weights(path, orders.cogging)
             a_d, b_d = _interval_weights(path, orders.direction)
             iq_i, sg_i = iq[:n_int, None], sgn[:n_int, None]
-            yield {"y": _filt(iq, loc, g_zoh), "acc": _filt(d2, loc, g) / p.ts**2,
+            phase = np.arange(lo, hi)[:, None] * p.ts * freqs
+            out = {"line": _filt(np.concatenate([np.cos(phase), np.sin(phase)], axis=1), loc, g_zoh)} if lines else {}
+            yield {**out, "row": st, "log": np.full(st.size, pos),"y": _filt(iq, loc, g_zoh), "acc": _filt(d2, loc, g) / p.ts**2,
                    "rip": _filt(iq_i * a_r, loc, g) + _filt(iq_i * b_r, loc + 1, g),
                    "cog": _filt(a_c, loc, g) + _filt(b_c, loc + 1, g),
                    "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
@@ -403,9 +443,11 @@ def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: 
 
 @dataclass
 class _Layout:
-    """Columns of the regression ``[J/k0, -ripple, -cogging, direction, b]`` for one set of orders: which
+    """Columns of the regression ``[J/k0, -ripple, -cogging, direction, lines, b]`` for one set of orders: which
     are kept (the sine of order 0 is zero, and a constant in ``r`` is the ``1`` that fixes the scale; a constant
-    in ``c`` is a constant torque, :meth:`Orders.for_motor`) and penalised."""
+    in ``c`` is a constant torque, :meth:`Orders.for_motor`) and penalised. ``lines`` are time frequencies (Hz) of
+    a disturbance (module docstring, "Time-periodic disturbances"): a cosine and a sine per frequency and per log
+    (``logs`` of them, each its own amplitude and phase), not penalised."""
 
     orders: Orders
     keep: np.ndarray
@@ -413,14 +455,19 @@ class _Layout:
     o_r: np.ndarray
     o_c: np.ndarray
     o_d: np.ndarray
+    lines: tuple = ()
+    logs: int = 0
 
     @classmethod
-    def of(cls, orders: Orders) -> "_Layout":
+    def of(cls, orders: Orders, lines=(), logs: int = 0) -> "_Layout":
         nr, nc, nd = 2 * orders.ripple.size, 2 * orders.cogging.size, 2 * orders.direction.size
-        n = 2 + nr + nc + nd
+        lines = tuple(float(f) for f in lines)
+        nt = 2 * len(lines) * logs
+        n = 2 + nr + nc + nd + nt
         keep = np.ones(n, bool)
         pen = np.ones(n, bool)
         pen[0] = pen[-1] = False  # J/k0 and b are not penalised
+        pen[1 + nr + nc + nd:n - 1] = False  # nor the disturbance's lines
         o_r = 1 + np.arange(nr)
         o_c = 1 + nr + np.arange(nc)
         o_d = 1 + nr + nc + np.arange(nd)
@@ -431,10 +478,22 @@ class _Layout:
             keep[o_r[j]] = keep[o_r[orders.ripple.size + j]] = False
         for j in np.flatnonzero(orders.cogging == 0):
             keep[o_c[orders.cogging.size + j]] = False
-        return cls(orders, keep, pen, o_r, o_c, o_d)
+        return cls(orders, keep, pen, o_r, o_c, o_d, lines, int(logs) if lines else 0)
+
+    @property
+    def o_t(self) -> np.ndarray:
+        """Columns of the lines: log ``k``'s cosines then sines at ``2 len(lines) k`` on."""
+        start = 1 + 2 * (self.orders.ripple.size + self.orders.cogging.size + self.orders.direction.size)
+        return start + np.arange(2 * len(self.lines) * self.logs)
 
     def rows(self, ch) -> np.ndarray:
-        return np.column_stack([ch["acc"], -ch["rip"], -ch["cog"], ch["dir"], ch["visc"]])[:, self.keep]
+        cols = [ch["acc"], -ch["rip"], -ch["cog"], ch["dir"]]
+        if self.lines:
+            k = 2 * len(self.lines)
+            t = np.zeros((ch["acc"].size, k * self.logs))
+            t[np.arange(t.shape[0])[:, None], k * ch["log"][:, None] + np.arange(k)] = ch["line"]
+            cols.append(t)
+        return np.column_stack(cols + [ch["visc"]])[:, self.keep]
 
 
 def _is_validation(block) -> np.ndarray:
@@ -447,7 +506,7 @@ def _normal_equations(prepared, layout: _Layout, taps: int, block_seconds: float
     (index 0 training, 1 validation)."""
     p = int(layout.keep.sum())
     G, b, yy, n, noise = np.zeros((2, p, p)), np.zeros((2, p)), np.zeros(2), np.zeros(2), np.zeros(2)
-    for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds):
+    for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds, lines=layout.lines):
         X, y = layout.rows(ch), ch["y"]
         val = _is_validation(ch["block"])
         for k, m in ((0, ~val), (1, val)):
@@ -550,7 +609,7 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
         A2[0, 0] += QUANTISATION_UNCERTAINTY * factor * float(np.sum(noise)) / scale[0] ** 2
         shift = np.linalg.solve(A2, (b[0] + b[1]) / scale) / scale - beta
     scores, sse = {}, 0.0
-    for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds):
+    for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds, lines=layout.lines):
         X = layout.rows(ch)
         e = ch["y"] - X @ beta
         sse += float(e @ e)
@@ -690,16 +749,21 @@ def _with_delay(prepared, delay: int) -> list:
     return [replace(p, iq=_shifted(p.iq, delay)) for p in prepared]
 
 
-def _basis_cost(prepared, layout: "_Layout", taps: int) -> tuple[float, float]:
-    """The ridge-validated fit of ``layout`` (encoder-noise corrected): its mean squared residual (A², from the
-    normal equations) and the rows, ``(cost, rows)``."""
+def _basis_fit(prepared, layout: "_Layout", taps: int) -> tuple[np.ndarray, float, float]:
+    """The ridge-validated fit of ``layout`` (encoder-noise corrected): its coefficients (kept columns), mean squared
+    residual (A², from the normal equations) and the rows, ``(beta, cost, rows)``."""
     G, b, yy, n, noise = _normal_equations(prepared, layout, taps)
     G, _, _ = _quantisation_correction(G, noise)
     pen = layout.pen[layout.keep].astype(float)
     beta, _, _ = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, _validated_ridge(G, b, yy, n, pen)[0])
     gt, bt, yt = G[0] + G[1], b[0] + b[1], yy[0] + yy[1]
     rows = float(n[0] + n[1])
-    return max(float(yt - 2 * beta @ bt + beta @ gt @ beta), 1e-300) / max(rows, 1.0), rows
+    return beta, max(float(yt - 2 * beta @ bt + beta @ gt @ beta), 1e-300) / max(rows, 1.0), rows
+
+
+def _basis_cost(prepared, layout: "_Layout", taps: int) -> tuple[float, float]:
+    """:func:`_basis_fit`'s ``(cost, rows)``."""
+    return _basis_fit(prepared, layout, taps)[1:]
 
 
 def _evidence(cost_plain: float, cost_best: float, rows: float, taps: int) -> float:
@@ -806,6 +870,167 @@ def _angle_pll(prepared, layout: "_Layout", taps: int) -> dict:
             "cost_by_frequency": by_freq}
 
 
+def _residuals(prepared, layout: "_Layout", taps: int, beta: np.ndarray) -> list:
+    """Per log, ``(rows, e)``: each used window's first sample and the fit's residual there (A)."""
+    out = [([], []) for _ in prepared]
+    for ch in _chunks(prepared, layout.orders, taps, lines=layout.lines):
+        out[ch["log"][0]][0].append(ch["row"])
+        out[ch["log"][0]][1].append(ch["y"] - layout.rows(ch) @ beta)
+    return [(np.concatenate(r), np.concatenate(e)) for r, e in out]
+
+
+def _line_spectrum(residuals, stride: int, ts: float):
+    """The residuals' periodograms on one frequency grid, each over its own noise floor, and their sum.
+
+    Each log's residual sits on its windows' grid (``stride`` samples; zero where a window was refused), zero-padded
+    to :data:`LINE_PADDING` times the longest log so that every log's spectrum is read at the same frequencies. Its
+    noise floor is the running median of its unpadded periodogram over :data:`LINE_FLOOR_BINS` bins (over ``ln 2``:
+    the median of an exponential), so a noise-only bin is exponential with mean 1 whatever the filter's shape.
+
+    Returns:
+        ``(f, per_log, total, independent, raw)``: ``(F,)`` Hz, ``(L, F)``, ``(F,)``, the number of independent
+        frequencies in the longest log, and ``(L, F)`` the periodograms before normalising (A²).
+    """
+    from scipy.ndimage import median_filter
+
+    lengths = [int(r.max()) // stride + 1 for r, _ in residuals]
+    n = 1 << int(math.ceil(math.log2(LINE_PADDING * max(lengths))))
+    dt = stride * ts
+    f = np.fft.rfftfreq(n, dt)
+    per_log, raw_all = np.empty((len(residuals), f.size)), np.empty((len(residuals), f.size))
+    for k, ((rows, e), m) in enumerate(zip(residuals, lengths)):
+        x = np.zeros(m)
+        x[rows // stride] = e
+        raw = np.abs(np.fft.rfft(x)) ** 2
+        floor = median_filter(raw, size=min(LINE_FLOOR_BINS, raw.size), mode="nearest") / math.log(2.0)
+        floor = np.interp(f, np.fft.rfftfreq(m, dt), np.maximum(floor, 1e-300))
+        raw_all[k] = np.abs(np.fft.rfft(x, n)) ** 2
+        per_log[k] = raw_all[k] / floor
+    return f, per_log, per_log.sum(axis=0), max(lengths) // 2, raw_all
+
+
+def _time_lines(prepared, orders: Orders, taps: int) -> dict:
+    """Time-periodic disturbances in the logs (module docstring, "Time-periodic disturbances"): lines at one
+    frequency (Hz) in the residuals of logs at different speeds.
+
+    Repeatedly: the basis fit with the lines found so far; the sum over the logs of the residuals' normalised
+    periodograms (:func:`_line_spectrum`), a ``Gamma(L)`` variable per frequency where there is only noise; its
+    peaks above :data:`LINE_MIN_HZ`, largest first, while they exceed that distribution's ``1 − α/M`` quantile
+    (``α`` = :data:`EXTRA_ORDER_ALPHA`, ``M`` twice the independent frequencies: the padded grid's maximum), each
+    frequency refined on a parabola. A peak is a candidate only where logs at two different speeds show it (a
+    log whose speed varies counts as a speed of its own): what is locked to the speed (an order of the revolution,
+    the encoder's rounding beating with the sample rate at a constant speed) shows at one speed's frequency only. A
+    line an order of the revolution could make (at a constant speed ``ω``, order ``h`` is ``h ω / 2π`` Hz) is taken
+    only where a cosine and a sine per log at that frequency fit better than the best such order by the χ² quantile
+    of :data:`LINE_EVIDENCE_LEVEL` for the ``2L − 2`` extra parameters; otherwise the order joins the fit (it is the
+    screening's to keep or not) and the spectrum is taken again.
+
+    The windows' grid is ``1 / (stride T_s)``: a line above half of it shows at its alias (``aliases``), which fits the
+    same (its amplitude is then the alias's through the filter).
+
+    Returns:
+        ``{"hz": [...], "aliases": [[...]], "statistic": [...], "threshold": float, "evidence": [...],
+        "speeds_seen": [...], "read_as_orders": [...], "locked_to_one_speed": [Hz...], "searched": True}``.
+    """
+    from scipy.stats import chi2, gamma
+
+    stride = max(1, taps // 2)
+    ts = float(np.median([p.ts for p in prepared]))
+    rate = 1.0 / (stride * ts)
+    logs = len(prepared)
+    span = taps + 2
+    speeds = []
+    for p in prepared:
+        # the mean speeds over stretches of LINE_SPEED_SECONDS (the cogging's speed ripple is not the log's speed),
+        # their median and interquartile range (nor are a constant-speed log's ramps)
+        m = max(2, int(round(LINE_SPEED_SECONDS / p.ts)))
+        mid = p.starts + span // 2
+        blocks = np.abs(p.theta[mid[m:]] - p.theta[mid[:-m]]) / ((mid[m:] - mid[:-m]) * p.ts) if mid.size > m else \
+            np.abs(p.w[mid])
+        q1, med, q3 = np.percentile(blocks, [25, 50, 75])
+        speeds.append(float(med) if q3 - q1 <= LINE_CONSTANT_SPEED * med else None)
+    out = {"hz": [], "aliases": [], "statistic": [], "evidence": [], "speeds_seen": [], "read_as_orders": [],
+           "locked_to_one_speed": [], "in_the_current": [], "threshold": None, "searched": True}
+    found, extra, locked = [], np.zeros(0, int), []
+    refit = True
+    for _ in range(MAX_LINE_CANDIDATES):
+        if refit:
+            cur = Orders(np.union1d(orders.cogging, extra), orders.ripple, orders.direction)
+            lay = _Layout.of(cur, tuple(found), logs)
+            beta, cost, rows = _basis_fit(prepared, lay, taps)
+            f, per_log, total, independent, raw = _line_spectrum(_residuals(prepared, lay, taps, beta), stride, ts)
+            current = _line_spectrum(_residuals(prepared, lay, taps, np.zeros_like(beta)), stride, ts)[4]
+            out["threshold"] = float(gamma.isf(EXTRA_ORDER_ALPHA / (2.0 * max(independent, 1)), logs))
+            refit = False
+        # the noise floor is a running median: within half its window of the windows' Nyquist frequency it is not
+        band = (f >= LINE_MIN_HZ) & (f <= f[-1] - (LINE_FLOOR_BINS // 2) * rate / (2 * independent))
+        for hz0 in locked:  # peaks already found locked to one speed: two natural bins either side
+            band &= np.abs(f - hz0) > 2.0 * LINE_PADDING * (f[1] - f[0])
+        if not np.any(band):
+            break
+        j = int(np.flatnonzero(band)[np.argmax(total[band])])
+        if total[j] <= out["threshold"]:
+            break
+        hz = float(f[j])
+        if 0 < j < f.size - 1 and total[j - 1] > 0 and total[j + 1] > 0:
+            y0, y1, y2 = np.log(total[j - 1:j + 2])
+            den = y0 - 2 * y1 + y2
+            if den < 0:
+                hz += 0.5 * (y0 - y2) / den * (f[1] - f[0])
+        seen = [k for k in range(logs) if per_log[k, j] >= LINE_LOG_SUPPORT]
+        groups = []
+        for k in seen:
+            w = speeds[k]
+            if w is None or not any(g is not None and abs(w - g) <= LINE_CONSTANT_SPEED * g for g in groups):
+                groups.append(w)
+        if len(groups) < 2:
+            locked.append(hz)
+            out["locked_to_one_speed"].append(hz)
+            continue
+        # the residual's line against the logged current's at that frequency (median over the logs that show it)
+        share = float(np.median(np.sqrt(raw[seen, j] / np.maximum(current[seen, j], 1e-300))))
+        if share < LINE_CURRENT_SHARE:
+            locked.append(hz)
+            out["in_the_current"].append(hz)
+            continue
+        aliases = [hz] + [a for m in range(1, int(0.5 / ts / rate) + 2) for a in (m * rate - hz, m * rate + hz)]
+        aliases = [a for a in aliases if 0 < a <= 0.5 / ts]
+        # the orders that could make this line in a constant-speed log that shows it (at the line or an alias)
+        support = {}
+        for k in seen:
+            if speeds[k] is None or speeds[k] <= 0:
+                continue
+            for a in aliases:
+                h = int(round(2 * math.pi * a / speeds[k]))
+                if 1 <= h <= 2 * max(orders.highest, 1) and h not in cur.cogging:
+                    support[h] = support.get(h, 0.0) + float(per_log[k, j])
+        cost_line = _basis_cost(prepared, _Layout.of(cur, tuple(found) + (hz,), logs), taps)[0]
+        best_order, cost_alt, dof = None, cost, 2 * logs
+        for h in sorted(support, key=support.get, reverse=True)[:MAX_LINE_ORDERS]:
+            c = _basis_cost(prepared, _Layout.of(Orders(np.union1d(cur.cogging, [h]), cur.ripple, cur.direction),
+                                                 tuple(found), logs), taps)[0]
+            if c < cost_alt:
+                best_order, cost_alt, dof = h, c, 2 * logs - 2
+        e = _evidence(cost_alt, cost_line, rows, taps)
+        if e > float(chi2.isf(LINE_EVIDENCE_LEVEL, max(dof, 1))):
+            found.append(hz)
+            out["hz"].append(hz)
+            out["aliases"].append(aliases[1:])
+            out["statistic"].append(float(total[j]))
+            out["evidence"].append(float(e))
+            out["speeds_seen"].append(len(groups))
+            if len(found) >= MAX_LINES:
+                break
+        elif best_order is not None:
+            extra = np.union1d(extra, [best_order])
+            out["read_as_orders"].append({"hz": hz, "order": int(best_order)})
+        else:
+            locked.append(hz)
+            continue
+        refit = True
+    return out
+
+
 def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, angle_pll) -> tuple[dict, dict]:
     """How to read the logs: the angle (a drive's PLL estimate or the rotor's, :func:`_angle_pll`) and the current's
     delay (:func:`_current_delay`), each detected or as given. Each masks the other (a current a sample late hid
@@ -883,7 +1108,7 @@ def apply_reading(log: dict, current_delay: int, angle_pll, sample_time: float) 
 def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
              min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
              ridge: float | None = None, extra_orders: bool = True, encoder_step="detect",
-             current_delay="detect", angle_pll="detect") -> RotaryIdentification:
+             current_delay="detect", angle_pll="detect", time_lines="detect") -> RotaryIdentification:
     """Identify cogging, torque-constant ripple, the direction-dependent torque and friction.
 
     Args:
@@ -906,6 +1131,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         angle_pll: ``(ω_n rad/s, ζ)`` of the PLL whose estimate the logged angle is, ``None`` for the encoder's own
             angle, or ``"detect"``: tried when no logged angle sits on an encoder's lattice (module docstring, "The
             angle's estimate").
+        time_lines: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a cosine and a sine per
+            log each), ``()`` for none, or ``"detect"`` (module docstring, "Time-periodic disturbances").
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -926,19 +1153,24 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
                                                                      estimate["damping"])
     as_logged = _with_delay(prepared, timing["samples"])
     prepared = _with_delay(_with_pll(prepared, pll), timing["samples"])
+    if isinstance(time_lines, str):
+        lines_info = _time_lines(prepared, orders, taps)
+    else:
+        lines_info = {"hz": [float(f) for f in time_lines or ()], "searched": False}
+    lines = tuple(lines_info["hz"])
     added = {"cogging": np.zeros(0, int), "ripple": np.zeros(0, int)}
     screen = None
     if extra_orders:
         full = Orders(_full(orders.cogging), _full(orders.ripple), orders.direction)
         n_extra = full.cogging.size + full.ripple.size - orders.cogging.size - orders.ripple.size
-        lay_full = _Layout.of(full)
+        lay_full = _Layout.of(full, lines, len(prepared))
         if n_extra and n_windows >= 2 * int(lay_full.keep.sum()):
             screen = _significant_extra_orders(_fit(prepared, lay_full, taps, ridge), lay_full, orders,
                                                EXTRA_ORDER_ALPHA)
             added = {k: screen[k] for k in ("cogging", "ripple")}
     final = Orders(np.union1d(orders.cogging, added["cogging"]), np.union1d(orders.ripple, added["ripple"]),
                    orders.direction)
-    layout = _Layout.of(final)
+    layout = _Layout.of(final, lines, len(prepared))
     n_unknowns = int(layout.keep.sum())
     if n_windows < 2 * n_unknowns:
         raise ExcitationError(f"{n_windows} usable windows for {n_unknowns} unknowns: record longer running logs "
@@ -957,6 +1189,10 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         # what a PLL's reading may leave: a share of the maps' move from the angle as logged (module docstring)
         reading[layout.keep] = PLL_UNCERTAINTY * (_fit(as_logged, layout, taps, fit["ridge"])["beta"] - fit["beta"])
     o_r, o_c, o_d = layout.o_r, layout.o_c, layout.o_d
+    if lines:
+        # per log a cosine and a sine of each line (A): the amplitude of each line in each log
+        cs = beta[layout.o_t].reshape(len(prepared), 2, len(lines))
+        lines_info["amplitude_A"] = [float(a) for a in np.median(np.hypot(cs[:, 0], cs[:, 1]), axis=0)]
     model = RotaryModel(
         motor.pole_pairs,
         cogging=Fourier.from_vector(final.cogging, beta[o_c]),
@@ -978,6 +1214,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             "orders_screened": screen is not None,
             "cost_A2": fit["cost"], "inertia_ratio": float(beta[0]), "standard_error": standard_error,
             "quantisation": _quantisation_info(prepared, fit), "current_delay": timing, "angle_pll": estimate,
+            "time_lines": lines_info,
             "seconds": time.perf_counter() - t0}
     if counts["alias"]:
         info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "
