@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -176,6 +177,36 @@ def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_pat
                                atol=1e-9 * np.max(np.abs(table.iq)))
 
 
+def test_a_mains_pickup_in_the_logged_current_is_found_said_and_fitted(tmp_path, zoo, capsys):
+    """Each zoo log with a 50 Hz line of 1 % of the current limit added to its q-current (a phase of its own per
+    log): identify says it found a time-periodic disturbance at 50 Hz, reports it (results and report), and its table
+    is the intact logs' within twice their standard error; with ``--time-lines none`` it is not, by more than five."""
+    from pgcomm.io.config import load_rotary_motor
+
+    logs = sorted((zoo / "logs").glob("*.csv"))
+    amp = 0.01 * load_rotary_motor(zoo / "motor.toml").current_limit
+    rng = np.random.default_rng(5)
+    hum = rewrite_logs(logs, tmp_path, "hum", lambda c: np.column_stack(
+        [c["t"], c["theta"], c["iq_1"] + amp * np.sin(2 * np.pi * 50.0 * c["t"] + rng.uniform(0, 2 * np.pi))]))
+    a = _identify(tmp_path / "a", zoo / "motor.toml", logs)
+    capsys.readouterr()
+    out = tmp_path / "b"
+    assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, hum), "--out", str(out)]) == 0
+    assert re.search(r"a time-periodic disturbance at 50\.0\d Hz", capsys.readouterr().err)
+    lines = json.loads((out / "results.json").read_text())["identification"]["time_lines"]
+    assert len(lines["hz"]) == 1 and lines["hz"][0] == pytest.approx(50.0, abs=0.05)
+    assert lines["amplitude_A"][0] == pytest.approx(amp, rel=0.1)
+    assert "time-periodic disturbance at 50.0" in (out / "report.html").read_text()
+    se = json.loads((a / "results.json").read_text())["identification"]["standard_error"]["cogging"]["rms_error"]
+    rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
+    ta = read_angle_table(a / "compensation.csv").iq
+    assert rms(read_angle_table(out / "compensation.csv").iq - ta) <= 2 * se
+    blind = tmp_path / "c"
+    assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, hum), "--out", str(blind),
+                 "--quiet", "--time-lines", "none"]) == 0
+    assert rms(read_angle_table(blind / "compensation.csv").iq - ta) > 5 * se
+
+
 def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, zoo, capsys):
     """A drive whose positive q-current turns the rotor against its angle's direction (each zoo log with iq_1
     negated): identify says J/k0 is negative and returns the table the drive needs, the negated table of the logs
@@ -201,6 +232,7 @@ def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, z
     ("sweep one way", "sweep.csv: the angle moves one way only"),
     ("delay", "--current-delay 0.5: an integer number of samples"),
     ("pll", "--angle-pll 1000,-1: a natural frequency in rad/s and optionally a damping, both positive"),
+    ("lines", "--time-lines 50,x: frequencies in Hz, positive"),
 ])
 def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
     log = sorted((zoo / "logs").glob("*.csv"))[0]
@@ -231,6 +263,8 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
         args += ["--data", str(log), "--current-delay", "0.5"]
     elif case == "pll":
         args += ["--data", str(log), "--angle-pll", "1000,-1"]
+    elif case == "lines":
+        args += ["--data", str(log), "--time-lines", "50,x"]
     capsys.readouterr()
     assert main(args) == 2
     err = capsys.readouterr().err.strip()

@@ -50,6 +50,10 @@ def configure(p) -> None:
                    help="rotary motors: the logged angle is a drive's PLL estimate of natural frequency W rad/s "
                         "(damping ZETA, default 1; ODrive's encoder bandwidth), or 'none' for the encoder's own "
                         "angle (default: detected when no logged angle sits on an encoder's lattice)")
+    p.add_argument("--time-lines", metavar="HZ[,HZ...]",
+                   help="rotary motors: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a "
+                        "current sensor's mains pickup, a fan, a resonance), or 'none' (default: detected as lines at "
+                        "one frequency in the residuals of logs at two speeds)")
     p.add_argument("--no-force-sensor", action="store_true",
                    help="identify without force measurements: the y row from the motion (m ÿ + friction, the "
                         "moving mass from the motor TOML key mass), x/z rows classical with the motor's nominal "
@@ -81,7 +85,7 @@ def run(args, out: Path, progress) -> None:
 
         raise ConfigError("--sweep: the drives' standstill sweep is a rotary motor's comparison (--motor with "
                           "kind = \"rotary\"); a linear motor's cogging table comes from pgcomm reproduce")
-    for opt in ("current_delay", "angle_pll"):
+    for opt in ("current_delay", "angle_pll", "time_lines"):
         if getattr(args, opt, None) is not None:
             from pgcomm.errors import ConfigError
 
@@ -244,6 +248,28 @@ def _reading_options(args):
     return delay, pll
 
 
+def _time_lines_option(args):
+    """``--time-lines`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out); one line
+    naming the option on a bad value."""
+    import math
+
+    from pgcomm.errors import ConfigError
+
+    text = getattr(args, "time_lines", None)
+    if text is None:
+        return "detect"
+    if text.strip().lower() == "none":
+        return ()
+    try:
+        hz = [float(x) for x in text.split(",")]
+    except ValueError:
+        hz = [float("nan")]
+    if not all(math.isfinite(f) and f > 0 for f in hz):
+        raise ConfigError(f"--time-lines {text}: frequencies in Hz, positive, comma-separated (e.g. 50 or 50,100), "
+                          "or none")
+    return tuple(hz)
+
+
 def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     """``pgcomm identify --motor rotary.toml --data LOG...`` (module docstring)."""
     import json
@@ -259,7 +285,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
     from pgcomm.io.results import write_results
     from pgcomm.rotary.identify import Orders, apply_reading, delay_text, detect_reading, fit_mechanics, identify, \
-        pll_text, resolution_verdict
+        lines_text, pll_text, resolution_verdict
 
     for opt in ("plant", "config"):
         if getattr(args, opt, None):
@@ -272,6 +298,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                           "(t, theta, iq_1); the rotary twin writes some with pgcomm zoo --kind rotary --logs")
     motor = load_rotary_motor(args.motor)
     current_delay, angle_pll = _reading_options(args)
+    time_lines = _time_lines_option(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         mapping = load_column_mapping(args.columns) if args.columns else None
         logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED, gaps=True)
@@ -317,14 +344,14 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     how = "with the torque sensor" if torque_sensor else "without a torque sensor (from the motion)"
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
         res = identify(data, motor, orders, torque_sensor=torque_sensor, current_delay=current_delay,
-                       angle_pll=angle_pll)
+                       angle_pll=angle_pll, time_lines=time_lines)
         timing = res.info.get("current_delay") or {}
         estimate = res.info.get("angle_pll") or {}
         pll = (None if estimate.get("natural_frequency_rad_s") is None
                else (estimate["natural_frequency_rad_s"], estimate["damping"]))
         mech = None if torque_sensor else fit_mechanics(data, motor, orders, current_delay=timing.get("samples", 0),
                                                        angle_pll=pll)
-        for text in (pll_text(estimate), delay_text(timing)):
+        for text in (pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines"))):
             if text:
                 progress.info(text)
         if (res.model.inertia_ratio or 0.0) < 0.0:

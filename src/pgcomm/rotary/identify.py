@@ -101,7 +101,7 @@ from pgcomm.rotary.motor import RotaryMotor
 __all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE",
            "RESOLVED_CONFIDENCE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
            "RotaryIdentification", "delay_text", "pll_text", "pll_corrected", "detect_reading", "apply_reading",
-           "CURRENT_DELAYS", "PLL_FREQUENCIES"]
+           "CURRENT_DELAYS", "PLL_FREQUENCIES", "lines_text"]
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used. The kernel is
 #: exact along the path (module docstring); below ~3 the cubic between encoder samples no longer follows a
@@ -147,16 +147,19 @@ LINE_FLOOR_BINS = 65
 LINE_CONSTANT_SPEED = 0.1
 LINE_SPEED_SECONDS = 0.25
 LINE_LOG_SUPPORT = 6.0
-#: ... a line is a disturbance only where the residual's is at least this share of the logged current's line at that
-#: frequency. A torque disturbance ``d`` (or a current sensor's pickup, which the current loop turns into one) leaves
-#: ``d`` in the residual and ``T d`` in the current (``T`` the speed loop's complementary sensitivity), a share of
-#: ``1/|T|``: at least 0.5 for up to 6 dB of peaking (0.69-0.92 measured, zoo 9N6P and 12N14P, 50 Hz pickup). Where
-#: the current carries a line twice the residual's it is its cause (the user's dither, an excitation) and the
-#: residual is the model's misfit of it (0.007-0.34 measured at the running logs' dither frequencies)
+#: ... a line is a disturbance only where its amplitude fitted beside the maps is at least this share of the logged
+#: current's own line at that frequency (median over the logs that show it). A torque disturbance ``d`` (or a current
+#: sensor's pickup, which the current loop turns into one) is ``d`` in the fit and ``T d`` in the current (``T`` the
+#: speed loop's complementary sensitivity), a share of ``1/|T|``: at least 0.5 for up to 6 dB of peaking (0.6-0.8
+#: measured for a 50 Hz pickup on zoo 9N6P, 0.98 where the pickup is only in the log). Where the current carries a
+#: line twice the fitted one it is its cause (the user's dither) and the residual the model's misfit of it
+#: (0.008-0.22 measured at the running logs' dither frequencies, with the angle read through a PLL or not)
 LINE_CURRENT_SHARE = 0.5
 #: ... the orders tried as the line's other explanation, and the χ² level a line must pass against the best of them
 MAX_LINE_ORDERS = 4
 LINE_EVIDENCE_LEVEL = 1e-3
+#: ... fits spent refining a line's frequency
+LINE_REFINE_FITS = 10
 #: Natural frequencies (rad/s) of a drive's angle-estimating PLL tried when no logged angle sits on an encoder's
 #: lattice (:func:`_angle_pll`): ODrive's encoder bandwidth defaults to 1000 rad/s.
 PLL_FREQUENCIES = tuple(float(x) for x in np.geomspace(50.0, 5000.0, 13))
@@ -879,6 +882,18 @@ def _residuals(prepared, layout: "_Layout", taps: int, beta: np.ndarray) -> list
     return [(np.concatenate(r), np.concatenate(e)) for r, e in out]
 
 
+def _current_lines(prepared, hz: float, taps: int) -> np.ndarray:
+    """``(L,)`` per log, the amplitude (A) of the logged current's line at ``hz``: its filtered current fitted on a
+    cosine and a sine through the same kernel and filter as a disturbance's line (:func:`_chunks`)."""
+    none = np.zeros(0, int)
+    G, g = np.zeros((len(prepared), 2, 2)), np.zeros((len(prepared), 2))
+    for ch in _chunks(prepared, Orders(none, none, none), taps, lines=(hz,)):
+        k = ch["log"][0]
+        G[k] += ch["line"].T @ ch["line"]
+        g[k] += ch["line"].T @ ch["y"]
+    return np.array([float(np.hypot(*np.linalg.lstsq(a, b, rcond=None)[0])) for a, b in zip(G, g)])
+
+
 def _line_spectrum(residuals, stride: int, ts: float):
     """The residuals' periodograms on one frequency grid, each over its own noise floor, and their sum.
 
@@ -888,8 +903,8 @@ def _line_spectrum(residuals, stride: int, ts: float):
     the median of an exponential), so a noise-only bin is exponential with mean 1 whatever the filter's shape.
 
     Returns:
-        ``(f, per_log, total, independent, raw)``: ``(F,)`` Hz, ``(L, F)``, ``(F,)``, the number of independent
-        frequencies in the longest log, and ``(L, F)`` the periodograms before normalising (A²).
+        ``(f, per_log, total, independent)``: ``(F,)`` Hz, ``(L, F)``, ``(F,)``, and the number of independent
+        frequencies in the longest log.
     """
     from scipy.ndimage import median_filter
 
@@ -897,16 +912,15 @@ def _line_spectrum(residuals, stride: int, ts: float):
     n = 1 << int(math.ceil(math.log2(LINE_PADDING * max(lengths))))
     dt = stride * ts
     f = np.fft.rfftfreq(n, dt)
-    per_log, raw_all = np.empty((len(residuals), f.size)), np.empty((len(residuals), f.size))
+    per_log = np.empty((len(residuals), f.size))
     for k, ((rows, e), m) in enumerate(zip(residuals, lengths)):
         x = np.zeros(m)
         x[rows // stride] = e
         raw = np.abs(np.fft.rfft(x)) ** 2
         floor = median_filter(raw, size=min(LINE_FLOOR_BINS, raw.size), mode="nearest") / math.log(2.0)
         floor = np.interp(f, np.fft.rfftfreq(m, dt), np.maximum(floor, 1e-300))
-        raw_all[k] = np.abs(np.fft.rfft(x, n)) ** 2
-        per_log[k] = raw_all[k] / floor
-    return f, per_log, per_log.sum(axis=0), max(lengths) // 2, raw_all
+        per_log[k] = np.abs(np.fft.rfft(x, n)) ** 2 / floor
+    return f, per_log, per_log.sum(axis=0), max(lengths) // 2
 
 
 def _time_lines(prepared, orders: Orders, taps: int) -> dict:
@@ -951,21 +965,22 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
         speeds.append(float(med) if q3 - q1 <= LINE_CONSTANT_SPEED * med else None)
     out = {"hz": [], "aliases": [], "statistic": [], "evidence": [], "speeds_seen": [], "read_as_orders": [],
            "locked_to_one_speed": [], "in_the_current": [], "threshold": None, "searched": True}
-    found, extra, locked = [], np.zeros(0, int), []
+    found, extra, locked, wide = [], np.zeros(0, int), [], []
     refit = True
     for _ in range(MAX_LINE_CANDIDATES):
         if refit:
             cur = Orders(np.union1d(orders.cogging, extra), orders.ripple, orders.direction)
             lay = _Layout.of(cur, tuple(found), logs)
             beta, cost, rows = _basis_fit(prepared, lay, taps)
-            f, per_log, total, independent, raw = _line_spectrum(_residuals(prepared, lay, taps, beta), stride, ts)
-            current = _line_spectrum(_residuals(prepared, lay, taps, np.zeros_like(beta)), stride, ts)[4]
+            f, per_log, total, independent = _line_spectrum(_residuals(prepared, lay, taps, beta), stride, ts)
             out["threshold"] = float(gamma.isf(EXTRA_ORDER_ALPHA / (2.0 * max(independent, 1)), logs))
             refit = False
         # the noise floor is a running median: within half its window of the windows' Nyquist frequency it is not
         band = (f >= LINE_MIN_HZ) & (f <= f[-1] - (LINE_FLOOR_BINS // 2) * rate / (2 * independent))
-        for hz0 in locked:  # peaks already found locked to one speed: two natural bins either side
+        for hz0 in locked:  # peaks already set aside: two natural bins either side
             band &= np.abs(f - hz0) > 2.0 * LINE_PADDING * (f[1] - f[0])
+        for hz0 in wide:
+            band &= np.abs(f - hz0) > (LINE_FLOOR_BINS // 2) * LINE_PADDING * (f[1] - f[0])
         if not np.any(band):
             break
         j = int(np.flatnonzero(band)[np.argmax(total[band])])
@@ -976,7 +991,7 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
             y0, y1, y2 = np.log(total[j - 1:j + 2])
             den = y0 - 2 * y1 + y2
             if den < 0:
-                hz += 0.5 * (y0 - y2) / den * (f[1] - f[0])
+                hz = float(hz + 0.5 * (y0 - y2) / den * (f[1] - f[0]))
         seen = [k for k in range(logs) if per_log[k, j] >= LINE_LOG_SUPPORT]
         groups = []
         for k in seen:
@@ -987,14 +1002,23 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
             locked.append(hz)
             out["locked_to_one_speed"].append(hz)
             continue
-        # the residual's line against the logged current's at that frequency (median over the logs that show it)
-        share = float(np.median(np.sqrt(raw[seen, j] / np.maximum(current[seen, j], 1e-300))))
+        # the line fitted beside the maps against the logged current's own line at that frequency, per log (median
+        # over the logs that show it): a residual's periodogram would read a line the maps absorb part of in a log
+        # where the frequency falls on a basis order as smaller than it is
+        lay_line = _Layout.of(cur, tuple(found) + (hz,), logs)
+        beta_line, cost_line, _ = _basis_fit(prepared, lay_line, taps)
+        full = np.zeros(lay_line.keep.size)
+        full[lay_line.keep] = beta_line
+        cs = full[lay_line.o_t].reshape(logs, 2, len(found) + 1)[:, :, -1]
+        share = float(np.median(np.hypot(cs[seen, 0], cs[seen, 1]) / np.maximum(_current_lines(prepared, hz, taps)[seen],
+                                                                                 1e-300)))
         if share < LINE_CURRENT_SHARE:
-            locked.append(hz)
+            # the current's own line (a dither): its sidebands of the misfit too, over the noise floor's window
+            wide.append(hz)
             out["in_the_current"].append(hz)
             continue
         aliases = [hz] + [a for m in range(1, int(0.5 / ts / rate) + 2) for a in (m * rate - hz, m * rate + hz)]
-        aliases = [a for a in aliases if 0 < a <= 0.5 / ts]
+        aliases = [float(a) for a in aliases if 0 < a <= 0.5 / ts]
         # the orders that could make this line in a constant-speed log that shows it (at the line or an alias)
         support = {}
         for k in seen:
@@ -1004,7 +1028,6 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
                 h = int(round(2 * math.pi * a / speeds[k]))
                 if 1 <= h <= 2 * max(orders.highest, 1) and h not in cur.cogging:
                     support[h] = support.get(h, 0.0) + float(per_log[k, j])
-        cost_line = _basis_cost(prepared, _Layout.of(cur, tuple(found) + (hz,), logs), taps)[0]
         best_order, cost_alt, dof = None, cost, 2 * logs
         for h in sorted(support, key=support.get, reverse=True)[:MAX_LINE_ORDERS]:
             c = _basis_cost(prepared, _Layout.of(Orders(np.union1d(cur.cogging, [h]), cur.ripple, cur.direction),
@@ -1013,6 +1036,16 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
                 best_order, cost_alt, dof = h, c, 2 * logs - 2
         e = _evidence(cost_alt, cost_line, rows, taps)
         if e > float(chi2.isf(LINE_EVIDENCE_LEVEL, max(dof, 1))):
+            # the spectrum's peak is good to a few hundredths of a bin; over a log of many periods the phase needs
+            # better: the frequency whose fit leaves the least, within a natural bin of the peak
+            from scipy.optimize import minimize_scalar
+
+            step = rate / (2 * independent)
+            best = minimize_scalar(lambda x: _basis_cost(prepared, _Layout.of(cur, tuple(found) + (x,), logs), taps)[0],
+                                   bounds=(hz - step, hz + step), method="bounded",
+                                   options={"xatol": step / 100, "maxiter": LINE_REFINE_FITS})
+            if best.fun < cost_line:
+                hz = float(best.x)
             found.append(hz)
             out["hz"].append(hz)
             out["aliases"].append(aliases[1:])
@@ -1417,6 +1450,25 @@ def pll_text(estimate: dict) -> str | None:
            if estimate.get("searched") else "as given")
     return (f"the logged angle is read as a drive's PLL estimate of natural frequency {w:.0f} rad/s and damping "
             f"{estimate['damping']:.3g}, and its lag taken out ({how}; log the encoder's count if the drive has it)")
+
+
+def lines_text(lines: dict) -> str | None:
+    """One sentence on the time-periodic disturbances (``info["time_lines"]`` of :func:`identify`), or ``None`` when
+    none was searched or given."""
+    if not lines or not (lines.get("searched") or lines.get("hz")):
+        return None
+    hz = lines.get("hz") or []
+    if not hz:
+        return "no time-periodic disturbance in the logs (no line at one frequency in the logs of two speeds)"
+    amps = lines.get("amplitude_A") or [float("nan")] * len(hz)
+    aliases = lines.get("aliases") or [[] for _ in hz]
+    each = []
+    for f, a, al in zip(hz, amps, aliases):
+        also = f" or its alias {', '.join(f'{x:.1f}' for x in al[:2])} Hz" if al else ""
+        each.append(f"{f:.2f} Hz{also} ({a:.3g} A)")
+    how = "found in the logs of different speeds" if lines.get("searched") else "as given"
+    return (f"a time-periodic disturbance at {'; '.join(each)} in the q-current's units, {how}, is fitted beside the "
+            "maps, its own phase in each log (a current sensor's pickup, a fan or a pump on the rig, a resonance)")
 
 
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,

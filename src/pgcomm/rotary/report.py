@@ -12,7 +12,7 @@ import html
 from pathlib import Path
 
 from pgcomm.report import CSS, figure_html
-from pgcomm.rotary.identify import delay_text, pll_text, resolution_verdict
+from pgcomm.rotary.identify import delay_text, lines_text, pll_text, resolution_verdict
 
 __all__ = ["write_rotary_report", "ROW_DESCRIPTIONS", "share_text"]
 
@@ -65,7 +65,8 @@ def _identification_html(r: dict) -> str:
              f"{_g(ident.get('ridge'))} ({html.escape(str(ident.get('ridge_chosen_by', '–')))}); J/k0 "
              f"{_g(ident.get('inertia_ratio'), 4)} A·s²/rad."
              + (f" {ident['rounds']} round(s) of running logs." if "rounds" in ident else "") + "</p>"]
-    for label, text in (("Angle", pll_text(ident.get("angle_pll"))), ("Timing", delay_text(ident.get("current_delay")))):
+    for label, text in (("Angle", pll_text(ident.get("angle_pll"))), ("Timing", delay_text(ident.get("current_delay"))),
+                        ("Disturbance", lines_text(ident.get("time_lines")))):
         if text:
             parts.append(f"<p>{label}: {html.escape(text)}.</p>")
     quant = ident.get("quantisation") or {}
