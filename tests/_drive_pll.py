@@ -1,4 +1,5 @@
-"""A drive's angle estimate for the rotary tests: ODrive's encoder PLL, run at a fine rate."""
+"""What a drive's log holds beside the rotor's truth, for the rotary tests: ODrive's encoder PLL run at a fine rate,
+the logs rewritten, a current sensor's pickup."""
 
 import numpy as np
 
@@ -44,4 +45,23 @@ def rewrite_logs(paths, folder, prefix: str, rows, header: str = "t,theta,iq_1",
             f.write(header + "\n")
             np.savetxt(f, rows(read_log(path, required=("theta",)).columns), delimiter=",", fmt=fmt)
         out.append(p)
+    return out
+
+
+def with_sensor_pickup(t, refs, amplitude: float, hz: float, seed: int = 11) -> list:
+    """The running logs of ``refs`` on a drive whose current sensor picks up ``amplitude`` A at ``hz`` (a phase of its
+    own per log): the current loop regulates the measured current, so the motor gets the demand less the pickup and
+    the log shows the demand (the twin run with the pickup taken off the demand, and added back to the logged
+    current)."""
+    from pgcomm.rotary.twin import LawParams, Reference, default_gains, simulate
+
+    a = t.inertia / t.k0
+    rng = np.random.default_rng(seed)
+    out = []
+    for k, r in enumerate(refs):
+        p = amplitude * np.sin(2 * np.pi * hz * t.motor.sample_time * np.arange(r.n) + rng.uniform(0, 2 * np.pi))
+        d = (np.zeros(r.n) if r.dither is None else np.asarray(r.dither, float)) - p
+        lg = simulate(t, Reference(r.theta, r.omega, r.alpha, r.mode, d), LawParams.classical(t.motor.pole_pairs),
+                      default_gains(a), seed=k)
+        out.append(dict(lg, iq_1=lg["iq_1"] + p))
     return out

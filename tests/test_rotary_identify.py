@@ -18,7 +18,7 @@ from pgcomm.rotary.identify import Orders, identify, max_speed, resolution_verdi
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, default_gains, simulate
 from pgcomm.rotary.zoo import draw_rotary
-from _drive_pll import odrive_pll
+from _drive_pll import odrive_pll, with_sensor_pickup
 
 
 @pytest.fixture(scope="module")
@@ -626,23 +626,6 @@ def test_an_angle_logged_through_a_drive_pll_is_read_as_one(motor0):
     assert noisy.info["angle_pll"]["searched"] and noisy.info["angle_pll"]["natural_frequency_rad_s"] is None
 
 
-def _with_sensor_pickup(t, refs, amplitude: float, hz: float, seed: int = 11) -> list:
-    """The running logs of ``refs`` on a drive whose current sensor picks up ``amplitude`` A at ``hz`` (a phase of its
-    own per log): the current loop regulates the measured current, so the motor gets the demand less the pickup and
-    the log shows the demand (the twin run with the pickup taken off the demand, and added back to the logged
-    current)."""
-    a = t.inertia / t.k0
-    rng = np.random.default_rng(seed)
-    out = []
-    for k, r in enumerate(refs):
-        p = amplitude * np.sin(2 * np.pi * hz * t.motor.sample_time * np.arange(r.n) + rng.uniform(0, 2 * np.pi))
-        d = (np.zeros(r.n) if r.dither is None else np.asarray(r.dither, float)) - p
-        lg = simulate(t, Reference(r.theta, r.omega, r.alpha, r.mode, d), LawParams.classical(t.motor.pole_pairs),
-                      default_gains(a), seed=k)
-        out.append(dict(lg, iq_1=lg["iq_1"] + p))
-    return out
-
-
 def test_a_current_sensors_mains_pickup_is_found_and_fitted_beside_the_maps(motor0):
     """A 50 Hz pickup of 1 % of the current limit in the current sensor (the motor gets the demand less it, the log
     shows the demand): identify finds one line, within a tenth of the longest log's frequency resolution of 50 Hz and
@@ -653,7 +636,7 @@ def test_a_current_sensors_mains_pickup_is_found_and_fitted_beside_the_maps(moto
     t, logs = motor0
     refs = running_references(t.motor, t.inertia / t.k0, quick_settings(), Orders.for_motor(t.motor))
     amp = 0.01 * t.motor.current_limit
-    picked = _with_sensor_pickup(t, refs, amp, 50.0)
+    picked = with_sensor_pickup(t, refs, amp, 50.0)
     clean = identify(logs, t.motor)
     assert clean.info["time_lines"]["searched"] and clean.info["time_lines"]["hz"] == []
     found = identify(picked, t.motor)

@@ -284,8 +284,8 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.config import load_rotary_motor
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
     from pgcomm.io.results import write_results
-    from pgcomm.rotary.identify import Orders, apply_reading, delay_text, detect_reading, fit_mechanics, identify, \
-        lines_text, pll_text, resolution_verdict
+    from pgcomm.rotary.identify import Orders, apply_reading, delay_text, detect_reading, detect_time_lines, \
+        fit_mechanics, identify, lines_text, pll_text, resolution_verdict
 
     for opt in ("plant", "config"):
         if getattr(args, opt, None):
@@ -330,10 +330,20 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
             est, timing = detect_reading(data, replace(motor, slots=q), current_delay=current_delay,
                                          angle_pll=angle_pll)
             pll = None if est["natural_frequency_rad_s"] is None else (est["natural_frequency_rad_s"], est["damping"])
+            read = data
             if pll is not None or timing["samples"]:
                 read = [apply_reading(d, timing["samples"], pll, motor.sample_time) for d in data]
                 q, slots_detected = detect_slots(read, motor.pole_pairs, motor.sample_time)
                 slots_detected["counted_after_reading"] = True
+            # so does a time-periodic disturbance at two speeds (zoo 24N20P with a 50 Hz pickup: 120 slots for 24)
+            lines = (detect_time_lines(read, replace(motor, slots=q))["hz"] if time_lines == "detect"
+                     else list(time_lines))
+            if lines:
+                counted = "counted_after_reading" in slots_detected
+                q, slots_detected = detect_slots(read, motor.pole_pairs, motor.sample_time, time_lines=lines)
+                slots_detected["counted_with_time_lines"] = lines
+                if counted:
+                    slots_detected["counted_after_reading"] = True
             motor = replace(motor, slots=q)
             others = [x for x in slots_detected["slots_with_that_fundamental"] if x != q]
             progress.info(f"cogging fundamental {slots_detected['cogging_fundamental']} per revolution (orders seen, "

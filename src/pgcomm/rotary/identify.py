@@ -101,7 +101,8 @@ from pgcomm.rotary.motor import RotaryMotor
 __all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE",
            "RESOLVED_CONFIDENCE", "Orders", "MIN_SAMPLES_PER_PERIOD", "FILTER_TAPS", "max_speed",
            "RotaryIdentification", "delay_text", "pll_text", "pll_corrected", "detect_reading", "apply_reading",
-           "CURRENT_DELAYS", "PLL_FREQUENCIES", "lines_text"]
+           "CURRENT_DELAYS", "PLL_FREQUENCIES", "lines_text",
+           "detect_time_lines"]
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used. The kernel is
 #: exact along the path (module docstring); below ~3 the cubic between encoder samples no longer follows a
@@ -1121,6 +1122,20 @@ def detect_reading(logs, motor: RotaryMotor, orders: Orders | None = None, *, cu
     orders = orders or Orders.for_motor(motor)
     prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
     return _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll)
+
+
+def detect_time_lines(logs, motor: RotaryMotor, orders: Orders | None = None, *,
+                      min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS) -> dict:
+    """The time-periodic disturbances :func:`identify` would fit beside the maps of ``logs`` (read as they are: apply
+    :func:`apply_reading` first), without the identification: e.g. to count the slots with them fitted (a pickup at
+    two speeds spreads over orders the basis does not have).
+
+    Returns:
+        the entry :func:`identify` reports as ``info["time_lines"]`` (without the amplitudes).
+    """
+    orders = orders or Orders.for_motor(motor)
+    prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps)
+    return _time_lines(prepared, orders, taps)
 
 
 def apply_reading(log: dict, current_delay: int, angle_pll, sample_time: float) -> dict:

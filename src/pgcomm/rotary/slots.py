@@ -70,7 +70,7 @@ def _highest_order(logs, sample_time: float) -> int:
     return int(min(MAX_ORDER, math.floor(2 * math.pi / (MIN_SAMPLES_PER_PERIOD * float(np.percentile(v, 90))))))
 
 
-def detect_slots(logs, pole_pairs: int, sample_time: float) -> tuple[int, dict]:
+def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=()) -> tuple[int, dict]:
     """The slot count whose cogging orders the logs show best (module docstring).
 
     Args:
@@ -78,6 +78,9 @@ def detect_slots(logs, pole_pairs: int, sample_time: float) -> tuple[int, dict]:
             ``iq_1`` A; each ``(N_i,)``), at speed in both directions ideally.
         pole_pairs: ``p``.
         sample_time: the drive's period (s), where a log has no ``t``.
+        time_lines: frequencies (Hz) of time-periodic disturbances fitted beside the orders
+            (:func:`pgcomm.rotary.identify.detect_time_lines`): a 50 Hz pickup at two speeds spreads over orders
+            (zoo 24N20P: 120 slots counted for 24 without it).
 
     Returns:
         ``(slots, info)``: ``info`` has ``slots``, ``cogging_fundamental`` (``L``), ``slots_with_that_fundamental``
@@ -104,7 +107,7 @@ def detect_slots(logs, pole_pairs: int, sample_time: float) -> tuple[int, dict]:
     every = Orders(np.arange(1, top + 1), ripple, direction_orders(p))
     motor = RotaryMotor(pole_pairs=p, slots=None, sample_time=sample_time)
     prepared, _, _, _ = _prepare(logs, motor, every, MIN_SAMPLES_PER_PERIOD, FILTER_TAPS)
-    layout = _Layout.of(every)
+    layout = _Layout.of(every, tuple(time_lines), len(prepared))
     screen = _significant_extra_orders(_fit(prepared, layout, FILTER_TAPS, None, DETECTION_BLOCK_SECONDS), layout,
                                        Orders(np.zeros(0, int), ripple, every.direction), EXTRA_ORDER_ALPHA)
     orders, t2, thr = screen["statistic"]["cogging"]
