@@ -192,11 +192,11 @@ def test_a_mains_pickup_in_the_logged_current_is_found_said_and_fitted(tmp_path,
     capsys.readouterr()
     out = tmp_path / "b"
     assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, hum), "--out", str(out)]) == 0
-    assert re.search(r"a time-periodic disturbance at 50\.0\d Hz", capsys.readouterr().err)
+    assert re.search(r"a time-periodic disturbance, 0\.\d+ A of q-current at 50\.0\d Hz", capsys.readouterr().err)
     lines = json.loads((out / "results.json").read_text())["identification"]["time_lines"]
     assert len(lines["hz"]) == 1 and lines["hz"][0] == pytest.approx(50.0, abs=0.05)
     assert lines["amplitude_A"][0] == pytest.approx(amp, rel=0.1)
-    assert "time-periodic disturbance at 50.0" in (out / "report.html").read_text()
+    assert "A of q-current at 50.0" in (out / "report.html").read_text()
     se = json.loads((a / "results.json").read_text())["identification"]["standard_error"]["cogging"]["rms_error"]
     rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
     ta = read_angle_table(a / "compensation.csv").iq

@@ -1479,11 +1479,11 @@ def lines_text(lines: dict) -> str | None:
     aliases = lines.get("aliases") or [[] for _ in hz]
     each = []
     for f, a, al in zip(hz, amps, aliases):
-        also = f" or its alias {', '.join(f'{x:.1f}' for x in al[:2])} Hz" if al else ""
-        each.append(f"{f:.2f} Hz{also} ({a:.3g} A)")
+        also = f" (or its alias at {' or '.join(f'{x:.1f}' for x in al[:2])} Hz)" if al else ""
+        each.append(f"{a:.3g} A of q-current at {f:.2f} Hz{also}")
     how = "found in the logs of different speeds" if lines.get("searched") else "as given"
-    return (f"a time-periodic disturbance at {'; '.join(each)} in the q-current's units, {how}, is fitted beside the "
-            "maps, its own phase in each log (a current sensor's pickup, a fan or a pump on the rig, a resonance)")
+    return (f"a time-periodic disturbance, {'; '.join(each)}, {how}; fitted beside the maps with its own phase in "
+            "each log (a current sensor's pickup, a fan or a pump on the rig, a resonance)")
 
 
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,

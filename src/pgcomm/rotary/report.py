@@ -66,7 +66,7 @@ def _identification_html(r: dict) -> str:
              f"{_g(ident.get('inertia_ratio'), 4)} A·s²/rad."
              + (f" {ident['rounds']} round(s) of running logs." if "rounds" in ident else "") + "</p>"]
     for label, text in (("Angle", pll_text(ident.get("angle_pll"))), ("Timing", delay_text(ident.get("current_delay"))),
-                        ("Disturbance", lines_text(ident.get("time_lines")))):
+                        ("Rig", lines_text(ident.get("time_lines")))):
         if text:
             parts.append(f"<p>{label}: {html.escape(text)}.</p>")
     quant = ident.get("quantisation") or {}
