@@ -143,10 +143,11 @@ LINE_MIN_HZ = 2.0
 #: many bins of each log's own periodogram
 LINE_PADDING = 4
 LINE_FLOOR_BINS = 65
-#: ... a log counts as at constant speed (a line there could be an order of the revolution) when its speed's
-#: interquartile range is within this share of its median, and as showing a line when its normalised periodogram there exceeds this
-LINE_CONSTANT_SPEED = 0.1
+#: ... a log counts as at constant speed (a line there could be an order of the revolution) when the interquartile
+#: range of its mean speeds over stretches of this many seconds is within this share of their median
 LINE_SPEED_SECONDS = 0.25
+LINE_CONSTANT_SPEED = 0.1
+#: ... and as showing a line where its normalised periodogram exceeds this (chance e⁻⁶ for noise alone)
 LINE_LOG_SUPPORT = 6.0
 #: ... a line is a disturbance only where its amplitude fitted beside the maps is at least this share of the logged
 #: current's own line at that frequency (median over the logs that show it). A torque disturbance ``d`` (or a current
@@ -425,9 +426,11 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
             a_c, b_c = _interval_weights(path, orders.cogging)
             a_d, b_d = _interval_weights(path, orders.direction)
             iq_i, sg_i = iq[:n_int, None], sgn[:n_int, None]
-            phase = np.arange(lo, hi)[:, None] * p.ts * freqs
-            out = {"line": _filt(np.concatenate([np.cos(phase), np.sin(phase)], axis=1), loc, g_zoh)} if lines else {}
-            yield {**out, "row": st, "log": np.full(st.size, pos),"y": _filt(iq, loc, g_zoh), "acc": _filt(d2, loc, g) / p.ts**2,
+            out = {"row": st, "log": np.full(st.size, pos)}
+            if lines:
+                phase = np.arange(lo, hi)[:, None] * p.ts * freqs
+                out["line"] = _filt(np.concatenate([np.cos(phase), np.sin(phase)], axis=1), loc, g_zoh)
+            yield {**out, "y": _filt(iq, loc, g_zoh), "acc": _filt(d2, loc, g) / p.ts**2,
                    "rip": _filt(iq_i * a_r, loc, g) + _filt(iq_i * b_r, loc + 1, g),
                    "cog": _filt(a_c, loc, g) + _filt(b_c, loc + 1, g),
                    "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
@@ -945,7 +948,8 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
 
     Returns:
         ``{"hz": [...], "aliases": [[...]], "statistic": [...], "threshold": float, "evidence": [...],
-        "speeds_seen": [...], "read_as_orders": [...], "locked_to_one_speed": [Hz...], "searched": True}``.
+        "speeds_seen": [...], "read_as_orders": [{"hz", "order"}...], "locked_to_one_speed": [Hz...],
+        "in_the_current": [Hz...], "searched": True}``: the lines taken, and the peaks set aside.
     """
     from scipy.stats import chi2, gamma
 
@@ -1011,8 +1015,8 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
         full = np.zeros(lay_line.keep.size)
         full[lay_line.keep] = beta_line
         cs = full[lay_line.o_t].reshape(logs, 2, len(found) + 1)[:, :, -1]
-        share = float(np.median(np.hypot(cs[seen, 0], cs[seen, 1]) / np.maximum(_current_lines(prepared, hz, taps)[seen],
-                                                                                 1e-300)))
+        in_current = np.maximum(_current_lines(prepared, hz, taps)[seen], 1e-300)
+        share = float(np.median(np.hypot(cs[seen, 0], cs[seen, 1]) / in_current))
         if share < LINE_CURRENT_SHARE:
             # the current's own line (a dither): its sidebands of the misfit too, over the noise floor's window
             wide.append(hz)
