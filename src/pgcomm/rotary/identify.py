@@ -907,8 +907,9 @@ def _line_spectrum(residuals, stride: int, ts: float):
     the median of an exponential), so a noise-only bin is exponential with mean 1 whatever the filter's shape.
 
     Returns:
-        ``(f, per_log, total, independent)``: ``(F,)`` Hz, ``(L, F)``, ``(F,)``, and the number of independent
-        frequencies in the longest log.
+        ``(f, per_log, total, independent, edge)``: ``(F,)`` Hz, ``(L, F)``, ``(F,)``, the number of independent
+        frequencies in the longest log, and the highest frequency (Hz) at which every log's noise floor has its whole
+        window (half of it short of the Nyquist frequency of the shortest log's bins).
     """
     from scipy.ndimage import median_filter
 
@@ -924,7 +925,8 @@ def _line_spectrum(residuals, stride: int, ts: float):
         floor = median_filter(raw, size=min(LINE_FLOOR_BINS, raw.size), mode="nearest") / math.log(2.0)
         floor = np.interp(f, np.fft.rfftfreq(m, dt), np.maximum(floor, 1e-300))
         per_log[k] = np.abs(np.fft.rfft(x, n)) ** 2 / floor
-    return f, per_log, per_log.sum(axis=0), max(lengths) // 2
+    edge = f[-1] - (LINE_FLOOR_BINS // 2) / (min(lengths) * dt)
+    return f, per_log, per_log.sum(axis=0), max(lengths) // 2, edge
 
 
 def _time_lines(prepared, orders: Orders, taps: int) -> dict:
@@ -977,11 +979,13 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
             cur = Orders(np.union1d(orders.cogging, extra), orders.ripple, orders.direction)
             lay = _Layout.of(cur, tuple(found), logs)
             beta, cost, rows = _basis_fit(prepared, lay, taps)
-            f, per_log, total, independent = _line_spectrum(_residuals(prepared, lay, taps, beta), stride, ts)
+            f, per_log, total, independent, edge = _line_spectrum(_residuals(prepared, lay, taps, beta), stride, ts)
             out["threshold"] = float(gamma.isf(EXTRA_ORDER_ALPHA / (2.0 * max(independent, 1)), logs))
             refit = False
-        # the noise floor is a running median: within half its window of the windows' Nyquist frequency it is not
-        band = (f >= LINE_MIN_HZ) & (f <= f[-1] - (LINE_FLOOR_BINS // 2) * rate / (2 * independent))
+        # the noise floor is a running median: within half its window of the windows' Nyquist frequency it is not (a
+        # sweep's long log beside 34 s of constant speeds: 166.3 Hz of 166.7 taken as a line, read as two orders, and
+        # identify 2.2x slower)
+        band = (f >= LINE_MIN_HZ) & (f <= edge)
         for hz0 in locked:  # peaks already set aside: two natural bins either side
             band &= np.abs(f - hz0) > 2.0 * LINE_PADDING * (f[1] - f[0])
         for hz0 in wide:
