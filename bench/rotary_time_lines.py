@@ -18,6 +18,9 @@ Each is identified with the lines detected (``time_lines="detect"``, the default
 cogging and ripple errors against the twin's truth (RMS over the revolution, relative to the truth's RMS), ``J/k0``'s
 error, the lines found (Hz, amplitude over the disturbance's), and, on the clean logs, the median time of each over
 ``--repeat`` alternating runs in this process and their ratio (what the search costs when there is nothing to find).
+With ``--tracking``, each model's law in closed loop on the (undisturbed) twin, as tracking MSE over the drives'
+standstill table's (3600-point sweep; position and speed loop, :func:`pgcomm.rotary.experiment.closed_loop`), beside
+the oracle's: what a disturbance in the identification's logs costs the user, and what the search gives back.
 """
 
 from __future__ import annotations
@@ -57,12 +60,16 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--motors", default="0,1,2,3,4,5,6,7", help="zoo indices, comma-separated")
     ap.add_argument("--repeat", type=int, default=3, help="alternating timed runs on the clean logs")
+    ap.add_argument("--tracking", action="store_true", help="each model's law in closed loop against the table")
     args = ap.parse_args(argv)
     import numpy as np
 
-    from pgcomm.rotary.experiment import RotarySettings, identification_errors, running_references
-    from pgcomm.rotary.identify import Orders, identify
+    from pgcomm.rotary.experiment import RotarySettings, closed_loop, identification_errors, running_references
+    from pgcomm.rotary.identify import Orders, fit_mechanics, identify
+    from pgcomm.rotary.standstill import run_standstill
+    from pgcomm.rotary.twin import LawParams, default_gains
     from pgcomm.rotary.zoo import draw_rotary
+    from pgcomm.seeds import stream_seed
 
     ratios = []
     for idx in (int(x) for x in args.motors.split(",")):
@@ -72,10 +79,12 @@ def main(argv=None) -> int:
         refs = running_references(m, truth.inertia / truth.k0, RotarySettings(), orders)
         amp = 0.01 * m.current_limit
         print(f"zoo seed {args.seed} motor {idx} {m.name}: disturbances of {amp:.3g} A", flush=True)
+        laws = {}
         for case, (a, hz) in (("clean", (0.0, 50.0)), ("pickup 50 Hz", (amp, 50.0)), ("torque 23.7 Hz", (amp, 23.7))):
             logs = _logs(truth, refs, args.seed, a, hz)
             for label, lines in (("detect", "detect"), ("none", ())):
                 res = identify(logs, m, orders, time_lines=lines)
+                laws[f"{case}, {label}"] = LawParams(res.model, None, res.model.inertia_ratio, res.model.viscous, 0.0)
                 e = identification_errors(res.model, truth)
                 info = res.info["time_lines"]
                 found = ", ".join(f"{f:.3f} Hz ({x / amp:.3f}x)" if a else f"{f:.3f} Hz ({x:.3g} A)"
@@ -83,6 +92,15 @@ def main(argv=None) -> int:
                 print(f"  {case:15s} {label:6s} cogging {100 * e['cogging_rel']:6.2f} %  ripple "
                       f"{100 * e['ripple_rel']:7.2f} %  J/k0 {100 * e['inertia_ratio_rel']:5.2f} %  lines: "
                       f"{found or '-'}", flush=True)
+            if a == 0.0 and args.tracking:
+                gains = default_gains(truth.inertia / truth.k0)
+                sweep = run_standstill(truth, gains, RotarySettings().standstill,
+                                       seed=stream_seed(args.seed, "rotary standstill sweep"))
+                mech = fit_mechanics(logs, m, orders)
+                classical = LawParams.classical(m.pole_pairs)
+                laws["standstill_table"] = LawParams(classical.model, sweep.table, mech["inertia_ratio"],
+                                                     mech["viscous"], mech["coulomb"])
+                laws["oracle"] = LawParams(truth.model(), None, truth.inertia / truth.k0, truth.viscous / truth.k0, 0.0)
             if a == 0.0:
                 times = {"detect": [], "none": []}
                 for _ in range(args.repeat):
@@ -94,6 +112,16 @@ def main(argv=None) -> int:
                 ratios.append(td / tn)
                 print(f"  identify on the clean logs: {td:.2f} s with the search, {tn:.2f} s without "
                       f"(median of {args.repeat}; ratio {td / tn:.2f})", flush=True)
+        if args.tracking:
+            laws.pop("clean, none")  # the same model as "clean, detect" where nothing is found
+            tracking, _ = closed_loop(truth, laws, default_gains(truth.inertia / truth.k0), RotarySettings(),
+                                      args.seed)
+            table = tracking["standstill_table"]
+            for row, mse in tracking.items():
+                if row != "standstill_table":
+                    print(f"  tracking {row:24s} over the standstill table: position "
+                          f"{mse['position'] / table['position']:.3f}, speed {mse['speed'] / table['speed']:.3f}",
+                          flush=True)
     print(f"search cost on clean logs: ratio {min(ratios):.2f}-{max(ratios):.2f} (median {np.median(ratios):.2f})")
     return 0
 
