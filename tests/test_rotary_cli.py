@@ -2,7 +2,7 @@
 
 The logs are the rotary zoo's running logs (``pgcomm zoo --kind rotary --logs``: what a drive records,
 ``t, theta, velocity, iq_1, id_1``). Zoo motor 1 (9N6P) has the lowest cogging orders, so its logs are
-short (11 s). Tolerances: the cogging within the issue's 5 % of the truth's RMS; the real drive's
+short (5 s). Tolerances: the cogging within the issue's 5 % of the truth's RMS; the real drive's
 log shape (its own column names, the angle in revolutions and wrapped, velocity in rpm, vq and vbus
 beside) gives the same model as the canonical columns to within what the unit conversions round
 (the CSV's 12 significant digits, relative 1e-9 of the table's scale).
