@@ -652,3 +652,23 @@ def test_a_current_sensors_mains_pickup_is_found_and_fitted_beside_the_maps(moto
     blind = identify(picked, t.motor, time_lines=())
     assert blind.info["time_lines"] == {"hz": [], "searched": False}
     assert rms(blind.model.cogging(th) - clean.model.cogging(th)) > 5 * se["cogging"]["rms_error"]
+
+
+def test_a_line_in_the_logged_current_leaves_the_feedforward_as_without_it(motor0):
+    """``fit_mechanics`` is linear in the logged current, which is not in its columns, and a line's columns are in
+    them: a 50 Hz line added to the logged current of each log (its own phase) leaves the feedforward as on the logs
+    without it, both fitted with the line, to float rounding (relative 1e-7 of each figure's scale); fitted without
+    it, the Coulomb term moves by ten thousand times that (0.9 % here). (``identify``'s ripple columns hold the logged
+    current, ``r(θ) i_q``, so there the line's ripple sidebands stay: the maps are checked against the clean logs'
+    with a physical pickup above.)"""
+    from pgcomm.rotary.identify import fit_mechanics
+
+    t, logs = motor0
+    rng = np.random.default_rng(3)
+    amp = 0.01 * t.motor.current_limit
+    hum = [dict(lg, iq_1=lg["iq_1"] + amp * np.sin(2 * np.pi * 50.0 * lg["t"] + rng.uniform(0, 2 * np.pi)))
+           for lg in logs]
+    a, b = fit_mechanics(logs, t.motor, time_lines=(50.0,)), fit_mechanics(hum, t.motor, time_lines=(50.0,))
+    for k in a:
+        assert b[k] == pytest.approx(a[k], rel=1e-7, abs=1e-7 * abs(a["coulomb"]))
+    assert abs(fit_mechanics(hum, t.motor)["coulomb"] - a["coulomb"]) > 1e-3 * abs(a["coulomb"])

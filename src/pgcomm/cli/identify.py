@@ -360,7 +360,8 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         pll = (None if estimate.get("natural_frequency_rad_s") is None
                else (estimate["natural_frequency_rad_s"], estimate["damping"]))
         mech = None if torque_sensor else fit_mechanics(data, motor, orders, current_delay=timing.get("samples", 0),
-                                                       angle_pll=pll)
+                                                       angle_pll=pll,
+                                                       time_lines=(res.info.get("time_lines") or {}).get("hz", ()))
         for text in (pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines"))):
             if text:
                 progress.info(text)

@@ -362,7 +362,7 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         ident.info["first_round_standard_error"] = first
         ident.info["log_budget_s"] = budget
         ident.info["current_delay"] = {**first_timing, "samples": delay}
-        mech = fit_mechanics(logs, motor, orders, current_delay=delay)
+        mech = fit_mechanics(logs, motor, orders, current_delay=delay, time_lines=ident.info["time_lines"]["hz"])
         errs = identification_errors(ident.model, truth)
         progress.info(f"cogging error {100 * errs['cogging_rel']:.1f} %, ripple error {100 * errs['ripple_rel']:.1f} "
                       f"% of the truth's RMS; ridge {ident.info['ridge']:.0e}")
