@@ -672,3 +672,29 @@ def test_a_line_in_the_logged_current_leaves_the_feedforward_as_without_it(motor
     for k in a:
         assert b[k] == pytest.approx(a[k], rel=1e-7, abs=1e-7 * abs(a["coulomb"]))
     assert abs(fit_mechanics(hum, t.motor)["coulomb"] - a["coulomb"]) > 1e-3 * abs(a["coulomb"])
+
+
+def test_the_currents_own_line_is_read_beside_its_strong_neighbours(motor0, monkeypatch):
+    """The logged current's line at a candidate's frequency (the share test's denominator) is fitted jointly with the
+    current's strong lines nearby: a current of a 0.1 A line at 100 Hz and a 1 A line three natural bins of the
+    shortest log above it (a dither), with white noise of 1 mA, reads 0.1 A in every log to within the noise's share
+    (1 mA over the windows' count, times a margin of 5, plus a hundredth for the neighbour's frequency, estimated on
+    the periodogram's parabola); fitted alone, the neighbour leaks in and at least one log reads it off by more than
+    a fifth (what made pickups beside a dither look like the current's own)."""
+    from pgcomm.rotary import identify as ri
+
+    t, logs = motor0
+    orders = Orders.for_motor(t.motor)
+    rng = np.random.default_rng(5)
+    shortest = min(lg["t"][-1] - lg["t"][0] for lg in logs)
+    neighbour = 100.0 + 3.0 / shortest
+    fake = [dict(lg, iq_1=0.1 * np.sin(2 * np.pi * 100.0 * lg["t"] + rng.uniform(0, 2 * np.pi))
+                 + 1.0 * np.sin(2 * np.pi * neighbour * lg["t"] + rng.uniform(0, 2 * np.pi))
+                 + 1e-3 * rng.standard_normal(lg["t"].size)) for lg in logs]
+    prepared, _, _, _ = ri._prepare(fake, t.motor, orders, ri.MIN_SAMPLES_PER_PERIOD, ri.FILTER_TAPS)
+    windows = min(p.starts.size for p in prepared)
+    joint = ri._current_lines(prepared, 100.0, ri.FILTER_TAPS)
+    assert np.all(np.abs(joint - 0.1) <= 5 * 1e-3 / np.sqrt(windows) + 0.01 * 0.1), joint
+    monkeypatch.setattr(ri, "MAX_CURRENT_NEIGHBOURS", 0)
+    alone = ri._current_lines(prepared, 100.0, ri.FILTER_TAPS)
+    assert np.max(np.abs(alone - 0.1)) > 0.2 * 0.1, alone
