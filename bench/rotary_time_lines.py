@@ -65,7 +65,8 @@ def main(argv=None) -> int:
     import numpy as np
 
     from pgcomm.rotary.experiment import RotarySettings, closed_loop, identification_errors, running_references
-    from pgcomm.rotary.identify import Orders, fit_mechanics, identify
+    from pgcomm.rotary.identify import fit_mechanics, identify
+    from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.standstill import run_standstill
     from pgcomm.rotary.twin import LawParams, default_gains
     from pgcomm.rotary.zoo import draw_rotary

@@ -14,7 +14,8 @@ import pytest
 
 from pgcomm.errors import ExcitationError
 from pgcomm.rotary.experiment import identification_errors, quick_settings, running_references
-from pgcomm.rotary.identify import Orders, identify, max_speed, resolution_verdict
+from pgcomm.rotary.identify import identify, resolution_verdict
+from pgcomm.rotary.regression import Orders, max_speed
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, default_gains, simulate
 from pgcomm.rotary.zoo import draw_rotary
@@ -74,7 +75,7 @@ def test_a_current_shifted_against_the_angle_is_found(motor0, delay):
     sample ``j``): the fit detects the delay and returns the model of the logs as written within a tenth of its
     standard errors (the repeated edge samples are the only difference); fitted as logged, the cogging is off by
     more than 3 standard errors. The twin's own logs are in time."""
-    from pgcomm.rotary.identify import CURRENT_DELAYS, delay_text
+    from pgcomm.rotary.readings import CURRENT_DELAYS, delay_text
 
     t, logs = motor0
     plain = identify(logs, t.motor)
@@ -193,7 +194,7 @@ def test_chunked_rows_and_normal_equations_match_a_dense_ridge_solve(motor0):
     """Second formulation: rows built in chunks of any size are the same rows, and the ridge solution from
     the accumulated normal equations is the one a QR solve of the stacked rows (augmented by the ridge) gives
     (without the encoder's quantisation correction, which tests/test_rotary_quantisation.py checks)."""
-    from pgcomm.rotary import identify as ri
+    from pgcomm.rotary import regression as ri
 
     t, logs = motor0
     orders = Orders.for_motor(t.motor)
@@ -226,7 +227,8 @@ def test_ridge_bias_is_the_shift_of_a_refit_on_the_fitted_currents(motor0):
     """Second formulation of the ridge's bias ``(A⁻¹N − I) β̂``: the ridge solution (a dense QR solve of the rows
     augmented by the ridge) of currents that are exactly ``X β̂`` lands at ``β̂ + bias``. A strong ridge leaves a
     map that only its noise part would call resolved unresolved; a negligible one adds no bias."""
-    from pgcomm.rotary import identify as ri
+    from pgcomm.rotary import regression as ri
+    from pgcomm.rotary.identify import RESOLVED_SHARE
 
     t, logs = motor0
     orders = Orders.for_motor(t.motor)
@@ -251,7 +253,7 @@ def test_ridge_bias_is_the_shift_of_a_refit_on_the_fitted_currents(motor0):
     weak = identify(logs, t.motor, ridge=1e-10).info["standard_error"]
     for name in ("cogging", "ripple"):
         assert weak[name]["ridge_bias"] < 1e-6
-        assert strong[name]["ridge_bias"] > ri.RESOLVED_SHARE and not strong[name]["resolved"]
+        assert strong[name]["ridge_bias"] > RESOLVED_SHARE and not strong[name]["resolved"]
 
 
 def _strip_outside(t):
@@ -327,7 +329,7 @@ def test_map_error_quantile_against_monte_carlo():
     """The RMS error a map stays below with a given probability (Satterthwaite on the map's error covariance)
     against the empirical quantile of 200 000 draws: exact when the weights are equal (within the draws' own
     spread), close when they differ by two orders of magnitude."""
-    from pgcomm.rotary import identify as ri
+    from pgcomm.rotary import regression as ri
     from pgcomm.rotary.model import harmonic_columns
 
     rng = np.random.default_rng(7)
@@ -399,7 +401,7 @@ def test_interval_weights_are_the_path_integrals():
     against a 20 000-point midpoint rule. Tolerance: the four-point Gauss–Legendre remainder on [0, 1],
     ``(4!)⁴ / (9 (8!)³) · max|f⁽⁸⁾|`` with ``f = x cos(a + c x)``, ``|f⁽⁸⁾| ≤ c⁸ + 8 c⁷`` (``c`` the largest
     phase turned in an interval), for columns of scale 1; the midpoint rule adds ``c² / (24 · 20000²)``."""
-    from pgcomm.rotary.identify import _extended, _interval_weights, _path_angles
+    from pgcomm.rotary.regression import _extended, _interval_weights, _path_angles
 
     ts, n = 1e-3, 40
     orders = np.array([1, 7, 30, 120])
@@ -553,7 +555,7 @@ def test_pll_correction_inverts_a_drive_pll():
     the log's first and last 50 ms (the correction's odd extension). A straight line is left as it is. ODrive's
     discrete PLL (16 kHz here) is the closed form's within its ``k_p dt`` (the velocity's feed-forward is scaled by
     ``1 - k_p dt``), so that, too, the correction takes out to within that share."""
-    from pgcomm.rotary.identify import pll_corrected
+    from pgcomm.rotary.readings import pll_corrected
 
     ts, bw = 1e-3, 1000.0
     kp, ki = 2 * bw, bw**2
@@ -585,7 +587,7 @@ def test_an_angle_logged_through_a_drive_pll_is_read_as_one(motor0):
     lattice), and an angle off the lattice without a PLL (noise of 0.4 counts) is read as logged."""
     from scipy.interpolate import CubicSpline
 
-    from pgcomm.rotary.identify import pll_text
+    from pgcomm.rotary.readings import pll_text
 
     t, logs = motor0
     ts, every = t.motor.sample_time, 16
@@ -604,7 +606,7 @@ def test_an_angle_logged_through_a_drive_pll_is_read_as_one(motor0):
     assert e_found <= min(e_logged / 3, 0.05)
     # what the reading may leave counts in the verdict: 0.4 of the maps' move from the angle as logged, against the
     # same move between two identifications with the same orders, ridge and current delay (only the angle differs)
-    from pgcomm.rotary.identify import PLL_UNCERTAINTY
+    from pgcomm.rotary.readings import PLL_UNCERTAINTY
 
     th = 2 * np.pi * np.arange(4096) / 4096
     rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
@@ -681,7 +683,8 @@ def test_the_currents_own_line_is_read_beside_its_strong_neighbours(motor0, monk
     (1 mA over the windows' count, times a margin of 5, plus a hundredth for the neighbour's frequency, estimated on
     the periodogram's parabola); fitted alone, the neighbour leaks in and at least one log reads it off by more than
     a fifth (what made pickups beside a dither look like the current's own)."""
-    from pgcomm.rotary import identify as ri
+    from pgcomm.rotary import regression as ri
+    from pgcomm.rotary import time_lines as tl
 
     t, logs = motor0
     orders = Orders.for_motor(t.motor)
@@ -693,8 +696,8 @@ def test_the_currents_own_line_is_read_beside_its_strong_neighbours(motor0, monk
                  + 1e-3 * rng.standard_normal(lg["t"].size)) for lg in logs]
     prepared, _, _, _ = ri._prepare(fake, t.motor, orders, ri.MIN_SAMPLES_PER_PERIOD, ri.FILTER_TAPS)
     windows = min(p.starts.size for p in prepared)
-    joint = ri._current_lines(prepared, 100.0, ri.FILTER_TAPS)
+    joint = tl._current_lines(prepared, 100.0, ri.FILTER_TAPS)
     assert np.all(np.abs(joint - 0.1) <= 5 * 1e-3 / np.sqrt(windows) + 0.01 * 0.1), joint
-    monkeypatch.setattr(ri, "MAX_CURRENT_NEIGHBOURS", 0)
-    alone = ri._current_lines(prepared, 100.0, ri.FILTER_TAPS)
+    monkeypatch.setattr(tl, "MAX_CURRENT_NEIGHBOURS", 0)
+    alone = tl._current_lines(prepared, 100.0, ri.FILTER_TAPS)
     assert np.max(np.abs(alone - 0.1)) > 0.2 * 0.1, alone

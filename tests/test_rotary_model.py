@@ -130,7 +130,7 @@ def test_twin_evaluates_the_law_at_the_middle_of_the_hold():
     """The oracle (the truth inverted) in the speed loop: read at the middle of the held sample, it leaves far
     less speed ripple than read at the sampled angle (the half-sample lag is what the advance removes)."""
     from pgcomm.rotary.experiment import quick_settings, tracking_references
-    from pgcomm.rotary.identify import Orders
+    from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
     from pgcomm.rotary.zoo import draw_rotary
 

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from pgcomm.rotary import identify as ri
+from pgcomm.rotary import regression as rr
 from pgcomm.rotary.quantisation import acceleration_noise, angle_noise, encoder_step
 
 
@@ -66,7 +67,7 @@ def test_a_smooth_angle_is_not_on_a_lattice():
 def test_acceleration_noise_against_a_monte_carlo_of_rounded_paths():
     """Second formulation: the mean square of the filtered second difference of ``θ_logged − θ`` over many
     windows of rounded paths, against ``q²/12 Σ k² / T_s⁴``."""
-    ts, taps = 1e-3, ri._hann(ri.FILTER_TAPS)
+    ts, taps = 1e-3, rr._hann(rr.FILTER_TAPS)
     k = np.convolve(taps, [1.0, -2.0, 1.0])
     for counts in (2**14, 2**17):
         q = 2 * math.pi / counts
@@ -121,22 +122,22 @@ def test_the_corrected_fit_is_the_dense_solve_of_the_corrected_normal_equations(
 
     t = dataclasses.replace(draw_rotary(0, 0), encoder_counts=2**14)
     a = t.inertia / t.k0
-    orders = ri.Orders.for_motor(t.motor)
+    orders = rr.Orders.for_motor(t.motor)
     refs = running_references(t.motor, a, quick_settings(), orders)
     logs = [simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=k)
             for k, r in enumerate(refs)]
-    prepared, _, _, _ = ri._prepare(logs, t.motor, orders, ri.MIN_SAMPLES_PER_PERIOD, ri.FILTER_TAPS)
+    prepared, _, _, _ = rr._prepare(logs, t.motor, orders, rr.MIN_SAMPLES_PER_PERIOD, rr.FILTER_TAPS)
     q = 2 * math.pi / 2**14
     assert all(p.step == pytest.approx(q, rel=1e-9) for p in prepared)
-    rows = {k: np.concatenate([c[k] for c in ri._chunks(prepared, orders, ri.FILTER_TAPS)]) for k in ("y", "acc", "rip",
+    rows = {k: np.concatenate([c[k] for c in rr._chunks(prepared, orders, rr.FILTER_TAPS)]) for k in ("y", "acc", "rip",
                                                                                                    "cog", "dir", "visc")}
-    lay = ri._Layout.of(orders)
+    lay = rr._Layout.of(orders)
     X, y = lay.rows(rows), rows["y"]
     lam_rel = 1e-6
-    fit = ri._fit(prepared, lay, ri.FILTER_TAPS, ridge=lam_rel)
+    fit = rr._fit(prepared, lay, rr.FILTER_TAPS, ridge=lam_rel)
     G = X.T @ X
     assert all(angle_noise(lg["theta"], q) == pytest.approx(q * q / 12, rel=1e-9) for lg in logs)  # exactly on it
-    w = acceleration_noise(q * q / 12, ri._hann(ri.FILTER_TAPS), t.motor.sample_time)
+    w = acceleration_noise(q * q / 12, rr._hann(rr.FILTER_TAPS), t.motor.sample_time)
     # the share: the noise over what the other columns leave of the acceleration (a QR solve of the rows)
     rest = X[:, 0] - X[:, 1:] @ np.linalg.lstsq(X[:, 1:], X[:, 0], rcond=None)[0]
     share = y.size * w / float(rest @ rest)

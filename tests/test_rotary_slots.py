@@ -16,7 +16,7 @@ import pytest
 
 from pgcomm.errors import ExcitationError
 from pgcomm.rotary.experiment import quick_settings, running_log, running_references
-from pgcomm.rotary.identify import Orders
+from pgcomm.rotary.regression import Orders
 from pgcomm.rotary.model import Fourier
 from pgcomm.rotary.slots import detect_slots
 from pgcomm.rotary.twin import LawParams, default_gains

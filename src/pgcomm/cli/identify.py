@@ -284,8 +284,10 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.config import load_rotary_motor
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
     from pgcomm.io.results import write_results
-    from pgcomm.rotary.identify import Orders, apply_reading, delay_text, detect_reading, detect_time_lines, \
-        fit_mechanics, identify, lines_text, pll_text, resolution_verdict
+    from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
+    from pgcomm.rotary.readings import apply_reading, delay_text, detect_reading, pll_text
+    from pgcomm.rotary.regression import Orders
+    from pgcomm.rotary.time_lines import detect_time_lines, lines_text
 
     for opt in ("plant", "config"):
         if getattr(args, opt, None):

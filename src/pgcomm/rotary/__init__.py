@@ -10,7 +10,9 @@ sensor. This subpackage mirrors the linear pipeline for them:
   from the slot/pole combination) and :class:`RotaryModel` (with ``table(n)`` for exports);
 * :mod:`pgcomm.rotary.twin`: the rotary PMSM twin on a FOC drive in closed loop (``lax.scan``);
 * :mod:`pgcomm.rotary.zoo`: random plausible motors (slot/pole combinations, tolerances);
-* :mod:`pgcomm.rotary.identify`: least squares from running logs, with or without torque sensor;
+* :mod:`pgcomm.rotary.identify`: least squares from running logs, with or without torque sensor, with standard
+  errors; its regression in :mod:`pgcomm.rotary.regression`, the logs' readings (the current's timing, a PLL's
+  angle) in :mod:`pgcomm.rotary.readings`, time-periodic disturbances in :mod:`pgcomm.rotary.time_lines`;
 * :mod:`pgcomm.rotary.slots`: the slot count from running logs, when the motor description lacks it;
 * :mod:`pgcomm.rotary.standstill`: the drives' method (hold at N angles both ways, average ``i_q``);
 * :mod:`pgcomm.rotary.law`: the commutation law ``i_q = (T* − cog − dir)/k_t(θ)``, safe for any input;
@@ -30,7 +32,7 @@ holds (:meth:`RotaryModel.table`). Multiply by ``k0`` for N·m when ``k_t`` is k
 **Sampling.** Drive logs run at ~1 kHz; cogging at ``LCM(Q, 2p)`` periods per revolution aliases
 at speed (100 periods per revolution at 50 rad/s is 1.3 samples per period).
 Identification refuses windows whose highest modelled harmonic has fewer than
-:data:`pgcomm.rotary.identify.MIN_SAMPLES_PER_PERIOD` samples per period and reports how many.
+:data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period and reports how many.
 """
 
 from pgcomm.rotary.model import Fourier, RotaryModel, cogging_orders, direction_orders, ripple_orders

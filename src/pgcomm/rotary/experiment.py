@@ -45,7 +45,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.seeds import stream_seed
-from pgcomm.rotary.identify import Orders, delay_text, fit_mechanics, identify, max_speed, resolution_verdict
+from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
+from pgcomm.rotary.readings import delay_text
+from pgcomm.rotary.regression import Orders, max_speed
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, RotaryTruth, default_gains, simulate
@@ -59,7 +61,7 @@ ROWS = ("classical", "standstill_table", "model", "oracle")
 AGREEMENT_FACTOR = 1.5
 #: The evaluation runs at a share of the speed at which the highest cogging order still has this many
 #: samples per period: a compensation held for a sample cannot follow a harmonic much faster (the
-#: identification's alias guard, :data:`pgcomm.rotary.identify.MIN_SAMPLES_PER_PERIOD`, is looser: it
+#: identification's alias guard, :data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD`, is looser: it
 #: only has to integrate the torque along the path, not cancel it).
 EVAL_MIN_SAMPLES_PER_PERIOD = 8.0
 

@@ -1,6 +1,6 @@
 """The encoder's quantisation in a logged angle: its step, and the noise it puts in the acceleration.
 
-The identification without a torque sensor (:mod:`pgcomm.rotary.identify`) regresses the q-current on the
+The identification without a torque sensor (:mod:`pgcomm.rotary.regression`) regresses the q-current on the
 filtered second difference of the logged angle. An encoder rounds the angle to its step ``q``; the error
 ``e = θ_logged − θ`` is, for a rotor that crosses many counts between samples, uniform on ``±q/2`` and white
 (Widrow's model of quantisation), so the filtered acceleration ``k ⊛ θ_logged / T_s²`` carries a noise of

@@ -12,7 +12,9 @@ import html
 from pathlib import Path
 
 from pgcomm.report import CSS, figure_html
-from pgcomm.rotary.identify import delay_text, lines_text, pll_text, resolution_verdict
+from pgcomm.rotary.identify import resolution_verdict
+from pgcomm.rotary.readings import delay_text, pll_text
+from pgcomm.rotary.time_lines import lines_text
 
 __all__ = ["write_rotary_report", "ROW_DESCRIPTIONS", "share_text"]
 

@@ -6,11 +6,11 @@ Datasheets of industrial servo motors give the pole count but rarely the slots, 
 
 **Which orders the logs show.** The identification of :mod:`pgcomm.rotary.identify` runs once with a cogging
 basis of *every* order from 1 to ``H`` (the highest the logs can carry: at least
-:data:`pgcomm.rotary.identify.MIN_SAMPLES_PER_PERIOD` samples per period at the 90th percentile of the logs'
+:data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period at the 90th percentile of the logs'
 speed, at most
 :data:`MAX_ORDER`) and the ripple's orders that do not depend on ``Q``. Each order's ``T² = δᵀ C⁻¹ δ``
 (cosine and sine over their block-sandwich covariance) against its family-wise threshold (the screening's,
-``α`` = :data:`pgcomm.rotary.identify.EXTRA_ORDER_ALPHA` over the ``H`` orders) says whether the logs show it.
+``α`` = :data:`pgcomm.rotary.regression.EXTRA_ORDER_ALPHA` over the ``H`` orders) says whether the logs show it.
 The physics is in the fit: a dither or an acceleration is the inertia's, not an order of the angle, so a
 constant-speed log's time-periodic content does not pose as cogging (an FFT of the logged current over the
 angle, tried first, reads a current at ``f`` Hz at a constant speed ``ω`` as order ``2πf/ω``: on the quick
@@ -51,10 +51,10 @@ DETECTION_BLOCK_SECONDS = 0.1
 
 
 def _highest_order(logs, sample_time: float) -> int:
-    """The highest order with :data:`~pgcomm.rotary.identify.MIN_SAMPLES_PER_PERIOD` samples per period at the
+    """The highest order with :data:`~pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period at the
     90th percentile of the logs' speed at speed (the samples above the slow share of each log's 95th percentile),
     at most :data:`MAX_ORDER`: nine in ten samples pass the identification's alias guard."""
-    from pgcomm.rotary.identify import MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, _log_arrays
+    from pgcomm.rotary.regression import MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, _log_arrays
 
     steps = []  # rad per sample, at speed
     for i, log in enumerate(logs):
@@ -79,7 +79,7 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=()) -> tu
         pole_pairs: ``p``.
         sample_time: the drive's period (s), where a log has no ``t``.
         time_lines: frequencies (Hz) of time-periodic disturbances fitted beside the orders
-            (:func:`pgcomm.rotary.identify.detect_time_lines`): a 50 Hz pickup at two speeds spreads over orders
+            (:func:`pgcomm.rotary.time_lines.detect_time_lines`): a 50 Hz pickup at two speeds spreads over orders
             (zoo 24N20P: 120 slots counted for 24 without it).
 
     Returns:
@@ -91,8 +91,8 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=()) -> tu
     Raises:
         ExcitationError: the logs show no slot count's fundamental (or are too slow or fast to say).
     """
-    from pgcomm.rotary.identify import (EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _fit,
-                                        _Layout, _prepare, _significant_extra_orders)
+    from pgcomm.rotary.regression import (EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _fit,
+                                          _Layout, _prepare, _significant_extra_orders)
     from pgcomm.rotary.model import direction_orders
     from pgcomm.rotary.motor import RotaryMotor
 

@@ -170,7 +170,7 @@ def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
     CSV (``t, theta, velocity, iq_1, id_1``: what a drive records) to ``folder/run{k}.csv``."""
     from pgcomm.io.atomic import atomic_open
     from pgcomm.rotary.experiment import RotarySettings, running_references
-    from pgcomm.rotary.identify import Orders
+    from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
 
     folder = Path(folder)

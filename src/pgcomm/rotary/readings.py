@@ -1,0 +1,281 @@
+"""How :func:`pgcomm.rotary.identify.identify` reads a drive's logs: the current's timing against the encoder's, and
+whether the logged angle is a PLL's estimate; each read off the fit of the slot/pole basis
+(:mod:`pgcomm.rotary.regression`) repeated under each reading.
+
+**The current's timing.** The kernel takes ``i_q[j]`` as the current held over ``[t_j, t_{j+1}]``. A drive that
+samples its current at another point of its cycle than the encoder, or a logger that writes the column a cycle
+late, shifts it by whole samples, and one sample turns each harmonic by ``h ω T_s``: on the zoo, cogging 21-29 %
+and ripple 66-294 % off, and one such fit still called its cogging resolved. The fit of the slot/pole basis is
+repeated with the current shifted by :data:`CURRENT_DELAYS` samples and the delay whose residual is smallest is
+taken when it fits clearly better than the log as written (:func:`_current_delay`); the results report it.
+
+**The angle's estimate.** Open drives log the angle their PLL estimates from the encoder (ODrive's ``pos_estimate``,
+a type-2 loop of 1000 rad/s by default), not the encoder's count: its acceleration is the rotor's through
+``(k_p s + k_i)/(s² + k_p s + k_i)``, which at 1000 rad/s halves a cogging harmonic at 3 samples per period. Read
+as the rotor's, such a log gave the cogging 8-12 % off, still called resolved, and the ripple 34-124 % (zoo 9N6P
+and 12N14P). A raw encoder angle sits on the encoder's lattice; where no logged angle does, the basis fit is
+repeated with the angle corrected for a PLL (:func:`pll_corrected`) of each natural frequency in
+:data:`PLL_FREQUENCIES` and dampings :data:`PLL_DAMPINGS`, and the best is taken when it fits clearly better
+than the angle as logged by a likelihood ratio (:func:`_angle_pll`); the results report it, and
+:data:`PLL_UNCERTAINTY` of the maps' move from the angle as logged counts against "resolved" (``pll_bias``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from pgcomm.rotary import quantisation
+from pgcomm.rotary.motor import RotaryMotor
+from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _evidence, \
+    _prepare
+
+#: Delays (samples) of the logged q-current behind the current that acted over each sample that
+#: :func:`identify` tries (:func:`_current_delay`): drives sample the current and the encoder at different
+#: points of their cycle, and loggers write a column a cycle late.
+CURRENT_DELAYS = (-2, -1, 0, 1, 2)
+#: How much better (``n_eff ln(cost_as_logged / cost)``, a likelihood ratio, :func:`_evidence`) another reading of
+#: the logs (a shifted current, a PLL's angle) must fit than the logs as written to be taken: the χ²₁ quantile at
+#: 0.1 %.
+READING_EVIDENCE = 10.83
+#: Natural frequencies (rad/s) of a drive's angle-estimating PLL tried when no logged angle sits on an encoder's
+#: lattice (:func:`_angle_pll`): ODrive's encoder bandwidth defaults to 1000 rad/s.
+PLL_FREQUENCIES = tuple(float(x) for x in np.geomspace(50.0, 5000.0, 13))
+#: Dampings tried at the best natural frequency (1: ODrive's ``k_i = k_p² / 4``).
+PLL_DAMPINGS = (1.0, 0.707)
+#: The share of a PLL reading's move of the maps (from the angle as logged) taken as uncertain in the verdict: on the
+#: sixteen motors of zoo seeds 0 and 1 through ODrive's discrete PLL, the reading left 10-40 % of the as-logged
+#: cogging error (ODrive's loop differs from the continuous model by about ``k_p dt``).
+PLL_UNCERTAINTY = 0.4
+
+
+def _shifted(x: np.ndarray, delay: int) -> np.ndarray:
+    """``x[j + delay]`` (the edges repeat the first or last sample): the current that acted over sample ``j`` when
+    the log writes it ``delay`` samples late."""
+    d = int(delay)
+    if d == 0 or x.size == 0:
+        return x
+    out = np.empty_like(x)
+    if d > 0:
+        out[:-d] = x[d:]
+        out[-d:] = x[-1]
+    else:
+        out[-d:] = x[:d]
+        out[:-d] = x[0]
+    return out
+
+
+def _with_delay(prepared, delay: int) -> list:
+    return [replace(p, iq=_shifted(p.iq, delay)) for p in prepared]
+
+
+def _current_delay(prepared, layout: "_Layout", taps: int) -> dict:
+    """The delay (samples) of the logged q-current behind the current that acted (module docstring, "The current's
+    timing"): the ridge-validated fit of ``layout`` with the current shifted by each of :data:`CURRENT_DELAYS`,
+    its mean squared residual from the normal equations; a delay other than 0 only where its likelihood ratio
+    (:func:`_evidence`) exceeds :data:`READING_EVIDENCE`.
+
+    Returns:
+        ``{"samples": int, "cost_by_delay": {delay: A²}, "evidence": float}``.
+    """
+    costs, rows = {}, 0.0
+    for d in CURRENT_DELAYS:
+        costs[d], rows = _basis_cost(_with_delay(prepared, d), layout, taps)
+    best = min(costs, key=costs.get)
+    evidence = _evidence(costs[0], costs[best], rows, taps)
+    chosen = best if evidence > READING_EVIDENCE else 0
+    return {"samples": int(chosen), "cost_by_delay": {int(k): v for k, v in costs.items()}, "evidence": float(evidence)}
+
+
+def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: float, damping: float) -> np.ndarray:
+    """The rotor's angle from a drive's estimate of it: the output of a type-2 phase-locked loop,
+    ``θ̂ = (k_p s + k_i) / (s² + k_p s + k_i) θ`` with ``k_p = 2 ζ ω_n``, ``k_i = ω_n²`` (ODrive's encoder PLL:
+    ``ζ = 1``, ``ω_n`` its bandwidth). Solved for ``θ``: ``θ = θ̂ + s² / (k_p s + k_i) θ̂``, applied in the
+    frequency domain up to the log's Nyquist frequency (a second difference and a bilinear low-pass at the log's
+    rate would take 0.4x of the correction at 3 samples per period, where the cogging's highest order sits): to
+    ``θ̂`` less the line through its ends, extended oddly (continuous with its slope, so only a few samples at each
+    end feel the extension).
+
+    Args:
+        theta: ``(N,)`` the logged estimate (rad); sample_time: s; natural_frequency: ``ω_n`` (rad/s);
+        damping: ``ζ``.
+
+    Returns:
+        ``(N,)`` rad.
+    """
+    th = np.asarray(theta, float)
+    n = th.size
+    if n < 3:
+        return th.copy()
+    kp, ki = 2.0 * damping * natural_frequency, natural_frequency**2
+    x = th - np.linspace(th[0], th[-1], n)
+    ext = np.concatenate([x, -x[-2:0:-1]])
+    s = 2j * np.pi * np.fft.rfftfreq(ext.size, float(sample_time))
+    # the line's correction is zero: s² kills it
+    return th + np.fft.irfft(np.fft.rfft(ext) * (s * s / (kp * s + ki)), ext.size)[:n]
+
+
+def _with_pll(prepared, pll) -> list:
+    if pll is None:
+        return prepared
+    return [replace(p, theta=pll_corrected(p.theta, p.ts, *pll)) for p in prepared]
+
+
+def _angle_pll(prepared, layout: "_Layout", taps: int) -> dict:
+    """Whether the logged angle reads as a drive's PLL estimate (module docstring, "The angle's estimate"): the
+    basis fit with the angle corrected for each natural frequency of :data:`PLL_FREQUENCIES` at ``ζ = 1``, then
+    each :data:`PLL_DAMPINGS` at the best frequency and its neighbours, against the angle as logged; a PLL only
+    where its likelihood ratio (:func:`_evidence`) exceeds :data:`READING_EVIDENCE`.
+
+    Returns:
+        ``{"natural_frequency_rad_s": float | None, "damping": float | None, "cost_as_logged": A², "cost": A²,
+        "evidence": float, "cost_by_frequency": {"ω_n": A²}}`` (``None``: read as logged; the frequencies as
+        strings of 4 digits, the results' keys).
+    """
+    plain, rows = _basis_cost(prepared, layout, taps)
+    grid = np.asarray(PLL_FREQUENCIES, float)
+    costs = np.array([_basis_cost(_with_pll(prepared, (w, 1.0)), layout, taps)[0] for w in grid])
+    by_freq = {f"{w:.4g}": float(c) for w, c in zip(grid, costs)}  # results keys are strings
+    j = int(np.argmin(costs))
+    best, best_cost = (float(grid[j]), 1.0), float(costs[j])
+    if 0 < j < grid.size - 1:
+        # the grid is 1.47x per step: the minimum of a parabola in ln ω_n through the best point and its neighbours
+        x, y = np.log(grid[j - 1:j + 2]), np.log(costs[j - 1:j + 2])
+        den = y[0] - 2 * y[1] + y[2]
+        if den > 0:
+            w = float(np.exp(x[1] + 0.5 * (y[0] - y[2]) / den * (x[1] - x[0])))
+            c = _basis_cost(_with_pll(prepared, (w, 1.0)), layout, taps)[0]
+            by_freq[f"{w:.4g}"] = c
+            if c < best_cost:
+                best, best_cost = (w, 1.0), c
+    for z in PLL_DAMPINGS:
+        if z == 1.0:
+            continue
+        for w in grid[max(0, j - 1):j + 2]:
+            c = _basis_cost(_with_pll(prepared, (float(w), z)), layout, taps)[0]
+            if c < best_cost:
+                best, best_cost = (float(w), float(z)), c
+    evidence = _evidence(plain, best_cost, rows, taps)
+    # no gate on the residual's drop: ODrive's PLL lowered it only 1.16x on zoo 12N10P and 1.31x on seed 1's
+    # 36N42P, as much as an angle with noise of its own lowers it by a fast PLL (1.16-1.26x, 1.6-2.3 kHz: a 15-bit
+    # angle with 0.2-0.5 counts of noise); a gate at 1.5 left those two cogging maps 6-8 % off and called resolved,
+    # where a false reading's move is counted in the verdict (pll_bias)
+    taken = evidence > READING_EVIDENCE
+    return {"natural_frequency_rad_s": best[0] if taken else None, "damping": best[1] if taken else None,
+            "cost_as_logged": plain, "cost": best_cost if taken else plain, "evidence": float(evidence),
+            "cost_by_frequency": by_freq}
+
+
+def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, angle_pll) -> tuple[dict, dict]:
+    """How to read the logs: the angle (a drive's PLL estimate or the rotor's, :func:`_angle_pll`) and the current's
+    delay (:func:`_current_delay`), each detected or as given. Each masks the other (a current a sample late hid
+    ODrive's PLL: the PLL's reading fitted worse than the angle as logged), so where both are detected and the delay
+    is not 0 the angle is read again with the delay taken out, and the delay again with that reading.
+
+    Returns:
+        ``(angle_pll, current_delay)``: the results' entries.
+    """
+    layout = _Layout.of(orders)
+    search_pll = False
+    if isinstance(angle_pll, str):
+        # a raw encoder angle sits on its lattice (read here even when the correction is turned off: the
+        # rounding's noise in the acceleration, uncorrected, reads as a PLL's high-frequency gain)
+        steps = [p.step if isinstance(encoder_step, str) else quantisation.encoder_step(p.theta) for p in prepared]
+        search_pll = all(q is None for q in steps)
+        pll = None
+    else:
+        pll = None if angle_pll is None else (float(angle_pll[0]), float(angle_pll[1]))
+    estimate = {"natural_frequency_rad_s": None if pll is None else pll[0], "damping": None if pll is None else pll[1],
+                "searched": False}
+    timing = {"samples": 0 if isinstance(current_delay, str) else int(current_delay), "cost_by_delay": None,
+              "evidence": None}
+
+    def read_angle():
+        found = {**_angle_pll(_with_delay(prepared, timing["samples"]), layout, taps), "searched": True}
+        w = found["natural_frequency_rad_s"]
+        return found, (None if w is None else (w, found["damping"]))
+
+    if search_pll:
+        estimate, pll = read_angle()
+    for _ in range(2):
+        if isinstance(current_delay, str):
+            timing = _current_delay(_with_pll(prepared, pll), layout, taps)
+        if not (search_pll and timing["samples"] != 0):
+            break
+        before = pll
+        estimate, pll = read_angle()
+        if pll == before:
+            break
+    timing["detected"] = isinstance(current_delay, str)
+    return estimate, timing
+
+
+def detect_reading(logs, motor: RotaryMotor, orders: Orders | None = None, *, current_delay="detect",
+                   angle_pll="detect", encoder_step="detect", min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD,
+                   taps: int = FILTER_TAPS) -> tuple[dict, dict]:
+    """How :func:`~pgcomm.rotary.identify.identify` would read ``logs`` (the angle's PLL and the current's delay, module
+    docstring), without
+    the identification: e.g. to read the logs before counting the slots from them (a late current or a PLL's angle
+    hides the cogging's orders).
+
+    Returns:
+        ``(angle_pll, current_delay)``: the entries :func:`identify` reports in its ``info``.
+    """
+    orders = orders or Orders.for_motor(motor)
+    prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
+    return _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll)
+
+
+def apply_reading(log: dict, current_delay: int, angle_pll, sample_time: float) -> dict:
+    """``log`` (a dict with ``theta`` and ``iq_1``) as :func:`identify` reads it: the current shifted by
+    ``current_delay`` samples (edges repeated), the angle corrected for ``angle_pll`` (``(ω_n, ζ)`` or ``None``,
+    :func:`pll_corrected`; ``sample_time`` in s where the log has no ``t``). A new dict; the other columns as they
+    are."""
+    out = dict(log)
+    key = "iq_1" if "iq_1" in log else "iq"
+    out[key] = _shifted(np.asarray(log[key], float), int(current_delay))
+    if angle_pll is not None:
+        t = np.asarray(log["t"], float) if "t" in log else None
+        ts = float(np.median(np.diff(t))) if t is not None and t.size > 1 else float(sample_time)
+        out["theta"] = pll_corrected(np.asarray(log["theta"], float), ts, *angle_pll)
+    return out
+
+
+def _times(ratio: float) -> str:
+    """A factor for a sentence: ``"1.9x"``, ``"190x"``."""
+    return f"{ratio:.0f}x" if ratio >= 10 else f"{ratio:.2g}x"
+
+
+def delay_text(timing: dict) -> str | None:
+    """One sentence on the logged current's timing (``info["current_delay"]`` of
+    :func:`pgcomm.rotary.identify.identify`), or ``None`` when it was given rather than detected."""
+    if not timing or not timing.get("detected"):
+        return None
+    costs = {int(k): v for k, v in (timing.get("cost_by_delay") or {}).items()}
+    d = int(timing["samples"])
+    if d == 0:
+        near = [costs[k] / costs[0] for k in (-1, 1) if k in costs and costs.get(0)]
+        return ("the logged q-current is in time with the angle" + (
+            f" (shifted by one sample it fits {_times(min(near))} worse)" if near else ""))
+    ratio = costs[0] / costs[d] if costs.get(d) else float("nan")
+    return (f"the logged q-current is {abs(d)} sample(s) {'late' if d > 0 else 'early'} against the angle: used "
+            f"shifted by {d} (it fits {_times(ratio)} better so; the drive samples its current at another point of its "
+            "cycle than the encoder, or the logger writes it late)")
+
+
+def pll_text(estimate: dict) -> str | None:
+    """One sentence on how the logged angle was read (``info["angle_pll"]`` of :func:`identify`), or ``None`` when
+    nothing was searched or given."""
+    if not estimate:
+        return None
+    w = estimate.get("natural_frequency_rad_s")
+    if w is None and not estimate.get("searched"):
+        return None
+    if w is None:
+        return ("the logged angle is not on an encoder's lattice, and it fits best as the rotor's angle (no drive "
+                "PLL's lag found in it)")
+    how = (f"it fits {_times(estimate['cost_as_logged'] / estimate['cost'])} better so"
+           if estimate.get("searched") else "as given")
+    return (f"the logged angle is read as a drive's PLL estimate of natural frequency {w:.0f} rad/s and damping "
+            f"{estimate['damping']:.3g}, and its lag taken out ({how}; log the encoder's count if the drive has it)")
