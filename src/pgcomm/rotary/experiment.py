@@ -73,7 +73,9 @@ class RotarySettings:
     Attributes:
         revolutions: revolutions per running-log segment (two speeds, both directions).
         speed_shares: mean speeds of the segments as shares of the alias guard's speed limit.
-        dither_hz: frequencies of the q-current dither the drive injects in the running logs (Hz).
+        dither_hz: frequencies of the q-current dither the drive injects in the running logs (Hz). The twin has no
+            mains pickup; on a rig keep them a few hertz off the mains' harmonics, where a pickup within a natural bin
+            of a dither cannot be told from it (:mod:`pgcomm.rotary.time_lines`).
         dither_share: dither amplitude as a share of the current limit (at most; less where the
             speed swing would exceed ``swing`` of the mean speed).
         swing: largest speed swing the dither may cause (share of the mean speed).
