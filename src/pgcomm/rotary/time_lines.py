@@ -48,8 +48,10 @@ LINE_LOG_SUPPORT = 6.0
 #: sensor's pickup, which the current loop turns into one) is ``d`` in the fit and ``T d`` in the current (``T`` the
 #: speed loop's complementary sensitivity), a share of ``1/|T|``: at least 0.5 for up to 6 dB of peaking (0.6-0.8
 #: measured for a 50 Hz pickup on zoo 9N6P, 0.98 where the pickup is only in the log). Where the current carries a
-#: line twice the fitted one it is its cause (the user's dither) and the residual the model's misfit of it
-#: (0.008-0.22 measured at the running logs' dither frequencies, with the angle read through a PLL or not)
+#: line twice the fitted one it is its cause (the user's dither) and the residual the model's misfit of it (zoo
+#: seeds 0 and 1, ``bench/rotary_time_lines.py --several``: 0.00-0.03 at the running logs' dither frequencies with
+#: the angle read as :func:`~pgcomm.rotary.identify.identify` reads it, up to 0.37 with a PLL's angle misread as the
+#: rotor's, and 0.50 at one intermodulation of two dithers; the lines found 0.50-3.4)
 LINE_CURRENT_SHARE = 0.5
 #: ... the logged current's line at a candidate's frequency is fitted jointly with at most this many of the current's
 #: other strong lines nearby (:func:`_current_lines`), none closer than this many natural bins to another
