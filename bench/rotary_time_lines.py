@@ -55,8 +55,9 @@ def _logs(truth, refs, seed: int, lines) -> list:
     rng = np.random.default_rng([seed, 23])
     out = []
     for j, r in enumerate(refs):
-        t = m.sample_time * np.arange(r.n)
-        p = sum((a * np.sin(2 * np.pi * hz * t + rng.uniform(0, 2 * np.pi)) for a, hz in lines), np.zeros(r.n))
+        # the phase as (2π f T_s) n: the encoder's rounding turns a last-digit change of the logs into a visible one
+        p = sum((a * np.sin(2 * np.pi * hz * m.sample_time * np.arange(r.n) + rng.uniform(0, 2 * np.pi))
+                 for a, hz in lines), np.zeros(r.n))
         d = (np.zeros(r.n) if r.dither is None else np.asarray(r.dither, float)) - p
         lg = running_log(truth, Reference(r.theta, r.omega, r.alpha, r.mode, d), law, gains,
                          stream_seed(seed, "rotary running log", 0, j))

@@ -73,8 +73,9 @@ def _current_lines(prepared, hz: float, taps: int) -> np.ndarray:
     lines so far leave of the current (:func:`_line_spectrum`), while it exceeds the ``1 − α/M`` quantile of noise
     alone; at most :data:`MAX_CURRENT_NEIGHBOURS`, none within :data:`CURRENT_NEIGHBOUR_BINS` natural bins (of the
     shortest log) of a line already taken. Fitted alone, the cosine and sine at ``hz`` take in part of a dither line
-    a few bins off: on zoo seed 0 that read the current's line at 100 Hz (a pickup's harmonic, 7 Hz from the running
-    logs' 107 Hz dither) up to twice as large and refused the line; jointly, its share rose from under 0.5 to 0.84.
+    a few bins off: on zoo 9N6P (seeds 0 and 1, ``bench/rotary_time_lines.py --several``) that refused the line at
+    100 Hz (a pickup's harmonic, 7 Hz from the running logs' 107 Hz dither) and left the cogging 8.5-10 % off;
+    jointly, its share was 0.69-0.74 and the cogging 3.7-4.4 % (clean 4.0 %).
     A dither one natural bin off is not separated (9N6P's 60 Hz beside 61 Hz in 1 s logs, module docstring).
     """
     from scipy.stats import gamma
