@@ -85,21 +85,29 @@ def _pll_read(logs, bandwidth: float = 1000.0, every: int = 16) -> list:
     return out
 
 
-def _several(args) -> int:
-    """``--several``: lines at several frequencies at once, and the dither's misfits with the angle misread."""
-    from pgcomm.rotary.experiment import RotarySettings, identification_errors, running_references
-    from pgcomm.rotary.identify import identify
+def _motors(args):
+    """Per zoo motor of ``args.motors`` (seed ``args.seed``): its index, truth, orders, the first round of
+    ``reproduce``'s running references and the disturbances' size (1 % of the current limit, A)."""
+    from pgcomm.rotary.experiment import RotarySettings, running_references
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.zoo import draw_rotary
 
-    sets = {"50+100+150 Hz": ((1.0, 50.0), (0.5, 100.0), (0.3, 150.0)), "60+180 Hz": ((1.0, 60.0), (0.5, 180.0))}
-    found_total, given_total, misfit = 0, 0, []
     for idx in (int(x) for x in args.motors.split(",")):
         truth = draw_rotary(args.seed, idx)
+        orders = Orders.for_motor(truth.motor)
+        refs = running_references(truth.motor, truth.inertia / truth.k0, RotarySettings(), orders)
+        yield idx, truth, orders, refs, 0.01 * truth.motor.current_limit
+
+
+def _several(args) -> int:
+    """``--several``: lines at several frequencies at once, and the dither's misfits with the angle misread."""
+    from pgcomm.rotary.experiment import identification_errors
+    from pgcomm.rotary.identify import identify
+
+    sets = {"50+100+150 Hz": ((1.0, 50.0), (0.5, 100.0), (0.3, 150.0)), "60+180 Hz": ((1.0, 60.0), (0.5, 180.0))}
+    found_total, given_total, misfit = 0, 0, []
+    for idx, truth, orders, refs, amp in _motors(args):
         m = truth.motor
-        orders = Orders.for_motor(m)
-        refs = running_references(m, truth.inertia / truth.k0, RotarySettings(), orders)
-        amp = 0.01 * m.current_limit
         clean = _logs(truth, refs, args.seed, ())
         pll = _pll_read(clean)
         print(f"zoo seed {args.seed} motor {idx} {m.name}: lines in shares of {amp:.3g} A", flush=True)
@@ -141,21 +149,15 @@ def main(argv=None) -> int:
         return _several(args)
     import numpy as np
 
-    from pgcomm.rotary.experiment import RotarySettings, closed_loop, identification_errors, running_references
+    from pgcomm.rotary.experiment import RotarySettings, closed_loop, identification_errors
     from pgcomm.rotary.identify import fit_mechanics, identify
-    from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.standstill import run_standstill
     from pgcomm.rotary.twin import LawParams, default_gains
-    from pgcomm.rotary.zoo import draw_rotary
     from pgcomm.seeds import stream_seed
 
     ratios = []
-    for idx in (int(x) for x in args.motors.split(",")):
-        truth = draw_rotary(args.seed, idx)
+    for idx, truth, orders, refs, amp in _motors(args):
         m = truth.motor
-        orders = Orders.for_motor(m)
-        refs = running_references(m, truth.inertia / truth.k0, RotarySettings(), orders)
-        amp = 0.01 * m.current_limit
         print(f"zoo seed {args.seed} motor {idx} {m.name}: disturbances of {amp:.3g} A", flush=True)
         laws = {}
         for case, (a, hz) in (("clean", (0.0, 50.0)), ("pickup 50 Hz", (amp, 50.0)), ("torque 23.7 Hz", (amp, 23.7))):
