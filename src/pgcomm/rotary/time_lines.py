@@ -12,10 +12,11 @@ the maps, a cosine and a sine per log (a log's phase is its own), and the result
 
 **What it cannot tell apart.** A disturbance ``d`` is ``d`` in the fit and ``T d`` in the current (``T`` the speed
 loop's complementary sensitivity); a dither's misfit is a small share of the dither. So a line the drive's loop
-amplifies more than ``1 /`` :data:`LINE_CURRENT_SHARE`-fold (the twin's speed loop peaks near 150-180 Hz, where zoo
-seed 0's 12N14P and 24N20P gave shares of 0.51-0.57), or one within a natural bin of a dither (zoo 9N6P: a 60 Hz pickup beside the 61 Hz dither in 1 s logs, where
-the current's line there cannot be separated from the dither's), is taken for the current's own: give it with
-``time_lines=`` (``--time-lines``). Logs at one speed only cannot tell a line from an order.
+amplifies more than ``1 /`` :data:`LINE_CURRENT_SHARE`-fold (the twin's speed loop peaks near 150-180 Hz: zoo 12N10P's
+lines there had shares of 0.41-0.42, the ones found elsewhere 0.50 and up), or one within about a natural bin of a
+dither (zoo 9N6P: a 60 Hz pickup beside the 61 Hz dither in 1 s logs, where the current's line there cannot be
+separated from the dither's), is taken for the current's own: give it with ``time_lines=`` (``--time-lines``). Logs
+at one speed only cannot tell a line from an order.
 """
 
 from __future__ import annotations
@@ -64,6 +65,19 @@ LINE_EVIDENCE_LEVEL = 1e-3
 LINE_REFINE_FITS = 10
 
 
+def _peak(f: np.ndarray, power: np.ndarray, j: int) -> float:
+    """The frequency (Hz) of the spectral peak at bin ``j`` of ``power`` on the grid ``f``: the vertex of the parabola
+    through the log-power of ``j`` and its two neighbours (a Gaussian-shaped peak exactly), ``f[j]`` at an edge or
+    where the three do not bend down."""
+    hz = float(f[j])
+    if 0 < j < f.size - 1 and min(power[j - 1], power[j + 1]) > 0:
+        y0, y1, y2 = np.log(power[j - 1:j + 2])
+        den = y0 - 2 * y1 + y2
+        if den < 0:
+            hz += float(0.5 * (y0 - y2) / den * (f[1] - f[0]))
+    return hz
+
+
 def _current_lines(prepared, hz: float, taps: int) -> np.ndarray:
     """``(L,)`` per log, the amplitude (A) of the logged current's line at ``hz``: its filtered current fitted on a
     cosine and a sine through the same kernel and filter as a disturbance's line (:func:`_chunks`), jointly with the
@@ -109,12 +123,7 @@ def _current_lines(prepared, hz: float, taps: int) -> np.ndarray:
         j = int(np.flatnonzero(near)[np.argmax(total[near])])
         if total[j] <= threshold:
             break
-        new = float(f[j])
-        if 0 < j < f.size - 1 and min(total[j - 1], total[j + 1]) > 0:
-            y0, y1, y2 = np.log(total[j - 1:j + 2])
-            if y0 - 2 * y1 + y2 < 0:
-                new += 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2) * (f[1] - f[0])
-        freqs.append(new)
+        freqs.append(_peak(f, total, j))
     n = len(freqs)
     return np.array([float(np.hypot(c[0], c[n])) for c in coef])
 
@@ -219,12 +228,7 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
         j = int(np.flatnonzero(band)[np.argmax(total[band])])
         if total[j] <= out["threshold"]:
             break
-        hz = float(f[j])
-        if 0 < j < f.size - 1 and total[j - 1] > 0 and total[j + 1] > 0:
-            y0, y1, y2 = np.log(total[j - 1:j + 2])
-            den = y0 - 2 * y1 + y2
-            if den < 0:
-                hz = float(hz + 0.5 * (y0 - y2) / den * (f[1] - f[0]))
+        hz = _peak(f, total, j)
         seen = [k for k in range(logs) if per_log[k, j] >= LINE_LOG_SUPPORT]
         groups = []
         for k in seen:
