@@ -285,6 +285,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
     from pgcomm.io.results import write_results
     from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
+    from pgcomm.rotary.back_emf import voltage_text
     from pgcomm.rotary.readings import apply_reading, delay_text, detect_reading, pll_text
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.time_lines import detect_time_lines, lines_text
@@ -317,9 +318,12 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
             for note in lg.notes:
                 progress.info(f"{lg.source}: {note}")
     torque_sensor = all("torque" in lg.columns for lg in logs) and not args.no_force_sensor
+    # the q-voltage is read only when every log has it (pgcomm.rotary.back_emf)
+    voltage = ("vq_1",) if all("vq_1" in lg.columns for lg in logs) and not torque_sensor else ()
     # a log with dropped samples is the stretches between them: no filter window may difference across a gap
     data = [{"name": lg.source if len(lg.gaps) == 0 else f"{lg.source} rows {a + 1}-{b}",
-             **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *(("torque",) if torque_sensor else ()))}}
+             **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *voltage,
+                                                *(("torque",) if torque_sensor else ()))}}
             for lg in logs for a, b in lg.segments()]
     slots_detected = None
     if motor.slots is None:
@@ -364,7 +368,8 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         mech = None if torque_sensor else fit_mechanics(data, motor, orders, current_delay=timing.get("samples", 0),
                                                        angle_pll=pll,
                                                        time_lines=(res.info.get("time_lines") or {}).get("hz", ()))
-        for text in (pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines"))):
+        for text in (pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines")),
+                     voltage_text(res.info.get("back_emf"))):
             if text:
                 progress.info(text)
         if (res.model.inertia_ratio or 0.0) < 0.0:

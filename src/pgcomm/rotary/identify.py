@@ -32,7 +32,9 @@ import numpy as np
 from pgcomm.errors import DataError, ExcitationError
 from pgcomm.rotary.model import Fourier, RotaryModel, harmonic_columns
 from pgcomm.rotary.motor import RotaryMotor
-from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _with_delay, _with_pll
+from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
+from pgcomm.rotary.winding import BACK_EMF_FACTOR
+from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _with_delay, _with_pll, apply_reading
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, Orders, \
     _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, _map_gram, _map_standard_error, \
     _prepare, _quantisation_correction, _significant_extra_orders
@@ -66,7 +68,8 @@ def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: 
 def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
              min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
              ridge: float | None = None, extra_orders: bool = True, encoder_step="detect",
-             current_delay="detect", angle_pll="detect", time_lines="detect") -> RotaryIdentification:
+             current_delay="detect", angle_pll="detect", time_lines="detect",
+             back_emf: bool = True) -> RotaryIdentification:
     """Identify cogging, torque-constant ripple, the direction-dependent torque and friction.
 
     Args:
@@ -91,6 +94,9 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             (:mod:`pgcomm.rotary.readings`, "The angle's estimate").
         time_lines: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a cosine and a sine per
             log each), ``()`` for none, or ``"detect"`` (:mod:`pgcomm.rotary.time_lines`).
+        back_emf: where every log has the drive's q-voltage (``vq_1``, V), measure the ripple, the back-EMF constant
+            and the resistance in it too, and check the ripple against the currents' (:mod:`pgcomm.rotary.back_emf`;
+            results key ``back_emf``); ``False`` leaves the voltage unread. The model is the currents' either way.
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -134,6 +140,9 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         raise ExcitationError(f"{n_windows} usable windows for {n_unknowns} unknowns: record longer running logs "
                               f"(speeds up to {v_limit:.3g} rad/s, both directions)")
     fit = _fit(prepared, layout, taps, ridge)
+    voltage_info = None
+    if back_emf and has_voltage(logs):
+        voltage_info = _voltage_check(fit, logs, motor, final, layout, ts, timing["samples"], pll)
     beta = np.zeros(layout.keep.size)
     beta[layout.keep] = fit["beta"]
     cov = np.zeros((layout.keep.size, layout.keep.size))
@@ -172,13 +181,38 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             "orders_screened": screen is not None,
             "cost_A2": fit["cost"], "inertia_ratio": float(beta[0]), "standard_error": standard_error,
             "quantisation": _quantisation_info(prepared, fit), "current_delay": timing, "angle_pll": estimate,
-            "time_lines": lines_info,
+            "time_lines": lines_info, "back_emf": voltage_info,
             "seconds": time.perf_counter() - t0}
     if counts["alias"]:
         info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "
                         f"{v_limit:.3g} rad/s, where order {orders.highest} has fewer than "
                         f"{min_samples_per_period:g} samples per period")
     return check_plausible(RotaryIdentification(model, info))
+
+
+def _voltage_check(fit: dict, logs, motor: RotaryMotor, final: Orders, layout: _Layout, ts: float, delay: int,
+                   pll) -> dict:
+    """The ripple, the back-EMF constant and the resistance that the logged q-voltage measures
+    (:func:`pgcomm.rotary.back_emf.fit_voltage`), and whether its ripple agrees with the currents' fit
+    (:func:`pgcomm.rotary.back_emf.agreement`): what the results say about it. The model stays the currents' (the
+    module docstring of :mod:`pgcomm.rotary.back_emf` says why)."""
+    read = [apply_reading(log, 0, pll, ts) for log in logs]
+    fv = fit_voltage(read, final.ripple, motor.pole_pairs, ts, delay, motor.commutation_offset)
+    kept = np.flatnonzero(layout.keep)
+    where = {int(c): j for j, c in enumerate(kept)}
+    nr = final.ripple.size
+    pos = [j for j, h in enumerate(final.ripple) if h > 0]
+    idx = np.array([where[int(layout.o_r[j])] for j in pos] + [where[int(layout.o_r[nr + j])] for j in pos], int)
+    check = agreement(fit["beta"][idx], fit["cov"][np.ix_(idx, idx)], fv["ripple"], fv["cov"])
+    gram = _map_gram(fv["orders"])
+    rms = float(np.sqrt(max(float(fv["ripple"] @ gram @ fv["ripple"]), 0.0)))
+    return {"used_logs": len(logs), "back_emf_constant": fv["back_emf_constant"],
+            "back_emf_constant_se": fv["back_emf_constant_se"],
+            "k0_amplitude_invariant": 1.0 / BACK_EMF_FACTOR * fv["back_emf_constant"],
+            "resistance": fv["resistance"], "inductance": fv["inductance"], "voltage_delay": fv["voltage_delay"],
+            "residual_rms_V": fv["residual_rms_V"], "rows": fv["rows"], "blocks": fv["blocks"],
+            "ripple": Fourier.from_vector(fv["orders"], fv["ripple"]).to_dict(), "ripple_rms": rms,
+            "ripple_rms_error": _map_standard_error(fv["cov"], gram), **check}
 
 
 def _quantisation_info(prepared, fit: dict) -> dict:

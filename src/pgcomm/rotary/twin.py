@@ -42,6 +42,7 @@ import numpy as np
 
 from pgcomm.rotary.model import Fourier, RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
+from pgcomm.rotary.winding import Winding, q_voltage
 
 __all__ = ["RotaryTruth", "Gains", "LawParams", "Reference", "simulate", "default_gains", "VELOCITY_CUTOFF_HZ",
            "SUBSTEPS", "HOLD_ADVANCE"]
@@ -71,6 +72,8 @@ class RotaryTruth:
         current_noise: std of the logged ``i_q``, ``i_d`` (A).
         torque_noise: std of the logged torque (N·m).
         encoder_counts: counts per revolution.
+        winding: the winding and inverter behind the logged q-voltage (:mod:`pgcomm.rotary.winding`), or
+            ``None`` for a twin that logs no voltage.
     """
 
     motor: RotaryMotor
@@ -86,6 +89,7 @@ class RotaryTruth:
     current_noise: float
     torque_noise: float
     encoder_counts: int
+    winding: Winding | None = None
 
     @property
     def k0(self) -> float:
@@ -115,7 +119,8 @@ class RotaryTruth:
                 "ripple": self.ripple.to_dict(), "cogging": self.cogging.to_dict(), "drag": self.drag.to_dict(),
                 "coulomb": self.coulomb, "viscous": self.viscous, "inertia": self.inertia,
                 "friction_velocity": self.friction_velocity, "current_noise": self.current_noise,
-                "torque_noise": self.torque_noise, "encoder_counts": self.encoder_counts}
+                "torque_noise": self.torque_noise, "encoder_counts": self.encoder_counts,
+                **({"winding": self.winding.to_dict()} if self.winding is not None else {})}
 
     @classmethod
     def from_dict(cls, d: dict) -> "RotaryTruth":
@@ -124,7 +129,8 @@ class RotaryTruth:
         return cls(RotaryMotor(**m), float(d["k_t"]), float(d["offset_error"]), Fourier.from_dict(d["ripple"]),
                    Fourier.from_dict(d["cogging"]), Fourier.from_dict(d["drag"]), float(d["coulomb"]),
                    float(d["viscous"]), float(d["inertia"]), float(d["friction_velocity"]),
-                   float(d["current_noise"]), float(d["torque_noise"]), int(d["encoder_counts"]))
+                   float(d["current_noise"]), float(d["torque_noise"]), int(d["encoder_counts"]),
+                   Winding.from_dict(d["winding"]) if "winding" in d else None)
 
 
 @dataclass(frozen=True)
@@ -295,7 +301,8 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     Returns:
         dict of ``(N,)`` arrays: ``t`` (s), ``theta`` (encoder, rad), ``velocity`` (rad/s, the drive's
         estimate), ``iq_1``, ``id_1`` (A, measured), ``theta_true``, ``omega_true``, ``torque``
-        (air-gap N·m, with ``torque_noise``), ``iq_true`` (A, what flowed), ``demand`` (A), ``theta_ref``, ``omega_ref``.
+        (air-gap N·m, with ``torque_noise``), ``iq_true`` (A, what flowed), ``demand`` (A), ``theta_ref``, ``omega_ref``;
+        and ``vq_1`` (V, the drive's q-voltage command, :mod:`pgcomm.rotary.winding`) when ``truth.winding`` is set.
     """
     m = truth.motor
     ts = float(m.sample_time)
@@ -329,9 +336,14 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
                                                truth.current_noise * noise[0], truth.current_noise * noise[1]))
     outs = [np.asarray(o) for o in _run(params, xs, n_sub)]
     th_m, w_f, iq, idd, th, om, tq, u, iq_act = outs
-    return {"t": ts * np.arange(n), "theta": th_m, "velocity": w_f, "iq_1": iq, "id_1": idd, "theta_true": th,
-            "omega_true": om, "iq_true": iq_act, "torque": tq + truth.torque_noise * noise[2], "demand": u,
-            "theta_ref": np.asarray(ref.theta, float), "omega_ref": np.asarray(ref.omega, float)}
+    log = {"t": ts * np.arange(n), "theta": th_m, "velocity": w_f, "iq_1": iq, "id_1": idd, "theta_true": th,
+           "omega_true": om, "iq_true": iq_act, "torque": tq + truth.torque_noise * noise[2], "demand": u,
+           "theta_ref": np.asarray(ref.theta, float), "omega_ref": np.asarray(ref.omega, float)}
+    if truth.winding is not None:
+        # drawn after the currents' noise, so a twin with a winding logs the same currents as one without
+        log["vq_1"] = q_voltage(truth.winding, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th, om,
+                                iq_act, ts, rng.standard_normal(n))
+    return log
 
 
 def with_motor(truth: RotaryTruth, **changes) -> RotaryTruth:

@@ -16,7 +16,9 @@ drawn from a seed and an index (the same pair always gives the same motor):
 * the drive's commutation offset off by up to ±0.3 rad (electrical);
 * Coulomb friction 0.5–3 % of rated torque with a position-dependent part of 10–40 % of it
   (orders 1, 2, ``2p``), viscous friction, encoder of 2^16–2^20 counts, current noise
-  0.2–0.5 % of the limit.
+  0.2–0.5 % of the limit;
+* a winding behind the logged q-voltage (:func:`pgcomm.rotary.winding.draw_winding`: resistance, inductance, the
+  inverter's dead time, the current loop's noise), drawn from a stream of its own.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ import numpy as np
 from pgcomm.rotary.model import Fourier, cogging_orders, direction_orders, fundamental_cogging_order, ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.twin import RotaryTruth
+from pgcomm.rotary.winding import draw_winding
 
 __all__ = ["COMBINATIONS", "draw_rotary", "default_truth", "write_rotary_motor", "read_truth", "MAX_MOTORS"]
 
@@ -126,7 +129,15 @@ def draw_rotary(seed: int, index: int) -> RotaryTruth:
         q, p = COMBINATIONS[index]
     else:
         q, p = COMBINATIONS[int(rng.integers(len(COMBINATIONS)))]
-    return draw_truth(rng, q, p)
+    return _with_winding(draw_truth(rng, q, p), np.random.default_rng([int(seed), int(index), 0x72]))
+
+
+def _with_winding(truth: RotaryTruth, rng) -> RotaryTruth:
+    """``truth`` with a winding drawn from its own stream (:func:`pgcomm.rotary.winding.draw_winding`), so the
+    mechanical and magnetic draws stay those of a zoo without voltages."""
+    from dataclasses import replace
+
+    return replace(truth, winding=draw_winding(rng, truth.k_t, truth.current_noise))
 
 
 def default_truth(motor: RotaryMotor, seed: int = 0) -> RotaryTruth:
@@ -137,7 +148,7 @@ def default_truth(motor: RotaryMotor, seed: int = 0) -> RotaryTruth:
                    inertia=motor.inertia, sample_time=motor.sample_time)
     counts = motor.encoder_counts or t.encoder_counts
     from dataclasses import replace
-    return replace(t, motor=motor, encoder_counts=int(counts))
+    return _with_winding(replace(t, motor=motor, encoder_counts=int(counts)), np.random.default_rng([int(seed), 0x73]))
 
 
 def write_rotary_motor(truth: RotaryTruth, folder) -> Path:
@@ -167,8 +178,7 @@ def read_truth(path) -> RotaryTruth:
 
 def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
     """Simulate the running logs of :func:`pgcomm.rotary.experiment.running_references` and write them as
-    CSV (``t, theta, velocity, iq_1, id_1``: what a drive records) to ``folder/run{k}.csv``."""
-    from pgcomm.io.atomic import atomic_open
+    CSV (``t, theta, velocity, iq_1, id_1, vq_1``: what a drive records) to ``folder/run{k}.csv``."""
     from pgcomm.rotary.experiment import RotarySettings, running_references
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
@@ -181,10 +191,7 @@ def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
     for k, ref in enumerate(refs, start=1):
         log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(a), seed=seed * 1000 + k)
         path = folder / f"run{k}.csv"
-        with atomic_open(path) as f:
-            f.write("t,theta,velocity,iq_1,id_1\n")
-            np.savetxt(f, np.column_stack([log[c] for c in ("t", "theta", "velocity", "iq_1", "id_1")]),
-                       delimiter=",", fmt="%.12g")
+        _write_drive_log(path, log)
         names.append(path.name)
     return names
 
@@ -192,8 +199,7 @@ def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
 def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_seconds: float = 60.0) -> Path:
     """Simulate a slow position sweep in both directions (:func:`pgcomm.rotary.standstill.sweep_reference`,
     classical law, the drive's tuned gains) and write it as ``folder/sweep.csv`` (``t, theta, velocity, iq_1,
-    id_1``): the drives' calibration run, for ``pgcomm identify --sweep``."""
-    from pgcomm.io.atomic import atomic_open
+    id_1, vq_1``): the drives' calibration run, for ``pgcomm identify --sweep``."""
     from pgcomm.rotary.standstill import sweep_reference
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
 
@@ -203,8 +209,16 @@ def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_second
     log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(truth.inertia / truth.k0),
                    seed=seed * 1000 + 999)
     path = folder / "sweep.csv"
-    with atomic_open(path) as f:
-        f.write("t,theta,velocity,iq_1,id_1\n")
-        np.savetxt(f, np.column_stack([log[c] for c in ("t", "theta", "velocity", "iq_1", "id_1")]),
-                   delimiter=",", fmt="%.12g")
+    _write_drive_log(path, log)
     return path
+
+
+def _write_drive_log(path: Path, log: dict) -> None:
+    """Write what a drive records of a twin's run as CSV: ``t, theta, velocity, iq_1, id_1`` and ``vq_1`` (V) when
+    the twin has a winding."""
+    from pgcomm.io.atomic import atomic_open
+
+    cols = [c for c in ("t", "theta", "velocity", "iq_1", "id_1", "vq_1") if c in log]
+    with atomic_open(path) as f:
+        f.write(",".join(cols) + "\n")
+        np.savetxt(f, np.column_stack([log[c] for c in cols]), delimiter=",", fmt="%.12g")

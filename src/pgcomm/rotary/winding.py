@@ -1,0 +1,128 @@
+"""The twin's winding: the q-axis voltage a field-oriented drive logs beside its current.
+
+A drive's current loop commands the voltage that drives its current through the winding; the q component,
+in the drive's own frame, is::
+
+    v_q = R i_q + L di_q/dt + e_q(θ, ω) + v_dt + noise                    (V)
+
+with ``R``, ``L`` the phase resistance and inductance (a surface-magnet machine: ``L_d = L_q``, and the
+drive's ``i_d`` is held at zero, so the cross-coupling ``ω_e L i_d`` vanishes). **The back-EMF is the torque
+constant seen from the other side**: the power the magnets' field exchanges with the winding is
+``(3/2) e_q i_q = T_em ω`` (amplitude-invariant Park transform, as the open drives use), so::
+
+    e_q = (2/3) k0 (1 + ρ(θ)) ω
+
+with the same ``k0 = k_t cos δ`` and the same relative ripple ``ρ`` as :mod:`pgcomm.rotary.twin`'s torque: the
+drive's frame is off the motor's by ``δ``, which scales the back-EMF's q component by ``cos δ`` exactly as it
+scales the torque of a q-current. Cogging exchanges no power with the winding and does not appear.
+
+``v_dt`` is what the inverter's dead time leaves after the drive's compensation: each phase loses
+``V_dt tanh(i_ph/i_ε)`` (the phase current's sign, smoothed over the PWM ripple ``i_ε``), which in the
+drive's frame is a voltage against the current plus a sixth electrical harmonic; it does not scale with the
+speed. The logged voltage is the drive's command at the sample instant (what ODrive's ``Vq_setpoint`` and
+moteus's ``q_V`` are), with the current loop's noise on it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Winding", "q_voltage", "draw_winding", "BACK_EMF_FACTOR"]
+
+#: ``e_q = BACK_EMF_FACTOR · k (1 + ρ) ω``: the amplitude-invariant Park transform's power ``(3/2) v_q i_q``.
+BACK_EMF_FACTOR = 2.0 / 3.0
+
+
+@dataclass(frozen=True)
+class Winding:
+    """The winding and inverter behind the logged q-voltage (module docstring).
+
+    Attributes:
+        resistance: phase resistance ``R`` (Ω).
+        inductance: phase inductance ``L`` (H).
+        deadtime_voltage: ``V_dt`` (V), each phase's voltage error the dead time leaves after compensation.
+        deadtime_current: ``i_ε`` (A), the current over which that error changes sign.
+        voltage_noise: standard deviation of the logged ``v_q`` (V).
+    """
+
+    resistance: float
+    inductance: float
+    deadtime_voltage: float
+    deadtime_current: float
+    voltage_noise: float
+
+    def to_dict(self) -> dict:
+        return {"resistance": self.resistance, "inductance": self.inductance,
+                "deadtime_voltage": self.deadtime_voltage, "deadtime_current": self.deadtime_current,
+                "voltage_noise": self.voltage_noise}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Winding":
+        return cls(**{k: float(d[k]) for k in ("resistance", "inductance", "deadtime_voltage", "deadtime_current",
+                                                "voltage_noise")})
+
+
+def deadtime_q(iq, theta_e, deadtime_voltage: float, deadtime_current: float) -> np.ndarray:
+    """The dead time's voltage error in the drive's q axis (V).
+
+    Args:
+        iq: ``(N,)`` q-current (A), ``i_d = 0``; theta_e: ``(N,)`` the drive's electrical angle (rad).
+        deadtime_voltage, deadtime_current: ``V_dt`` (V), ``i_ε`` (A).
+
+    Returns:
+        ``(N,)``: the q component of ``−V_dt tanh(i_ph/i_ε)`` over the three phases (amplitude-invariant).
+    """
+    iq = np.asarray(iq, float)
+    out = np.zeros_like(iq)
+    for k in range(3):
+        a = np.asarray(theta_e, float) - 2.0 * math.pi * k / 3.0
+        # the phase current of a q-current along -sin (Park: i_ph = -i_q sin(θ_e - 2πk/3) for i_d = 0)
+        i_ph = -iq * np.sin(a)
+        out += -np.sin(a) * (-deadtime_voltage * np.tanh(i_ph / deadtime_current))
+    return (2.0 / 3.0) * out
+
+
+def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: float, theta, omega, iq, sample_time: float,
+              noise) -> np.ndarray:
+    """The q-voltage a drive logs at each sample instant (module docstring).
+
+    Args:
+        winding: :class:`Winding`; k0: ``k_t cos δ`` (N·m/A); ripple: ``ρ`` (a callable of the angle, -).
+        pole_pairs: ``p``; offset: the drive's electrical offset (rad): its frame is ``p θ + offset``.
+        theta, omega: ``(N,)`` true angle (rad) and speed (rad/s) at the sample instants.
+        iq: ``(N,)`` q-current that flows from each sample instant (A).
+        sample_time: ``T_s`` (s); noise: ``(N,)`` standard normal draws.
+
+    Returns:
+        ``(N,)`` logged ``v_q`` (V).
+    """
+    th, om, iq = (np.asarray(v, float) for v in (theta, omega, iq))
+    # the current's slope at the instant: the drive's loop moves the current from one sample's value to the next
+    di = np.gradient(iq, sample_time) if iq.size > 1 else np.zeros_like(iq)
+    emf = BACK_EMF_FACTOR * k0 * (1.0 + np.asarray(ripple(th), float)) * om
+    dt = deadtime_q(iq, pole_pairs * th + offset, winding.deadtime_voltage, winding.deadtime_current)
+    return winding.resistance * iq + winding.inductance * di + emf + dt + winding.voltage_noise * np.asarray(noise)
+
+
+def draw_winding(rng, k_t: float, current_noise: float) -> Winding:
+    """A plausible winding for a motor of torque constant ``k_t`` (N·m/A).
+
+    Phase resistance ``(0.5–2.5) Ω`` per N·m/A of ``k_t`` (small drones' motors of 0.03 N·m/A have 0.04 Ω,
+    servo motors of 1.5 N·m/A 2 Ω); electrical time constant 0.3–3 ms; the dead time's residual 0.02–0.3 V
+    per phase over ``i_ε`` of 1–5 % of the noise-free current scale; the logged voltage's noise is the
+    current loop's proportional gain (bandwidth 0.5–2 kHz) on the current's noise, with 5 mV of
+    converter resolution.
+
+    Args:
+        rng: :class:`numpy.random.Generator`; k_t: N·m/A; current_noise: std of the logged current (A).
+    """
+    r = float(k_t * rng.uniform(0.5, 2.5))
+    ind = float(r * np.exp(rng.uniform(np.log(3e-4), np.log(3e-3))))
+    v_dt = float(np.exp(rng.uniform(np.log(0.02), np.log(0.3))))
+    i_eps = float(current_noise * rng.uniform(2.0, 10.0))
+    kp = ind * 2 * math.pi * float(np.exp(rng.uniform(np.log(500.0), np.log(2000.0))))
+    noise = float(math.hypot(kp * current_noise, 0.005))
+    return Winding(r, ind, v_dt, i_eps, noise)

@@ -1,0 +1,155 @@
+"""The logged q-voltage: the twin's winding (pgcomm.rotary.winding) and the ripple it measures (pgcomm.rotary.back_emf)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from pgcomm.rotary.back_emf import _deadtime_columns, agreement, fit_voltage, has_voltage, voltage_text
+from pgcomm.rotary.experiment import RotarySettings, running_references
+from pgcomm.rotary.identify import identify
+from pgcomm.rotary.model import Fourier
+from pgcomm.rotary.regression import Orders
+from pgcomm.rotary.twin import LawParams, default_gains, simulate
+from pgcomm.rotary.winding import BACK_EMF_FACTOR, Winding, deadtime_q, q_voltage
+from pgcomm.rotary.zoo import draw_rotary
+
+
+def _logs(truth, settings=RotarySettings(), seed=1):
+    a = truth.inertia / truth.k0
+    refs = running_references(truth.motor, a, settings, Orders.for_motor(truth.motor))
+    return [simulate(truth, r, LawParams.classical(truth.motor.pole_pairs), default_gains(a), seed=seed + k)
+            for k, r in enumerate(refs)]
+
+
+def test_the_twins_back_emf_is_its_torque_constant_seen_from_the_winding():
+    """With no resistance, inductance, dead time or noise the logged q-voltage is the back-EMF alone, and the power it
+    exchanges with the current, (3/2) v_q i_q, is the air-gap torque's power less the cogging's, T_em ω − T_cog ω:
+    the twin's torque (from its scan) and its voltage (from the winding) are two formulations of one field."""
+    t = draw_rotary(0, 2)
+    t = replace(t, torque_noise=0.0, winding=Winding(0.0, 0.0, 0.0, 1.0, 0.0))
+    log = _logs(t, RotarySettings(revolutions=0.5))[0]
+    th, om, iq = log["theta_true"], log["omega_true"], log["iq_true"]
+    power_v = 1.0 / BACK_EMF_FACTOR * log["vq_1"] * iq
+    power_t = (log["torque"] - t.cogging(th)) * om
+    # the torque's scale times the speed's: what a relative error of 1e-12 in either would leave
+    tol = 1e-12 * float(np.max(np.abs(t.k0 * iq))) * float(np.max(np.abs(om)))
+    assert np.max(np.abs(power_v - power_t)) <= tol
+
+
+def test_the_dead_time_is_a_voltage_against_the_current_of_four_over_pi_v_dt():
+    """Far above the zero crossing, each phase loses V_dt against its current's sign; its q component averages to
+    −(4/π) V_dt sign(i_q) over the electrical period (the mean of Σ|sin| over three phases is 6/π). The
+    identification's column of one width is that error per volt."""
+    th_e = np.linspace(0, 2 * math.pi, 6000, endpoint=False)
+    for iq in (5.0, -5.0):
+        v = deadtime_q(np.full(th_e.size, iq), th_e, 0.2, 1e-6)
+        assert abs(float(np.mean(v)) + 4.0 / math.pi * 0.2 * math.copysign(1.0, iq)) < 1e-4 * 0.2
+    iq = np.random.default_rng(0).uniform(-3, 3, th_e.size)
+    col = _deadtime_columns(iq, th_e, [0.4])[:, 0]
+    np.testing.assert_allclose(-0.2 * col, deadtime_q(iq, th_e, 0.2, 0.4), rtol=0, atol=1e-14)
+
+
+def _synthetic(noise: float, seed: int = 0):
+    """Constant speeds of 20 and 40 rad/s in both directions with a current dither, the q-voltage of a known winding
+    and ripple (the twin's own formula, a dead time of a width in the fit's family)."""
+    rng = np.random.default_rng(seed)
+    ts, p = 1e-3, 4
+    ripple = Fourier(np.array([1, 3, 8, 24]), rng.normal(0, 0.01, (4, 2)))
+    n = 4000
+    t = ts * np.arange(n)
+    iq = 1.0 + 3.0 * np.sin(2 * math.pi * 61 * t) + 0.5 * np.sin(2 * math.pi * 83 * t)
+    # the dead time's width one of the fit's (a tenth of the RMS current), so that the fit's model is the generator's
+    w = Winding(0.4, 4e-4, 0.1, 0.1 * math.sqrt(float(np.mean(iq**2))), noise)
+    logs = []
+    for speed in (20.0, -20.0, 40.0, -40.0):
+        th = 0.3 + speed * t
+        om = np.full(n, speed)
+        vq = q_voltage(w, 0.3, ripple, p, 0.0, th, om, iq, ts, rng.standard_normal(n))
+        logs.append({"t": t, "theta": th, "iq_1": iq, "vq_1": vq})
+    return logs, ripple, w, p, ts
+
+
+def test_fit_voltage_is_exact_without_noise_and_within_its_covariance_with_it():
+    """Noise off, the ripple, the back-EMF constant and the resistance come back to rounding (the model is the
+    generator's, a constant speed makes the central differences exact). With noise, over twenty seeds the
+    ripple's error over its reported covariance is χ² with 8 degrees of freedom: its mean within 4 standard
+    deviations of 8 (a sandwich that underestimated the noise twofold would give a mean near 32)."""
+    logs, ripple, w, p, ts = _synthetic(0.0)
+    rms = Fourier.rms(ripple)
+    f = fit_voltage(logs, ripple.orders, p, ts)
+    truth = np.concatenate([ripple.coef[:, 0], ripple.coef[:, 1]])
+    assert np.max(np.abs(f["ripple"] - truth)) < 1e-8 * rms
+    assert abs(f["back_emf_constant"] - BACK_EMF_FACTOR * 0.3) < 1e-9 * 0.3
+    assert abs(f["resistance"] - w.resistance) < 1e-6 * w.resistance
+    chi = []
+    for seed in range(20):
+        logs, ripple, w, p, ts = _synthetic(0.05, seed=seed)
+        f = fit_voltage(logs, ripple.orders, p, ts)
+        d = f["ripple"] - np.concatenate([ripple.coef[:, 0], ripple.coef[:, 1]])
+        chi.append(float(d @ np.linalg.solve(f["cov"], d)))
+    k = 2 * ripple.orders.size
+    assert abs(np.mean(chi) - k) < 4 * math.sqrt(2 * k / len(chi)), chi
+
+
+def test_the_voltages_timing_is_read_from_the_logs():
+    """A voltage written one sample late is found (the fit with it shifted back is far better) and reads the same
+    ripple as the voltage in time."""
+    logs, ripple, w, p, ts = _synthetic(0.01)
+    late = [dict(log, vq_1=np.concatenate([log["vq_1"][:1], log["vq_1"][:-1]])) for log in logs]
+    f0, f1 = fit_voltage(logs, ripple.orders, p, ts), fit_voltage(late, ripple.orders, p, ts)
+    assert f0["voltage_delay"] == 0 and f1["voltage_delay"] == 1
+    se = math.sqrt(float(np.max(np.diag(f0["cov"]))))
+    assert np.max(np.abs(f1["ripple"] - f0["ripple"])) < 3 * se
+
+
+def test_agreement_is_the_chi_square_of_the_difference():
+    """Two estimates one standard error apart in each of 4 coefficients agree (χ² = 4 < 13.3); ten apart do not."""
+    c = np.eye(4) * 0.5
+    a = agreement(np.zeros(4), c, np.ones(4), c)
+    assert a["consistent"] and abs(a["chi2"] - 4.0) < 1e-12 and a["dof"] == 4
+    assert abs(a["threshold"] - stats.chi2.ppf(0.99, 4)) < 1e-9
+    assert not agreement(np.zeros(4), c, 10 * np.ones(4), c)["consistent"]
+
+
+@pytest.mark.parametrize("index", [0, 3])
+def test_identify_checks_the_ripple_against_the_voltage_and_reads_k0(index):
+    """On zoo motors with the twin's winding: the back-EMF constant gives k0 within 1 % (the truth's
+    (2/3) k0 cos δ), the resistance within 10 %, and the voltage's ripple agrees with the currents'. A voltage
+    whose ripple is not the torque's (an extra 5 % of order 2p in the back-EMF, as a saliency would add) is
+    called inconsistent. The model is the currents' either way, to the digit."""
+    t = draw_rotary(0, index)
+    logs = _logs(t)
+    assert has_voltage(logs)
+    res = identify(logs, t.motor)
+    bare = identify(logs, t.motor, back_emf=False)
+    v = res.info["back_emf"]
+    assert bare.info["back_emf"] is None
+    assert abs(v["k0_amplitude_invariant"] / t.k0 - 1.0) < 0.01
+    assert abs(v["resistance"] / t.winding.resistance - 1.0) < 0.1
+    assert v["consistent"], v
+    assert "agrees" in voltage_text(v)
+    np.testing.assert_array_equal(res.model.ripple.coef, bare.model.ripple.coef)
+    p = t.motor.pole_pairs
+    kappa = BACK_EMF_FACTOR * t.k0
+    bad = [dict(log, vq_1=log["vq_1"] + 0.05 * kappa * log["omega_true"] * np.cos(2 * p * log["theta_true"]))
+           for log in logs]
+    w = identify(bad, t.motor).info["back_emf"]
+    assert not w["consistent"], w
+    assert "disagrees" in voltage_text(w)
+
+
+def test_the_zoo_draws_the_same_motor_beside_its_winding():
+    """The winding comes from a stream of its own and the voltage's noise is drawn after the currents': the logged
+    currents of a twin with a winding are those of the same twin without one (so every figure of the currents'
+    identification stays as it was)."""
+    t = draw_rotary(0, 0)
+    assert t.winding is not None and t.winding.resistance > 0
+    a = _logs(replace(t, winding=None), RotarySettings(revolutions=0.3))[0]
+    b = _logs(t, RotarySettings(revolutions=0.3))[0]
+    np.testing.assert_array_equal(a["iq_1"], b["iq_1"])
+    assert "vq_1" not in a and "vq_1" in b
