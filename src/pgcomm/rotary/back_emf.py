@@ -252,8 +252,8 @@ def voltage_text(info: dict) -> str | None:
     if info.get("voltage_delay"):
         base += f", voltage read {info['voltage_delay']:+d} samples"
     if info["consistent"]:
-        return base + (f"; its ripple ({100 * info['ripple_rms']:.2g} % RMS, standard error "
-                       f"{100 * info['ripple_rms_error']:.2g} %) agrees with the currents' (χ² {info['chi2']:.1f} ≤ "
-                       f"{info['threshold']:.1f})")
+        rel = info["ripple_rms_error"] / info["ripple_rms"] if info["ripple_rms"] > 0 else float("inf")
+        return base + (f"; its ripple ({100 * info['ripple_rms']:.2g} % of k0 RMS, standard error {100 * rel:.2g} % of "
+                       f"that) agrees with the currents' (χ² {info['chi2']:.1f} ≤ {info['threshold']:.1f})")
     return base + (f"; its ripple disagrees with the currents' (χ² {info['chi2']:.1f} > {info['threshold']:.1f}): an "
                    f"interior-magnet motor, or a logged voltage that is not the applied one? (the model is the currents')")
