@@ -48,7 +48,9 @@ import math
 import numpy as np
 from scipy import stats
 
+from pgcomm.errors import DataError
 from pgcomm.rotary.model import harmonic_columns
+from pgcomm.rotary.readings import _shifted
 
 __all__ = ["VOLTAGE_COLUMNS", "has_voltage", "fit_voltage", "agreement", "CONSISTENCY_ALPHA", "VOLTAGE_SHIFTS",
            "voltage_text"]
@@ -58,6 +60,8 @@ VOLTAGE_COLUMNS = ("vq_1", "vq")
 #: The voltage's ripple updates the current's fit only when the two agree at this level (chance that two
 #: consistent measurements are called inconsistent).
 CONSISTENCY_ALPHA = 0.01
+#: The back-EMF constant must exceed this many of its standard errors for the voltage's ripple to be read.
+MIN_BACK_EMF_EVIDENCE = 10.0
 #: Shifts (samples) of the logged voltage against the angle that are tried.
 VOLTAGE_SHIFTS = (-2, -1, 0, 1, 2)
 #: A shift other than the current's is taken when ``n ln(cost_0/cost_d)`` exceeds this (χ²₁ at 0.1 %).
@@ -84,18 +88,6 @@ def has_voltage(logs) -> bool:
     """Whether every log has a q-voltage column (:data:`VOLTAGE_COLUMNS`)."""
     logs = list(logs)
     return bool(logs) and all(any(a in log for a in VOLTAGE_COLUMNS) for log in logs)
-
-
-def _shift(x: np.ndarray, d: int) -> np.ndarray:
-    """``x[j + d]``, edges repeated (a value logged ``d`` samples late)."""
-    if d == 0:
-        return x
-    out = np.empty_like(x)
-    if d > 0:
-        out[:-d], out[-d:] = x[d:], x[-1]
-    else:
-        out[-d:], out[:-d] = x[:d], x[0]
-    return out
 
 
 def _deadtime_columns(iq: np.ndarray, theta_e: np.ndarray, widths) -> np.ndarray:
@@ -138,15 +130,14 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         vq = _column(log, VOLTAGE_COLUMNS)
         bad = np.flatnonzero(~np.isfinite(vq))
         if bad.size:
-            from pgcomm.errors import DataError
             raise DataError(f"{name}: column 'vq_1' has a non-finite value at row {bad[0] + 1}")
         ts = sample_time
         if "t" in log and np.size(log["t"]) > 1:
             ts = float(np.median(np.diff(np.asarray(log["t"], float))))
         if th.size < 3:
             continue
-        iq = _shift(iq, current_delay)
-        vq = _shift(vq, voltage_delay)
+        iq = _shifted(iq, current_delay)
+        vq = _shifted(vq, voltage_delay)
         w = (th[2:] - th[:-2]) / (2 * ts)
         di = (iq[2:] - iq[:-2]) / (2 * ts)
         thc, iqc, vqc = th[1:-1], iq[1:-1], vq[1:-1]
@@ -191,7 +182,9 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
         dict: ``orders``; ``ripple`` ``(2n,)`` ``[a…, b…]`` (-) and ``cov`` ``(2n, 2n)``; ``back_emf_constant``
         (V·s/rad) and its standard error; ``resistance`` (Ω), ``inductance`` (H), ``offset_V``, ``deadtime_V`` (the
         coefficients of the dead time's columns, one per :data:`DEADTIME_WIDTHS`); ``voltage_delay`` (samples), ``rows``, ``blocks``, ``residual_rms_V``,
-        ``ripple_share`` (the ripple's RMS voltage at the logs' RMS speed over the residual's RMS).
+        ``ripple_share`` (the ripple's RMS voltage at the logs' RMS speed over the residual's RMS). Where the back-EMF
+        constant is within :data:`MIN_BACK_EMF_EVIDENCE` standard errors of zero, ``ripple`` and ``cov`` are ``None``
+        and only the constant, its error, the delay and the rows are given.
     """
     orders = np.asarray(orders, int)
     orders = orders[orders > 0]
@@ -205,6 +198,11 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     d = best if rows * math.log(costs[0][2] / costs[best][2]) > SHIFT_THRESHOLD else 0
     beta, cov, cost = costs[d]
     kappa = beta[0]
+    if not abs(kappa) > MIN_BACK_EMF_EVIDENCE * math.sqrt(max(cov[0, 0], 0.0)):
+        # no back-EMF above the voltage's noise (a column of zeros, logs at standstill): no ripple to read
+        return {"orders": orders, "ripple": None, "cov": None, "back_emf_constant": float(kappa),
+                "back_emf_constant_se": float(math.sqrt(max(cov[0, 0], 0.0))), "voltage_delay": int(current_delay + d),
+                "rows": int(rows)}
     c = beta[1:1 + 2 * n]
     # delta method: r = c / κ
     J = np.zeros((2 * n, beta.size))
@@ -247,6 +245,9 @@ def voltage_text(info: dict) -> str | None:
     if not info or not info.get("used_logs"):
         return None
     kappa = info["back_emf_constant"]
+    if info.get("consistent") is None:
+        return (f"q-voltage: no back-EMF above its noise ({kappa:.3g} ± {info['back_emf_constant_se']:.2g} V·s/rad); "
+                "is vq_1 the drive's q-voltage, in V, from logs that turn?")
     base = (f"q-voltage: back-EMF constant {kappa:.4g} V·s/rad (k0 = {info['k0_amplitude_invariant']:.4g} N·m/A in the "
             f"amplitude-invariant frame), R {info['resistance']:.3g} Ω")
     if info.get("voltage_delay"):

@@ -198,6 +198,9 @@ def _voltage_check(fit: dict, logs, motor: RotaryMotor, final: Orders, layout: _
     module docstring of :mod:`pgcomm.rotary.back_emf` says why)."""
     read = [apply_reading(log, 0, pll, ts) for log in logs]
     fv = fit_voltage(read, final.ripple, motor.pole_pairs, ts, delay, motor.commutation_offset)
+    if fv["ripple"] is None:
+        return {"used_logs": len(logs), "back_emf_constant": fv["back_emf_constant"],
+                "back_emf_constant_se": fv["back_emf_constant_se"], "rows": fv["rows"], "consistent": None}
     kept = np.flatnonzero(layout.keep)
     where = {int(c): j for j, c in enumerate(kept)}
     nr = final.ripple.size
