@@ -11,17 +11,20 @@ drive's compensation leaves: each phase loses a voltage that is an odd, saturati
 ``tanh(i_ph/c_m)`` over a few widths ``c_m`` (the zero crossing's width is the PWM ripple, which the logs do not
 show), projected on the drive's q axis. It carries the sixth electrical harmonic but does not scale with the speed,
 so logs at two speeds tell it from the back-EMF's own harmonics at ``6p``. The model is linear in
-``(R, L, κ, κ r_h, v_0, d_m)``; least squares at every sample, ``ω`` and ``di_q/dt`` from central differences of
+``(R, L, κ, κ r_h, v_0, d_m)``; least squares at every sample (the current's columns instrumented by its
+neighbours, :func:`_log_rows`), ``ω`` and ``di_q/dt`` from central differences of
 the logged angle and current, and ``r_h = (κ r_h)/κ`` (``κ`` is resolved far better than its ripple: the delta
 method's covariance). The covariance is the sandwich over one-second time blocks, as the current's regression has it.
 
 **Why it matters.** The current's regression sees the ripple only through q-current that varies at a given angle
 (``r(θ) i_q``): a dither or accelerations, which a free light rotor carries only briefly. The back-EMF shows the
 ripple at every sample of a constant-speed run, and the faster the run, the larger it is; it needs no acceleration
-and no alias guard (the relation holds at each sample instant). On the zoo (seed 0, the twin's winding and current
-loop noise) it is a check at the running logs' speeds, which the currents' alias guard bounds: one round gave the
-ripple's standard error at 18-90 % of its RMS (the currents': 3-21 %); ten revolutions each way at 3 and 6 times
-that speed, 4-25 s, gave 2.7-12 % (errors 4.3-10 %) on 12N8P, 18N16P, 24N20P, 24N22P and 36N42P.
+and no alias guard (the relation holds at each sample instant). On the zoo (``bench/rotary_back_emf.py``, the twin's
+winding and current loop) it is a check at the running logs' speeds, which the currents' alias guard bounds: one round
+of seeds 0 and 1 gave the ripple's standard error at 9.6-830 % of its RMS (the currents': 2.6-23 %). Ten revolutions
+each way at 3 and 6 times that speed (3-25 s) gave 1.6-33 % on 15 of the 16 motors, but at such speeds the estimate
+can miss by more than its noise (seed 1's 24N20P: 9.5 % off with a standard error of 1.6 %: the speed between two
+samples is no longer the speed at the sample), which is one more reason the model does not take it.
 
 **What it is used for** (:func:`agreement`). ``identify`` reports the voltage's ripple beside the currents' and
 whether the two agree within their noise (``χ²`` of the difference over the sum of their covariances below its
@@ -31,14 +34,18 @@ an interior-magnet motor (reluctance torque ``(L_d − L_q) i_d i_q`` and an ind
 angle), a logged voltage that is not the one applied (before a limiter, or averaged over another interval than the
 angle's), a dead time that depends on more than the current. The model stays the currents': a Kalman update of
 the currents' fit with the voltage's ripple was tried and made the standard errors overconfident. Both
-estimates read the same logged current (the voltage through ``R i_q + L di_q/dt``, the mechanics through the
-torque), so their errors are not independent: with ten times the zoo's current noise (zoo motor 0, four noise
-seeds) the update cut the cogging's standard error from 0.07 to 0.025 A while its actual error stayed
-0.07-0.10 A. A joint fit that models that shared noise is the way to use both.
+estimates read the same logged current (the voltage through ``R i_q + L di_q/dt`` and the loop's ``−K_p n``, the
+mechanics through the torque), so their errors are not independent: with ten times the zoo's current noise (zoo
+motor 0, four noise seeds, even with the voltage's noise drawn independently of the current's) the update cut the
+cogging's standard error from 0.07 to 0.025 A while its actual error stayed 0.07-0.10 A. A joint fit that models
+that shared noise is the way to use both.
 
-**Assumptions the user's logs must meet.** ``vq_1`` is the drive's q-voltage in its own frame (V), sampled at the
-same instant as the angle; ``i_d`` is held at zero; a surface-magnet motor. The timing is read like the current's:
-the voltage shifted by −2…2 samples against the angle, the best shift kept where it fits clearly better.
+**Assumptions the user's logs must meet.** ``vq_1`` is the drive's q-voltage command in its own frame (V), written in
+the same record as the current: it takes the current's timing against the angle (:mod:`pgcomm.rotary.readings`).
+A search of its own over shifts was tried and misled: the command carries ``−K_p`` times the logged current's noise,
+so a shift that lets the neighbouring currents explain that noise fits better (zoo seeds 0 and 3: shifts of −1 and
+−2 chosen, ``k0`` 0.9-4.6 % off; at the current's timing 0.1-0.2 %). ``i_d`` is held at zero; a surface-magnet
+motor.
 """
 
 from __future__ import annotations
@@ -52,7 +59,7 @@ from pgcomm.errors import DataError
 from pgcomm.rotary.model import harmonic_columns
 from pgcomm.rotary.readings import _shifted
 
-__all__ = ["VOLTAGE_COLUMNS", "has_voltage", "fit_voltage", "agreement", "CONSISTENCY_ALPHA", "VOLTAGE_SHIFTS",
+__all__ = ["VOLTAGE_COLUMNS", "has_voltage", "fit_voltage", "agreement", "CONSISTENCY_ALPHA",
            "voltage_text"]
 
 #: Column names of the logged q-voltage (V), in the order looked for.
@@ -62,10 +69,6 @@ VOLTAGE_COLUMNS = ("vq_1", "vq")
 CONSISTENCY_ALPHA = 0.01
 #: The back-EMF constant must exceed this many of its standard errors for the voltage's ripple to be read.
 MIN_BACK_EMF_EVIDENCE = 10.0
-#: Shifts (samples) of the logged voltage against the angle that are tried.
-VOLTAGE_SHIFTS = (-2, -1, 0, 1, 2)
-#: A shift other than the current's is taken when ``n ln(cost_0/cost_d)`` exceeds this (χ²₁ at 0.1 %).
-SHIFT_THRESHOLD = 10.83
 #: Widths of the dead time's zero crossing tried (shares of the logs' RMS q-current): the crossing's width is the PWM
 #: current ripple, which the logs do not show.
 DEADTIME_WIDTHS = (0.01, 0.03, 0.1, 0.3)
@@ -103,9 +106,9 @@ def _deadtime_columns(iq: np.ndarray, theta_e: np.ndarray, widths) -> np.ndarray
 
 
 def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, current_delay: int, voltage_delay: int):
-    """Stacked rows ``(X, y, block)`` of every log (:func:`_log_rows`), the blocks as long as :data:`BLOCK_SECONDS`
+    """Stacked rows ``(X, Z, y, block)`` of every log (:func:`_log_rows`), the blocks as long as :data:`BLOCK_SECONDS`
     and :data:`BLOCKS_PER_UNKNOWN` allow."""
-    X, y, t = _log_rows(logs, orders, pole_pairs, offset, sample_time, current_delay, voltage_delay)
+    X, Z, y, t = _log_rows(logs, orders, pole_pairs, offset, sample_time, current_delay, voltage_delay)
     total = sum(float(np.ptp(tk)) for tk in t)
     length = min(BLOCK_SECONDS, total / (BLOCKS_PER_UNKNOWN * X.shape[1]))
     blocks, start = [], 0
@@ -113,14 +116,15 @@ def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, curr
         b = np.floor((tk - tk[0]) / length).astype(int)
         blocks.append(start + b)
         start += int(b.max()) + 1
-    return X, y, np.concatenate(blocks)
+    return X, Z, y, np.concatenate(blocks)
 
 
 def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, current_delay: int,
               voltage_delay: int):
     """Rows of every log: columns ``[ω, ω cos hθ…, ω sin hθ…, i_q, di_q/dt, 1, dead time…]``, the target ``v_q`` (V)
-    and each log's times (s). Returns ``(X, y, [t_k])``."""
-    xs, ys, ts_out = [], [], []
+    and each log's times (s); ``Z`` the instruments (the current's columns from its neighbours). Returns
+    ``(X, Z, y, [t_k])``."""
+    xs, zs, ys, ts_out = [], [], [], []
     i_rms = math.sqrt(float(np.mean(np.concatenate([_column(log, ("iq_1", "iq")) for log in logs]) ** 2)))
     widths = [w * max(i_rms, 1e-12) for w in DEADTIME_WIDTHS]
     for i, log in enumerate(logs):
@@ -141,28 +145,36 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         w = (th[2:] - th[:-2]) / (2 * ts)
         di = (iq[2:] - iq[:-2]) / (2 * ts)
         thc, iqc, vqc = th[1:-1], iq[1:-1], vq[1:-1]
-        X = np.column_stack([w, w[:, None] * harmonic_columns(thc, orders), iqc, di, np.ones_like(w),
-                             _deadtime_columns(iqc, pole_pairs * thc + offset, widths)])
+        emf = np.column_stack([w, w[:, None] * harmonic_columns(thc, orders)])
+        X = np.column_stack([emf, iqc, di, np.ones_like(w), _deadtime_columns(iqc, pole_pairs * thc + offset, widths)])
+        # instruments: the current's columns from its neighbours. The logged voltage carries -K_p times the logged
+        # current's own noise (the loop acts on the measured current), so least squares on the current of the same
+        # sample pulls R, and k0 with it, by about K_p σ²/var(i_q); the neighbours' noise is independent of it, and
+        # they follow the current that flowed (zoo seed 3: R -1.5 -> -0.9 % on 12N14P, -0.7 -> +0.1 % on 24N22P)
+        nb = 0.5 * (iq[2:] + iq[:-2])
+        Z = np.column_stack([emf, nb, di, np.ones_like(w), _deadtime_columns(nb, pole_pairs * thc + offset, widths)])
         xs.append(X)
+        zs.append(Z)
         ys.append(vqc)
         ts_out.append(ts * np.arange(1, th.size - 1))
-    return np.concatenate(xs), np.concatenate(ys), ts_out
+    return np.concatenate(xs), np.concatenate(zs), np.concatenate(ys), ts_out
 
 
-def _solve(X, y, block):
-    """Least squares with column scaling; the sandwich covariance over the blocks. Returns ``(beta, cov, cost)``."""
+def _solve(X, Z, y, block):
+    """Instrumental-variable least squares ``β = (ZᵀX)⁻¹ Zᵀy`` with column scaling, and its sandwich covariance
+    ``(ZᵀX)⁻¹ (Σ_b Z_bᵀ e_b e_bᵀ Z_b) (XᵀZ)⁻¹`` over the blocks. Returns ``(beta, cov, cost)``."""
     scale = np.sqrt(np.mean(X * X, axis=0))
     scale[scale == 0] = 1.0
-    Xs = X / scale
-    beta_s, *_ = np.linalg.lstsq(Xs, y, rcond=None)
+    Xs, Zs = X / scale, Z / scale
+    a_inv = np.linalg.pinv(Zs.T @ Xs)
+    beta_s = a_inv @ (Zs.T @ y)
     e = y - Xs @ beta_s
     lab, inv = np.unique(block, return_inverse=True)
     scores = np.zeros((lab.size, X.shape[1]))
-    np.add.at(scores, inv, Xs * e[:, None])
-    a_inv = np.linalg.pinv(Xs.T @ Xs)
+    np.add.at(scores, inv, Zs * e[:, None])
     # small-sample factor B/(B-1) of the block sandwich
     corr = lab.size / max(lab.size - 1, 1)
-    cov = corr * (a_inv @ (scores.T @ scores) @ a_inv) / np.outer(scale, scale)
+    cov = corr * (a_inv @ (scores.T @ scores) @ a_inv.T) / np.outer(scale, scale)
     return beta_s / scale, cov, float(e @ e) / y.size
 
 
@@ -189,19 +201,14 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     orders = np.asarray(orders, int)
     orders = orders[orders > 0]
     n = orders.size
-    costs = {}
-    for d in VOLTAGE_SHIFTS:
-        X, y, block = _rows(logs, orders, pole_pairs, offset, sample_time, current_delay, current_delay + d)
-        costs[d] = _solve(X, y, block)
+    X, Z, y, block = _rows(logs, orders, pole_pairs, offset, sample_time, current_delay, current_delay)
+    beta, cov, cost = _solve(X, Z, y, block)
     rows = y.size
-    best = min(costs, key=lambda d: costs[d][2])
-    d = best if rows * math.log(costs[0][2] / costs[best][2]) > SHIFT_THRESHOLD else 0
-    beta, cov, cost = costs[d]
     kappa = beta[0]
     if not abs(kappa) > MIN_BACK_EMF_EVIDENCE * math.sqrt(max(cov[0, 0], 0.0)):
         # no back-EMF above the voltage's noise (a column of zeros, logs at standstill): no ripple to read
         return {"orders": orders, "ripple": None, "cov": None, "back_emf_constant": float(kappa),
-                "back_emf_constant_se": float(math.sqrt(max(cov[0, 0], 0.0))), "voltage_delay": int(current_delay + d),
+                "back_emf_constant_se": float(math.sqrt(max(cov[0, 0], 0.0))), "voltage_delay": int(current_delay),
                 "rows": int(rows)}
     c = beta[1:1 + 2 * n]
     # delta method: r = c / κ
@@ -209,13 +216,12 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     J[:, 0] = -c / kappa ** 2
     J[:, 1:1 + 2 * n] = np.eye(2 * n) / kappa
     r = c / kappa
-    X, _, block = _rows(logs, orders, pole_pairs, offset, sample_time, current_delay, current_delay + d)
     w_rms = float(np.sqrt(np.mean(X[:, 0] ** 2)))
     k = 1 + 2 * n
     return {"orders": orders, "ripple": r, "cov": J @ cov @ J.T,
             "back_emf_constant": float(kappa), "back_emf_constant_se": float(math.sqrt(max(cov[0, 0], 0.0))),
             "resistance": float(beta[k]), "inductance": float(beta[k + 1]), "offset_V": float(beta[k + 2]),
-            "deadtime_V": [float(v) for v in beta[k + 3:]], "voltage_delay": int(current_delay + d),
+            "deadtime_V": [float(v) for v in beta[k + 3:]], "voltage_delay": int(current_delay),
             "rows": int(rows), "blocks": int(np.unique(block).size), "residual_rms_V": math.sqrt(cost),
             "ripple_share": float(abs(kappa) * w_rms * math.sqrt(0.5 * float(r @ r)) / math.sqrt(cost))}
 

@@ -342,7 +342,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     if truth.winding is not None:
         # drawn after the currents' noise, so a twin with a winding logs the same currents as one without
         log["vq_1"] = q_voltage(truth.winding, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th, om,
-                                iq_act, ts, rng.standard_normal(n))
+                                iq_act, ts, rng.standard_normal(n), iq - iq_act)
     return log
 
 

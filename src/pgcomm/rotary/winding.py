@@ -20,7 +20,9 @@ scales the torque of a q-current. Cogging exchanges no power with the winding an
 ``V_dt tanh(i_ph/i_ε)`` (the phase current's sign, smoothed over the PWM ripple ``i_ε``), which in the
 drive's frame is a voltage against the current plus a sixth electrical harmonic; it does not scale with the
 speed. The logged voltage is the drive's command at the sample instant (what ODrive's ``Vq_setpoint`` and
-moteus's ``q_V`` are), with the current loop's noise on it.
+moteus's ``q_V`` are). Its noise is mostly the current loop's: the loop's proportional gain ``K_p`` acts on the
+*measured* current, so the command carries ``−K_p n`` of the same noise ``n`` the logged current carries, plus a
+little of its own (the converter's resolution). The two logged columns' noises are therefore not independent.
 """
 
 from __future__ import annotations
@@ -45,24 +47,27 @@ class Winding:
         inductance: phase inductance ``L`` (H).
         deadtime_voltage: ``V_dt`` (V), each phase's voltage error the dead time leaves after compensation.
         deadtime_current: ``i_ε`` (A), the current over which that error changes sign.
-        voltage_noise: standard deviation of the logged ``v_q`` (V).
+        loop_gain: ``K_p`` (V/A), the current loop's proportional gain: the logged ``v_q`` carries ``−K_p`` times the
+            logged current's noise.
+        voltage_noise: standard deviation of the logged ``v_q``'s own noise (V).
     """
 
     resistance: float
     inductance: float
     deadtime_voltage: float
     deadtime_current: float
+    loop_gain: float
     voltage_noise: float
 
     def to_dict(self) -> dict:
-        return {"resistance": self.resistance, "inductance": self.inductance,
-                "deadtime_voltage": self.deadtime_voltage, "deadtime_current": self.deadtime_current,
-                "voltage_noise": self.voltage_noise}
+        return {k: getattr(self, k) for k in _FIELDS}
 
     @classmethod
     def from_dict(cls, d: dict) -> "Winding":
-        return cls(**{k: float(d[k]) for k in ("resistance", "inductance", "deadtime_voltage", "deadtime_current",
-                                                "voltage_noise")})
+        return cls(**{k: float(d[k]) for k in _FIELDS})
+
+
+_FIELDS = ("resistance", "inductance", "deadtime_voltage", "deadtime_current", "loop_gain", "voltage_noise")
 
 
 def deadtime_q(iq, theta_e, deadtime_voltage: float, deadtime_current: float) -> np.ndarray:
@@ -86,7 +91,7 @@ def deadtime_q(iq, theta_e, deadtime_voltage: float, deadtime_current: float) ->
 
 
 def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: float, theta, omega, iq, sample_time: float,
-              noise) -> np.ndarray:
+              noise, current_noise=0.0) -> np.ndarray:
     """The q-voltage a drive logs at each sample instant (module docstring).
 
     Args:
@@ -94,7 +99,9 @@ def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: floa
         pole_pairs: ``p``; offset: the drive's electrical offset (rad): its frame is ``p θ + offset``.
         theta, omega: ``(N,)`` true angle (rad) and speed (rad/s) at the sample instants.
         iq: ``(N,)`` q-current that flows from each sample instant (A).
-        sample_time: ``T_s`` (s); noise: ``(N,)`` standard normal draws.
+        sample_time: ``T_s`` (s); noise: ``(N,)`` standard normal draws (the voltage's own noise).
+        current_noise: ``(N,)`` the logged current's noise (A; measured minus flowing), which the loop's gain puts
+            into the command.
 
     Returns:
         ``(N,)`` logged ``v_q`` (V).
@@ -104,7 +111,8 @@ def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: floa
     di = np.gradient(iq, sample_time) if iq.size > 1 else np.zeros_like(iq)
     emf = BACK_EMF_FACTOR * k0 * (1.0 + np.asarray(ripple(th), float)) * om
     dt = deadtime_q(iq, pole_pairs * th + offset, winding.deadtime_voltage, winding.deadtime_current)
-    return winding.resistance * iq + winding.inductance * di + emf + dt + winding.voltage_noise * np.asarray(noise)
+    return (winding.resistance * iq + winding.inductance * di + emf + dt - winding.loop_gain * np.asarray(current_noise)
+            + winding.voltage_noise * np.asarray(noise))
 
 
 def draw_winding(rng, k_t: float, current_noise: float) -> Winding:
@@ -112,9 +120,8 @@ def draw_winding(rng, k_t: float, current_noise: float) -> Winding:
 
     Phase resistance ``(0.5–2.5) Ω`` per N·m/A of ``k_t`` (small drones' motors of 0.03 N·m/A have 0.04 Ω,
     servo motors of 1.5 N·m/A 2 Ω); electrical time constant 0.3–3 ms; the dead time's residual 0.02–0.3 V
-    per phase over ``i_ε`` of 1–5 % of the noise-free current scale; the logged voltage's noise is the
-    current loop's proportional gain (bandwidth 0.5–2 kHz) on the current's noise, with 5 mV of
-    converter resolution.
+    per phase over a zero crossing 2–10 times the current's noise wide; the current loop's proportional gain
+    ``L ω_c`` for a bandwidth of 0.5–2 kHz, and 5 mV of the voltage's own noise (the converter's resolution).
 
     Args:
         rng: :class:`numpy.random.Generator`; k_t: N·m/A; current_noise: std of the logged current (A).
@@ -124,5 +131,4 @@ def draw_winding(rng, k_t: float, current_noise: float) -> Winding:
     v_dt = float(np.exp(rng.uniform(np.log(0.02), np.log(0.3))))
     i_eps = float(current_noise * rng.uniform(2.0, 10.0))
     kp = ind * 2 * math.pi * float(np.exp(rng.uniform(np.log(500.0), np.log(2000.0))))
-    noise = float(math.hypot(kp * current_noise, 0.005))
-    return Winding(r, ind, v_dt, i_eps, noise)
+    return Winding(r, ind, v_dt, i_eps, kp, 0.005)
