@@ -338,3 +338,29 @@ def test_sweep_table_of_a_staircase_of_holds_matches_the_hold_averages():
     rms = lambda x: float(np.sqrt(np.mean(x**2)))  # noqa: E731
     assert sw.coverage == 1.0
     assert rms(sw.table - truth) <= 2 * rms(holds.table - truth)
+
+
+def test_without_a_datasheet_k_t_the_back_emf_gives_the_table_in_newton_metres(tmp_path, zoo, capsys):
+    """The zoo's motor TOML without its k_t: identify reads the logged q-voltage (zoo logs have vq_1), prints the
+    back-EMF's torque constant and gives the table in N·m with it, within four of its standard errors of the table
+    in N·m at the twin's true k0 (k_t cos δ); the same logs without vq_1 give no N·m."""
+    text = (zoo / "motor.toml").read_text()
+    assert "k_t" in text
+    (tmp_path / "motor.toml").write_text("\n".join(l for l in text.splitlines() if not l.startswith("k_t")) + "\n")
+    logs = sorted((zoo / "logs").glob("*.csv"))
+    out = _identify(tmp_path / "a", tmp_path / "motor.toml", logs)
+    res = json.loads((out / "results.json").read_text())
+    v, table = res["identification"]["back_emf"], res["table"]
+    assert v["consistent"] and "back-EMF" in table["torque_constant_from"]
+    k0 = read_truth(zoo / "truth.json").k0
+    se_nm = table["rms_A"] * 1.5 * v["back_emf_constant_se"]
+    assert abs(table["rms_Nm"] - table["rms_A"] * k0) < 4 * se_nm
+    bare = []
+    for p in logs:
+        rows = p.read_text().splitlines()
+        cols = rows[0].split(",")
+        keep = [j for j, c in enumerate(cols) if c != "vq_1"]
+        (tmp_path / p.name).write_text("\n".join(",".join(r.split(",")[j] for j in keep) for r in rows) + "\n")
+        bare.append(tmp_path / p.name)
+    res_b = json.loads((_identify(tmp_path / "b", tmp_path / "motor.toml", bare) / "results.json").read_text())
+    assert res_b["identification"]["back_emf"] is None and "rms_Nm" not in res_b["table"]

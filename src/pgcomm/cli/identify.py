@@ -410,8 +410,14 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                          "peak_A": float(np.max(np.abs(table))),
                          "forward_minus_reverse_rms_A": float(np.sqrt(np.mean(fwd_rev**2)))},
                "runtime_s": time.perf_counter() - t0}
+    voltage = res.info.get("back_emf") or {}
     if motor.k_t:
         results["table"]["rms_Nm"] = results["table"]["rms_A"] * float(motor.k_t)
+        results["table"]["torque_constant_from"] = "the motor description's k_t"
+    elif voltage.get("consistent"):
+        # without a datasheet k_t, the back-EMF's: the torque constant the drive's frame sees (pgcomm.rotary.back_emf)
+        results["table"]["rms_Nm"] = results["table"]["rms_A"] * voltage["k0_amplitude_invariant"]
+        results["table"]["torque_constant_from"] = "the logged q-voltage's back-EMF (amplitude-invariant)"
     written = ["model.json", "compensation.csv", "results.json", "identify_rotary.png", "report.html"]
     if sweep is not None:
         results["standstill_sweep"] = sweep_info
@@ -442,8 +448,9 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         refused = res.info.get("windows_refused_alias")
         print(f"rotary {motor.name}: identified {how} from {len(logs)} log(s)"
               + (f"; {refused} windows refused as too fast for the encoder-sampled cogging" if refused else ""))
+        nm = results["table"].get("rms_Nm")
         print(f"compensation table: {results['table']['rms_A']:.3g} A RMS, {results['table']['peak_A']:.3g} A peak "
-              f"({n} entries)")
+              f"({n} entries)" + (f"; {nm:.3g} N·m RMS with {results['table']['torque_constant_from']}" if nm else ""))
         if sweep is not None:
             si = results["standstill_sweep"]
             print(f"standstill sweep: model minus sweep table {si['rms_model_minus_sweep_A']:.3g} A RMS, "
@@ -499,7 +506,7 @@ def _sweep_table(args, mapping, model, info: dict):
 def _plot_rotary(path, model, info: dict, motor, n: int = 3600, sweep=None) -> None:
     """The identified maps over one revolution, each with its standard error as a band where known; the
     table of a logged standstill sweep (``sweep``, :class:`pgcomm.rotary.standstill.SweepTable`) beside
-    the model's."""
+    the model's, and the ripple the logged q-voltage measures beside the currents' (:mod:`pgcomm.rotary.back_emf`)."""
     import matplotlib.pyplot as plt
     import numpy as np
 
@@ -518,6 +525,14 @@ def _plot_rotary(path, model, info: dict, motor, n: int = 3600, sweep=None) -> N
             band = scale * se[key]["rms_error"]
             a.fill_between(th, scale * values - band, scale * values + band, alpha=0.25, lw=0,
                            label=f"± standard error ({100 * se[key]['relative']:.1f} % of its RMS)")
+        voltage = info.get("back_emf") or {}
+        if key == "ripple" and voltage.get("ripple"):
+            from pgcomm.rotary.model import Fourier
+
+            rel = voltage["ripple_rms_error"] / voltage["ripple_rms"] if voltage["ripple_rms"] > 0 else float("inf")
+            a.plot(th, scale * Fourier.from_dict(voltage["ripple"])(th), "k--", lw=0.6, alpha=0.7,
+                   label=f"from the q-voltage's back-EMF (standard error {100 * rel:.0f} % of its RMS; "
+                         f"{'agrees' if voltage['consistent'] else 'disagrees'})")
         if key == "cogging":
             a.plot(th, model.table(n, +1), lw=0.5, alpha=0.7, label="forward")
             a.plot(th, model.table(n, -1), lw=0.5, alpha=0.7, label="reverse")
