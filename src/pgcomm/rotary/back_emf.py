@@ -252,12 +252,12 @@ def voltage_text(info: dict) -> str | None:
         return None
     kappa = info["back_emf_constant"]
     if info.get("consistent") is None:
-        return (f"q-voltage: no back-EMF above its noise ({kappa:.3g} ± {info['back_emf_constant_se']:.2g} V·s/rad); "
-                "is vq_1 the drive's q-voltage, in V, from logs that turn?")
-    base = (f"q-voltage: back-EMF constant {kappa:.4g} V·s/rad (k0 = {info['k0_amplitude_invariant']:.4g} N·m/A in the "
-            f"amplitude-invariant frame), R {info['resistance']:.3g} Ω")
+        return (f"the q-voltage carries no back-EMF above its noise ({kappa:.3g} ± {info['back_emf_constant_se']:.2g} "
+                "V·s/rad); is vq_1 the drive's q-voltage, in V, from logs that turn?")
+    base = (f"the q-voltage's back-EMF constant {kappa:.4g} V·s/rad (k0 = {info['k0_amplitude_invariant']:.4g} N·m/A in "
+            f"the amplitude-invariant frame), R {info['resistance']:.3g} Ω")
     if info.get("voltage_delay"):
-        base += f", voltage read {info['voltage_delay']:+d} samples"
+        base += f", voltage read {info['voltage_delay']:+d} samples late with the current"
     if info["consistent"]:
         rel = info["ripple_rms_error"] / info["ripple_rms"] if info["ripple_rms"] > 0 else float("inf")
         return base + (f"; its ripple ({100 * info['ripple_rms']:.2g} % of k0 RMS, standard error {100 * rel:.2g} % of "
