@@ -121,9 +121,9 @@ def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, curr
 
 def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, current_delay: int,
               voltage_delay: int):
-    """Rows of every log: columns ``[ω, ω cos hθ…, ω sin hθ…, i_q, di_q/dt, 1, dead time…]``, the target ``v_q`` (V)
-    and each log's times (s); ``Z`` the instruments (the current's columns from its neighbours). Returns
-    ``(X, Z, y, [t_k])``."""
+    """Rows of every log: ``X`` with columns ``[ω, ω cos hθ…, ω sin hθ…, i_q, di_q/dt, 1, dead time…]``, ``Z`` the
+    instruments (the current's columns from its neighbours), the target ``y = v_q`` (V) and each log's times (s).
+    Returns ``(X, Z, y, [t_k])``."""
     xs, zs, ys, ts_out = [], [], [], []
     i_rms = math.sqrt(float(np.mean(np.concatenate([_column(log, ("iq_1", "iq")) for log in logs]) ** 2)))
     widths = [w * max(i_rms, 1e-12) for w in DEADTIME_WIDTHS]
@@ -182,7 +182,8 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     """The ripple (relative) and the winding's constants from the logged q-voltage (module docstring).
 
     Args:
-        logs: dict-like logs with ``theta`` (rad, multi-turn), ``iq_1`` (A), ``vq_1`` (V) and ``t`` (s), each ``(N_i,)``.
+        logs: dict-like logs with ``theta`` (rad, multi-turn), ``iq_1`` (A), ``vq_1`` (V) and ``t`` (s), each
+            ``(N_i,)``.
         orders: ``(n,)`` the ripple's orders (per revolution, > 0).
         pole_pairs: ``p`` (the dead time's sixth electrical harmonic is order ``6p``).
         sample_time: ``T_s`` (s) where a log has no ``t``.
@@ -193,7 +194,8 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     Returns:
         dict: ``orders``; ``ripple`` ``(2n,)`` ``[a…, b…]`` (-) and ``cov`` ``(2n, 2n)``; ``back_emf_constant``
         (V·s/rad) and its standard error; ``resistance`` (Ω), ``inductance`` (H), ``offset_V``, ``deadtime_V`` (the
-        coefficients of the dead time's columns, one per :data:`DEADTIME_WIDTHS`); ``voltage_delay`` (samples), ``rows``, ``blocks``, ``residual_rms_V``,
+        coefficients of the dead time's columns, one per :data:`DEADTIME_WIDTHS`); ``voltage_delay`` (samples),
+        ``rows``, ``blocks``, ``residual_rms_V``,
         ``ripple_share`` (the ripple's RMS voltage at the logs' RMS speed over the residual's RMS). Where the back-EMF
         constant is within :data:`MIN_BACK_EMF_EVIDENCE` standard errors of zero, ``ripple`` and ``cov`` are ``None``
         and only the constant, its error, the delay and the rows are given.
@@ -254,8 +256,9 @@ def voltage_text(info: dict) -> str | None:
     if info.get("consistent") is None:
         return (f"the q-voltage carries no back-EMF above its noise ({kappa:.3g} ± {info['back_emf_constant_se']:.2g} "
                 "V·s/rad); is vq_1 the drive's q-voltage, in V, from logs that turn?")
-    base = (f"the q-voltage's back-EMF constant {kappa:.4g} V·s/rad (k0 = {info['k0_amplitude_invariant']:.4g} N·m/A in "
-            f"the amplitude-invariant frame), R {info['resistance']:.3g} Ω")
+    k0 = info["k0_amplitude_invariant"]
+    base = (f"the q-voltage's back-EMF constant {kappa:.4g} V·s/rad (k0 = {k0:.4g} N·m/A in the amplitude-invariant "
+            f"frame), R {info['resistance']:.3g} Ω")
     if info.get("voltage_delay"):
         base += f", voltage read {info['voltage_delay']:+d} samples late with the current"
     if info["consistent"]:
@@ -263,4 +266,5 @@ def voltage_text(info: dict) -> str | None:
         return base + (f"; its ripple ({100 * info['ripple_rms']:.2g} % of k0 RMS, standard error {100 * rel:.2g} % of "
                        f"that) agrees with the currents' (χ² {info['chi2']:.1f} ≤ {info['threshold']:.1f})")
     return base + (f"; its ripple disagrees with the currents' (χ² {info['chi2']:.1f} > {info['threshold']:.1f}): an "
-                   f"interior-magnet motor, or a logged voltage that is not the applied one? (the model is the currents')")
+                   "interior-magnet motor, or a logged voltage that is not the applied one? (the model is the "
+                   "currents')")
