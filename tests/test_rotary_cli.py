@@ -364,3 +364,19 @@ def test_without_a_datasheet_k_t_the_back_emf_gives_the_table_in_newton_metres(t
         bare.append(tmp_path / p.name)
     res_b = json.loads((_identify(tmp_path / "b", tmp_path / "motor.toml", bare) / "results.json").read_text())
     assert res_b["identification"]["back_emf"] is None and "rms_Nm" not in res_b["table"]
+
+
+def test_a_voltage_in_some_logs_only_is_said_and_not_read(tmp_path, zoo, capsys):
+    """The first zoo log without its vq_1 column, the others with it: identify says that the voltage is in 3 of 4
+    logs and reads none of it (results back_emf null)."""
+    logs = sorted((zoo / "logs").glob("*.csv"))
+    rows = logs[0].read_text().splitlines()
+    cols = rows[0].split(",")
+    keep = [j for j, c in enumerate(cols) if c != "vq_1"]
+    (tmp_path / logs[0].name).write_text("\n".join(",".join(r.split(",")[j] for j in keep) for r in rows) + "\n")
+    data = [tmp_path / logs[0].name, *logs[1:]]
+    out = tmp_path / "id"
+    assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, data), "--out", str(out)]) == 0
+    said = capsys.readouterr()
+    assert f"vq_1 in {len(logs) - 1} of {len(logs)} logs: not read" in said.out + said.err
+    assert json.loads((out / "results.json").read_text())["identification"]["back_emf"] is None

@@ -320,6 +320,10 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     torque_sensor = all("torque" in lg.columns for lg in logs) and not args.no_force_sensor
     # the q-voltage is read only when every log has it (pgcomm.rotary.back_emf)
     voltage = ("vq_1",) if all("vq_1" in lg.columns for lg in logs) and not torque_sensor else ()
+    with_vq = sum("vq_1" in lg.columns for lg in logs)
+    if 0 < with_vq < len(logs) and not torque_sensor:
+        progress.info(f"q-voltage vq_1 in {with_vq} of {len(logs)} logs: not read (the back-EMF fit takes every log's "
+                      "voltage or none)")
     # a log with dropped samples is the stretches between them: no filter window may difference across a gap
     data = [{"name": lg.source if len(lg.gaps) == 0 else f"{lg.source} rows {a + 1}-{b}",
              **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *voltage,
