@@ -355,6 +355,19 @@ def test_without_a_datasheet_k_t_the_back_emf_gives_the_table_in_newton_metres(t
     k0 = read_truth(zoo / "truth.json").k0
     se_nm = table["rms_A"] * 1.5 * v["back_emf_constant_se"]
     assert abs(table["rms_Nm"] - table["rms_A"] * k0) < 4 * se_nm
+    # the mechanics in SI with it: J = (J/k0) k0, the moment of inertia a loop is tuned with, from drive logs alone;
+    # within 2 %: J/k0's error from these logs (0.5 % on zoo seed 0, docs/rotary.md) and k0's (4 standard errors)
+    si, truth = res["in_SI"], read_truth(zoo / "truth.json")
+    model = RotaryModel.from_dict(json.loads((out / "model.json").read_text()))
+    assert abs(si["inertia_kg_m2"] - model.inertia_ratio * si["torque_constant_Nm_per_A"]) < 1e-12 * truth.inertia
+    assert abs(si["inertia_kg_m2"] / truth.inertia - 1.0) < 0.02
+    assert abs(si["cogging_rms_Nm"] / truth.cogging.rms() - 1.0) < 0.05
+    # with the datasheet's k_t as well, the back-EMF's is taken and their ratio is the drive frame's cos δ
+    res_k = json.loads((_identify(tmp_path / "k", zoo / "motor.toml", logs) / "results.json").read_text())
+    ratio = res_k["identification"]["back_emf"]["ratio_to_motor_k_t"]
+    k_t = float(re.search(r"^k_t = ([0-9.]+)", text, re.M).group(1))
+    assert abs(ratio - truth.k_t * math.cos(truth.offset_error) / k_t) < 4 * 1.5 * v["back_emf_constant_se"] / k_t
+    assert "back-EMF" in res_k["table"]["torque_constant_from"]
     bare = []
     for p in logs:
         rows = p.read_text().splitlines()

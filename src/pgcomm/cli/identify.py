@@ -415,13 +415,19 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                          "forward_minus_reverse_rms_A": float(np.sqrt(np.mean(fwd_rev**2)))},
                "runtime_s": time.perf_counter() - t0}
     voltage = res.info.get("back_emf") or {}
-    if motor.k_t:
-        results["table"]["rms_Nm"] = results["table"]["rms_A"] * float(motor.k_t)
-        results["table"]["torque_constant_from"] = "the motor description's k_t"
-    elif voltage.get("consistent"):
-        # without a datasheet k_t, the back-EMF's: the torque constant the drive's frame sees (pgcomm.rotary.back_emf)
-        results["table"]["rms_Nm"] = results["table"]["rms_A"] * voltage["k0_amplitude_invariant"]
-        results["table"]["torque_constant_from"] = "the logged q-voltage's back-EMF (amplitude-invariant)"
+    k_si, k_from = None, None
+    if voltage.get("consistent"):
+        # the back-EMF's torque constant is the one the drive's frame sees, k_t cos δ with the drive's electrical offset
+        # off by δ (pgcomm.rotary.back_emf); a datasheet's k_t knows neither δ nor this motor's tolerance
+        k_si, k_from = voltage["k0_amplitude_invariant"], "the logged q-voltage's back-EMF (amplitude-invariant)"
+        if motor.k_t:
+            voltage["ratio_to_motor_k_t"] = k_si / float(motor.k_t)
+    elif motor.k_t:
+        k_si, k_from = float(motor.k_t), "the motor description's k_t"
+    if k_si is not None:
+        results["table"]["rms_Nm"] = results["table"]["rms_A"] * k_si
+        results["table"]["torque_constant_from"] = k_from
+        results["in_SI"] = _in_si(model, k_si, k_from)
     written = ["model.json", "compensation.csv", "results.json", "identify_rotary.png", "report.html"]
     if sweep is not None:
         results["standstill_sweep"] = sweep_info
@@ -455,6 +461,13 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         nm = results["table"].get("rms_Nm")
         print(f"compensation table: {results['table']['rms_A']:.3g} A RMS, {results['table']['peak_A']:.3g} A peak "
               f"({n} entries)" + (f"; {nm:.3g} N·m RMS with {results['table']['torque_constant_from']}" if nm else ""))
+        si = results.get("in_SI")
+        if si and si["inertia_kg_m2"] is not None:
+            ratio = voltage.get("ratio_to_motor_k_t")
+            print(f"in SI (k0 = {si['torque_constant_Nm_per_A']:.4g} N·m/A"
+                  + (f", {ratio:.3f}x the motor description's k_t" if ratio is not None else "")
+                  + f"): moment of inertia {si['inertia_kg_m2']:.4g} kg·m², Coulomb friction {si['coulomb_Nm']:.3g} "
+                  f"N·m, viscous {si['viscous_Nm_s_per_rad']:.3g} N·m·s/rad")
         if sweep is not None:
             si = results["standstill_sweep"]
             print(f"standstill sweep: model minus sweep table {si['rms_model_minus_sweep_A']:.3g} A RMS, "
@@ -505,6 +518,20 @@ def _sweep_table(args, mapping, model, info: dict):
         "within_noise": bool(diff <= AGREEMENT_FACTOR * expected),
         "rms_forward_minus_reverse_A": float(np.sqrt(np.mean((sweep.forward[fr] - sweep.reverse[fr]) ** 2))),
         "table_written": bool(ok.all())}
+
+
+def _in_si(model, k: float, source: str) -> dict:
+    """The model's scale in SI with the torque constant ``k`` (N·m/A): cogging RMS (N·m), Coulomb friction (N·m),
+    viscous friction (N·m·s/rad) and the moment of inertia of rotor and load (kg·m²), from the current-unit model."""
+    import numpy as np
+
+    si = model.in_newton_metres(k)
+    th = 2 * np.pi * np.arange(4096) / 4096
+    direction = model.direction
+    coulomb = float(sum(c[0] for h, c in zip(direction.orders, direction.coef) if h == 0))
+    return {"torque_constant_Nm_per_A": k, "torque_constant_from": source,
+            "cogging_rms_Nm": float(np.sqrt(np.mean(si["cogging"](th) ** 2))), "coulomb_Nm": coulomb * k,
+            "viscous_Nm_s_per_rad": si["viscous"], "inertia_kg_m2": si["inertia"]}
 
 
 def _plot_rotary(path, model, info: dict, motor, n: int = 3600, sweep=None) -> None:
