@@ -7,7 +7,9 @@ standstill position sweep in both directions, no dither. This builds that mix on
 (:func:`pgcomm.rotary.zoo.draw_rotary`, :func:`pgcomm.rotary.experiment.drive_log_mix`: ``const``,
 ``accel``, ``sweep``) and identifies, without a torque sensor, from ``const``, ``const + accel`` and all three, printing per set:
 log seconds, cogging and ripple error against the twin's truth (RMS over the revolution relative to the
-truth's RMS), their standard errors and verdicts, ``J/k0``'s error, the orders added outside the basis.
+truth's RMS), their standard errors and verdicts, ``J/k0``'s error, the orders added outside the basis, and what the
+logged q-voltage gives (:mod:`pgcomm.rotary.back_emf`: ``k0``'s error, the moment of inertia ``(J/k0) k0``'s, the
+ripple check).
 Then the laws in closed loop on the same harness as ``pgcomm reproduce``
 (:func:`pgcomm.rotary.experiment.closed_loop`): each set's model, the drives' standstill table (3600-point
 sweep) and the oracle, as tracking MSE over the table's (position and speed loop).
@@ -75,9 +77,18 @@ def main(argv=None) -> int:
                 return f"{key} {100 * err[key + '_rel']:6.1f} % (se {100 * e['relative']:5.1f} %, {verdict})"
 
             added = {k: v for k, v in res.info["orders_added"].items() if v}
+            v = res.info.get("back_emf") or {}
+            volt = ""
+            if v.get("consistent") is not None:
+                # the q-voltage (pgcomm.rotary.back_emf): k0's error and J = (J/k0) k0's, the ripple check
+                k0v = v["k0_amplitude_invariant"]
+                se_v = v["ripple_rms_error"] / max(v["ripple_rms"], 1e-12)
+                volt = (f"; q-voltage: k0 {100 * (k0v / truth.k0 - 1):+.2f} %, J "
+                        f"{100 * (res.model.inertia_ratio * k0v / truth.inertia - 1):+.1f} %, ripple "
+                        f"{'agrees' if v['consistent'] else 'DISAGREES'} (se {100 * se_v:.0f} %)")
             print(f"  {name:18s} {secs:5.0f} s: {cell('cogging')}; {cell('ripple')}; J/k0 "
-                  f"{100 * err['inertia_ratio_rel']:.1f} %; added {added or '-'} [{time.perf_counter() - t0:.0f} s]",
-                  flush=True)
+                  f"{100 * err['inertia_ratio_rel']:.1f} %; added {added or '-'}{volt} "
+                  f"[{time.perf_counter() - t0:.0f} s]", flush=True)
             assert resolution_verdict(se["ripple"])  # the CLI's phrase exists for every entry
             laws[name] = LawParams(res.model, None, res.model.inertia_ratio, res.model.viscous, 0.0)
         tracking, _ = closed_loop(truth, laws, gains, RotarySettings(), args.seed)
