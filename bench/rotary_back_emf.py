@@ -5,7 +5,8 @@ Per zoo motor, on one round of ``reproduce``'s running logs (the twin's winding,
 
 * the back-EMF constant's torque constant ``k0`` (amplitude-invariant) and the resistance, relative errors;
 * the ripple's RMS error against the truth and its standard error (both relative to the truth's RMS), from the voltage
-  and from the currents (:func:`pgcomm.rotary.identify.identify`), and the χ² check between them;
+  and from the currents (:func:`pgcomm.rotary.identify.identify`), and the check between them (their RMS
+  difference over what their errors give together);
 * the voltage's ripple from constant-speed runs at ``--fast`` times the currents' alias-guard speed (``--revolutions``
   each way), where the currents' identification refuses every window: its error, standard error and log time;
 * the voltage fit's time against the currents' identification's (one process, same logs).
@@ -42,7 +43,7 @@ def main(argv=None) -> int:
     th = 2 * np.pi * np.arange(4096) / 4096
     fast = tuple(float(x) for x in args.fast.split(","))
     print(f"{'#':>2} {'motor':7s} {'k0 err':>7s} {'R err':>6s} {'log s':>6s} {'V rip err/SE %':>15s} "
-          f"{'I rip err/SE %':>15s} {'chi2/thr':>11s} {'fast s':>6s} {'fast V err/SE %':>16s} {'V/I time':>8s}")
+          f"{'I rip err/SE %':>15s} {'diff/exp':>11s} {'fast s':>6s} {'fast V err/SE %':>16s} {'V/I time':>8s}")
     for i in (int(x) for x in args.motors.split(",")):
         t = draw_rotary(args.seed, i)
         o = Orders.for_motor(t.motor)
@@ -77,7 +78,7 @@ def main(argv=None) -> int:
         r_err = fv["resistance"] / t.winding.resistance - 1.0
         print(f"{i:>2} {t.motor.name:7s} {100 * k0_err:>6.2f}% {100 * r_err:>5.1f}% {secs:>6.1f} "
               f"{100 * rel_err(fv['ripple'], orders):>7.1f}/{100 * se_v:<7.1f} {100 * e_i:>7.1f}/{100 * se_i:<7.1f} "
-              f"{v['chi2']:>5.1f}/{v['threshold']:<5.1f} {f_secs:>6.1f} "
+              f"{v['rms_difference'] / v['expected_rms_difference']:>11.2f} {f_secs:>6.1f} "
               f"{100 * rel_err(ff['ripple'], orders):>8.1f}/{100 * se_f:<7.1f} {t_v / t_i:>8.3f}", flush=True)
     return 0
 

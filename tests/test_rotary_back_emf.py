@@ -7,7 +7,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from pgcomm.rotary.back_emf import _deadtime_columns, agreement, fit_voltage, has_voltage, voltage_text
 from pgcomm.rotary.experiment import RotarySettings, running_references
@@ -117,13 +116,21 @@ def test_the_voltage_takes_the_currents_timing():
     assert float(np.sqrt(np.mean((ra(th) - rb(th)) ** 2))) < va["ripple_rms_error"] / 3
 
 
-def test_agreement_is_the_chi_square_of_the_difference():
-    """Two estimates one standard error apart in each of 4 coefficients agree (χ² = 4 < 13.3); ten apart do not."""
-    c = np.eye(4) * 0.5
-    a = agreement(np.zeros(4), c, np.ones(4), c)
-    assert a["consistent"] and abs(a["chi2"] - 4.0) < 1e-12 and a["dof"] == 4
-    assert abs(a["threshold"] - stats.chi2.ppf(0.99, 4)) < 1e-9
-    assert not agreement(np.zeros(4), c, 10 * np.ones(4), c)["consistent"]
+def test_agreement_is_the_rms_difference_against_what_both_errors_give():
+    """On a basis of orders 1 and 2 (the mean square of [a1, a2, b1, b2] is half its squared norm): two estimates
+    3 % apart in one coefficient differ by 3/√2 % RMS; with covariances of 0.01² each per coefficient the errors give
+    √(2 · 4 · 0.01² / 2) = 2 % RMS, so they agree at 1.5x; 6 % apart they do not; an extra mean square of the
+    currents' counts."""
+    from pgcomm.rotary.regression import _map_gram
+
+    gram = _map_gram(np.array([1, 2]))
+    np.testing.assert_allclose(gram, 0.5 * np.eye(4), atol=1e-12)
+    c = np.eye(4) * 0.01**2
+    a = agreement(np.zeros(4), c, np.array([0.03, 0, 0, 0]), c, gram)
+    assert abs(a["rms_difference"] - 0.03 / math.sqrt(2)) < 1e-12
+    assert abs(a["expected_rms_difference"] - 0.02) < 1e-12 and a["consistent"]
+    assert not agreement(np.zeros(4), c, np.array([0.06, 0, 0, 0]), c, gram)["consistent"]
+    assert agreement(np.zeros(4), c, np.array([0.06, 0, 0, 0]), c, gram, extra_ms=0.03**2)["consistent"]
 
 
 @pytest.mark.parametrize("index", [0, 3])
@@ -151,7 +158,7 @@ def test_identify_checks_the_ripple_against_the_voltage_and_reads_k0(index):
            for log in logs]
     w = identify(bad, t.motor).info["back_emf"]
     assert not w["consistent"], w
-    assert "disagrees" in voltage_text(w)
+    assert "differs from the currents" in voltage_text(w)
 
 
 def test_the_zoo_draws_the_same_motor_beside_its_winding():

@@ -140,9 +140,6 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         raise ExcitationError(f"{n_windows} usable windows for {n_unknowns} unknowns: record longer running logs "
                               f"(speeds up to {v_limit:.3g} rad/s, both directions)")
     fit = _fit(prepared, layout, taps, ridge)
-    voltage_info = None
-    if back_emf and has_voltage(logs):
-        voltage_info = _voltage_check(fit, logs, motor, final, layout, ts, timing["samples"], pll)
     beta = np.zeros(layout.keep.size)
     beta[layout.keep] = fit["beta"]
     cov = np.zeros((layout.keep.size, layout.keep.size))
@@ -171,6 +168,12 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     if screen is not None:
         blind = {k: float(np.median(v)) for k, v in screen["blind_rms"].items() if np.size(v)}
     standard_error = _standard_errors(model, cov, bias, o_r, o_c, o_d, final, fit["blocks"], blind, shift, reading)
+    voltage_info = None
+    if back_emf and has_voltage(logs):
+        # the parts of the currents' error that its covariance does not hold, as the verdict counts them
+        fixed = [fit["bias"], fit["quantisation_shift"], reading[layout.keep]]
+        voltage_info = _voltage_check(fit, fixed, (blind or {}).get("ripple"), logs, motor, final, layout, ts,
+                                      timing["samples"], pll)
     info = {"windows": counts["windows"], "windows_used": int(n_windows), "windows_refused_alias": counts["alias"],
             "windows_refused_slow": counts["slow"], "speed_limit_rad_s": v_limit,
             "min_samples_per_period": float(min_samples_per_period), "highest_order": orders.highest,
@@ -190,12 +193,15 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     return check_plausible(RotaryIdentification(model, info))
 
 
-def _voltage_check(fit: dict, logs, motor: RotaryMotor, final: Orders, layout: _Layout, ts: float, delay: int,
-                   pll) -> dict:
+def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Orders, layout: _Layout, ts: float,
+                   delay: int, pll) -> dict:
     """The ripple, the back-EMF constant and the resistance that the logged q-voltage measures
     (:func:`pgcomm.rotary.back_emf.fit_voltage`), and whether its ripple agrees with the currents' fit
     (:func:`pgcomm.rotary.back_emf.agreement`): what the results say about it. The model stays the currents' (the
-    module docstring of :mod:`pgcomm.rotary.back_emf` says why)."""
+    module docstring of :mod:`pgcomm.rotary.back_emf` says why). ``fixed``: vectors over the kept columns of the
+    currents' error that its covariance does not hold (the ridge's bias, the encoder correction's and a PLL reading's
+    uncertain share), added to it as ``b bᵀ``; ``blind``: the RMS of an order outside the basis the logs could hide
+    (relative, or ``None``)."""
     read = [apply_reading(log, 0, pll, ts) for log in logs]
     fv = fit_voltage(read, final.ripple, motor.pole_pairs, ts, delay, motor.commutation_offset)
     if fv["ripple"] is None:
@@ -206,8 +212,11 @@ def _voltage_check(fit: dict, logs, motor: RotaryMotor, final: Orders, layout: _
     nr = final.ripple.size
     pos = [j for j, h in enumerate(final.ripple) if h > 0]
     idx = np.array([where[int(layout.o_r[j])] for j in pos] + [where[int(layout.o_r[nr + j])] for j in pos], int)
-    check = agreement(fit["beta"][idx], fit["cov"][np.ix_(idx, idx)], fv["ripple"], fv["cov"])
+    # the ridge's pull, what the encoder correction and a PLL's reading may leave: each as a direction of error of its
+    # own size (b bᵀ), beside the noise; and an order outside the basis the logs could hide (blind, RMS)
+    cov_c = fit["cov"][np.ix_(idx, idx)] + sum(np.outer(b[idx], b[idx]) for b in fixed)
     gram = _map_gram(fv["orders"])
+    check = agreement(fit["beta"][idx], cov_c, fv["ripple"], fv["cov"], gram, extra_ms=(blind or 0.0) ** 2)
     rms = float(np.sqrt(max(float(fv["ripple"] @ gram @ fv["ripple"]), 0.0)))
     return {"used_logs": len(logs), "back_emf_constant": fv["back_emf_constant"],
             "back_emf_constant_se": fv["back_emf_constant_se"],
