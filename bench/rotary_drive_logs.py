@@ -79,7 +79,9 @@ def main(argv=None) -> int:
             added = {k: v for k, v in res.info["orders_added"].items() if v}
             v = res.info.get("back_emf") or {}
             volt = ""
-            if v.get("consistent") is not None:
+            if v and v.get("consistent") is None:
+                volt = f"; q-voltage: k0 not determined (±{100 * v['back_emf_constant_se'] / v['back_emf_constant']:.0f} %)"
+            elif v:
                 # the q-voltage (pgcomm.rotary.back_emf): k0's error and J = (J/k0) k0's, the ripple check
                 k0v = v["k0_amplitude_invariant"]
                 se_v = v["ripple_rms_error"] / max(v["ripple_rms"], 1e-12)

@@ -175,11 +175,11 @@ def test_the_zoo_draws_the_same_motor_beside_its_winding():
 
 def test_a_voltage_without_back_emf_is_said_so_not_read():
     """A vq_1 column of noise alone (a drive that logs another quantity there) gives no ripple, no non-finite number,
-    and a line that says what is missing; the model is the currents'."""
+    and a line that says the constant is not determined and why that may be."""
     t = draw_rotary(0, 0)
     logs = _logs(t, RotarySettings(revolutions=1.0))
     rng = np.random.default_rng(3)
     noise = [dict(log, vq_1=0.01 * rng.standard_normal(log["t"].size)) for log in logs]
     v = identify(noise, t.motor).info["back_emf"]
     assert v["consistent"] is None and math.isfinite(v["back_emf_constant"])
-    assert "no back-EMF" in voltage_text(v)
+    assert "does not determine the back-EMF constant" in voltage_text(v)

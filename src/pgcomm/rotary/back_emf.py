@@ -32,8 +32,8 @@ whether the two agree within their errors (the RMS of the difference over the re
 :data:`AGREEMENT_FACTOR` times what both errors give together), the back-EMF constant (``k0`` in N·m/A, given the
 drive's Park convention, without a torque sensor or a datasheet) and the resistance. They disagree where the
 voltage's model does not hold: an interior-magnet motor (reluctance torque ``(L_d − L_q) i_d i_q`` and an inductance
-that varies with the angle), a logged voltage that is not the one applied (before a limiter, or averaged over another interval than the
-angle's), a dead time that depends on more than the current. The model stays the currents': a Kalman update of
+that varies with the angle), a logged voltage that is not the one applied (before a limiter, or averaged over
+another interval than the angle's), a dead time that depends on more than the current. The model stays the currents': a Kalman update of
 the currents' fit with the voltage's ripple was tried and made the standard errors overconfident. Both
 estimates read the same logged current (the voltage through ``R i_q + L di_q/dt`` and the loop's ``−K_p n``, the
 mechanics through the torque), so their errors are not independent: with ten times the zoo's current noise (zoo
@@ -70,7 +70,8 @@ VOLTAGE_COLUMNS = ("vq_1", "vq")
 #: coefficients while its RMS holds (zoo seed 0 drive-log mixes: χ² of the currents' ripple against the truth 34-171
 #: on 14 coefficients, the voltage's 2-55), and the verdicts are RMS too.
 AGREEMENT_FACTOR = 1.5
-#: The back-EMF constant must exceed this many of its standard errors for the voltage's ripple to be read.
+#: The back-EMF constant must exceed this many of its standard errors for the voltage's ripple to be read: a ripple
+#: of a few per cent is not read off a constant known to 10 %.
 MIN_BACK_EMF_EVIDENCE = 10.0
 #: Widths of the dead time's zero crossing tried (shares of the logs' RMS q-current): the crossing's width is the PWM
 #: current ripple, which the logs do not show.
@@ -206,8 +207,8 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
         coefficients of the dead time's columns, one per :data:`DEADTIME_WIDTHS`); ``voltage_delay`` (samples),
         ``rows``, ``blocks``, ``residual_rms_V``,
         ``ripple_share`` (the ripple's RMS voltage at the logs' RMS speed over the residual's RMS). Where the back-EMF
-        constant is within :data:`MIN_BACK_EMF_EVIDENCE` standard errors of zero, ``ripple`` and ``cov`` are ``None``
-        and only the constant, its error, the delay and the rows are given.
+        constant is within :data:`MIN_BACK_EMF_EVIDENCE` standard errors of zero (not determined), ``ripple`` and
+        ``cov`` are ``None`` and only the constant, its error, the delay and the rows are given.
     """
     orders = np.asarray(orders, int)
     orders = orders[orders > 0]
@@ -217,7 +218,8 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     rows = y.size
     kappa = beta[0]
     if not abs(kappa) > MIN_BACK_EMF_EVIDENCE * math.sqrt(max(cov[0, 0], 0.0)):
-        # no back-EMF above the voltage's noise (a column of zeros, logs at standstill): no ripple to read
+        # the constant is not determined: a column that is not the voltage, or logs whose current follows the speed
+        # (constant speeds: R i_q and κ ω both scale with it; zoo seed 0 12N10P's 34 s of constant speeds: ±10 %)
         return {"orders": orders, "ripple": None, "cov": None, "back_emf_constant": float(kappa),
                 "back_emf_constant_se": float(math.sqrt(max(cov[0, 0], 0.0))), "voltage_delay": int(current_delay),
                 "rows": int(rows)}
@@ -266,8 +268,11 @@ def voltage_text(info: dict) -> str | None:
         return None
     kappa = info["back_emf_constant"]
     if info.get("consistent") is None:
-        return (f"the q-voltage carries no back-EMF above its noise ({kappa:.3g} ± {info['back_emf_constant_se']:.2g} "
-                "V·s/rad); is vq_1 the drive's q-voltage, in V, from logs that turn?")
+        se = info["back_emf_constant_se"]
+        return (f"the q-voltage does not determine the back-EMF constant ({kappa:.3g} ± {se:.2g} V·s/rad): its ripple "
+                "is not read. Either vq_1 is not the drive's q-voltage in V, or the current follows the speed in these "
+                "logs (constant speeds: the resistance's drop and the back-EMF cannot be told apart; a dither or "
+                "accelerations separate them)")
     k0 = info["k0_amplitude_invariant"]
     base = (f"the q-voltage's back-EMF constant {kappa:.4g} V·s/rad (k0 = {k0:.4g} N·m/A in the amplitude-invariant "
             f"frame), R {info['resistance']:.3g} Ω")
