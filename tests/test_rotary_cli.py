@@ -362,6 +362,7 @@ def test_without_a_datasheet_k_t_the_back_emf_gives_the_table_in_newton_metres(t
     assert abs(si["inertia_kg_m2"] - model.inertia_ratio * si["torque_constant_Nm_per_A"]) < 1e-12 * truth.inertia
     assert abs(si["inertia_kg_m2"] / truth.inertia - 1.0) < 0.02
     assert abs(si["cogging_rms_Nm"] / truth.cogging.rms() - 1.0) < 0.05
+    assert f"{si['inertia_kg_m2']:.4g} kg·m²" in (out / "report.html").read_text(encoding="utf-8")
     # with the datasheet's k_t as well, the back-EMF's is taken and their ratio is the drive frame's cos δ
     res_k = json.loads((_identify(tmp_path / "k", zoo / "motor.toml", logs) / "results.json").read_text())
     ratio = res_k["identification"]["back_emf"]["ratio_to_motor_k_t"]

@@ -130,6 +130,17 @@ def _tracking_html(r: dict) -> str:
             f"{t['running_logs_s']:.0f} s, standstill sweep {t['standstill_s']:.0f} s.</p>")
 
 
+def _si_html(r: dict) -> str:
+    """The model's scale in SI (``in_SI`` of ``identify``'s results), or nothing."""
+    si = r.get("in_SI")
+    if not si or si.get("inertia_kg_m2") is None:
+        return ""
+    return (f"<h2>In SI</h2><p>With k0 = {_g(si['torque_constant_Nm_per_A'], 4)} N·m/A "
+            f"({html.escape(si['torque_constant_from'])}): cogging {_g(si['cogging_rms_Nm'])} N·m RMS, Coulomb "
+            f"friction {_g(si['coulomb_Nm'])} N·m, viscous friction {_g(si['viscous_Nm_s_per_rad'])} N·m·s/rad, "
+            f"moment of inertia of rotor and load {_g(si['inertia_kg_m2'], 4)} kg·m² (J/k0 times k0).</p>")
+
+
 def _sweep_html(r: dict) -> str:
     """``identify --sweep``: the drives' table from the logged sweep against the model's."""
     sw = r.get("standstill_sweep")
@@ -181,7 +192,7 @@ def write_rotary_report(path, results: dict, figures: dict, *, version: str = ""
                     "<code>compensation.csv</code> goes to <code>pgcomm export --format moteus|odrive|c-angle</code>; "
                     "the whole law, with the direction term and the ripple that a drive's table cannot hold, to "
                     "<code>pgcomm export --format c-rotary --model model.json</code>."
-                    "</p>" + _sweep_html(results))
+                    "</p>" + _si_html(results) + _sweep_html(results))
     figs = "".join(figure_html(Path(p), cap) for cap, p in figures.items())
     runtime = results.get("runtime_s")
     doc = (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>pgcomm {html.escape(command)} — "
