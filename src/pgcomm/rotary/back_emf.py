@@ -244,8 +244,8 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     beta, cov, cost = _solve(X, Z, y, block)
     kappa = beta[0]
     if not abs(kappa) > MIN_BACK_EMF_EVIDENCE * math.sqrt(max(cov[0, 0], 0.0)):
-        # the constant is not determined: a column that is not the voltage, or logs whose current follows the speed
-        # (constant speeds: R i_q and κ ω both scale with it; zoo seed 0 12N10P's 34 s of constant speeds: ±10 %)
+        # the constant is not determined: a column that is not the voltage, or logs that hardly turn (at the zoo's
+        # constant speeds alone it is determined to 0.1-0.4 %: bench/rotary_drive_logs.py)
         return {"orders": orders, "ripple": None, "cov": None, "back_emf_constant": float(kappa),
                 "back_emf_constant_se": float(math.sqrt(max(cov[0, 0], 0.0))), "voltage_delay": int(current_delay),
                 "rows": int(rows)}
@@ -298,9 +298,8 @@ def voltage_text(info: dict) -> str | None:
     if info.get("consistent") is None:
         se = info["back_emf_constant_se"]
         return (f"the q-voltage does not determine the back-EMF constant ({kappa:.3g} ± {se:.2g} V·s/rad): its ripple "
-                "is not read. Either vq_1 is not the drive's q-voltage in V, or the current follows the speed in these "
-                "logs (constant speeds: the resistance's drop and the back-EMF cannot be told apart; a dither or "
-                "accelerations separate them)")
+                "is not read. Either vq_1 is not the drive's q-voltage in V (map it in --columns, with its unit), or "
+                "the logs hardly turn")
     k0 = info["k0_amplitude_invariant"]
     base = (f"the q-voltage's back-EMF constant {kappa:.4g} V·s/rad (k0 = {k0:.4g} N·m/A in the amplitude-invariant "
             f"frame), R {info['resistance']:.3g} Ω")
