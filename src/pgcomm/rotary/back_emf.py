@@ -58,6 +58,8 @@ import numpy as np
 from pgcomm.errors import DataError
 from pgcomm.rotary.model import harmonic_columns
 from pgcomm.rotary.readings import _shifted
+from pgcomm.rotary.regression import _log_arrays
+from pgcomm.rotary.winding import phase_saturation_q
 
 __all__ = ["VOLTAGE_COLUMNS", "has_voltage", "fit_voltage", "agreement", "AGREEMENT_FACTOR",
            "voltage_text"]
@@ -86,13 +88,6 @@ BLOCK_SECONDS = 1.0
 BLOCKS_PER_UNKNOWN = 10
 
 
-def _column(log, names):
-    for a in names:
-        if a in log:
-            return np.asarray(log[a], float)
-    return None
-
-
 def has_voltage(logs) -> bool:
     """Whether every log has a q-voltage column (:data:`VOLTAGE_COLUMNS`)."""
     logs = list(logs)
@@ -108,22 +103,10 @@ def _current_noise(iq: np.ndarray) -> float:
     return float(np.median(d4)) / (0.6745 * math.sqrt(70.0)) if d4.size else 0.0
 
 
-def _deadtime_columns(iq: np.ndarray, theta_e: np.ndarray, widths) -> np.ndarray:
-    """``(N, len(widths))``: the q component of ``tanh(i_ph / c)`` over the three phases for each width ``c`` (A):
-    a per-phase odd, saturating voltage error of the phase current (the dead time, the switches' drop), seen in the
-    drive's frame with ``i_d = 0``; a sum of them follows the error's shape from the zero crossing to saturation."""
-    out = np.zeros((iq.size, len(widths)))
-    for k in range(3):
-        p = -np.sin(theta_e - 2.0 * math.pi * k / 3.0)  # phase k's share of the q axis (amplitude-invariant)
-        for m, c in enumerate(widths):
-            out[:, m] += (2.0 / 3.0) * p * np.tanh(iq * p / c)
-    return out
-
-
-def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, current_delay: int, voltage_delay: int):
+def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, current_delay: int):
     """Stacked rows ``(X, Z, y, block)`` of every log (:func:`_log_rows`), the blocks as long as :data:`BLOCK_SECONDS`
     and :data:`BLOCKS_PER_UNKNOWN` allow."""
-    X, Z, y, t = _log_rows(logs, orders, pole_pairs, offset, sample_time, current_delay, voltage_delay)
+    X, Z, y, t = _log_rows(logs, orders, pole_pairs, offset, sample_time, current_delay)
     total = sum(float(np.ptp(tk)) for tk in t if tk.size)
     length = min(BLOCK_SECONDS, total / (BLOCKS_PER_UNKNOWN * X.shape[1])) if total > 0 else BLOCK_SECONDS
     blocks, start = [np.zeros(0, int)], 0
@@ -136,36 +119,30 @@ def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, curr
     return X, Z, y, np.concatenate(blocks)
 
 
-def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, current_delay: int,
-              voltage_delay: int):
+def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, current_delay: int):
     """Rows of every log: ``X`` with columns ``[ω, ω cos hθ…, ω sin hθ…, i_q, di_q/dt, 1, dead time…]``, ``Z`` the
     instruments (the current's columns from its neighbours), the target ``y = v_q`` (V) and each log's times (s).
     Returns ``(X, Z, y, [t_k])``."""
     xs, zs, ys, ts_out = [], [], [], []
-    i_rms = math.sqrt(float(np.mean(np.concatenate([_column(log, ("iq_1", "iq")) for log in logs]) ** 2)))
+    read = [_log_arrays(log, i, sample_time) for i, log in enumerate(logs)]
+    i_rms = math.sqrt(float(np.mean(np.concatenate([r[2] for r in read]) ** 2)))
     widths = [w * max(i_rms, 1e-12) for w in DEADTIME_WIDTHS]
-    for i, log in enumerate(logs):
-        name = log.get("name", f"log {i + 1}") if isinstance(log, dict) else f"log {i + 1}"
-        th = np.asarray(log["theta"], float)
-        iq = _column(log, ("iq_1", "iq"))
-        vq = _column(log, VOLTAGE_COLUMNS)
+    for log, (name, th, iq, _, ts) in zip(logs, read):
+        vq = np.asarray(next(log[a] for a in VOLTAGE_COLUMNS if a in log), float)
         bad = np.flatnonzero(~np.isfinite(vq))
         if bad.size:
             raise DataError(f"{name}: column 'vq_1' has a non-finite value at row {bad[0] + 1}")
-        ts = sample_time
-        if "t" in log and np.size(log["t"]) > 1:
-            ts = float(np.median(np.diff(np.asarray(log["t"], float))))
         if th.size < 5:
             continue
-        iq = _shifted(iq, current_delay)
-        vq = _shifted(vq, voltage_delay)
+        # the voltage is written in the current's record: the current's timing
+        iq, vq = _shifted(iq, current_delay), _shifted(vq, current_delay)
         # rows 2 .. n-3: the instruments reach two samples either side
         c = slice(2, th.size - 2)
         w = (th[3:-1] - th[1:-3]) / (2 * ts)
         di = (iq[3:-1] - iq[1:-3]) / (2 * ts)
         thc, iqc, vqc = th[c], iq[c], vq[c]
         emf = np.column_stack([w, w[:, None] * harmonic_columns(thc, orders)])
-        X = np.column_stack([emf, iqc, di, np.ones_like(w), _deadtime_columns(iqc, pole_pairs * thc + offset, widths)])
+        X = np.column_stack([emf, iqc, di, np.ones_like(w), phase_saturation_q(iqc, pole_pairs * thc + offset, widths)])
         # instruments for the current's columns, from samples whose noise neither the voltage nor the regressor carries.
         # The logged voltage carries -K_p times the logged current's own noise (the loop acts on the measured current),
         # so least squares on the current of the same sample pulls R, and k0 with it, by about K_p σ²/var(i_q) (zoo
@@ -175,7 +152,7 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         # is the difference of samples j ± 2
         nb = 0.5 * (iq[3:-1] + iq[1:-3])
         di2 = (iq[4:] - iq[:-4]) / (4 * ts)
-        Z = np.column_stack([emf, nb, di2, np.ones_like(w), _deadtime_columns(nb, pole_pairs * thc + offset, widths)])
+        Z = np.column_stack([emf, nb, di2, np.ones_like(w), phase_saturation_q(nb, pole_pairs * thc + offset, widths)])
         # rows whose current is within a few of its noise of zero are left out: there the dead time turns with the
         # noise, tanh(i/c) of the neighbours' mean no longer follows the sample's (a weak instrument: with a slow sweep's
         # small currents in the logs the fit's residual went 0.019 -> 0.30 V on zoo seed 0 12N10P), and the back-EMF
@@ -227,15 +204,14 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
         dict: ``orders``; ``ripple`` ``(2n,)`` ``[a…, b…]`` (-) and ``cov`` ``(2n, 2n)``; ``back_emf_constant``
         (V·s/rad) and its standard error; ``resistance`` (Ω), ``inductance`` (H), ``offset_V``, ``deadtime_V`` (the
         coefficients of the dead time's columns, one per :data:`DEADTIME_WIDTHS`); ``voltage_delay`` (samples),
-        ``rows``, ``blocks``, ``residual_rms_V``,
-        ``ripple_share`` (the ripple's RMS voltage at the logs' RMS speed over the residual's RMS). Where the back-EMF
+        ``rows``, ``blocks``, ``residual_rms_V``. Where the back-EMF
         constant is within :data:`MIN_BACK_EMF_EVIDENCE` standard errors of zero (not determined), ``ripple`` and
         ``cov`` are ``None`` and only the constant, its error, the delay and the rows are given.
     """
     orders = np.asarray(orders, int)
     orders = orders[orders > 0]
     n = orders.size
-    X, Z, y, block = _rows(logs, orders, pole_pairs, offset, sample_time, current_delay, current_delay)
+    X, Z, y, block = _rows(logs, orders, pole_pairs, offset, sample_time, current_delay)
     rows = y.size
     if rows < 2 * X.shape[1]:
         # hardly a row away from the current's zero crossing: nothing to read
@@ -255,14 +231,12 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     J[:, 0] = -c / kappa ** 2
     J[:, 1:1 + 2 * n] = np.eye(2 * n) / kappa
     r = c / kappa
-    w_rms = float(np.sqrt(np.mean(X[:, 0] ** 2)))
     k = 1 + 2 * n
     return {"orders": orders, "ripple": r, "cov": J @ cov @ J.T,
             "back_emf_constant": float(kappa), "back_emf_constant_se": float(math.sqrt(max(cov[0, 0], 0.0))),
             "resistance": float(beta[k]), "inductance": float(beta[k + 1]), "offset_V": float(beta[k + 2]),
             "deadtime_V": [float(v) for v in beta[k + 3:]], "voltage_delay": int(current_delay),
-            "rows": int(rows), "blocks": int(np.unique(block).size), "residual_rms_V": math.sqrt(cost),
-            "ripple_share": float(abs(kappa) * w_rms * math.sqrt(0.5 * float(r @ r)) / math.sqrt(cost))}
+            "rows": int(rows), "blocks": int(np.unique(block).size), "residual_rms_V": math.sqrt(cost)}
 
 
 def agreement(r_c: np.ndarray, cov_c: np.ndarray, r_v: np.ndarray, cov_v: np.ndarray, gram: np.ndarray,

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Winding", "q_voltage", "draw_winding", "BACK_EMF_FACTOR"]
+__all__ = ["Winding", "q_voltage", "deadtime_q", "phase_saturation_q", "draw_winding", "BACK_EMF_FACTOR"]
 
 #: ``e_q = BACK_EMF_FACTOR · k (1 + ρ) ω``: the amplitude-invariant Park transform's power ``(3/2) v_q i_q``.
 BACK_EMF_FACTOR = 2.0 / 3.0
@@ -70,24 +70,37 @@ class Winding:
 _FIELDS = ("resistance", "inductance", "deadtime_voltage", "deadtime_current", "loop_gain", "voltage_noise")
 
 
+def phase_saturation_q(iq, theta_e, widths) -> np.ndarray:
+    """The q component of ``tanh(i_ph / c)`` over the three phases, for each width ``c`` (A): a per-phase odd,
+    saturating function of the phase current (the dead time, a switch's drop) seen in the drive's frame with ``i_d = 0``.
+
+    Args:
+        iq: ``(N,)`` q-current (A); theta_e: ``(N,)`` the drive's electrical angle (rad); widths: ``(M,)`` (A).
+
+    Returns:
+        ``(N, M)``: ``(2/3) Σ_k p_k tanh(i_q p_k / c)`` with ``p_k = −sin(θ_e − 2πk/3)`` (amplitude-invariant: a
+        q-current ``i_q`` is the phase currents ``i_q p_k``).
+    """
+    iq, theta_e = np.asarray(iq, float), np.asarray(theta_e, float)
+    out = np.zeros((iq.size, len(widths)))
+    for k in range(3):
+        p = -np.sin(theta_e - 2.0 * math.pi * k / 3.0)
+        for m, c in enumerate(widths):
+            out[:, m] += (2.0 / 3.0) * p * np.tanh(iq * p / c)
+    return out
+
+
 def deadtime_q(iq, theta_e, deadtime_voltage: float, deadtime_current: float) -> np.ndarray:
-    """The dead time's voltage error in the drive's q axis (V).
+    """The dead time's voltage error in the drive's q axis (V): each phase loses ``V_dt tanh(i_ph/i_ε)``.
 
     Args:
         iq: ``(N,)`` q-current (A), ``i_d = 0``; theta_e: ``(N,)`` the drive's electrical angle (rad).
         deadtime_voltage, deadtime_current: ``V_dt`` (V), ``i_ε`` (A).
 
     Returns:
-        ``(N,)``: the q component of ``−V_dt tanh(i_ph/i_ε)`` over the three phases (amplitude-invariant).
+        ``(N,)`` (V).
     """
-    iq = np.asarray(iq, float)
-    out = np.zeros_like(iq)
-    for k in range(3):
-        a = np.asarray(theta_e, float) - 2.0 * math.pi * k / 3.0
-        # the phase current of a q-current along -sin (Park: i_ph = -i_q sin(θ_e - 2πk/3) for i_d = 0)
-        i_ph = -iq * np.sin(a)
-        out += -np.sin(a) * (-deadtime_voltage * np.tanh(i_ph / deadtime_current))
-    return (2.0 / 3.0) * out
+    return -deadtime_voltage * phase_saturation_q(iq, theta_e, [deadtime_current])[:, 0]
 
 
 def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: float, theta, omega, iq, sample_time: float,
