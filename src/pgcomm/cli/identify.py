@@ -319,14 +319,14 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                 progress.info(f"{lg.source}: {note}")
     torque_sensor = all("torque" in lg.columns for lg in logs) and not args.no_force_sensor
     # the q-voltage is read only when every log has it (pgcomm.rotary.back_emf)
-    voltage = ("vq_1",) if all("vq_1" in lg.columns for lg in logs) and not torque_sensor else ()
+    vq_column = ("vq_1",) if all("vq_1" in lg.columns for lg in logs) and not torque_sensor else ()
     with_vq = sum("vq_1" in lg.columns for lg in logs)
     if 0 < with_vq < len(logs) and not torque_sensor:
         progress.info(f"q-voltage vq_1 in {with_vq} of {len(logs)} logs: not read (the back-EMF fit takes every log's "
                       "voltage or none)")
     # a log with dropped samples is the stretches between them: no filter window may difference across a gap
     data = [{"name": lg.source if len(lg.gaps) == 0 else f"{lg.source} rows {a + 1}-{b}",
-             **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *voltage,
+             **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *vq_column,
                                                 *(("torque",) if torque_sensor else ()))}}
             for lg in logs for a, b in lg.segments()]
     slots_detected = None
@@ -549,6 +549,7 @@ def _plot_rotary(path, model, info: dict, motor, n: int = 3600, sweep=None) -> N
               ("ripple", "torque-constant ripple", "%", 100.0, model.ripple(th)),
               ("direction", "direction-dependent torque", "A", 1.0, model.direction(th)))
     fig, ax = plt.subplots(3, 1, figsize=(10, 9), sharex=True)
+    voltage = info.get("back_emf") or {}
     for a, (key, label, unit, scale, values) in zip(ax, panels):
         a.plot(th, scale * values, lw=0.7, label="identified" + (" (forward and reverse averaged)"
                                                                  if key == "cogging" else ""))
@@ -556,7 +557,6 @@ def _plot_rotary(path, model, info: dict, motor, n: int = 3600, sweep=None) -> N
             band = scale * se[key]["rms_error"]
             a.fill_between(th, scale * values - band, scale * values + band, alpha=0.25, lw=0,
                            label=f"± standard error ({100 * se[key]['relative']:.1f} % of its RMS)")
-        voltage = info.get("back_emf") or {}
         if key == "ripple" and voltage.get("ripple"):
             from pgcomm.rotary.model import Fourier
 
