@@ -9,7 +9,12 @@ Per zoo motor, on one round of ``reproduce``'s running logs (the twin's winding,
   difference over what their errors give together);
 * the voltage's ripple from constant-speed runs at ``--fast`` times the currents' alias-guard speed (``--revolutions``
   each way), where the currents' identification refuses every window: its error, standard error and log time;
+* the drive's offset error ``δ`` from the d-voltage (:func:`pgcomm.rotary.back_emf.fit_voltage`): the truth's, the
+  error (degrees electrical) and over its standard error, and the torque constant along the magnets' axis, relative
+  error; the last line gives the mean square of those ratios (1 where the standard errors are right);
 * the voltage fit's time against the currents' identification's (one process, same logs).
+
+``--fast none`` skips the fast runs.
 """
 
 from __future__ import annotations
@@ -41,9 +46,11 @@ def main(argv=None) -> int:
     from pgcomm.rotary.zoo import draw_rotary
 
     th = 2 * np.pi * np.arange(4096) / 4096
-    fast = tuple(float(x) for x in args.fast.split(","))
+    fast = () if args.fast == "none" else tuple(float(x) for x in args.fast.split(","))
     print(f"{'#':>2} {'motor':7s} {'k0 err':>7s} {'R err':>6s} {'log s':>6s} {'V rip err/SE %':>15s} "
-          f"{'I rip err/SE %':>15s} {'diff/exp':>11s} {'fast s':>6s} {'fast V err/SE %':>16s} {'V/I time':>8s}")
+          f"{'I rip err/SE %':>15s} {'diff/exp':>11s} {'fast s':>6s} {'fast V err/SE %':>16s} {'V/I time':>8s} "
+          f"{'δ °':>7s} {'δ err °':>8s} {'z':>6s} {'k_t err':>7s}")
+    z2 = []
     for i in (int(x) for x in args.motors.split(",")):
         t = draw_rotary(args.seed, i)
         o = Orders.for_motor(t.motor)
@@ -70,16 +77,26 @@ def main(argv=None) -> int:
         e_i = identification_errors(res.model, t)["ripple_rel"]
         se_i = res.info["standard_error"]["ripple"]["rms_error"] / t.ripple.rms()
         se_v = float(np.sqrt(0.5 * np.trace(fv["cov"]))) / t.ripple.rms()
-        fl = logs_of(RotarySettings(speed_shares=fast, revolutions=args.revolutions))
-        f_secs = sum(lg["t"].size for lg in fl) * t.motor.sample_time
-        ff = fit_voltage(fl, orders, t.motor.pole_pairs, t.motor.sample_time, offset=t.motor.commutation_offset)
-        se_f = float(np.sqrt(0.5 * np.trace(ff["cov"]))) / t.ripple.rms()
+        if fast:
+            fl = logs_of(RotarySettings(speed_shares=fast, revolutions=args.revolutions))
+            f_secs = sum(lg["t"].size for lg in fl) * t.motor.sample_time
+            ff = fit_voltage(fl, orders, t.motor.pole_pairs, t.motor.sample_time, offset=t.motor.commutation_offset)
+            se_f = float(np.sqrt(0.5 * np.trace(ff["cov"]))) / t.ripple.rms()
+            f_err = 100 * rel_err(ff["ripple"], orders)
+        else:
+            f_secs = se_f = f_err = float("nan")
+        off = fv["offset_error"]
+        z = (off["delta"] - t.offset_error) / off["delta_se"]
+        z2.append(z * z)
         k0_err = fv["back_emf_constant"] / BACK_EMF_FACTOR / t.k0 - 1.0
         r_err = fv["resistance"] / t.winding.resistance - 1.0
         print(f"{i:>2} {t.motor.name:7s} {100 * k0_err:>6.2f}% {100 * r_err:>5.1f}% {secs:>6.1f} "
               f"{100 * rel_err(fv['ripple'], orders):>7.1f}/{100 * se_v:<7.1f} {100 * e_i:>7.1f}/{100 * se_i:<7.1f} "
               f"{v['rms_difference'] / v['expected_rms_difference']:>11.2f} {f_secs:>6.1f} "
-              f"{100 * rel_err(ff['ripple'], orders):>8.1f}/{100 * se_f:<7.1f} {t_v / t_i:>8.3f}", flush=True)
+              f"{f_err:>8.1f}/{100 * se_f:<7.1f} {t_v / t_i:>8.3f} {np.degrees(t.offset_error):>7.2f} "
+              f"{np.degrees(off['delta'] - t.offset_error):>8.3f} {z:>6.2f} "
+              f"{100 * (off['k_t_aligned'] / t.k_t - 1):>6.2f}%", flush=True)
+    print(f"offset error over its standard error: mean square {np.mean(z2):.2f} over {len(z2)} motors")
     return 0
 
 

@@ -8,13 +8,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage, voltage_text
+from pgcomm.rotary.back_emf import agreement, fit_voltage, has_d_voltage, has_voltage, offset_text, voltage_text
 from pgcomm.rotary.experiment import RotarySettings, running_references
 from pgcomm.rotary.identify import identify
 from pgcomm.rotary.model import Fourier
 from pgcomm.rotary.regression import Orders
 from pgcomm.rotary.twin import LawParams, default_gains, simulate
-from pgcomm.rotary.winding import BACK_EMF_FACTOR, Winding, deadtime_q, q_voltage
+from pgcomm.rotary.winding import BACK_EMF_FACTOR, Winding, d_voltage, deadtime_q, phase_saturation_dq, q_voltage
 from pgcomm.rotary.zoo import draw_rotary
 
 
@@ -53,6 +53,10 @@ def test_the_dead_time_is_a_voltage_against_the_current_of_four_over_pi_v_dt():
     np.testing.assert_allclose(small, -0.2 * 1e-4, rtol=1e-7)
 
 
+#: The synthetic logs' drive offset error (rad, electrical): the magnets' q axis ahead of the drive's.
+SYNTHETIC_DELTA = 0.2
+
+
 def _synthetic(noise: float, seed: int = 0):
     """Constant speeds of 20 and 40 rad/s in both directions with a current dither, the q-voltage of a known winding
     and ripple (the twin's own formula, a dead time of a width in the fit's family)."""
@@ -69,7 +73,9 @@ def _synthetic(noise: float, seed: int = 0):
         th = 0.3 + speed * t
         om = np.full(n, speed)
         vq = q_voltage(w, 0.3, ripple, p, 0.0, th, om, iq, ts, rng.standard_normal(n))
-        logs.append({"t": t, "theta": th, "iq_1": iq, "vq_1": vq})
+        vd = d_voltage(w, 0.3 / math.cos(SYNTHETIC_DELTA), SYNTHETIC_DELTA, ripple, p, 0.0, th, om, iq,
+                       rng.standard_normal(n))
+        logs.append({"t": t, "theta": th, "iq_1": iq, "vq_1": vq, "vd_1": vd})
     return logs, ripple, w, p, ts
 
 
@@ -85,6 +91,10 @@ def test_fit_voltage_is_exact_without_noise_and_within_its_covariance_with_it():
     assert np.max(np.abs(f["ripple"] - truth)) < 1e-8 * rms
     assert abs(f["back_emf_constant"] - BACK_EMF_FACTOR * 0.3) < 1e-9 * 0.3
     assert abs(f["resistance"] - w.resistance) < 1e-6 * w.resistance
+    off = f["offset_error"]
+    assert abs(off["delta"] - SYNTHETIC_DELTA) < 1e-8
+    assert abs(off["k_t_aligned"] - 0.3 / math.cos(SYNTHETIC_DELTA)) < 1e-8 * 0.3
+    assert abs(off["inductance"] - w.inductance) < 1e-6 * w.inductance
     chi = []
     for seed in range(20):
         logs, ripple, w, p, ts = _synthetic(0.05, seed=seed)
@@ -183,3 +193,57 @@ def test_a_voltage_without_back_emf_is_said_so_not_read():
     v = identify(noise, t.motor).info["back_emf"]
     assert v["consistent"] is None and math.isfinite(v["back_emf_constant"])
     assert "does not determine the back-EMF constant" in voltage_text(v)
+
+
+def test_the_twins_d_voltage_is_the_magnets_back_emf_seen_in_the_drives_frame():
+    """A second formulation of the twin's back-EMF: the phases' back-EMFs of a field whose q axis is δ ahead of the
+    drive's, ``e_k = E (−sin(η + δ − 2πk/3))`` with ``E = (2/3) k_t (1 + ρ) ω``, Park-transformed into the drive's frame
+    ``η = p θ + offset`` (amplitude-invariant), are the twin's logged v_d and v_q with no resistance, inductance, dead
+    time or noise; to 1e-12 of E."""
+    t = draw_rotary(0, 1)
+    t = replace(t, winding=Winding(0.0, 0.0, 0.0, 1.0, 0.0, 0.0))
+    log = _logs(t, RotarySettings(revolutions=0.3))[0]
+    th, om = log["theta_true"], log["omega_true"]
+    eta = t.motor.pole_pairs * th + t.motor.commutation_offset
+    big_e = BACK_EMF_FACTOR * t.k_t * (1.0 + t.ripple(th)) * om
+    vd, vq = np.zeros_like(th), np.zeros_like(th)
+    for k in range(3):
+        e_k = big_e * -np.sin(eta + t.offset_error - 2 * math.pi * k / 3)
+        vd += 2.0 / 3.0 * e_k * np.cos(eta - 2 * math.pi * k / 3)
+        vq -= 2.0 / 3.0 * e_k * np.sin(eta - 2 * math.pi * k / 3)
+    tol = 1e-12 * float(np.max(np.abs(big_e)))
+    assert np.max(np.abs(log["vd_1"] - vd)) <= tol
+    assert np.max(np.abs(log["vq_1"] - vq)) <= tol
+
+
+def test_the_dead_times_voltage_is_a_hexagons_vertex():
+    """Far above the zero crossing every phase's error is ±V_dt, so the dead time's vector in the drive's frame is
+    (2/3) V_dt Σ ±a^k: a vertex of the hexagon, of length (4/3) V_dt at every electrical angle; its d part turns sign
+    across each sector (mean zero over the period)."""
+    th_e = np.linspace(0, 2 * math.pi, 6000, endpoint=False) + 1e-3
+    d, q = phase_saturation_dq(np.full(th_e.size, 5.0), th_e, [1e-9])
+    np.testing.assert_allclose(np.hypot(d[:, 0], q[:, 0]), 4.0 / 3.0, rtol=1e-12)
+    assert abs(float(np.mean(d))) < 1e-3 and float(np.ptp(d)) > 1.0
+
+
+@pytest.mark.parametrize("index", [0, 3])
+def test_identify_reads_the_drives_offset_error_from_the_d_voltage(index):
+    """On zoo motors with the twin's winding, the d-voltage gives the offset error δ (the magnets' q axis ahead of the
+    drive's) and the torque constant along the magnets' axis within four of their standard errors. Set the drive's
+    offset to the one it reports (the twin's drive frame turned by δ̂, the magnets where they were), the logs give an
+    offset error within four standard errors of zero, k0 = k_t, and the line says the offset is on the axis."""
+    t = draw_rotary(0, index)
+    logs = _logs(t)
+    assert has_d_voltage(logs)
+    off = identify(logs, t.motor).info["back_emf"]["offset_error"]
+    assert abs(off["delta"] - t.offset_error) < 4 * off["delta_se"], (off, t.offset_error)
+    assert abs(off["k_t_aligned"] - t.k_t) < 4 * off["k_t_aligned_se"]
+    assert "ahead of the drive's" in offset_text({"offset_error": off})
+    turned = replace(t, offset_error=t.offset_error - (off["corrected_offset"] - t.motor.commutation_offset),
+                     motor=replace(t.motor, commutation_offset=off["corrected_offset"]))
+    v = identify(_logs(turned, seed=7), turned.motor).info["back_emf"]
+    again = v["offset_error"]
+    assert abs(again["delta"]) < 4 * again["delta_se"], again
+    assert abs(v["k0_amplitude_invariant"] - t.k_t) < 4 * v["back_emf_constant_se"] / BACK_EMF_FACTOR
+    assert "on the magnets' axis" in offset_text(v)
+

@@ -162,7 +162,7 @@ def _where_from(e: Exception, args) -> str:
             return f" (the reference is --reference {reference})"
         if config:
             return f" (the reference is built from [reference] in --config {config})"
-        return f" (the default reference; set [reference] stroke in a --config file)"
+        return " (the default reference; set [reference] stroke in a --config file)"
     where = [w for w in (f"--config {config}" if config else None, plant) if w]
     return f" (settings from {' and '.join(where)})" if where else " (with the default settings)"
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import sys
 import time
-from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, add_data_options, add_out_option, check_out, add_motor_option, motor_from_args, \
     read_data_logs, require_data, staged_output

@@ -285,7 +285,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
     from pgcomm.io.results import write_results
     from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
-    from pgcomm.rotary.back_emf import voltage_text
+    from pgcomm.rotary.back_emf import offset_text, voltage_text
     from pgcomm.rotary.readings import apply_reading, delay_text, detect_reading, pll_text
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.time_lines import detect_time_lines, lines_text
@@ -325,6 +325,9 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         progress.info(f"q-voltage vq_1 in {with_vq} of {len(logs)} logs: not read (the back-EMF fit takes every log's "
                       "voltage or none)")
     # a log with dropped samples is the stretches between them: no filter window may difference across a gap
+    # ... and the d-voltage (with the d-current, whose noise its command carries) beside it
+    if vq_column and all("vd_1" in lg.columns for lg in logs):
+        vq_column += ("vd_1",) + (("id_1",) if all("id_1" in lg.columns for lg in logs) else ())
     data = [{"name": lg.source if len(lg.gaps) == 0 else f"{lg.source} rows {a + 1}-{b}",
              **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *vq_column,
                                                 *(("torque",) if torque_sensor else ()))}}
@@ -373,7 +376,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                                                        angle_pll=pll,
                                                        time_lines=(res.info.get("time_lines") or {}).get("hz", ()))
         for text in (pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines")),
-                     voltage_text(res.info.get("back_emf"))):
+                     voltage_text(res.info.get("back_emf")), offset_text(res.info.get("back_emf"))):
             if text:
                 progress.info(text)
         if (res.model.inertia_ratio or 0.0) < 0.0:
@@ -422,6 +425,8 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         k_si, k_from = voltage["k0_amplitude_invariant"], "the logged q-voltage's back-EMF (amplitude-invariant)"
         if motor.k_t:
             voltage["ratio_to_motor_k_t"] = k_si / float(motor.k_t)
+            if voltage.get("offset_error"):
+                voltage["offset_error"]["ratio_to_motor_k_t"] = voltage["offset_error"]["k_t_aligned"] / float(motor.k_t)
     elif motor.k_t:
         k_si, k_from = float(motor.k_t), "the motor description's k_t"
     if k_si is not None:
@@ -464,8 +469,12 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         si = results.get("in_SI")
         if si and si["inertia_kg_m2"] is not None:
             ratio = voltage.get("ratio_to_motor_k_t")
+            aligned = voltage.get("offset_error") if voltage.get("consistent") else None
             print(f"in SI (k0 = {si['torque_constant_Nm_per_A']:.4g} N·m/A"
                   + (f", {ratio:.3f}x the motor description's k_t" if ratio is not None else "")
+                  + (f"; along the magnets' axis {aligned['k_t_aligned']:.4g} N·m/A"
+                     + (f", {aligned['ratio_to_motor_k_t']:.3f}x" if "ratio_to_motor_k_t" in aligned else "")
+                     if aligned else "")
                   + f"): moment of inertia {si['inertia_kg_m2']:.4g} kg·m², Coulomb friction {si['coulomb_Nm']:.3g} "
                   f"N·m, viscous {si['viscous_Nm_s_per_rad']:.3g} N·m·s/rad")
         if sweep is not None:

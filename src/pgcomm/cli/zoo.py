@@ -21,7 +21,7 @@ def configure(p) -> None:
                    help="also write logs/Z{i}_coilset{l}.csv per motor (as pgcomm calibrate --save-data)")
     p.add_argument("--kind", choices=("linear", "rotary"), default="linear",
                    help="linear motors (force maps, default) or rotary PMSM/BLDC motors (motor.toml with "
-                        "kind = \"rotary\" and truth.json; --logs writes running logs t, theta, velocity, iq_1, id_1, vq_1)")
+                        "kind = \"rotary\" and truth.json; --logs writes running logs t, theta, velocity, iq_1, id_1, vq_1, vd_1)")
     add_common_options(p, out=True, plant=False)
 
 

@@ -9,12 +9,13 @@ sensor. This subpackage mirrors the linear pipeline for them:
 * :mod:`pgcomm.rotary.model`: periodic maps over one revolution (Fourier on the circle, orders
   from the slot/pole combination) and :class:`RotaryModel` (with ``table(n)`` for exports);
 * :mod:`pgcomm.rotary.twin`: the rotary PMSM twin on a FOC drive in closed loop (``lax.scan``); its winding and the
-  q-voltage the drive logs in :mod:`pgcomm.rotary.winding`;
+  q- and d-voltages the drive logs in :mod:`pgcomm.rotary.winding`;
 * :mod:`pgcomm.rotary.zoo`: random plausible motors (slot/pole combinations, tolerances);
 * :mod:`pgcomm.rotary.identify`: least squares from running logs, with or without torque sensor, with standard
   errors; its regression in :mod:`pgcomm.rotary.regression`, the logs' readings (the current's timing, a PLL's
   angle) in :mod:`pgcomm.rotary.readings`, time-periodic disturbances in :mod:`pgcomm.rotary.time_lines`, the
-  ripple and the back-EMF constant from the logged q-voltage in :mod:`pgcomm.rotary.back_emf`;
+  ripple and the back-EMF constant from the logged q-voltage, and the drive's offset error from the d-voltage, in
+  :mod:`pgcomm.rotary.back_emf`;
 * :mod:`pgcomm.rotary.slots`: the slot count from running logs, when the motor description lacks it;
 * :mod:`pgcomm.rotary.standstill`: the drives' method (hold at N angles both ways, average ``i_q``);
 * :mod:`pgcomm.rotary.law`: the commutation law ``i_q = (T* − cog − dir)/k_t(θ)``, safe for any input;

@@ -206,7 +206,8 @@ def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Ord
     fv = fit_voltage(read, final.ripple, motor.pole_pairs, ts, delay, motor.commutation_offset)
     if fv["ripple"] is None:
         return {"used_logs": len(logs), "back_emf_constant": fv["back_emf_constant"],
-                "back_emf_constant_se": fv["back_emf_constant_se"], "rows": fv["rows"], "consistent": None}
+                "back_emf_constant_se": fv["back_emf_constant_se"], "rows": fv["rows"], "consistent": None,
+                "offset_error": None}
     kept = np.flatnonzero(layout.keep)
     where = {int(c): j for j, c in enumerate(kept)}
     nr = final.ripple.size
@@ -224,7 +225,7 @@ def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Ord
             "resistance": fv["resistance"], "inductance": fv["inductance"], "voltage_delay": fv["voltage_delay"],
             "residual_rms_V": fv["residual_rms_V"], "rows": fv["rows"], "blocks": fv["blocks"],
             "ripple": Fourier.from_vector(fv["orders"], fv["ripple"]).to_dict(), "ripple_rms": rms,
-            "ripple_rms_error": _map_standard_error(fv["cov"], gram), **check}
+            "ripple_rms_error": _map_standard_error(fv["cov"], gram), **check, "offset_error": fv["offset_error"]}
 
 
 def _quantisation_info(prepared, fit: dict) -> dict:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from pgcomm.report import CSS, figure_html
 from pgcomm.rotary.identify import resolution_verdict
-from pgcomm.rotary.back_emf import voltage_text
+from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.readings import delay_text, pll_text
 from pgcomm.rotary.time_lines import lines_text
 
@@ -69,7 +69,8 @@ def _identification_html(r: dict) -> str:
              f"{_g(ident.get('inertia_ratio'), 4)} A·s²/rad."
              + (f" {ident['rounds']} round(s) of running logs." if "rounds" in ident else "") + "</p>"]
     for label, text in (("Angle", pll_text(ident.get("angle_pll"))), ("Timing", delay_text(ident.get("current_delay"))),
-                        ("Rig", lines_text(ident.get("time_lines"))), ("Voltage", voltage_text(ident.get("back_emf")))):
+                        ("Rig", lines_text(ident.get("time_lines"))), ("Voltage", voltage_text(ident.get("back_emf"))),
+                        ("Drive offset", offset_text(ident.get("back_emf")))):
         if text:
             parts.append(f"<p>{label}: {html.escape(text)}.</p>")
     quant = ident.get("quantisation") or {}

@@ -42,7 +42,7 @@ import numpy as np
 
 from pgcomm.rotary.model import Fourier, RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
-from pgcomm.rotary.winding import Winding, q_voltage
+from pgcomm.rotary.winding import Winding, d_voltage, q_voltage
 
 __all__ = ["RotaryTruth", "Gains", "LawParams", "Reference", "simulate", "default_gains", "VELOCITY_CUTOFF_HZ",
            "SUBSTEPS", "HOLD_ADVANCE"]
@@ -302,7 +302,8 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         dict of ``(N,)`` arrays: ``t`` (s), ``theta`` (encoder, rad), ``velocity`` (rad/s, the drive's
         estimate), ``iq_1``, ``id_1`` (A, measured), ``theta_true``, ``omega_true``, ``torque``
         (air-gap N·m, with ``torque_noise``), ``iq_true`` (A, what flowed), ``demand`` (A), ``theta_ref``, ``omega_ref``;
-        and ``vq_1`` (V, the drive's q-voltage command, :mod:`pgcomm.rotary.winding`) when ``truth.winding`` is set.
+        and ``vq_1``, ``vd_1`` (V, the drive's q- and d-voltage commands, :mod:`pgcomm.rotary.winding`) when
+        ``truth.winding`` is set.
     """
     m = truth.motor
     ts = float(m.sample_time)
@@ -343,6 +344,9 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         # drawn after the currents' noise, so a twin with a winding logs the same currents as one without
         log["vq_1"] = q_voltage(truth.winding, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th, om,
                                 iq_act, ts, rng.standard_normal(n), iq - iq_act)
+        # drawn after the q-voltage's, which is then the same as a twin's that logs no d-voltage
+        log["vd_1"] = d_voltage(truth.winding, truth.k_t, truth.offset_error, truth.ripple, m.pole_pairs,
+                                m.commutation_offset, th, om, iq_act, rng.standard_normal(n), idd)
     return log
 
 

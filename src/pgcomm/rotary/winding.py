@@ -32,7 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Winding", "q_voltage", "deadtime_q", "phase_saturation_q", "draw_winding", "BACK_EMF_FACTOR"]
+__all__ = ["Winding", "q_voltage", "d_voltage", "deadtime_q", "phase_saturation_q", "phase_saturation_dq", "draw_winding",
+           "BACK_EMF_FACTOR"]
 
 #: ``e_q = BACK_EMF_FACTOR · k (1 + ρ) ω``: the amplitude-invariant Park transform's power ``(3/2) v_q i_q``.
 BACK_EMF_FACTOR = 2.0 / 3.0
@@ -70,24 +71,33 @@ class Winding:
 _FIELDS = ("resistance", "inductance", "deadtime_voltage", "deadtime_current", "loop_gain", "voltage_noise")
 
 
-def phase_saturation_q(iq, theta_e, widths) -> np.ndarray:
-    """The q component of ``tanh(i_ph / c)`` over the three phases, for each width ``c`` (A): a per-phase odd,
+def phase_saturation_dq(iq, theta_e, widths) -> tuple[np.ndarray, np.ndarray]:
+    """The d and q components of ``tanh(i_ph / c)`` over the three phases, for each width ``c`` (A): a per-phase odd,
     saturating function of the phase current (the dead time, a switch's drop) seen in the drive's frame with ``i_d = 0``.
 
     Args:
         iq: ``(N,)`` q-current (A); theta_e: ``(N,)`` the drive's electrical angle (rad); widths: ``(M,)`` (A).
 
     Returns:
-        ``(N, M)``: ``(2/3) Σ_k p_k tanh(i_q p_k / c)`` with ``p_k = −sin(θ_e − 2πk/3)`` (amplitude-invariant: a
-        q-current ``i_q`` is the phase currents ``i_q p_k``).
+        ``(d, q)``, each ``(N, M)``: ``(2/3) Σ_k c_k tanh(i_q p_k / c)`` and ``(2/3) Σ_k p_k tanh(i_q p_k / c)``
+        with ``c_k = cos(θ_e − 2πk/3)``, ``p_k = −sin(θ_e − 2πk/3)`` (amplitude-invariant Park transform: a q-current
+        ``i_q`` is the phase currents ``i_q p_k``).
     """
     iq, theta_e = np.asarray(iq, float), np.asarray(theta_e, float)
-    out = np.zeros((iq.size, len(widths)))
+    d, q = np.zeros((iq.size, len(widths))), np.zeros((iq.size, len(widths)))
     for k in range(3):
-        p = -np.sin(theta_e - 2.0 * math.pi * k / 3.0)
-        for m, c in enumerate(widths):
-            out[:, m] += (2.0 / 3.0) * p * np.tanh(iq * p / c)
-    return out
+        a = theta_e - 2.0 * math.pi * k / 3.0
+        c, p = np.cos(a), -np.sin(a)
+        for m, w in enumerate(widths):
+            s = (2.0 / 3.0) * np.tanh(iq * p / w)
+            d[:, m] += c * s
+            q[:, m] += p * s
+    return d, q
+
+
+def phase_saturation_q(iq, theta_e, widths) -> np.ndarray:
+    """The q component of :func:`phase_saturation_dq`, ``(N, M)``."""
+    return phase_saturation_dq(iq, theta_e, widths)[1]
 
 
 def deadtime_q(iq, theta_e, deadtime_voltage: float, deadtime_current: float) -> np.ndarray:
@@ -125,6 +135,38 @@ def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: floa
     emf = BACK_EMF_FACTOR * k0 * (1.0 + np.asarray(ripple(th), float)) * om
     dt = deadtime_q(iq, pole_pairs * th + offset, winding.deadtime_voltage, winding.deadtime_current)
     return (winding.resistance * iq + winding.inductance * di + emf + dt - winding.loop_gain * np.asarray(current_noise)
+            + winding.voltage_noise * np.asarray(noise))
+
+
+def d_voltage(winding: Winding, k_t: float, offset_error: float, ripple, pole_pairs: int, offset: float, theta, omega,
+              iq, noise, current_noise=0.0) -> np.ndarray:
+    """The d-voltage a drive logs at each sample instant, its d-current held at zero::
+
+        v_d = −p ω L i_q − (2/3) k_t sin δ (1 + ρ(θ)) ω + v_dt,d − K_p n_d + noise          (V)
+
+    The first term is the rotating frame's cross-coupling; the second the back-EMF's d component: the magnets' q
+    axis is ``δ`` ahead of the drive's (``offset_error``, true frame minus drive frame), so the back-EMF
+    ``(2/3) k_t (1 + ρ) ω`` along it has ``cos δ`` of itself on the drive's q axis (:func:`q_voltage`'s ``k0``) and
+    ``−sin δ`` on its d axis. The drive's offset is therefore read off the two voltages; a drive with its offset
+    right logs no back-EMF on d.
+
+    Args:
+        winding: :class:`Winding`; k_t: the torque constant along the magnets' q axis (N·m/A); offset_error: ``δ``
+            (rad, electrical); ripple: ``ρ`` (a callable of the angle, -); pole_pairs: ``p``; offset: the drive's
+            electrical offset (rad): its frame is ``p θ + offset``.
+        theta, omega: ``(N,)`` true angle (rad) and speed (rad/s) at the sample instants.
+        iq: ``(N,)`` q-current that flows from each sample instant (A).
+        noise: ``(N,)`` standard normal draws (the voltage's own noise).
+        current_noise: ``(N,)`` the logged d-current's noise (A; measured minus flowing, which is zero), which the
+            loop's gain puts into the command.
+
+    Returns:
+        ``(N,)`` logged ``v_d`` (V).
+    """
+    th, om, iq = (np.asarray(v, float) for v in (theta, omega, iq))
+    emf = -BACK_EMF_FACTOR * k_t * math.sin(offset_error) * (1.0 + np.asarray(ripple(th), float)) * om
+    dt = -winding.deadtime_voltage * phase_saturation_dq(iq, pole_pairs * th + offset, [winding.deadtime_current])[0][:, 0]
+    return (-pole_pairs * om * winding.inductance * iq + emf + dt - winding.loop_gain * np.asarray(current_noise)
             + winding.voltage_noise * np.asarray(noise))
 
 

@@ -178,7 +178,7 @@ def read_truth(path) -> RotaryTruth:
 
 def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
     """Simulate the running logs of :func:`pgcomm.rotary.experiment.running_references` and write them as
-    CSV (``t, theta, velocity, iq_1, id_1, vq_1``: what a drive records) to ``folder/run{k}.csv``."""
+    CSV (``t, theta, velocity, iq_1, id_1, vq_1, vd_1``: what a drive records) to ``folder/run{k}.csv``."""
     from pgcomm.rotary.experiment import RotarySettings, running_references
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
@@ -199,7 +199,7 @@ def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
 def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_seconds: float = 60.0) -> Path:
     """Simulate a slow position sweep in both directions (:func:`pgcomm.rotary.standstill.sweep_reference`,
     classical law, the drive's tuned gains) and write it as ``folder/sweep.csv`` (``t, theta, velocity, iq_1,
-    id_1, vq_1``): the drives' calibration run, for ``pgcomm identify --sweep``."""
+    id_1, vq_1, vd_1``): the drives' calibration run, for ``pgcomm identify --sweep``."""
     from pgcomm.rotary.standstill import sweep_reference
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
 
@@ -214,11 +214,11 @@ def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_second
 
 
 def _write_drive_log(path: Path, log: dict) -> None:
-    """Write what a drive records of a twin's run as CSV: ``t, theta, velocity, iq_1, id_1`` and ``vq_1`` (V) when
-    the twin has a winding."""
+    """Write what a drive records of a twin's run as CSV: ``t, theta, velocity, iq_1, id_1`` and ``vq_1``, ``vd_1``
+    (V) when the twin has a winding."""
     from pgcomm.io.atomic import atomic_open
 
-    cols = [c for c in ("t", "theta", "velocity", "iq_1", "id_1", "vq_1") if c in log]
+    cols = [c for c in ("t", "theta", "velocity", "iq_1", "id_1", "vq_1", "vd_1") if c in log]
     with atomic_open(path) as f:
         f.write(",".join(cols) + "\n")
         np.savetxt(f, np.column_stack([log[c] for c in cols]), delimiter=",", fmt="%.12g")
