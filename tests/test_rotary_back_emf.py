@@ -247,3 +247,31 @@ def test_identify_reads_the_drives_offset_error_from_the_d_voltage(index):
     assert abs(v["k0_amplitude_invariant"] - t.k_t) < 4 * v["back_emf_constant_se"] / BACK_EMF_FACTOR
     assert "on the magnets' axis" in offset_text(v)
 
+
+
+def test_samples_at_the_inverters_voltage_limit_are_left_out():
+    """A drive at its voltage limit logs a voltage vector clipped to vbus/√3 that the winding's model does not
+    follow. With the supply logged, those samples (and the model's near them) are left out: the fit on the clipped logs
+    is the fit on the unclipped ones (the same rows, to rounding), and the line counts them; without the supply the
+    clipped samples pull the back-EMF constant by more than four of its standard errors."""
+    logs, ripple, w, p, ts = _synthetic(0.05, seed=2)
+    amp = np.concatenate([np.hypot(lg["vq_1"], lg["vd_1"]) for lg in logs])
+    vbus = math.sqrt(3.0) * float(np.quantile(amp, 0.9))
+    clipped, plain = [], []
+    for lg in logs:
+        a = np.hypot(lg["vq_1"], lg["vd_1"])
+        s = np.minimum(1.0, vbus / math.sqrt(3.0) / a)
+        clipped.append(dict(lg, vq_1=lg["vq_1"] * s, vd_1=lg["vd_1"] * s, vbus=np.full(a.size, vbus)))
+        plain.append(dict(lg, vbus=np.full(a.size, vbus)))
+    fc, fp = fit_voltage(clipped, ripple.orders, p, ts), fit_voltage(plain, ripple.orders, p, ts)
+    assert fc["rows_at_voltage_limit"] == fp["rows_at_voltage_limit"] > 0
+    kappa = BACK_EMF_FACTOR * 0.3
+    assert abs(fc["back_emf_constant"] - fp["back_emf_constant"]) < 1e-9 * kappa
+    assert abs(fc["back_emf_constant"] - kappa) < 4 * fc["back_emf_constant_se"]
+    blind = fit_voltage([{k: v for k, v in lg.items() if k != "vbus"} for lg in clipped], ripple.orders, p, ts)
+    assert blind["rows_at_voltage_limit"] == 0
+    assert abs(blind["back_emf_constant"] - kappa) > 4 * blind["back_emf_constant_se"]
+    info = {"used_logs": 4, "back_emf_constant": fc["back_emf_constant"], "k0_amplitude_invariant": 0.3,
+            "resistance": fc["resistance"], "consistent": True, "ripple_rms": 0.01, "ripple_rms_error": 0.001,
+            "rms_difference": 0.001, "expected_rms_difference": 0.001, "rows_at_voltage_limit": fc["rows_at_voltage_limit"]}
+    assert "voltage limit" in voltage_text(info)

@@ -328,6 +328,9 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     # ... and the d-voltage (with the d-current, whose noise its command carries) beside it
     if vq_column and all("vd_1" in lg.columns for lg in logs):
         vq_column += ("vd_1",) + (("id_1",) if all("id_1" in lg.columns for lg in logs) else ())
+    # ... and the supply, for the inverter's voltage limit
+    if vq_column and all("vbus" in lg.columns for lg in logs):
+        vq_column += ("vbus",)
     data = [{"name": lg.source if len(lg.gaps) == 0 else f"{lg.source} rows {a + 1}-{b}",
              **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *vq_column,
                                                 *(("torque",) if torque_sensor else ()))}}

@@ -75,6 +75,12 @@ __all__ = ["VOLTAGE_COLUMNS", "D_VOLTAGE_COLUMNS", "has_voltage", "has_d_voltage
 VOLTAGE_COLUMNS = ("vq_1", "vq")
 #: ... and of the d-voltage.
 D_VOLTAGE_COLUMNS = ("vd_1", "vd")
+#: ... and of the supply (V).
+SUPPLY_COLUMNS = ("vbus",)
+#: Samples whose voltage vector (``hypot(v_q, v_d)``, or ``|v_q|`` without a d-voltage) exceeds this share of the
+#: space-vector limit ``v_bus/√3`` (amplitude-invariant frame) are left out: at the limit the logged command is not the
+#: voltage applied (a limiter after it, or over-modulation), and the current no longer follows it.
+MODULATION_LIMIT = 0.95
 #: The voltage's ripple agrees with the currents' when their RMS difference over the revolution is at most this many
 #: times what their errors give together (as a sweep's table and the model's, :mod:`pgcomm.rotary.experiment`). An RMS
 #: test, not a χ² of the coefficients: the currents' covariance is overconfident in some directions of the
@@ -114,8 +120,8 @@ def _current_noise(iq: np.ndarray) -> float:
 
 def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, current_delay: int, d_axis: bool = False):
     """Stacked rows of every log (:func:`_log_rows`) and each row's time block, as long as :data:`BLOCK_SECONDS` and
-    :data:`BLOCKS_PER_UNKNOWN` allow: ``(X, Z, y, block, d)``."""
-    X, Z, y, t, d = _log_rows(logs, orders, pole_pairs, offset, sample_time, current_delay, d_axis)
+    :data:`BLOCKS_PER_UNKNOWN` allow: ``(X, Z, y, block, d, over)``."""
+    X, Z, y, t, d, over = _log_rows(logs, orders, pole_pairs, offset, sample_time, current_delay, d_axis)
     total = sum(float(np.ptp(tk)) for tk in t if tk.size)
     length = min(BLOCK_SECONDS, total / (BLOCKS_PER_UNKNOWN * X.shape[1])) if total > 0 else BLOCK_SECONDS
     blocks, start = [np.zeros(0, int)], 0
@@ -125,7 +131,7 @@ def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, curr
         b = np.floor((tk - tk[0]) / length).astype(int)
         blocks.append(start + b)
         start += int(b.max()) + 1
-    return X, Z, y, np.concatenate(blocks), d
+    return X, Z, y, np.concatenate(blocks), d, over
 
 
 def _voltage(log, name: str, columns) -> np.ndarray:
@@ -143,16 +149,18 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
     """Rows of every log: ``X`` with columns ``[ω, ω cos hθ…, ω sin hθ…, i_q, di_q/dt, 1, dead time…]``, ``Z`` the
     instruments (the current's columns from its neighbours), the target ``y = v_q`` (V) and each log's kept times (s);
     with ``d_axis``, the d-voltage's rows on the same samples, ``(X_d, Z_d, y_d)``: columns ``[−p ω i_q, the dead time's
-    d part…, i_d]`` (``i_d`` where every log has ``id_1``) and ``y_d = v_d`` (V), else ``None``. Returns
-    ``(X, Z, y, [t_k], d)``."""
+    d part…, i_d]`` (``i_d`` where every log has ``id_1``) and ``y_d = v_d`` (V), else ``None``. Where a log has the
+    supply ``vbus``, samples at the inverter's voltage limit are left out (:data:`MODULATION_LIMIT`); ``over`` counts
+    the rows so lost. Returns ``(X, Z, y, [t_k], d, over)``."""
     xs, zs, ys, ts_out, dx, dz, dy = [], [], [], [], [], [], []
+    over = 0
     read = [_log_arrays(log, i, sample_time) for i, log in enumerate(logs)]
     i_rms = math.sqrt(float(np.mean(np.concatenate([r[2] for r in read]) ** 2)))
     widths = [w * max(i_rms, 1e-12) for w in DEADTIME_WIDTHS]
     with_id = d_axis and all("id_1" in log for log in logs)
     for log, (name, th, iq, _, ts) in zip(logs, read):
         vq = _voltage(log, name, VOLTAGE_COLUMNS)
-        vd = _voltage(log, name, D_VOLTAGE_COLUMNS) if d_axis else None
+        vd = _voltage(log, name, D_VOLTAGE_COLUMNS) if any(a in log for a in D_VOLTAGE_COLUMNS) else None
         if th.size < 5:
             continue
         # the voltage is written in the current's record: the current's timing
@@ -181,6 +189,15 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         # they carry is what the other rows carry
         noise = _current_noise(iq)
         keep = (np.abs(iqc) > ZERO_CROSSING_NOISES * noise) & (np.abs(nb) > ZERO_CROSSING_NOISES * noise)
+        if any(a in log for a in SUPPLY_COLUMNS):
+            # at the inverter's voltage limit the command is not the voltage applied (a limiter after it, or
+            # over-modulation): those samples, and their neighbours whose differences reach them, are left out
+            vbus = _voltage(log, name, SUPPLY_COLUMNS)
+            amp = np.hypot(vq, _shifted(vd, current_delay) if vd is not None else 0.0)
+            hit = amp > MODULATION_LIMIT * np.abs(vbus) / math.sqrt(3.0)
+            near = np.convolve(hit.astype(float), np.ones(5), mode="same") > 0
+            over += int(np.count_nonzero(keep & near[c]))
+            keep &= ~near[c]
         xs.append(X[keep])
         zs.append(Z[keep])
         ys.append(vq[c][keep])
@@ -196,9 +213,9 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
     kd = 1 + len(DEADTIME_WIDTHS) + with_id
     if not xs:
         d = (np.zeros((0, kd)), np.zeros((0, kd)), np.zeros(0)) if d_axis else None
-        return np.zeros((0, k)), np.zeros((0, k)), np.zeros(0), ts_out, d
+        return np.zeros((0, k)), np.zeros((0, k)), np.zeros(0), ts_out, d, over
     d = (np.concatenate(dx), np.concatenate(dz), np.concatenate(dy)) if d_axis else None
-    return np.concatenate(xs), np.concatenate(zs), np.concatenate(ys), ts_out, d
+    return np.concatenate(xs), np.concatenate(zs), np.concatenate(ys), ts_out, d, over
 
 
 def _solve(X, Z, y, block):
@@ -249,13 +266,13 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     n = orders.size
     if d_axis is None:
         d_axis = has_d_voltage(logs)
-    X, Z, y, block, d_rows = _rows(logs, orders, pole_pairs, offset, sample_time, current_delay, d_axis)
+    X, Z, y, block, d_rows, over = _rows(logs, orders, pole_pairs, offset, sample_time, current_delay, d_axis)
     rows = y.size
     if rows < 2 * X.shape[1]:
         # hardly a row away from the current's zero crossing: nothing to read
         return {"orders": orders, "ripple": None, "cov": None, "back_emf_constant": None,
                 "back_emf_constant_se": None, "voltage_delay": int(current_delay), "rows": int(rows),
-                "offset_error": None}
+                "rows_at_voltage_limit": over, "offset_error": None}
     beta, cov, cost = _solve(X, Z, y, block)
     kappa = beta[0]
     if not abs(kappa) > MIN_BACK_EMF_EVIDENCE * math.sqrt(max(cov[0, 0], 0.0)):
@@ -263,7 +280,7 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
         # constant speeds alone it is determined to 0.1-0.4 %: bench/rotary_drive_logs.py)
         return {"orders": orders, "ripple": None, "cov": None, "back_emf_constant": float(kappa),
                 "back_emf_constant_se": float(math.sqrt(max(cov[0, 0], 0.0))), "voltage_delay": int(current_delay),
-                "rows": int(rows), "offset_error": None}
+                "rows": int(rows), "rows_at_voltage_limit": over, "offset_error": None}
     c = beta[1:1 + 2 * n]
     # delta method: r = c / κ
     J = np.zeros((2 * n, beta.size))
@@ -276,7 +293,8 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
            "back_emf_constant": float(kappa), "back_emf_constant_se": se_kappa,
            "resistance": float(beta[k]), "inductance": float(beta[k + 1]), "offset_V": float(beta[k + 2]),
            "deadtime_V": [float(v) for v in beta[k + 3:]], "voltage_delay": int(current_delay),
-           "rows": int(rows), "blocks": int(np.unique(block).size), "residual_rms_V": math.sqrt(cost),
+           "rows": int(rows), "rows_at_voltage_limit": over, "blocks": int(np.unique(block).size),
+           "residual_rms_V": math.sqrt(cost),
            "offset_error": None}
     if d_rows is not None:
         out["offset_error"] = _offset_error(y, X[:, k:], X[:, :k] @ beta[:k], Z[:, k:], *d_rows, block, float(kappa),
@@ -374,6 +392,9 @@ def voltage_text(info: dict) -> str | None:
     k0 = info["k0_amplitude_invariant"]
     base = (f"the q-voltage's back-EMF constant {kappa:.4g} V·s/rad (k0 = {k0:.4g} N·m/A in the amplitude-invariant "
             f"frame), R {info['resistance']:.3g} Ω")
+    if info.get("rows_at_voltage_limit"):
+        base += (f" ({info['rows_at_voltage_limit']} samples at the inverter's voltage limit, above "
+                 f"{MODULATION_LIMIT:g} vbus/√3, left out)")
     if info.get("voltage_delay"):
         base += f", voltage read {info['voltage_delay']:+d} samples late with the current"
     if info["consistent"]:

@@ -207,7 +207,7 @@ def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Ord
     if fv["ripple"] is None:
         return {"used_logs": len(logs), "back_emf_constant": fv["back_emf_constant"],
                 "back_emf_constant_se": fv["back_emf_constant_se"], "rows": fv["rows"], "consistent": None,
-                "offset_error": None}
+                "rows_at_voltage_limit": fv["rows_at_voltage_limit"], "offset_error": None}
     kept = np.flatnonzero(layout.keep)
     where = {int(c): j for j, c in enumerate(kept)}
     nr = final.ripple.size
@@ -224,6 +224,7 @@ def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Ord
             "k0_amplitude_invariant": 1.0 / BACK_EMF_FACTOR * fv["back_emf_constant"],
             "resistance": fv["resistance"], "inductance": fv["inductance"], "voltage_delay": fv["voltage_delay"],
             "residual_rms_V": fv["residual_rms_V"], "rows": fv["rows"], "blocks": fv["blocks"],
+            "rows_at_voltage_limit": fv["rows_at_voltage_limit"],
             "ripple": Fourier.from_vector(fv["orders"], fv["ripple"]).to_dict(), "ripple_rms": rms,
             "ripple_rms_error": _map_standard_error(fv["cov"], gram), **check, "offset_error": fv["offset_error"]}
 
