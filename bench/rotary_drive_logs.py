@@ -9,7 +9,7 @@ standstill position sweep in both directions, no dither. This builds that mix on
 log seconds, cogging and ripple error against the twin's truth (RMS over the revolution relative to the
 truth's RMS), their standard errors and verdicts, ``J/k0``'s error, the orders added outside the basis, and what the
 logged q-voltage gives (:mod:`pgcomm.rotary.back_emf`: ``k0``'s error, the moment of inertia ``(J/k0) k0``'s, the
-ripple check).
+ripple check) and the d-voltage (the drive's offset error against the truth's).
 Then the laws in closed loop on the same harness as ``pgcomm reproduce``
 (:func:`pgcomm.rotary.experiment.closed_loop`): each set's model, the drives' standstill table (3600-point
 sweep) and the oracle, as tracking MSE over the table's (position and speed loop).
@@ -21,6 +21,7 @@ ripple the logs do not hold; and what the law gains over the table from the logs
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import time
 
@@ -88,6 +89,11 @@ def main(argv=None) -> int:
                 volt = (f"; q-voltage: k0 {100 * (k0v / truth.k0 - 1):+.2f} %, J "
                         f"{100 * (res.model.inertia_ratio * k0v / truth.inertia - 1):+.1f} %, ripple "
                         f"{'agrees' if v['consistent'] else 'DISAGREES'} (se {100 * se_v:.0f} %)")
+                off = v.get("offset_error")
+                if off:
+                    # the d-voltage: the drive's offset error, degrees electrical, against the truth's
+                    volt += (f"; offset {math.degrees(off['delta']):+.2f}° ± {math.degrees(off['delta_se']):.2f} "
+                             f"(truth {math.degrees(truth.offset_error):+.2f})")
             print(f"  {name:18s} {secs:5.0f} s: {cell('cogging')}; {cell('ripple')}; J/k0 "
                   f"{100 * err['inertia_ratio_rel']:.1f} %; added {added or '-'}{volt} "
                   f"[{time.perf_counter() - t0:.0f} s]", flush=True)

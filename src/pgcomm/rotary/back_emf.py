@@ -44,9 +44,9 @@ that shared noise is the way to use both.
 **The d-voltage** (:func:`_offset_error`). The magnets' q axis is ``δ`` (electrical) ahead of the drive's, so the
 back-EMF has ``cos δ`` of itself on the drive's q axis (``κ = (2/3) k_t cos δ``) and ``−sin δ`` on its d axis; where
 the logs have the d-voltage ``vd_1``, its ratio to the q-voltage's back-EMF gives ``δ``, the offset that aligns the
-drive with the magnets and the torque constant along them. On one round of running logs of zoo seeds 0-2 (24 motors,
-``|δ|`` up to 17°) ``δ`` came out within 0.47° (within 0.05° on 17), its errors over its standard errors with a mean
-square of 1.8.
+drive with the magnets and the torque constant along them. On one round of running logs of zoo seeds 0-3 (32 motors,
+``|δ|`` up to 17°, ``bench/rotary_back_emf.py --fast none``) ``δ`` came out within 0.42° (within 0.05° on 25), its
+errors over its standard errors with a mean square of 1.5.
 
 **Assumptions the user's logs must meet.** ``vq_1`` is the drive's q-voltage command in its own frame (V), written in
 the same record as the current: it takes the current's timing against the angle (:mod:`pgcomm.rotary.readings`).
