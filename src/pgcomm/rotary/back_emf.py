@@ -134,8 +134,8 @@ def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, curr
     return X, Z, y, np.concatenate(blocks), d, over
 
 
-def _voltage(log, name: str, columns) -> np.ndarray:
-    """A log's voltage column (the first of ``columns`` it has), checked finite."""
+def _column(log, name: str, columns) -> np.ndarray:
+    """A log's column (the first of ``columns`` it has), checked finite."""
     key = next(a for a in columns if a in log)
     v = np.asarray(log[key], float)
     bad = np.flatnonzero(~np.isfinite(v))
@@ -159,12 +159,13 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
     widths = [w * max(i_rms, 1e-12) for w in DEADTIME_WIDTHS]
     with_id = d_axis and all("id_1" in log for log in logs)
     for log, (name, th, iq, _, ts) in zip(logs, read):
-        vq = _voltage(log, name, VOLTAGE_COLUMNS)
-        vd = _voltage(log, name, D_VOLTAGE_COLUMNS) if any(a in log for a in D_VOLTAGE_COLUMNS) else None
+        vq = _column(log, name, VOLTAGE_COLUMNS)
+        vd = _column(log, name, D_VOLTAGE_COLUMNS) if any(a in log for a in D_VOLTAGE_COLUMNS) else None
         if th.size < 5:
             continue
-        # the voltage is written in the current's record: the current's timing
+        # the voltages are written in the current's record: the current's timing
         iq, vq = _shifted(iq, current_delay), _shifted(vq, current_delay)
+        vd = None if vd is None else _shifted(vd, current_delay)
         # rows 2 .. n-3: the instruments reach two samples either side
         c = slice(2, th.size - 2)
         w = (th[3:-1] - th[1:-3]) / (2 * ts)
@@ -192,8 +193,8 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         if any(a in log for a in SUPPLY_COLUMNS):
             # at the inverter's voltage limit the command is not the voltage applied (a limiter after it, or
             # over-modulation): those samples, and their neighbours whose differences reach them, are left out
-            vbus = _voltage(log, name, SUPPLY_COLUMNS)
-            amp = np.hypot(vq, _shifted(vd, current_delay) if vd is not None else 0.0)
+            vbus = _shifted(_column(log, name, SUPPLY_COLUMNS), current_delay)
+            amp = np.hypot(vq, 0.0 if vd is None else vd)
             hit = amp > MODULATION_LIMIT * np.abs(vbus) / math.sqrt(3.0)
             near = np.convolve(hit.astype(float), np.ones(5), mode="same") > 0
             over += int(np.count_nonzero(keep & near[c]))
@@ -205,10 +206,10 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         if d_axis:
             # the d-current is held at zero: its logged noise is what the loop's gain puts into the command (-K_p n_d),
             # a regressor of its own that no other column carries
-            extra = [_shifted(np.asarray(log["id_1"], float), current_delay)[c][:, None]] if with_id else []
+            extra = [_shifted(_column(log, name, ("id_1",)), current_delay)[c][:, None]] if with_id else []
             dx.append(np.column_stack([-pole_pairs * w * iqc, phase_saturation_dq(iqc, th_e, widths)[0], *extra])[keep])
             dz.append(np.column_stack([-pole_pairs * w * nb, phase_saturation_dq(nb, th_e, widths)[0], *extra])[keep])
-            dy.append(_shifted(vd, current_delay)[c][keep])
+            dy.append(vd[c][keep])
     k = 1 + 2 * len(orders) + 3 + len(DEADTIME_WIDTHS)
     kd = 1 + len(DEADTIME_WIDTHS) + with_id
     if not xs:
