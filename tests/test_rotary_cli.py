@@ -369,6 +369,12 @@ def test_without_a_datasheet_k_t_the_back_emf_gives_the_table_in_newton_metres(t
     k_t = float(re.search(r"^k_t = ([0-9.]+)", text, re.M).group(1))
     assert abs(ratio - truth.k_t * math.cos(truth.offset_error) / k_t) < 4 * 1.5 * v["back_emf_constant_se"] / k_t
     assert "back-EMF" in res_k["table"]["torque_constant_from"]
+    # the zoo's logs have the d-voltage too: the drive's offset error within four of its standard errors of the twin's,
+    # the torque constant along the magnets' axis against the TOML's, and the report's paragraph
+    off = res_k["identification"]["back_emf"]["offset_error"]
+    assert abs(off["delta"] - truth.offset_error) < 4 * off["delta_se"]
+    assert abs(off["ratio_to_motor_k_t"] - truth.k_t / k_t) < 4 * off["k_t_aligned_se"] / k_t
+    assert "Drive offset: the d-voltage" in (tmp_path / "k" / "id" / "report.html").read_text(encoding="utf-8")
     bare = []
     for p in logs:
         rows = p.read_text().splitlines()
