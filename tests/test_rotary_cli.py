@@ -400,3 +400,31 @@ def test_a_voltage_in_some_logs_only_is_said_and_not_read(tmp_path, zoo, capsys)
     said = capsys.readouterr()
     assert f"vq_1 in {len(logs) - 1} of {len(logs)} logs: not read" in said.out + said.err
     assert json.loads((out / "results.json").read_text())["identification"]["back_emf"] is None
+
+
+def test_reproduce_on_your_motor_as_identified(tmp_path, zoo, capsys):
+    """reproduce --truth model.json (identify's, with its results.json beside): the twin is the motor as the logs gave
+    it, J = (J/k0) k0 within 2 % of the zoo truth's (J/k0's error from these logs and k0's, as the N·m test above),
+    the current noise the logs' within 20 % of the twin's (the sixth difference reads 1.0-1.1x on dithered logs), the
+    encoder's counts as read; the experiment's rows all there. Without the results.json it says what is missing."""
+    rid = _identify(tmp_path, zoo / "motor.toml", sorted((zoo / "logs").glob("*.csv")))
+    out = tmp_path / "rep"
+    assert main(["reproduce", "--motor", str(zoo / "motor.toml"), "--truth", str(rid / "model.json"), "--quick",
+                 "--out", str(out), "--quiet"]) == 0
+    res = json.loads((out / "results.json").read_text())
+    truth = read_truth(zoo / "truth.json")
+    assert res["truth_source"].startswith("your motor as identified")
+    j = float(re.search(r"J ([0-9.e+-]+) kg", res["truth_source"]).group(1))
+    assert abs(j / truth.inertia - 1.0) < 0.02
+    noise = float(re.search(r"current noise ([0-9.e+-]+) A", res["truth_source"]).group(1))
+    assert abs(noise / truth.current_noise - 1.0) < 0.2
+    assert f"{truth.encoder_counts}-count encoder" in res["truth_source"]
+    assert {"standstill_table", "model", "oracle"} <= set(res["tracking_mse"])
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    (alone / "model.json").write_text((rid / "model.json").read_text())
+    capsys.readouterr()
+    assert main(["reproduce", "--motor", str(zoo / "motor.toml"), "--truth", str(alone / "model.json"), "--quick",
+                 "--out", str(tmp_path / "no")]) == 2
+    err = capsys.readouterr().err
+    assert "results.json" in err and "Traceback" not in err and not (tmp_path / "no").exists()

@@ -146,3 +146,29 @@ def test_twin_evaluates_the_law_at_the_middle_of_the_hold():
     # at the evaluation speed the highest cogging order has 16 samples per period: the lag leaves
     # 2 sin(pi/32) ~ 20 % of it, i.e. ~4 % of its power; the advance removes that to second order
     assert mse[0.5] < 0.5 * mse[0.0]
+
+
+def test_a_twin_from_an_identified_model_gives_that_model_back():
+    """truth_from_model is the inverse of RotaryTruth.model: the zoo truth's own model, with its k0 and offset error,
+    gives a twin whose model is the same (to 1e-12 of each map's scale), with the truth's k_t, J, friction; and a
+    model without a torque constant or J/k0 is refused in one line."""
+    from dataclasses import replace
+
+    from pgcomm.rotary.zoo import draw_rotary, truth_from_model
+
+    t = draw_rotary(1, 3)
+    m = t.model()
+    back = truth_from_model(m, t.motor, current_noise=t.current_noise, encoder_counts=t.encoder_counts,
+                            offset_error=t.offset_error)
+    b = back.model()
+    for name in ("cogging", "ripple", "direction"):
+        x, y = getattr(m, name), getattr(b, name)
+        np.testing.assert_array_equal(x.orders, y.orders)
+        assert np.max(np.abs(x.coef - y.coef)) <= 1e-12 * float(np.max(np.abs(x.coef)))
+    for a, c in ((back.k_t, t.k_t), (back.inertia, t.inertia), (back.coulomb, t.coulomb), (back.viscous, t.viscous)):
+        assert abs(a - c) <= 1e-12 * abs(c)
+    assert back.current_noise == t.current_noise and back.encoder_counts == t.encoder_counts
+    with pytest.raises(ConfigError, match="torque constant"):
+        truth_from_model(replace(m, k_t=None), t.motor, current_noise=0.01)
+    with pytest.raises(ConfigError, match="J/k0"):
+        truth_from_model(replace(m, inertia_ratio=None), t.motor, current_noise=0.01)

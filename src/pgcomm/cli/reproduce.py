@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import sys
 import time
 from pathlib import Path
@@ -125,10 +126,60 @@ def _train_range(model, setup):
     return setup.config.reference.span
 
 
+def _is_model(path: Path) -> bool:
+    """Whether ``path`` is an identified rotary model (``model.json`` of ``pgcomm identify``) rather than a truth."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f).get("schema") == "pgcomm.rotary_model"
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _truth_from_identified(path: Path, motor, seed: int):
+    """The twin of a user's motor from ``identify``'s ``model.json`` and the ``results.json`` beside it
+    (:func:`pgcomm.rotary.zoo.truth_from_model`): its maps, ``J``, friction, torque constant (the back-EMF's where it was
+    read, else the description's), encoder, current noise, offset error and winding. Returns ``(truth, source)``."""
+    from dataclasses import replace
+
+    from pgcomm.errors import ConfigError
+    from pgcomm.rotary.model import RotaryModel
+    from pgcomm.rotary.zoo import truth_from_model
+
+    with open(path, encoding="utf-8") as f:
+        model = RotaryModel.from_dict(json.load(f))
+    res_path = path.parent / "results.json"
+    try:
+        with open(res_path, encoding="utf-8") as f:
+            results = json.load(f)
+        ident = results["identification"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ConfigError(f"{path}: an identified model; the twin of your motor also needs the results.json that "
+                          f"pgcomm identify wrote beside it (not found or not readable: {res_path})") from None
+    if model.pole_pairs != motor.pole_pairs:
+        raise ConfigError(f"{path}: a model of a motor with {model.pole_pairs} pole pairs, but --motor has "
+                          f"{motor.pole_pairs}")
+    if ident.get("current_noise_A") is None:
+        raise ConfigError(f"{res_path}: no current_noise_A (identified by an older pgcomm: identify again)")
+    si = results.get("in_SI") or {}
+    k0 = si.get("torque_constant_Nm_per_A") or model.k_t or motor.k_t
+    k_from = si.get("torque_constant_from") or ("the model's k_t" if model.k_t else "the motor description's k_t")
+    voltage = ident.get("back_emf") or {}
+    offset = (voltage.get("offset_error") or {}).get("delta", 0.0) if voltage.get("consistent") else 0.0
+    counts = ((ident.get("quantisation") or {}).get("counts_per_revolution") or [None])[0]
+    truth = truth_from_model(replace(model, k_t=k0), motor, current_noise=ident["current_noise_A"],
+                             encoder_counts=counts, offset_error=offset,
+                             resistance=voltage.get("resistance") if voltage.get("consistent") else None,
+                             inductance=voltage.get("inductance") if voltage.get("consistent") else None, seed=seed)
+    source = (f"your motor as identified in {path} (k0 {k0:.4g} N·m/A from {k_from}, J {truth.inertia:.4g} kg·m², "
+              f"current noise {truth.current_noise:.3g} A, {truth.encoder_counts}-count encoder)")
+    return truth, source
+
+
 def _run_rotary(args, out: Path, progress, t0: float) -> None:
     """``pgcomm reproduce --motor rotary.toml``: :mod:`pgcomm.rotary.experiment` on the rotary twin.
 
-    The twin's truth is ``--truth`` or ``truth.json`` beside the motor file (the zoo writes one),
+    The twin's truth is ``--truth`` (a ``truth.json``, or an identified ``model.json`` with its ``results.json``: your
+    motor as identified, :func:`_truth_from_identified`) or ``truth.json`` beside the motor file (the zoo writes one),
     else drawn from the description with ``--seed``.
     """
     from pgcomm import __version__
@@ -145,7 +196,9 @@ def _run_rotary(args, out: Path, progress, t0: float) -> None:
         raise ConfigError(f"{args.motor}: key 'slots' missing: reproduce builds a twin of the motor and needs its slot "
                           "count (pgcomm identify reads it from running logs)")
     truth_path = args.truth or (Path(args.motor).parent / "truth.json")
-    if args.truth or truth_path.is_file():
+    if args.truth and _is_model(args.truth):
+        truth, source = _truth_from_identified(args.truth, motor, args.seed)
+    elif args.truth or truth_path.is_file():
         truth = read_truth(truth_path)
         if truth.motor.pole_pairs != motor.pole_pairs or truth.motor.slots != motor.slots:
             raise ConfigError(f"{truth_path}: truth of a {truth.motor.name} motor, but --motor {args.motor} is "

@@ -64,7 +64,7 @@ import numpy as np
 
 from pgcomm.errors import DataError
 from pgcomm.rotary.model import harmonic_columns
-from pgcomm.rotary.readings import _shifted
+from pgcomm.rotary.readings import _shifted, current_noise
 from pgcomm.rotary.regression import _log_arrays
 from pgcomm.rotary.winding import BACK_EMF_FACTOR, phase_saturation_dq, phase_saturation_q
 
@@ -107,15 +107,6 @@ def has_voltage(logs) -> bool:
     """Whether every log has a q-voltage column (:data:`VOLTAGE_COLUMNS`)."""
     logs = list(logs)
     return bool(logs) and all(any(a in log for a in VOLTAGE_COLUMNS) for log in logs)
-
-
-def _current_noise(iq: np.ndarray) -> float:
-    """The logged current's white noise (A, standard deviation), from the median absolute fourth difference (its
-    variance is 70 σ² for white noise; it passes a sinusoid at f with gain (2 sin(π f T_s))⁴, 0.19 at a 107 Hz dither
-    sampled at 1 kHz, where the second difference passes 0.44 against the noise's smaller 6 σ²). On the zoo's dithered
-    running logs it reads 1.2-1.5 times the twin's current noise (the dither's remainder), on the safe side."""
-    d4 = np.abs(iq[4:] - 4 * iq[3:-1] + 6 * iq[2:-2] - 4 * iq[1:-3] + iq[:-4])
-    return float(np.median(d4)) / (0.6745 * math.sqrt(70.0)) if d4.size else 0.0
 
 
 def _rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, current_delay: int, d_axis: bool = False):
@@ -188,7 +179,7 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         # noise, tanh(i/c) of the neighbours' mean no longer follows the sample's (a weak instrument: with a slow sweep's
         # small currents in the logs the fit's residual went 0.019 -> 0.30 V on zoo seed 0 12N10P), and the back-EMF
         # they carry is what the other rows carry
-        noise = _current_noise(iq)
+        noise = current_noise(iq)
         keep = (np.abs(iqc) > ZERO_CROSSING_NOISES * noise) & (np.abs(nb) > ZERO_CROSSING_NOISES * noise)
         if any(a in log for a in SUPPLY_COLUMNS):
             # at the inverter's voltage limit the command is not the voltage applied (a limiter after it, or

@@ -34,7 +34,7 @@ from pgcomm.rotary.model import Fourier, RotaryModel, harmonic_columns
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
-from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _with_delay, _with_pll, apply_reading
+from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _with_delay, _with_pll, apply_reading, current_noise
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, Orders, \
     _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, _map_gram, _map_standard_error, \
     _prepare, _quantisation_correction, _significant_extra_orders
@@ -185,6 +185,9 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             "cost_A2": fit["cost"], "inertia_ratio": float(beta[0]), "standard_error": standard_error,
             "quantisation": _quantisation_info(prepared, fit), "current_delay": timing, "angle_pll": estimate,
             "time_lines": lines_info, "back_emf": voltage_info,
+            # the logged current's white noise (A): what a twin of this motor logs (pgcomm reproduce --truth model.json)
+            "current_noise_A": float(np.median([current_noise(_log_arrays(log, i, ts)[2], order=6)
+                                                for i, log in enumerate(logs)])),
             "seconds": time.perf_counter() - t0}
     if counts["alias"]:
         info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "

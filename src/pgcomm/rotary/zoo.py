@@ -29,12 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from pgcomm.rotary.model import Fourier, cogging_orders, direction_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.rotary.model import Fourier, RotaryModel, cogging_orders, direction_orders, fundamental_cogging_order, \
+    ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.twin import RotaryTruth
 from pgcomm.rotary.winding import draw_winding
 
-__all__ = ["COMBINATIONS", "draw_rotary", "default_truth", "write_rotary_motor", "read_truth", "MAX_MOTORS"]
+__all__ = ["COMBINATIONS", "draw_rotary", "default_truth", "truth_from_model", "write_rotary_motor", "read_truth",
+           "MAX_MOTORS"]
 
 #: (slots, pole pairs) of common concentrated-winding motors: 9N6P, 12N8P, 12N10P, 12N14P, 18N16P,
 #: 24N20P, 24N22P, 36N42P.
@@ -161,6 +163,58 @@ def write_rotary_motor(truth: RotaryTruth, folder) -> Path:
     atomic_write_text(folder / "motor.toml", rotary_motor_to_toml(truth.motor))
     atomic_write_text(folder / "truth.json", json.dumps(truth.to_dict(), indent=1) + "\n")
     return folder
+
+
+def truth_from_model(model: RotaryModel, motor: RotaryMotor, *, current_noise: float, encoder_counts: int | None = None,
+                     offset_error: float = 0.0, resistance: float | None = None, inductance: float | None = None,
+                     seed: int = 0) -> RotaryTruth:
+    """A twin of a user's motor as identified from its logs: the inverse of :meth:`RotaryTruth.model`.
+
+    ``pgcomm reproduce --truth model.json`` runs the experiment on it: the model's law against the drives' standstill
+    table and the oracle on this motor's maps, inertia, friction, encoder and current noise, before the law goes on
+    the drive. The twin has the model's orders and nothing outside them (what the logs did not show, it does not
+    have), so it previews the tracking, not the identification's own error.
+
+    Args:
+        model: the identified :class:`RotaryModel` (current units), with ``k_t`` (``k0``, N·m/A: from the back-EMF, a
+            torque sensor or the motor description) and ``inertia_ratio`` (A·s²/rad).
+        motor: the description (pole pairs, slots, sample time, limit).
+        current_noise: the logged current's white noise (A, ``identify``'s ``current_noise_A``).
+        encoder_counts: counts per revolution (default: the motor's, else 2^17).
+        offset_error: the drive's offset error ``δ`` (rad, electrical) where the d-voltage gave it.
+        resistance, inductance: the winding's (Ω, H) where the q-voltage gave them; the rest of the winding is drawn.
+        seed: for the winding's undetermined parts.
+
+    Raises:
+        ConfigError: the model has no ``k_t`` or no ``inertia_ratio``.
+    """
+    from dataclasses import replace
+
+    from pgcomm.errors import ConfigError
+
+    if not model.k_t or not model.inertia_ratio or model.inertia_ratio <= 0:
+        raise ConfigError("the model has no " + ("torque constant k0 (log vq_1, or give k_t in the motor TOML)"
+                                                 if not model.k_t else "positive J/k0 (identify it from running logs)"))
+    k0 = float(model.k_t)
+    cog = model.cogging
+    cog = Fourier(cog.orders[cog.orders > 0], cog.coef[cog.orders > 0] * k0)
+    d = model.direction
+    coulomb = float(k0 * d.coef[d.orders == 0, 0].sum())
+    drag = Fourier(d.orders[d.orders > 0], d.coef[d.orders > 0] * k0)
+    inertia = float(model.inertia_ratio) * k0
+    # the smooth sign's width as the zoo's: it stays stable in the twin's sub-steps
+    w_eps = max(0.01, 2.0 * motor.sample_time / 10 * abs(coulomb) * 1.5 / inertia)
+    counts = int(encoder_counts or motor.encoder_counts or 2**17)
+    i_lim = float(motor.current_limit) if motor.current_limit else 1.0
+    truth = RotaryTruth(motor=motor, k_t=k0 / math.cos(offset_error), offset_error=float(offset_error),
+                        ripple=model.ripple, cogging=cog, drag=drag, coulomb=abs(coulomb),
+                        viscous=float(model.viscous) * k0, inertia=inertia, friction_velocity=w_eps,
+                        current_noise=float(current_noise), torque_noise=0.005 * k0 * 0.5 * i_lim,
+                        encoder_counts=counts)
+    w = draw_winding(np.random.default_rng([int(seed), 0x74]), truth.k_t, truth.current_noise)
+    if resistance is not None and inductance is not None and resistance > 0 and inductance > 0:
+        w = replace(w, resistance=float(resistance), inductance=float(inductance))
+    return replace(truth, winding=w)
 
 
 def read_truth(path) -> RotaryTruth:
