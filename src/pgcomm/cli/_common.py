@@ -28,7 +28,9 @@ def add_common_options(p: argparse.ArgumentParser, out: bool = True, plant: bool
         p.add_argument("--config", type=Path, metavar="FILE.toml",
                        help="experiment settings (see docs/formats.md); default: config.toml beside --plant, if there")
         p.add_argument("--truth", type=Path, metavar="TRUTH.json",
-                       help="the plant's known k, zeta (default: truth.json beside --plant, if there)")
+                       help="the plant's known k, zeta (default: truth.json beside --plant, if there); with a rotary "
+                            "--motor, the twin's truth: a zoo truth.json, or identify's model.json (with its "
+                            "results.json) to run the experiment on your motor as identified")
         p.add_argument("--seed", type=seed_value, default=0,
                        help="seed for noise and random starts, 0 to 2**32-1 (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
