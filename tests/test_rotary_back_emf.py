@@ -14,7 +14,8 @@ from pgcomm.rotary.identify import identify
 from pgcomm.rotary.model import Fourier
 from pgcomm.rotary.regression import Orders
 from pgcomm.rotary.twin import LawParams, default_gains, simulate
-from pgcomm.rotary.winding import BACK_EMF_FACTOR, Winding, d_voltage, deadtime_q, phase_saturation_dq, q_voltage
+from pgcomm.rotary.winding import BACK_EMF_FACTOR, Winding, d_voltage, deadtime_q, logged_dq, phase_saturation_dq, \
+    q_voltage
 from pgcomm.rotary.zoo import draw_rotary
 
 
@@ -275,3 +276,25 @@ def test_samples_at_the_inverters_voltage_limit_are_left_out():
             "resistance": fc["resistance"], "consistent": True, "ripple_rms": 0.01, "ripple_rms_error": 0.001,
             "rms_difference": 0.001, "expected_rms_difference": 0.001, "rows_at_voltage_limit": fc["rows_at_voltage_limit"]}
     assert "voltage limit" in voltage_text(info)
+
+
+def test_a_drive_that_applies_its_voltage_late_does_not_move_the_offset():
+    """A drive that applies its command τ = 75 µs after the sample, in the frame of the sample's angle, logs voltages
+    turned by φ = p ω τ (up to 0.012 rad here): the back-EMF's d/q ratio reads δ + φ. The fit's term −τ p ω v_q takes
+    it out: δ comes back within 2 φ_max² (the linearised rotation's remainder), where leaving it in would put δ off by
+    the mean φ (≥ 0.006 rad here); τ comes back as τ (1 + tan²δ) to within 2 φ_max (the ratio of the turned voltages is
+    tan(δ + φ))."""
+    logs, ripple, w, p, ts = _synthetic(0.0)
+    lag = 75e-6
+    late = []
+    for lg in logs:
+        om = np.gradient(lg["theta"], ts)
+        vd, vq = logged_dq(lg["vd_1"], lg["vq_1"], p, om, lag)
+        late.append(dict(lg, vd_1=vd, vq_1=vq))
+    phi_max = p * 40.0 * lag
+    off = fit_voltage(late, ripple.orders, p, ts)["offset_error"]
+    assert abs(off["delta"] - SYNTHETIC_DELTA) < 2 * phi_max ** 2
+    expect = lag * (1.0 + math.tan(SYNTHETIC_DELTA) ** 2)
+    assert abs(off["voltage_lag_s"] - expect) < 2 * phi_max * expect
+    assert abs(fit_voltage(logs, ripple.orders, p, ts)["offset_error"]["voltage_lag_s"]) < 1e-9
+

@@ -289,19 +289,21 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
            "residual_rms_V": math.sqrt(cost),
            "offset_error": None}
     if d_rows is not None:
-        out["offset_error"] = _offset_error(y, X[:, k:], X[:, :k] @ beta[:k], Z[:, k:], *d_rows, block, float(kappa),
-                                            se_kappa, offset)
+        out["offset_error"] = _offset_error(y, X[:, k:], X[:, :k] @ beta[:k], Z[:, k:], Z @ beta, pole_pairs * X[:, 0],
+                                            *d_rows, block, float(kappa), se_kappa, offset)
     return out
 
 
-def _offset_error(v_q, X_q, emf_fit, Z_q, X_d, Z_d, y_d, block, kappa: float, kappa_se: float, offset: float) -> dict:
+def _offset_error(v_q, X_q, emf_fit, Z_q, vq_fit, w_e, X_d, Z_d, y_d, block, kappa: float, kappa_se: float,
+                  offset: float) -> dict:
     """The drive's offset error from the back-EMF's d component (module docstring, "The d-voltage").
 
     The magnets' q axis is ``δ`` (electrical) ahead of the drive's (:func:`pgcomm.rotary.winding.d_voltage`), so at
     every instant the back-EMF on the drive's d axis is ``−tan δ`` times that on its q axis,
     ``e_q = v_q − R i_q − L di_q/dt − v_0 − Σ d_m g_m^q``::
 
-        v_d = −tan δ · v_q + tan δ (R i_q + L di_q/dt + Σ d_m g_m^q) − L p ω i_q + v_0' + Σ_m d'_m g_m^d + g i_d + noise
+        v_d = −tan δ · v_q + tan δ (R i_q + L di_q/dt + Σ d_m g_m^q) − L p ω i_q + v_0' + Σ_m d'_m g_m^d + g i_d
+              − τ p ω v_q + noise
 
     Regressed on the logged q-voltage, which carries the speed of the sample instant as the d-voltage does, the ratio
     holds however the speed varies between samples: against a central difference of the angle (or a q-voltage less
@@ -309,12 +311,18 @@ def _offset_error(v_q, X_q, emf_fit, Z_q, X_d, Z_d, y_d, block, kappa: float, ka
     1.1 % high on zoo seed 1's 24N20P (a fifth-order difference: 0.5 %; both 5-16 of its standard errors). The q
     terms' coefficients are free (the q fit's ``L`` takes up part of that speed error), so are the frame's
     cross-coupling, an offset, the dead time's d part and the logged d-current (its noise, which the loop's gain puts
-    into the command). Instruments: the q fit's back-EMF (``emf_fit``, of θ and ω alone: neither voltage's noise) for
-    ``v_q``, the q fit's for its current columns; the sandwich over the q fit's blocks.
+    into the command). The last term is a drive that applies its command ``τ`` after the sample instant in the frame of
+    the sample's angle (:func:`pgcomm.rotary.winding.logged_dq`): the logged voltages are turned by ``p ω τ``, and
+    without the term ``δ`` would read ``δ + p ω τ`` (a PWM period and a half at 20 kHz is 6° electrical at
+    2000 rad/s). Even in the speed where the back-EMF is odd, it costs ``δ`` little with logs in both directions.
+    Instruments: the q fit's back-EMF (``emf_fit``, of θ and ω alone: neither voltage's noise) for ``v_q``, the q fit's
+    for its current columns, ``p ω`` times the q fit's value from its instruments (``vq_fit``) for ``p ω v_q``; the
+    sandwich over the q fit's blocks.
 
     Args:
         v_q: ``(N,)`` (V); X_q, Z_q: ``(N, m)`` the q fit's columns other than the back-EMF's, and their instruments;
-        emf_fit: ``(N,)`` the q fit's back-EMF (V); X_d, Z_d: ``(N, m')`` the d axis's own columns and instruments;
+        emf_fit: ``(N,)`` the q fit's back-EMF (V); vq_fit: ``(N,)`` the q fit's value from its instruments (V);
+        w_e: ``(N,)`` the electrical speed ``p ω`` (rad/s); X_d, Z_d: ``(N, m')`` the d axis's own columns and instruments;
         y_d: ``(N,)`` ``v_d`` (V); block: ``(N,)`` time blocks; kappa, kappa_se: the q-axis back-EMF constant
         (V·s/rad) and its error; offset: the drive's electrical offset (rad).
 
@@ -322,11 +330,11 @@ def _offset_error(v_q, X_q, emf_fit, Z_q, X_d, Z_d, y_d, block, kappa: float, ka
         dict: ``delta`` ``δ`` (rad, electrical; the magnets' frame minus the drive's) and ``delta_se``;
         ``corrected_offset`` (rad, ``offset + δ``: the drive's q axis on the magnets'); ``k_t_aligned`` (N·m/A,
         amplitude-invariant: the torque constant along the magnets' axis, ``k0 / cos δ``) and its error;
-        ``torque_per_ampere_gain`` ``1/cos δ``; ``inductance`` (H, from the cross-coupling); ``rows``,
-        ``residual_rms_V``.
+        ``torque_per_ampere_gain`` ``1/cos δ``; ``inductance`` (H, from the cross-coupling); ``voltage_lag_s`` ``τ``
+        (s) and its error; ``rows``, ``residual_rms_V``.
     """
-    X = np.column_stack([v_q, X_q, X_d])
-    beta, cov, cost = _solve(X, np.column_stack([emf_fit, Z_q, Z_d]), y_d, block)
+    X = np.column_stack([v_q, X_q, X_d, w_e * v_q])
+    beta, cov, cost = _solve(X, np.column_stack([emf_fit, Z_q, Z_d, w_e * vq_fit]), y_d, block)
     tan_d, var_t = float(beta[0]), max(float(cov[0, 0]), 0.0)
     delta = -math.atan(tan_d)
     cos_d = math.cos(delta)
@@ -336,8 +344,9 @@ def _offset_error(v_q, X_q, emf_fit, Z_q, X_d, Z_d, y_d, block, kappa: float, ka
     kt_var = (kappa_se / BACK_EMF_FACTOR / cos_d) ** 2 + (k0 * tan_d * cos_d) ** 2 * var_t
     return {"delta": delta, "delta_se": math.sqrt(var_t) / (1.0 + tan_d * tan_d),
             "corrected_offset": float(offset) + delta, "k_t_aligned": kt, "k_t_aligned_se": math.sqrt(kt_var),
-            "torque_per_ampere_gain": 1.0 / cos_d, "inductance": float(beta[1 + X_q.shape[1]]), "rows": int(y_d.size),
-            "residual_rms_V": math.sqrt(cost)}
+            "torque_per_ampere_gain": 1.0 / cos_d, "inductance": float(beta[1 + X_q.shape[1]]),
+            "voltage_lag_s": -float(beta[-1]), "voltage_lag_s_se": math.sqrt(max(float(cov[-1, -1]), 0.0)),
+            "rows": int(y_d.size), "residual_rms_V": math.sqrt(cost)}
 
 
 def has_d_voltage(logs) -> bool:
@@ -413,12 +422,16 @@ def offset_text(info: dict) -> str | None:
     if not off:
         return None
     d, se = math.degrees(off["delta"]), math.degrees(off["delta_se"])
+    lag, lag_se = off.get("voltage_lag_s", 0.0), off.get("voltage_lag_s_se", 0.0)
+    late = (f"; the logged voltage is applied {1e6 * lag:.0f} ± {1e6 * lag_se:.0f} µs after its sample in that sample's "
+            "frame (read and taken out: it turns the logged voltages by p·ω·τ)" if abs(lag) > OFFSET_EVIDENCE * lag_se
+            else "")
     if abs(d) <= OFFSET_EVIDENCE * se:
         return (f"the d-voltage's back-EMF puts the drive's electrical offset on the magnets' axis: {d:+.2f} ± "
-                f"{se:.2f}° electrical (k_t along it {off['k_t_aligned']:.4g} N·m/A, amplitude-invariant)")
+                f"{se:.2f}° electrical (k_t along it {off['k_t_aligned']:.4g} N·m/A, amplitude-invariant)" + late)
     return (f"the d-voltage's back-EMF puts the magnets' q axis {d:+.2f} ± {se:.2f}° electrical ahead of the drive's: "
             f"an electrical offset of {off['corrected_offset']:.4f} rad (in the frame p·theta + offset of the logged "
             f"angle) aligns them and gives {off['torque_per_ampere_gain']:.4f}x the torque per ampere (k_t "
             f"{off['k_t_aligned']:.4g} N·m/A against k0 {off['k_t_aligned'] * math.cos(off['delta']):.4g}); the "
-            "compensation in A identified before then scales by cos δ")
+            "compensation in A identified before then scales by cos δ" + late)
 

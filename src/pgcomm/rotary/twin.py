@@ -42,7 +42,7 @@ import numpy as np
 
 from pgcomm.rotary.model import Fourier, RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
-from pgcomm.rotary.winding import Winding, d_voltage, q_voltage
+from pgcomm.rotary.winding import Winding, d_voltage, logged_dq, q_voltage
 
 __all__ = ["RotaryTruth", "Gains", "LawParams", "Reference", "simulate", "default_gains", "VELOCITY_CUTOFF_HZ",
            "SUBSTEPS", "HOLD_ADVANCE"]
@@ -347,6 +347,8 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         # drawn after the q-voltage's, which is then the same as a twin's that logs no d-voltage
         log["vd_1"] = d_voltage(truth.winding, truth.k_t, truth.offset_error, truth.ripple, m.pole_pairs,
                                 m.commutation_offset, th, om, iq_act, rng.standard_normal(n), idd)
+        if truth.winding.voltage_lag:
+            log["vd_1"], log["vq_1"] = logged_dq(log["vd_1"], log["vq_1"], m.pole_pairs, om, truth.winding.voltage_lag)
     return log
 
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Winding", "q_voltage", "d_voltage", "deadtime_q", "phase_saturation_q", "phase_saturation_dq", "draw_winding",
+__all__ = ["Winding", "q_voltage", "d_voltage", "logged_dq", "deadtime_q", "phase_saturation_q", "phase_saturation_dq", "draw_winding",
            "BACK_EMF_FACTOR"]
 
 #: ``e_q = BACK_EMF_FACTOR · k (1 + ρ) ω``: the amplitude-invariant Park transform's power ``(3/2) v_q i_q``.
@@ -51,6 +51,10 @@ class Winding:
         loop_gain: ``K_p`` (V/A), the current loop's proportional gain: the logged ``v_q`` carries ``−K_p`` times the
             logged current's noise.
         voltage_noise: standard deviation of the logged ``v_q``'s own noise (V).
+        voltage_lag: ``τ`` (s): how long after the sample instant the logged voltage command is applied, in the
+            frame of the sample's angle (a PWM period and a half where the drive does not advance the angle for its
+            inverse Park transform): the logged ``(v_d, v_q)`` is the applied one turned by ``p ω τ``
+            (:func:`logged_dq`). 0 for a drive that compensates it (the zoo's).
     """
 
     resistance: float
@@ -59,16 +63,19 @@ class Winding:
     deadtime_current: float
     loop_gain: float
     voltage_noise: float
+    voltage_lag: float = 0.0
 
     def to_dict(self) -> dict:
         return {k: getattr(self, k) for k in _FIELDS}
 
     @classmethod
     def from_dict(cls, d: dict) -> "Winding":
-        return cls(**{k: float(d[k]) for k in _FIELDS})
+        # voltage_lag came later: truth files without it have none
+        return cls(**{k: float(d[k]) for k in _FIELDS if k in d or k != "voltage_lag"})
 
 
-_FIELDS = ("resistance", "inductance", "deadtime_voltage", "deadtime_current", "loop_gain", "voltage_noise")
+_FIELDS = ("resistance", "inductance", "deadtime_voltage", "deadtime_current", "loop_gain", "voltage_noise",
+           "voltage_lag")
 
 
 def phase_saturation_dq(iq, theta_e, widths) -> tuple[np.ndarray, np.ndarray]:
@@ -168,6 +175,24 @@ def d_voltage(winding: Winding, k_t: float, offset_error: float, ripple, pole_pa
     dt = -winding.deadtime_voltage * phase_saturation_dq(iq, pole_pairs * th + offset, [winding.deadtime_current])[0][:, 0]
     return (-pole_pairs * om * winding.inductance * iq + emf + dt - winding.loop_gain * np.asarray(current_noise)
             + winding.voltage_noise * np.asarray(noise))
+
+
+def logged_dq(vd, vq, pole_pairs: int, omega, lag: float) -> tuple[np.ndarray, np.ndarray]:
+    """The ``(v_d, v_q)`` a drive logs when it applies its command ``lag`` seconds after the sample instant in the frame
+    of the sample's angle: the voltage the winding needs, turned by ``φ = p ω τ`` (the rotor turns on while the command
+    waits), so the back-EMF's logged d/q ratio reads ``δ + φ``.
+
+    Args:
+        vd, vq: ``(N,)`` the voltage the winding needs in the drive's frame (V); pole_pairs: ``p``; omega: ``(N,)``
+            speed (rad/s); lag: ``τ`` (s).
+
+    Returns:
+        ``(v_d, v_q)`` logged, each ``(N,)`` (V).
+    """
+    phi = pole_pairs * np.asarray(omega, float) * float(lag)
+    c, s = np.cos(phi), np.sin(phi)
+    vd, vq = np.asarray(vd, float), np.asarray(vq, float)
+    return c * vd - s * vq, s * vd + c * vq
 
 
 def draw_winding(rng, k_t: float, current_noise: float) -> Winding:
