@@ -319,20 +319,21 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                 progress.info(f"{lg.source}: {note}")
     torque_sensor = all("torque" in lg.columns for lg in logs) and not args.no_force_sensor
     # the q-voltage is read only when every log has it (pgcomm.rotary.back_emf)
-    vq_column = ("vq_1",) if all("vq_1" in lg.columns for lg in logs) and not torque_sensor else ()
+    extra_columns = ("vq_1",) if all("vq_1" in lg.columns for lg in logs) and not torque_sensor else ()
     with_vq = sum("vq_1" in lg.columns for lg in logs)
     if 0 < with_vq < len(logs) and not torque_sensor:
         progress.info(f"q-voltage vq_1 in {with_vq} of {len(logs)} logs: not read (the back-EMF fit takes every log's "
                       "voltage or none)")
+    # ... the d-voltage beside it, and the supply, for the inverter's voltage limit
+    for name in ("vd_1", "vbus"):
+        if extra_columns and all(name in lg.columns for lg in logs):
+            extra_columns += (name,)
+    # the d-current, held at zero, is the current's noise alone (and its command carries it into the d-voltage)
+    if all("id_1" in lg.columns for lg in logs):
+        extra_columns += ("id_1",)
     # a log with dropped samples is the stretches between them: no filter window may difference across a gap
-    # ... and the d-voltage (with the d-current, whose noise its command carries) beside it
-    if vq_column and all("vd_1" in lg.columns for lg in logs):
-        vq_column += ("vd_1",) + (("id_1",) if all("id_1" in lg.columns for lg in logs) else ())
-    # ... and the supply, for the inverter's voltage limit
-    if vq_column and all("vbus" in lg.columns for lg in logs):
-        vq_column += ("vbus",)
     data = [{"name": lg.source if len(lg.gaps) == 0 else f"{lg.source} rows {a + 1}-{b}",
-             **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *vq_column,
+             **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *extra_columns,
                                                 *(("torque",) if torque_sensor else ()))}}
             for lg in logs for a, b in lg.segments()]
     slots_detected = None

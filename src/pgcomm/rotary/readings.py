@@ -56,7 +56,8 @@ def current_noise(iq, order: int = 4) -> float:
     ``order``-th difference (its variance is ``C(2k, k) σ²`` for white noise: 70 σ² at the fourth; it passes a
     sinusoid at f with gain ``(2 sin(π f T_s))^k``, 0.19 at the fourth and a 107 Hz dither sampled at 1 kHz). On the
     zoo's dithered running logs the fourth difference reads 1.2-1.5 times the twin's current noise (the dither's
-    remainder, on the safe side for a threshold), the sixth 1.0-1.1 times (zoo motors 0 and 1, four logs each)."""
+    remainder, on the safe side for a threshold), the sixth 1.0-1.2 times on zoo seed 0; both also count the current the
+    speed loop commands from a coarse encoder's noise (the sixth up to 3 times on seed 1's 16-bit encoders)."""
     iq = np.asarray(iq, float)
     k = int(order)
     dk = np.abs(np.diff(iq, k)) if iq.size > k else np.zeros(0)
