@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import shlex
 
 import numpy as np
 import pytest
@@ -408,10 +409,18 @@ def test_reproduce_on_your_motor_as_identified(tmp_path, zoo, capsys):
     the current noise from the logged d-current within 10 % of the twin's (a median absolute deviation of ~5000
     samples: 1.6 % standard error), the encoder's counts as read; the experiment's rows all there. Without the
     results.json it says what is missing."""
-    rid = _identify(tmp_path, zoo / "motor.toml", sorted((zoo / "logs").glob("*.csv")))
+    rid = tmp_path / "id"
+    capsys.readouterr()
+    assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, sorted((zoo / "logs").glob("*.csv"))),
+                 "--out", str(rid)]) == 0
+    # identify's last line says how to preview: that command, as printed, runs
+    hint = [l for l in capsys.readouterr().out.splitlines() if l.startswith("preview the law")]
+    assert len(hint) == 1
+    args = shlex.split(hint[0].split(": ", 1)[1])
+    assert args[:2] == ["pgcomm", "reproduce"] and args[args.index("--truth") + 1] == f"{rid}/model.json"
     out = tmp_path / "rep"
-    assert main(["reproduce", "--motor", str(zoo / "motor.toml"), "--truth", str(rid / "model.json"), "--quick",
-                 "--out", str(out), "--quiet"]) == 0
+    args[args.index("--out") + 1] = str(out)
+    assert main([*args[1:], "--quiet"]) == 0
     res = json.loads((out / "results.json").read_text())
     truth = read_truth(zoo / "truth.json")
     assert res["truth_source"].startswith("your motor as identified")

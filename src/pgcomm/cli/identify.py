@@ -488,6 +488,11 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                   f"({'within' if si['within_noise'] else 'NOT within'} the noise); the sweep took "
                   f"{si['seconds']:.0f} s, the running logs {n_samples * logs[0].sample_time:.0f} s")
         print(f"wrote {args.out}/{', '.join(written)} ({time.perf_counter() - t0:.0f} s)")
+        if (results.get("in_SI") or {}).get("inertia_kg_m2"):
+            # reproduce builds the twin from the TOML, which needs the slot count (read here if it was not there)
+            print("preview the law against the drive's table on this motor: "
+                  + (f"add slots = {motor.slots} to {args.motor}, then " if slots_detected is not None else "")
+                  + f"pgcomm reproduce --motor {args.motor} --truth {args.out}/model.json --quick --out preview")
 
 
 def _sweep_table(args, mapping, model, info: dict):
