@@ -10,8 +10,8 @@ Per zoo motor, on one round of ``reproduce``'s running logs (the twin's winding,
 * the voltage's ripple from constant-speed runs at ``--fast`` times the currents' alias-guard speed (``--revolutions``
   each way), where the currents' identification refuses every window: its error, standard error and log time;
 * the drive's offset error ``δ`` from the d-voltage (:func:`pgcomm.rotary.back_emf.fit_voltage`): the truth's, the
-  error (degrees electrical) and over its standard error, and the torque constant along the magnets' axis, relative
-  error; the last line gives the mean square of those ratios (1 where the standard errors are right);
+  error (degrees electrical) and over its standard error, the torque constant along the magnets' axis, relative
+  error, and the voltage's application lag ``τ`` (the zoo's drives have none); the last line gives the mean square of those ratios (1 where the standard errors are right);
 * the voltage fit's time against the currents' identification's (one process, same logs).
 
 ``--fast none`` skips the fast runs.
@@ -49,7 +49,7 @@ def main(argv=None) -> int:
     fast = () if args.fast == "none" else tuple(float(x) for x in args.fast.split(","))
     print(f"{'#':>2} {'motor':7s} {'k0 err':>7s} {'R err':>6s} {'log s':>6s} {'V rip err/SE %':>15s} "
           f"{'I rip err/SE %':>15s} {'diff/exp':>11s} {'fast s':>6s} {'fast V err/SE %':>16s} {'V/I time':>8s} "
-          f"{'δ °':>7s} {'δ err °':>8s} {'z':>6s} {'k_t err':>7s}")
+          f"{'δ °':>7s} {'δ err °':>8s} {'z':>6s} {'k_t err':>7s} {'τ µs':>11s}")
     z2 = []
     for i in (int(x) for x in args.motors.split(",")):
         t = draw_rotary(args.seed, i)
@@ -95,7 +95,8 @@ def main(argv=None) -> int:
               f"{v['rms_difference'] / v['expected_rms_difference']:>11.2f} {f_secs:>6.1f} "
               f"{f_err:>8.1f}/{100 * se_f:<7.1f} {t_v / t_i:>8.3f} {np.degrees(t.offset_error):>7.2f} "
               f"{np.degrees(off['delta'] - t.offset_error):>8.3f} {z:>6.2f} "
-              f"{100 * (off['k_t_aligned'] / t.k_t - 1):>6.2f}%", flush=True)
+              f"{100 * (off['k_t_aligned'] / t.k_t - 1):>6.2f}% "
+              f"{1e6 * off['voltage_lag_s']:>+5.0f}±{1e6 * off['voltage_lag_s_se']:<5.0f}", flush=True)
     print(f"offset error over its standard error: mean square {np.mean(z2):.2f} over {len(z2)} motors")
     return 0
 

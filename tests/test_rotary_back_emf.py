@@ -298,3 +298,14 @@ def test_a_drive_that_applies_its_voltage_late_does_not_move_the_offset():
     assert abs(off["voltage_lag_s"] - expect) < 2 * phi_max * expect
     assert abs(fit_voltage(logs, ripple.orders, p, ts)["offset_error"]["voltage_lag_s"]) < 1e-9
 
+
+
+def test_without_a_d_voltage_the_line_says_what_would_give_the_offset():
+    """Logs with the q-voltage and no d-voltage (the maintainers' logs): no offset is read, and the line names the
+    column that would give it; logs without any voltage say nothing about it."""
+    t = draw_rotary(0, 0)
+    logs = [{k: v for k, v in log.items() if k != "vd_1"} for log in _logs(t, RotarySettings(revolutions=1.0))]
+    v = identify(logs, t.motor).info["back_emf"]
+    assert v["consistent"] is not None and v["offset_error"] is None
+    assert "vd_1" in offset_text(v)
+    assert offset_text(None) is None

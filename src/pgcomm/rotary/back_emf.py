@@ -420,6 +420,10 @@ def offset_text(info: dict) -> str | None:
     :func:`pgcomm.rotary.identify.identify`), or ``None`` without a d-voltage read."""
     off = (info or {}).get("offset_error")
     if not off:
+        if (info or {}).get("consistent") is not None:
+            # the q-voltage was read: the d-voltage beside it would give the offset
+            return ("log the drive's d-voltage beside its q-voltage (vd_1: ODrive's Vd_setpoint, moteus's "
+                    "servo_control.d_V) and identify reads the drive's electrical offset error from it")
         return None
     d, se = math.degrees(off["delta"]), math.degrees(off["delta_se"])
     lag, lag_se = off.get("voltage_lag_s", 0.0), off.get("voltage_lag_s_se", 0.0)
