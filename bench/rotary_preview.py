@@ -4,8 +4,7 @@ Usage: ``python bench/rotary_preview.py [--seed 0] [--motors 0,1,...,7] [--full]
 
 Per zoo motor: one round of the running logs a drive user records (:func:`pgcomm.rotary.zoo.write_running_logs`'s,
 with the q- and d-voltages), identified without a torque sensor (:func:`pgcomm.rotary.identify.identify`); the twin
-of the motor as identified (:func:`pgcomm.rotary.zoo.truth_from_model`, with the back-EMF's ``k0`` where it agrees,
-as the CLI takes it); then the experiment (:func:`pgcomm.rotary.experiment.run`, quick settings unless ``--full``) on
+of the motor as identified (:func:`pgcomm.rotary.zoo.truth_from_identification`, as the CLI builds it); then the experiment (:func:`pgcomm.rotary.experiment.run`, quick settings unless ``--full``) on
 the zoo's truth and on the preview, same seed. Printed: the preview's ``J`` and current noise against the truth's,
 and the tracking ratio model / standstill table (position and speed loop) on each: how well the preview predicts
 what the law gains on the motor.
@@ -27,14 +26,12 @@ def main(argv=None) -> int:
     ap.add_argument("--motors", default="0,1,2,3,4,5,6,7")
     ap.add_argument("--full", action="store_true", help="the full experiment (default: quick settings)")
     args = ap.parse_args(argv)
-    from dataclasses import replace
-
 
     from pgcomm.rotary.experiment import RotarySettings, quick_settings, run, running_references
     from pgcomm.rotary.identify import identify
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
-    from pgcomm.rotary.zoo import draw_rotary, truth_from_model
+    from pgcomm.rotary.zoo import draw_rotary, truth_from_identification
 
     settings = RotarySettings() if args.full else quick_settings()
     print(f"{'#':>2} {'motor':7s} {'log s':>6s} {'J err':>7s} {'noise x':>8s} {'truth p/s':>12s} {'preview p/s':>12s} "
@@ -49,13 +46,7 @@ def main(argv=None) -> int:
                 for k, r in enumerate(refs, start=1)]
         secs = sum(lg["t"].size for lg in logs) * t.motor.sample_time
         res = identify(logs, t.motor)
-        v = res.info["back_emf"] or {}
-        k0 = v["k0_amplitude_invariant"] if v.get("consistent") else t.motor.k_t
-        off = (v.get("offset_error") or {}).get("delta", 0.0) if v.get("consistent") else 0.0
-        preview = truth_from_model(replace(res.model, k_t=k0), t.motor, current_noise=res.info["current_noise_A"],
-                                   encoder_counts=t.encoder_counts, offset_error=off,
-                                   resistance=v.get("resistance") if v.get("consistent") else None,
-                                   inductance=v.get("inductance") if v.get("consistent") else None, seed=args.seed)
+        preview = truth_from_identification(res.model, res.info, t.motor, seed=args.seed)
         ratios = []
         for truth in (t, preview):
             r = run(truth, settings, seed=args.seed)["tracking_ratio_model_over_standstill"]

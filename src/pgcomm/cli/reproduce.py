@@ -126,27 +126,25 @@ def _train_range(model, setup):
     return setup.config.reference.span
 
 
-def _is_model(path: Path) -> bool:
-    """Whether ``path`` is an identified rotary model (``model.json`` of ``pgcomm identify``) rather than a truth."""
+def _identified_model(path: Path) -> dict | None:
+    """``path``'s JSON when it is an identified rotary model (``model.json`` of ``pgcomm identify``), else ``None``
+    (a truth file, read as such)."""
     try:
         with open(path, encoding="utf-8") as f:
-            return json.load(f).get("schema") == "pgcomm.rotary_model"
-    except (OSError, ValueError, AttributeError):
-        return False
+            d = json.load(f)
+    except (OSError, ValueError):
+        return None
+    return d if isinstance(d, dict) and d.get("schema") == "pgcomm.rotary_model" else None
 
 
-def _truth_from_identified(path: Path, motor, seed: int):
-    """The twin of a user's motor from ``identify``'s ``model.json`` and the ``results.json`` beside it
-    (:func:`pgcomm.rotary.zoo.truth_from_model`): its maps, ``J``, friction, torque constant (the back-EMF's where it was
-    read, else the description's), encoder, current noise, offset error and winding. Returns ``(truth, source)``."""
-    from dataclasses import replace
-
+def _truth_from_identified(path: Path, model_dict: dict, motor, seed: int):
+    """The twin of a user's motor from ``identify``'s ``model.json`` (``model_dict``, read from ``path``) and the
+    ``results.json`` beside it (:func:`pgcomm.rotary.zoo.truth_from_identification`). Returns ``(truth, source)``."""
     from pgcomm.errors import ConfigError
     from pgcomm.rotary.model import RotaryModel
-    from pgcomm.rotary.zoo import truth_from_model
+    from pgcomm.rotary.zoo import truth_from_identification
 
-    with open(path, encoding="utf-8") as f:
-        model = RotaryModel.from_dict(json.load(f))
+    model = RotaryModel.from_dict(model_dict)
     res_path = path.parent / "results.json"
     try:
         with open(res_path, encoding="utf-8") as f:
@@ -158,20 +156,13 @@ def _truth_from_identified(path: Path, motor, seed: int):
     if model.pole_pairs != motor.pole_pairs:
         raise ConfigError(f"{path}: a model of a motor with {model.pole_pairs} pole pairs, but --motor has "
                           f"{motor.pole_pairs}")
-    if ident.get("current_noise_A") is None:
-        raise ConfigError(f"{res_path}: no current_noise_A (identified by an older pgcomm: identify again)")
-    si = results.get("in_SI") or {}
-    k0 = si.get("torque_constant_Nm_per_A") or model.k_t or motor.k_t
-    k_from = si.get("torque_constant_from") or ("the model's k_t" if model.k_t else "the motor description's k_t")
-    voltage = ident.get("back_emf") or {}
-    offset = (voltage.get("offset_error") or {}).get("delta", 0.0) if voltage.get("consistent") else 0.0
-    counts = ((ident.get("quantisation") or {}).get("counts_per_revolution") or [None])[0]
-    truth = truth_from_model(replace(model, k_t=k0), motor, current_noise=ident["current_noise_A"],
-                             encoder_counts=counts, offset_error=offset,
-                             resistance=voltage.get("resistance") if voltage.get("consistent") else None,
-                             inductance=voltage.get("inductance") if voltage.get("consistent") else None, seed=seed)
-    source = (f"your motor as identified in {path} (k0 {k0:.4g} N·m/A from {k_from}, J {truth.inertia:.4g} kg·m², "
-              f"current noise {truth.current_noise:.3g} A, {truth.encoder_counts}-count encoder)")
+    try:
+        truth = truth_from_identification(model, ident, motor, seed)
+    except ConfigError as e:
+        raise ConfigError(f"{res_path}: {e}") from None
+    k_from = (results.get("in_SI") or {}).get("torque_constant_from") or "the motor description's k_t"
+    source = (f"your motor as identified in {path} (k0 {truth.k0:.4g} N·m/A from {k_from}, J {truth.inertia:.4g} "
+              f"kg·m², current noise {truth.current_noise:.3g} A, {truth.encoder_counts}-count encoder)")
     return truth, source
 
 
@@ -196,8 +187,9 @@ def _run_rotary(args, out: Path, progress, t0: float) -> None:
         raise ConfigError(f"{args.motor}: key 'slots' missing: reproduce builds a twin of the motor and needs its slot "
                           "count (pgcomm identify reads it from running logs)")
     truth_path = args.truth or (Path(args.motor).parent / "truth.json")
-    if args.truth and _is_model(args.truth):
-        truth, source = _truth_from_identified(args.truth, motor, args.seed)
+    model_dict = _identified_model(args.truth) if args.truth else None
+    if model_dict is not None:
+        truth, source = _truth_from_identified(args.truth, model_dict, motor, args.seed)
     elif args.truth or truth_path.is_file():
         truth = read_truth(truth_path)
         if truth.motor.pole_pairs != motor.pole_pairs or truth.motor.slots != motor.slots:

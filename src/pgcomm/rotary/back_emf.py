@@ -66,7 +66,7 @@ from pgcomm.errors import DataError
 from pgcomm.rotary.model import harmonic_columns
 from pgcomm.rotary.readings import _shifted, current_noise
 from pgcomm.rotary.regression import _log_arrays
-from pgcomm.rotary.winding import BACK_EMF_FACTOR, phase_saturation_dq, phase_saturation_q
+from pgcomm.rotary.winding import BACK_EMF_FACTOR, phase_saturation_dq
 
 __all__ = ["VOLTAGE_COLUMNS", "D_VOLTAGE_COLUMNS", "has_voltage", "has_d_voltage", "fit_voltage", "agreement",
            "AGREEMENT_FACTOR", "voltage_text", "offset_text", "OFFSET_EVIDENCE"]
@@ -164,7 +164,9 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         thc, iqc = th[c], iq[c]
         th_e = pole_pairs * thc + offset
         emf = np.column_stack([w, w[:, None] * harmonic_columns(thc, orders)])
-        X = np.column_stack([emf, iqc, di, np.ones_like(w), phase_saturation_q(iqc, th_e, widths)])
+        # the dead time's d and q parts, at the sample's current and at its instrument (the d part for the d-voltage)
+        dt_d, dt_q = phase_saturation_dq(iqc, th_e, widths)
+        X = np.column_stack([emf, iqc, di, np.ones_like(w), dt_q])
         # instruments for the current's columns, from samples whose noise neither the voltage nor the regressor carries.
         # The logged voltage carries -K_p times the logged current's own noise (the loop acts on the measured current),
         # so least squares on the current of the same sample pulls R, and k0 with it, by about K_p σ²/var(i_q) (zoo
@@ -174,7 +176,8 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         # is the difference of samples j ± 2
         nb = 0.5 * (iq[3:-1] + iq[1:-3])
         di2 = (iq[4:] - iq[:-4]) / (4 * ts)
-        Z = np.column_stack([emf, nb, di2, np.ones_like(w), phase_saturation_q(nb, th_e, widths)])
+        zt_d, zt_q = phase_saturation_dq(nb, th_e, widths)
+        Z = np.column_stack([emf, nb, di2, np.ones_like(w), zt_q])
         # rows whose current is within a few of its noise of zero are left out: there the dead time turns with the
         # noise, tanh(i/c) of the neighbours' mean no longer follows the sample's (a weak instrument: with a slow sweep's
         # small currents in the logs the fit's residual went 0.019 -> 0.30 V on zoo seed 0 12N10P), and the back-EMF
@@ -198,8 +201,8 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
             # the d-current is held at zero: its logged noise is what the loop's gain puts into the command (-K_p n_d),
             # a regressor of its own that no other column carries
             extra = [_shifted(_column(log, name, ("id_1",)), current_delay)[c][:, None]] if with_id else []
-            dx.append(np.column_stack([-pole_pairs * w * iqc, phase_saturation_dq(iqc, th_e, widths)[0], *extra])[keep])
-            dz.append(np.column_stack([-pole_pairs * w * nb, phase_saturation_dq(nb, th_e, widths)[0], *extra])[keep])
+            dx.append(np.column_stack([-pole_pairs * w * iqc, dt_d, *extra])[keep])
+            dz.append(np.column_stack([-pole_pairs * w * nb, zt_d, *extra])[keep])
             dy.append(vd[c][keep])
     k = 1 + 2 * len(orders) + 3 + len(DEADTIME_WIDTHS)
     kd = 1 + len(DEADTIME_WIDTHS) + with_id

@@ -35,8 +35,8 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.twin import RotaryTruth
 from pgcomm.rotary.winding import draw_winding
 
-__all__ = ["COMBINATIONS", "draw_rotary", "default_truth", "truth_from_model", "write_rotary_motor", "read_truth",
-           "MAX_MOTORS"]
+__all__ = ["COMBINATIONS", "draw_rotary", "default_truth", "truth_from_model", "truth_from_identification",
+           "write_rotary_motor", "read_truth", "MAX_MOTORS"]
 
 #: (slots, pole pairs) of common concentrated-winding motors: 9N6P, 12N8P, 12N10P, 12N14P, 18N16P,
 #: 24N20P, 24N22P, 36N42P.
@@ -67,6 +67,16 @@ def _outside(basis, start: int) -> int:
 
 def _merge(*parts: Fourier) -> Fourier:
     return Fourier(np.concatenate([p.orders for p in parts]), np.concatenate([p.coef for p in parts]))
+
+
+#: A torque sensor's noise as a share of the rated torque (half the current limit's).
+TORQUE_NOISE = 0.005
+
+
+def _friction_velocity(sample_time: float, coulomb: float, inertia: float) -> float:
+    """``ω_ε`` (rad/s) of the twin's smooth friction sign: wide enough that it stays stable in the plant's sub-steps."""
+    dt = sample_time / 10
+    return max(0.01, 2.0 * dt * abs(coulomb) * 1.5 / inertia)
 
 
 def draw_truth(rng, slots: int, pole_pairs: int, *, k_t=None, current_limit=None, inertia=None,
@@ -115,11 +125,10 @@ def draw_truth(rng, slots: int, pole_pairs: int, *, k_t=None, current_limit=None
     bits = int(rng.integers(16, 21))
     motor = RotaryMotor(pole_pairs=p, slots=q, sample_time=sample_time, k_t=round(k_t, 4), inertia=None,
                         current_limit=round(i_lim, 2), commutation_offset=0.0, encoder_counts=2**bits)
-    dt = sample_time / 10
-    w_eps = max(0.01, 2.0 * dt * coulomb * 1.5 / inertia)  # the smooth sign stays stable in the sub-steps
+    w_eps = _friction_velocity(sample_time, coulomb, inertia)
     return RotaryTruth(motor=motor, k_t=k_t, offset_error=float(rng.uniform(-0.3, 0.3)), ripple=rip, cogging=cog,
                        drag=drag, coulomb=coulomb, viscous=viscous, inertia=inertia, friction_velocity=w_eps,
-                       current_noise=float(rng.uniform(0.002, 0.005) * i_lim), torque_noise=0.005 * t_rated,
+                       current_noise=float(rng.uniform(0.002, 0.005) * i_lim), torque_noise=TORQUE_NOISE * t_rated,
                        encoder_counts=2**bits)
 
 
@@ -202,19 +211,44 @@ def truth_from_model(model: RotaryModel, motor: RotaryMotor, *, current_noise: f
     coulomb = float(k0 * d.coef[d.orders == 0, 0].sum())
     drag = Fourier(d.orders[d.orders > 0], d.coef[d.orders > 0] * k0)
     inertia = float(model.inertia_ratio) * k0
-    # the smooth sign's width as the zoo's: it stays stable in the twin's sub-steps
-    w_eps = max(0.01, 2.0 * motor.sample_time / 10 * abs(coulomb) * 1.5 / inertia)
     counts = int(encoder_counts or motor.encoder_counts or 2**17)
     i_lim = float(motor.current_limit) if motor.current_limit else 1.0
     truth = RotaryTruth(motor=motor, k_t=k0 / math.cos(offset_error), offset_error=float(offset_error),
                         ripple=model.ripple, cogging=cog, drag=drag, coulomb=abs(coulomb),
-                        viscous=float(model.viscous) * k0, inertia=inertia, friction_velocity=w_eps,
-                        current_noise=float(current_noise), torque_noise=0.005 * k0 * 0.5 * i_lim,
+                        viscous=float(model.viscous) * k0, inertia=inertia,
+                        friction_velocity=_friction_velocity(motor.sample_time, coulomb, inertia),
+                        current_noise=float(current_noise), torque_noise=TORQUE_NOISE * k0 * 0.5 * i_lim,
                         encoder_counts=counts)
     w = draw_winding(np.random.default_rng([int(seed), 0x74]), truth.k_t, truth.current_noise)
     if resistance is not None and inductance is not None and resistance > 0 and inductance > 0:
         w = replace(w, resistance=float(resistance), inductance=float(inductance))
     return replace(truth, winding=w)
+
+
+def truth_from_identification(model: RotaryModel, identification: dict, motor: RotaryMotor,
+                              seed: int = 0) -> RotaryTruth:
+    """:func:`truth_from_model` with what ``identify`` measured beside the model (its ``info``, results key
+    ``identification``): the back-EMF's ``k0``, offset error, R and L where the voltage was read and agrees with the
+    currents (else the model's or the description's ``k_t``, no offset, a drawn winding), the encoder's counts as the
+    logs showed them, the logged current's noise.
+
+    Raises:
+        ConfigError: no ``current_noise_A`` (an identification by an older pgcomm), or what :func:`truth_from_model`
+            refuses.
+    """
+    from dataclasses import replace
+
+    from pgcomm.errors import ConfigError
+
+    if identification.get("current_noise_A") is None:
+        raise ConfigError("the identification has no current_noise_A (identified by an older pgcomm: identify again)")
+    back_emf = identification.get("back_emf") or {}
+    voltage = back_emf if back_emf.get("consistent") else {}
+    k0 = voltage.get("k0_amplitude_invariant") or model.k_t or motor.k_t
+    counts = ((identification.get("quantisation") or {}).get("counts_per_revolution") or [None])[0]
+    return truth_from_model(replace(model, k_t=k0), motor, current_noise=identification["current_noise_A"],
+                            encoder_counts=counts, offset_error=(voltage.get("offset_error") or {}).get("delta", 0.0),
+                            resistance=voltage.get("resistance"), inductance=voltage.get("inductance"), seed=seed)
 
 
 def read_truth(path) -> RotaryTruth:
