@@ -171,7 +171,7 @@ def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_pat
     w, z = ident["angle_pll"]["natural_frequency_rad_s"], ident["angle_pll"]["damping"]
     assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, made), "--columns",
                  str(tmp_path / "map.toml"), "--out", str(given), "--quiet", "--current-delay", "1",
-                 "--angle-pll", f"{w!r},{z!r}"]) == 0
+                 "--current-lag", "held", "--angle-pll", f"{w!r},{z!r}"]) == 0
     again = json.loads((given / "results.json").read_text())["identification"]
     assert again["angle_pll"]["searched"] is False and again["current_delay"]["detected"] is False
     np.testing.assert_allclose(read_angle_table(given / "compensation.csv").iq, table.iq, rtol=0,
@@ -232,6 +232,7 @@ def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, z
     ("family", "--family spline"),
     ("sweep one way", "sweep.csv: the angle moves one way only"),
     ("delay", "--current-delay 0.5: an integer number of samples"),
+    ("lag", "--current-lag 2: held, or a lag in samples between -0.5 and 0.5"),
     ("pll", "--angle-pll 1000,-1: a natural frequency in rad/s and optionally a damping, both positive"),
     ("lines", "--time-lines 50,x: frequencies in Hz, positive"),
 ])
@@ -262,6 +263,8 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
         args += ["--data", str(log), "--sweep", str(p)]
     elif case == "delay":
         args += ["--data", str(log), "--current-delay", "0.5"]
+    elif case == "lag":
+        args += ["--data", str(log), "--current-lag", "2"]
     elif case == "pll":
         args += ["--data", str(log), "--angle-pll", "1000,-1"]
     elif case == "lines":

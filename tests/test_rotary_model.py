@@ -172,3 +172,59 @@ def test_a_twin_from_an_identified_model_gives_that_model_back():
         truth_from_model(replace(m, k_t=None), t.motor, current_noise=0.01)
     with pytest.raises(ConfigError, match="J/k0"):
         truth_from_model(replace(m, inertia_ratio=None), t.motor, current_noise=0.01)
+
+
+def test_a_drive_faster_than_its_log_is_its_fast_twin_sampled():
+    """A drive that controls ``K = 4`` times per logged sample (``RotaryTruth.control_per_log``): every column of its
+    log is the log of the same drive run with control and log at ``T_s/K`` (the references interpolated the same way,
+    a cubic spline through the logged samples), taken every ``K``-th sample. The noises are off, so the two
+    formulations differ by float rounding only (tolerance 1e-9 of each column's scale). With the noises on, they are
+    drawn per logged sample: the same numbers at every ``K``."""
+    from dataclasses import replace
+
+    from scipy.interpolate import CubicSpline
+
+    from pgcomm.rotary.experiment import quick_settings, tracking_references
+    from pgcomm.rotary.regression import Orders
+    from pgcomm.rotary.twin import SUBSTEPS, LawParams, Reference, default_gains, simulate
+    from pgcomm.rotary.zoo import draw_rotary
+
+    k = 4
+    noisy = draw_rotary(0, 0)
+    t = replace(noisy, current_noise=0.0, torque_noise=0.0, winding=replace(noisy.winding, voltage_noise=0.0))
+    a = t.inertia / t.k0
+    ref = tracking_references(t.motor, Orders.for_motor(t.motor), quick_settings())["position"]
+    ts = t.motor.sample_time
+    n = ref.n
+    fine_t = np.minimum(ts / k * np.arange(n * k), ts * (n - 1))
+    up = [CubicSpline(ts * np.arange(n), v)(fine_t) for v in (ref.theta, ref.omega, ref.alpha, np.zeros(n))]
+    fine = Reference(up[0], up[1], up[2], ref.mode, up[3])
+    law = LawParams(t.model(), None, a, t.viscous / t.k0, 0.0)  # the oracle: the law's path is exercised too
+    log = simulate(replace(t, control_per_log=k), ref, law, default_gains(a), seed=1)
+    fast = simulate(replace(t, motor=replace(t.motor, sample_time=ts / k)), fine, law, default_gains(a), seed=1,
+                    n_sub=max(2, -(-SUBSTEPS // k)))
+    for key in ("theta", "velocity", "iq_1", "theta_true", "omega_true", "torque", "demand", "vq_1", "vd_1"):
+        scale = float(np.max(np.abs(fast[key])))
+        np.testing.assert_allclose(log[key], fast[key][::k], rtol=0, atol=1e-9 * scale, err_msg=key)
+    # the noises: per logged sample, the same numbers for every K
+    one, four = (simulate(replace(noisy, control_per_log=c), ref, law, default_gains(a), seed=1) for c in (1, k))
+    scale = noisy.current_noise
+    np.testing.assert_allclose(one["iq_1"] - one["iq_true"], four["iq_1"] - four["iq_true"], rtol=0, atol=1e-9 * scale)
+    assert float(np.std(four["iq_1"] - four["iq_true"])) == pytest.approx(scale, rel=0.1)
+
+
+def test_control_per_log_is_a_positive_integer_and_round_trips():
+    import json
+    from dataclasses import replace
+
+    from pgcomm.rotary.twin import RotaryTruth
+    from pgcomm.rotary.zoo import draw_rotary
+
+    t = draw_rotary(0, 1)
+    assert "control_per_log" not in t.to_dict()  # truth files of a drive at its log rate are as before
+    d8 = replace(t, control_per_log=8).to_dict()
+    back = RotaryTruth.from_dict(json.loads(json.dumps(d8)))
+    assert back.control_per_log == 8 and json.dumps(back.to_dict()) == json.dumps(d8)
+    for bad in (0, -2, 2.5, True):
+        with pytest.raises(ValueError, match="control_per_log"):
+            replace(t, control_per_log=bad)

@@ -46,6 +46,11 @@ def configure(p) -> None:
     p.add_argument("--current-delay", metavar="N",
                    help="rotary motors: samples by which the logged q-current lags the current that acted over each "
                         "sample (an integer; default: detected, the fit repeated with the current shifted by -2..2)")
+    p.add_argument("--current-lag", metavar="L|held",
+                   help="rotary motors: how the logged q-current runs between samples: held (the drive controls at its "
+                        "log rate) or L, the smooth curve through the samples L samples late (a drive that controls K "
+                        "times per logged sample: 1/(2K), e.g. 0.0625 for an 8 kHz loop logged at 1 kHz); default: "
+                        "detected")
     p.add_argument("--angle-pll", metavar="W[,ZETA]",
                    help="rotary motors: the logged angle is a drive's PLL estimate of natural frequency W rad/s "
                         "(damping ZETA, default 1; ODrive's encoder bandwidth), or 'none' for the encoder's own "
@@ -85,7 +90,7 @@ def run(args, out: Path, progress) -> None:
 
         raise ConfigError("--sweep: the drives' standstill sweep is a rotary motor's comparison (--motor with "
                           "kind = \"rotary\"); a linear motor's cogging table comes from pgcomm reproduce")
-    for opt in ("current_delay", "angle_pll", "time_lines"):
+    for opt in ("current_delay", "current_lag", "angle_pll", "time_lines"):
         if getattr(args, opt, None) is not None:
             from pgcomm.errors import ConfigError
 
@@ -219,8 +224,8 @@ ROTARY_TABLE_ENTRIES = 3600
 
 
 def _reading_options(args):
-    """``--current-delay`` and ``--angle-pll`` as :func:`pgcomm.rotary.identify.identify` takes them (``"detect"``
-    when left out); one line naming the option on a bad value."""
+    """``--current-delay``, ``--angle-pll`` and ``--current-lag`` as :func:`pgcomm.rotary.identify.identify` takes them
+    (``"detect"`` when left out); one line naming the option on a bad value."""
     import math
 
     from pgcomm.errors import ConfigError
@@ -245,7 +250,19 @@ def _reading_options(args):
                 raise ConfigError(f"--angle-pll {args.angle_pll}: a natural frequency in rad/s and optionally a "
                                   "damping, both positive (e.g. 1000 or 1000,0.707), or none")
             pll = (w, z)
-    return delay, pll
+    lag = "detect"
+    if getattr(args, "current_lag", None) is not None:
+        if args.current_lag.strip().lower() == "held":
+            lag = None
+        else:
+            try:
+                lag = float(args.current_lag)
+            except ValueError:
+                lag = float("nan")
+            if not (math.isfinite(lag) and abs(lag) <= 0.5):
+                raise ConfigError(f"--current-lag {args.current_lag}: held, or a lag in samples between -0.5 and 0.5 "
+                                  "(1/(2K) for K control cycles per logged sample, e.g. 0.0625)")
+    return delay, pll, lag
 
 
 def _time_lines_option(args):
@@ -286,7 +303,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.results import write_results
     from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
     from pgcomm.rotary.back_emf import offset_text, voltage_text
-    from pgcomm.rotary.readings import apply_reading, delay_text, detect_reading, pll_text
+    from pgcomm.rotary.readings import apply_reading, delay_text, detect_reading, lag_of, pll_text
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.time_lines import detect_time_lines, lines_text
 
@@ -300,7 +317,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         raise ConfigError(f"--data: a rotary motor ({args.motor}) is identified from its drive's running logs "
                           "(t, theta, iq_1); the rotary twin writes some with pgcomm zoo --kind rotary --logs")
     motor = load_rotary_motor(args.motor)
-    current_delay, angle_pll = _reading_options(args)
+    current_delay, angle_pll, current_lag = _reading_options(args)
     time_lines = _time_lines_option(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         mapping = load_column_mapping(args.columns) if args.columns else None
@@ -345,7 +362,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
             # a late current or a PLL's angle hides the cogging's orders (zoo 9N6P: 18 slots counted for 9): read the
             # logs with the first count's basis, and count again on the logs so read
             est, timing = detect_reading(data, replace(motor, slots=q), current_delay=current_delay,
-                                         angle_pll=angle_pll)
+                                         angle_pll=angle_pll, current_lag=current_lag)
             pll = None if est["natural_frequency_rad_s"] is None else (est["natural_frequency_rad_s"], est["damping"])
             read = data
             if pll is not None or timing["samples"]:
@@ -371,13 +388,13 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     how = "with the torque sensor" if torque_sensor else "without a torque sensor (from the motion)"
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
         res = identify(data, motor, orders, torque_sensor=torque_sensor, current_delay=current_delay,
-                       angle_pll=angle_pll, time_lines=time_lines)
+                       angle_pll=angle_pll, time_lines=time_lines, current_lag=current_lag)
         timing = res.info.get("current_delay") or {}
         estimate = res.info.get("angle_pll") or {}
         pll = (None if estimate.get("natural_frequency_rad_s") is None
                else (estimate["natural_frequency_rad_s"], estimate["damping"]))
         mech = None if torque_sensor else fit_mechanics(data, motor, orders, current_delay=timing.get("samples", 0),
-                                                       angle_pll=pll,
+                                                       angle_pll=pll, current_lag=lag_of(timing),
                                                        time_lines=(res.info.get("time_lines") or {}).get("hz", ()))
         for text in (pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines")),
                      voltage_text(res.info.get("back_emf")), offset_text(res.info.get("back_emf"))):

@@ -46,7 +46,7 @@ import numpy as np
 
 from pgcomm.seeds import stream_seed
 from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
-from pgcomm.rotary.readings import delay_text
+from pgcomm.rotary.readings import delay_text, lag_of
 from pgcomm.rotary.regression import Orders, max_speed
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
@@ -335,6 +335,7 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         ident = identify(logs, motor, orders)
         # the current's timing is the drive's: detected once, kept for the longer logs
         delay = ident.info["current_delay"]["samples"]
+        lag = lag_of(ident.info["current_delay"])
         rounds, max_rounds = 1, max(1, math.floor(budget / round_seconds))
         first = {k: dict(ident.info["standard_error"][k]) for k in ("cogging", "ripple")}
         first_timing = dict(ident.info["current_delay"])
@@ -343,7 +344,7 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
             progress.info(f"recording the rest of the budget: {max_rounds - 1} more round(s) ({budget:.0f} s)")
             record(range(1, max_rounds))
             rounds = max_rounds
-            ident = identify(logs, motor, orders, current_delay=delay)
+            ident = identify(logs, motor, orders, current_delay=delay, current_lag=lag)
         # log until both maps are resolved or the budget is spent; the standard error of a short log is itself
         # uncertain, so the need is re-estimated after every batch rather than trusted from the first round
         while rounds < max_rounds:
@@ -360,13 +361,14 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
                           f"of logs: recording {more} more round(s) (budget {budget:.0f} s)")
             record(range(rounds, rounds + more))
             rounds += more
-            ident = identify(logs, motor, orders, current_delay=delay)
+            ident = identify(logs, motor, orders, current_delay=delay, current_lag=lag)
         run_seconds = rounds * round_seconds
         ident.info["rounds"] = rounds
         ident.info["first_round_standard_error"] = first
         ident.info["log_budget_s"] = budget
         ident.info["current_delay"] = {**first_timing, "samples": delay}
-        mech = fit_mechanics(logs, motor, orders, current_delay=delay, time_lines=ident.info["time_lines"]["hz"])
+        mech = fit_mechanics(logs, motor, orders, current_delay=delay, time_lines=ident.info["time_lines"]["hz"],
+                             current_lag=lag)
         errs = identification_errors(ident.model, truth)
         progress.info(f"cogging error {100 * errs['cogging_rel']:.1f} %, ripple error {100 * errs['ripple_rel']:.1f} "
                       f"% of the truth's RMS; ridge {ident.info['ridge']:.0e}")

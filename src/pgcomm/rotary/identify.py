@@ -58,10 +58,12 @@ class RotaryIdentification:
 
 
 def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect",
-            current_delay: int = 0, angle_pll=None, lines=()):
+            current_delay: int = 0, angle_pll=None, lines=(), current_lag=None):
     """All filtered rows of all logs at once (for the few columns of :func:`fit_mechanics`)."""
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples, taps, encoder_step)
-    parts = list(_chunks(_with_delay(_with_pll(prepared, angle_pll), current_delay), orders, taps, lines=lines))
+    parts = list(_chunks(_with_delay(_with_pll(prepared, angle_pll), current_delay, current_lag is None,
+                                     current_lag or 0.0), orders, taps,
+                         lines=lines))
     return {k: np.concatenate([c[k] for c in parts]) for k in parts[0]}, counts, v_limit, ts
 
 
@@ -69,7 +71,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
              min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
              ridge: float | None = None, extra_orders: bool = True, encoder_step="detect",
              current_delay="detect", angle_pll="detect", time_lines="detect",
-             back_emf: bool = True) -> RotaryIdentification:
+             back_emf: bool = True, current_lag="detect") -> RotaryIdentification:
     """Identify cogging, torque-constant ripple, the direction-dependent torque and friction.
 
     Args:
@@ -97,6 +99,11 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         back_emf: where every log has the drive's q-voltage (``vq_1``, V), measure the ripple, the back-EMF constant
             and the resistance in it too, and check the ripple against the currents' (:mod:`pgcomm.rotary.back_emf`;
             results key ``back_emf``); ``False`` leaves the voltage unread. The model is the currents' either way.
+        current_lag: the logged current between two samples: ``None`` held from each sample to the next (a drive
+            that controls at its log rate), a number: the smooth curve through the samples, that many samples late (a
+            drive that controls faster and logs snapshots: ``1/(2K)`` at ``K`` control cycles per logged sample), or
+            ``"detect"`` (:mod:`pgcomm.rotary.readings`, "The current's timing"; results ``info["current_delay"]``'s
+            ``held`` and ``lag``).
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -112,11 +119,11 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         return check_plausible(_identify_torque(logs, motor, orders, t0))
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
     n_windows = sum(p.starts.size for p in prepared)
-    estimate, timing = _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll)
+    estimate, timing = _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll, current_lag)
     pll = None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
                                                                      estimate["damping"])
-    as_logged = _with_delay(prepared, timing["samples"])
-    prepared = _with_delay(_with_pll(prepared, pll), timing["samples"])
+    as_logged = _with_delay(prepared, timing["samples"], timing["held"], timing["lag"])
+    prepared = _with_delay(_with_pll(prepared, pll), timing["samples"], timing["held"], timing["lag"])
     if isinstance(time_lines, str):
         lines_info = _time_lines(prepared, orders, taps)
     else:
@@ -406,12 +413,14 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
 
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
                   min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
-                  encoder_step="detect", current_delay: int = 0, angle_pll=None, time_lines=()) -> dict:
+                  encoder_step="detect", current_delay: int = 0, angle_pll=None, time_lines=(),
+                  current_lag=None) -> dict:
     """The feedforward a drive user tunes: ``i_q ≈ (J/k0) θ̈ + b ω + d0 sign(ω)`` fitted on the same
     windows as :func:`identify`, without any position dependence, with the same correction for the encoder's
     quantisation (:mod:`pgcomm.rotary.quantisation`; ``encoder_step`` as in :func:`identify`), the current
-    shifted by ``current_delay`` samples, the angle read through ``angle_pll`` and the time-periodic disturbances
-    ``time_lines`` (Hz) fitted beside (the ones :func:`identify` reports: ``info["current_delay"]["samples"]``,
+    shifted by ``current_delay`` samples and read held (``current_lag`` ``None``) or smooth with that lag between
+    samples, the angle read through ``angle_pll`` and the time-periodic disturbances ``time_lines`` (Hz) fitted beside
+    (the ones :func:`identify` reports: ``info["current_delay"]``'s ``samples``, and ``lag`` where not ``held``,
     ``info["angle_pll"]``'s natural frequency and damping, ``info["time_lines"]["hz"]``; a 50 Hz pickup of 1 % of
     the current limit moved the Coulomb term by up to 27 % and turned the viscous term's sign on zoo seed 0).
 
@@ -421,7 +430,7 @@ def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
     orders = orders or Orders.for_motor(motor)
     lines = tuple(float(f) for f in time_lines or ())
     d, _, _, _ = _design(logs, motor, orders, min_samples_per_period, taps, encoder_step, current_delay, angle_pll,
-                         lines)
+                         lines, current_lag)
     # the Coulomb column is the order-0 direction column (cos 0 · s)
     j0 = int(np.flatnonzero(orders.direction == 0)[0]) if np.any(orders.direction == 0) else None
     s_col = d["dir"][:, j0] if j0 is not None else np.sign(d["visc"])

@@ -9,6 +9,15 @@ and ripple 66-294 % off, and one such fit still called its cogging resolved. The
 repeated with the current shifted by :data:`CURRENT_DELAYS` samples and the delay whose residual is smallest is
 taken when it fits clearly better than the log as written (:func:`_current_delay`); the results report it.
 
+**Between logged samples.** A drive that controls at its log rate holds each logged current over the next sample.
+Most drives control faster than they log (ODrive at 8 kHz, moteus at 15-40 kHz, their logs at about 1 kHz): the log
+then holds snapshots of a current that moves between them, and the current that acted over a sample is not the one
+logged at its start. Read as held, such logs gave the cogging 15-58 % off with 4-8 control cycles per logged sample on
+zoo 9N6P. Read as the smooth curve through the snapshots (the cubic through the four around each interval, as the
+angle's path), ``1/(2K)`` of a sample late at ``K`` control cycles per logged sample (the cycles' currents are held),
+they fit as well as a drive's that controls at its log rate. The fit is repeated with the current smooth at each of
+:data:`CONTROL_LAGS`, refined by a parabola, and taken by the same likelihood ratio (results: ``held``, ``lag``).
+
 **The angle's estimate.** Open drives log the angle their PLL estimates from the encoder (ODrive's ``pos_estimate``,
 a type-2 loop of 1000 rad/s by default), not the encoder's count: its acceleration is the rotor's through
 ``(k_p s + k_i)/(s² + k_p s + k_i)``, which at 1000 rad/s halves a cogging harmonic at 3 samples per period. Read
@@ -36,6 +45,11 @@ from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders
 #: :func:`identify` tries (:func:`_current_delay`): drives sample the current and the encoder at different
 #: points of their cycle, and loggers write a column a cycle late.
 CURRENT_DELAYS = (-2, -1, 0, 1, 2)
+#: Lags (samples) of the held control cycles behind the smooth curve through the logged snapshots that
+#: :func:`_current_delay` tries for a drive that controls faster than it logs: ``1/(2K)`` at ``K`` control cycles per
+#: logged sample (K = ∞, 16, 8, 4, 2, 1; an ODrive at 8 kHz and a moteus at 15-40 kHz logged at 1 kHz), and one a
+#: little early (a current sampled later in the drive's cycle than the angle); refined between them by a parabola.
+CONTROL_LAGS = (-1.0 / 32.0, 0.0, 1.0 / 32.0, 1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0)
 #: How much better (``n_eff ln(cost_as_logged / cost)``, a likelihood ratio, :func:`_evidence`) another reading of
 #: the logs (a shifted current, a PLL's angle) must fit than the logs as written to be taken: the χ²₁ quantile at
 #: 0.1 %.
@@ -80,26 +94,73 @@ def _shifted(x: np.ndarray, delay: int) -> np.ndarray:
     return out
 
 
-def _with_delay(prepared, delay: int) -> list:
-    return [replace(p, iq=_shifted(p.iq, delay)) for p in prepared]
+def _with_delay(prepared, delay: int, held: bool = True, lag: float = 0.0) -> list:
+    """``prepared`` with the current shifted by ``delay`` samples and read as ``held`` between samples, or as the
+    smooth curve through them ``lag`` samples late (:class:`pgcomm.rotary.regression._Prepared`)."""
+    return [replace(p, iq=_shifted(p.iq, delay), held=bool(held), lag=0.0 if held else float(lag)) for p in prepared]
 
 
-def _current_delay(prepared, layout: "_Layout", taps: int) -> dict:
-    """The delay (samples) of the logged q-current behind the current that acted (module docstring, "The current's
-    timing"): the ridge-validated fit of ``layout`` with the current shifted by each of :data:`CURRENT_DELAYS`,
-    its mean squared residual from the normal equations; a delay other than 0 only where its likelihood ratio
+def _vertex(points, lo: float, hi: float) -> float | None:
+    """The vertex of the parabola through the lowest of ``points`` (``(x, cost)``, ``x`` increasing) and its two
+    neighbours, clipped to ``[lo, hi]``; ``None`` at an end of the grid or where the three are not convex."""
+    j = min(range(len(points)), key=lambda i: points[i][1])
+    if j == 0 or j == len(points) - 1:
+        return None
+    (x0, y0), (x1, y1), (x2, y2) = points[j - 1:j + 2]
+    den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0)
+    if den >= 0:
+        return None
+    x = x1 - 0.5 * ((x1 - x0) ** 2 * (y1 - y2) - (x1 - x2) ** 2 * (y1 - y0)) / den
+    return float(min(max(x, lo), hi))
+
+
+def _current_delay(prepared, layout: "_Layout", taps: int, delays=CURRENT_DELAYS, lag="detect") -> dict:
+    """The delay (samples) of the logged q-current behind the current that acted, and whether it is held or smooth
+    between logged samples (module docstring, "The current's timing"): the ridge-validated fit of ``layout`` with the
+    current shifted by each of :data:`CURRENT_DELAYS` and held, then read smooth at the best of those delays and the
+    one before, each with the lags of :data:`CONTROL_LAGS`; its mean squared residual from the normal
+    equations. A reading other than the log as written (delay 0, held) only where its likelihood ratio
     (:func:`_evidence`) exceeds :data:`READING_EVIDENCE`.
 
+    Args:
+        delays: the delays tried (samples; 0, or else the first, is the log as written).
+        lag: ``"detect"`` tries both forms; ``None`` held only; a number (samples) smooth with that lag only.
+
     Returns:
-        ``{"samples": int, "cost_by_delay": {delay: A²}, "evidence": float}``.
+        ``{"samples": int, "held": bool, "lag": float (samples, smooth only), "cost_by_delay": {delay: A²} (held),
+        "cost_by_form": {"held": A², "smooth": A²} (each form's best), "evidence": float}``.
     """
     costs, rows = {}, 0.0
-    for d in CURRENT_DELAYS:
-        costs[d], rows = _basis_cost(_with_delay(prepared, d), layout, taps)
+    as_written = 0 if 0 in delays else delays[0]
+    detect = isinstance(lag, str)
+    if detect or lag is None:
+        for d in delays:
+            costs[d, True, 0.0], rows = _basis_cost(_with_delay(prepared, d), layout, taps)
+    if detect or lag is not None:
+        near = delays
+        if costs:
+            best_held = min(costs, key=costs.get)[0]
+            # the held reading of a smooth current fits as well one sample later or not: try the smooth at both
+            near = [d for d in delays if best_held - 1 <= d <= best_held]
+        for d in near:
+            for f in (CONTROL_LAGS if detect else (float(lag),)):
+                costs[d, False, f], rows = _basis_cost(_with_delay(prepared, d, False, f), layout, taps)
+        if detect:
+            # the cost is quadratic in the lag near its minimum (a timing error turns every harmonic of the current):
+            # the vertex of the parabola through the best lag and its neighbours, where it fits better
+            d = min((k for k in costs if not k[1]), key=costs.get)[0]
+            f = _vertex([(g, costs[d, False, g]) for g in CONTROL_LAGS], -0.5, 0.5)
+            if f is not None and (d, False, f) not in costs:
+                costs[d, False, f], rows = _basis_cost(_with_delay(prepared, d, False, f), layout, taps)
+    base = (as_written, True, 0.0) if (detect or lag is None) else (as_written, False, float(lag))
     best = min(costs, key=costs.get)
-    evidence = _evidence(costs[0], costs[best], rows, taps)
-    chosen = best if evidence > READING_EVIDENCE else 0
-    return {"samples": int(chosen), "cost_by_delay": {int(k): v for k, v in costs.items()}, "evidence": float(evidence)}
+    evidence = _evidence(costs[base], costs[best], rows, taps)
+    chosen = best if evidence > READING_EVIDENCE else base
+    by_form = {name: min((v for k, v in costs.items() if k[1] == h), default=None)
+               for name, h in (("held", True), ("smooth", False))}
+    return {"samples": int(chosen[0]), "held": bool(chosen[1]), "lag": float(chosen[2]),
+            "cost_by_delay": {int(k[0]): v for k, v in costs.items() if k[1]} or None, "cost_by_form": by_form,
+            "evidence": float(evidence)}
 
 
 def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: float, damping: float) -> np.ndarray:
@@ -181,11 +242,13 @@ def _angle_pll(prepared, layout: "_Layout", taps: int) -> dict:
             "cost_by_frequency": by_freq}
 
 
-def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, angle_pll) -> tuple[dict, dict]:
+def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, angle_pll,
+             current_lag="detect") -> tuple[dict, dict]:
     """How to read the logs: the angle (a drive's PLL estimate or the rotor's, :func:`_angle_pll`) and the current's
-    delay (:func:`_current_delay`), each detected or as given. Each masks the other (a current a sample late hid
-    ODrive's PLL: the PLL's reading fitted worse than the angle as logged), so where both are detected and the delay
-    is not 0 the angle is read again with the delay taken out, and the delay again with that reading.
+    timing (its delay, and held or linear between samples: :func:`_current_delay`), each detected or as given. Each
+    masks the other (a current a sample late hid ODrive's PLL: the PLL's reading fitted worse than the angle as
+    logged), so where both are detected and the current is not read as written the angle is read again with that
+    reading, and the current's timing again with the angle's.
 
     Returns:
         ``(angle_pll, current_delay)``: the results' entries.
@@ -202,32 +265,49 @@ def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, a
         pll = None if angle_pll is None else (float(angle_pll[0]), float(angle_pll[1]))
     estimate = {"natural_frequency_rad_s": None if pll is None else pll[0], "damping": None if pll is None else pll[1],
                 "searched": False}
-    timing = {"samples": 0 if isinstance(current_delay, str) else int(current_delay), "cost_by_delay": None,
+    detect_delay, detect_form = isinstance(current_delay, str), isinstance(current_lag, str)
+    timing = {"samples": 0 if detect_delay else int(current_delay), "held": detect_form or current_lag is None,
+              "lag": 0.0 if detect_form or current_lag is None else float(current_lag), "cost_by_delay": None,
               "evidence": None}
+    delays = CURRENT_DELAYS if detect_delay else (timing["samples"],)
 
-    def read_angle():
-        found = {**_angle_pll(_with_delay(prepared, timing["samples"]), layout, taps), "searched": True}
+    def read_angle(timing):
+        found = {**_angle_pll(_with_delay(prepared, timing["samples"], timing["held"], timing["lag"]), layout, taps),
+                 "searched": True}
         w = found["natural_frequency_rad_s"]
         return found, (None if w is None else (w, found["damping"]))
 
-    if search_pll:
-        estimate, pll = read_angle()
-    for _ in range(2):
-        if isinstance(current_delay, str):
-            timing = _current_delay(_with_pll(prepared, pll), layout, taps)
-        if not (search_pll and timing["samples"] != 0):
-            break
-        before = pll
-        estimate, pll = read_angle()
-        if pll == before:
-            break
-    timing["detected"] = isinstance(current_delay, str)
+    def alternate(lag, estimate, pll, timing):
+        if search_pll:
+            estimate, pll = read_angle(timing)
+        for _ in range(2):
+            if detect_delay or detect_form:
+                timing = _current_delay(_with_pll(prepared, pll), layout, taps, delays, lag)
+            if not (search_pll and (timing["samples"] != 0 or not timing["held"])):
+                break
+            before = pll
+            estimate, pll = read_angle(timing)
+            if pll == before:
+                break
+        return estimate, pll, timing
+
+    if search_pll and detect_form:
+        # a smooth current a little early mimics a PLL's lag on the angle (ODrive's at 1000 rad/s with a late current:
+        # 50x the residual of the PLL's reading), so the alternation can stop short of the PLL; the readings found
+        # with the current held and with it free are compared on their own fits
+        runs = [alternate(None, estimate, pll, timing), alternate("detect", estimate, pll, timing)]
+        cost = [_basis_cost(_with_delay(_with_pll(prepared, q), t["samples"], t["held"], t["lag"]), layout, taps)[0]
+                for _, q, t in runs]
+        estimate, pll, timing = runs[int(cost[1] < cost[0])]
+    else:
+        estimate, pll, timing = alternate(current_lag, estimate, pll, timing)
+    timing["detected"] = detect_delay or detect_form
     return estimate, timing
 
 
 def detect_reading(logs, motor: RotaryMotor, orders: Orders | None = None, *, current_delay="detect",
                    angle_pll="detect", encoder_step="detect", min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD,
-                   taps: int = FILTER_TAPS) -> tuple[dict, dict]:
+                   taps: int = FILTER_TAPS, current_lag="detect") -> tuple[dict, dict]:
     """How :func:`~pgcomm.rotary.identify.identify` would read ``logs`` (the angle's PLL and the current's delay, module
     docstring), without
     the identification: e.g. to read the logs before counting the slots from them (a late current or a PLL's angle
@@ -238,7 +318,7 @@ def detect_reading(logs, motor: RotaryMotor, orders: Orders | None = None, *, cu
     """
     orders = orders or Orders.for_motor(motor)
     prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
-    return _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll)
+    return _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll, current_lag)
 
 
 def apply_reading(log: dict, current_delay: int, angle_pll, sample_time: float) -> dict:
@@ -261,6 +341,12 @@ def _times(ratio: float) -> str:
     return f"{ratio:.0f}x" if ratio >= 10 else f"{ratio:.2g}x"
 
 
+def lag_of(timing: dict):
+    """The ``current_lag`` that reads the logs as ``timing`` (``info["current_delay"]``) says: ``None`` held, else the
+    smooth curve's lag (samples)."""
+    return None if not timing or timing.get("held", True) else float(timing.get("lag", 0.0))
+
+
 def delay_text(timing: dict) -> str | None:
     """One sentence on the logged current's timing (``info["current_delay"]`` of
     :func:`pgcomm.rotary.identify.identify`), or ``None`` when it was given rather than detected."""
@@ -268,6 +354,16 @@ def delay_text(timing: dict) -> str | None:
         return None
     costs = {int(k): v for k, v in (timing.get("cost_by_delay") or {}).items()}
     d = int(timing["samples"])
+    if not timing.get("held", True):
+        lag = float(timing.get("lag", 0.0))
+        forms = timing.get("cost_by_form") or {}
+        better = (f"; it fits {_times(forms['held'] / forms['smooth'])} better so than held from sample to sample"
+                  if forms.get("held") and forms.get("smooth") else "")
+        rate = f", about {1.0 / (2.0 * lag):.0f} control cycles per logged sample" if lag > 0.5 / 1000 else ""
+        late = f", {abs(d)} sample(s) {'late' if d > 0 else 'early'}" if d else ""
+        return (f"the logged q-current is a snapshot of a current that moves between logged samples (a drive that "
+                f"controls faster than it logs{rate}): read as the smooth curve through the samples{late}, "
+                f"{lag:.3g} sample late{better}")
     if d == 0:
         near = [costs[k] / costs[0] for k in (-1, 1) if k in costs and costs.get(0)]
         return ("the logged q-current is in time with the angle" + (

@@ -132,8 +132,14 @@ _TRI = np.array([1.0 / 12.0, 5.0 / 6.0, 1.0 / 12.0])
 _GL_NODES = 0.5 * (1.0 + np.polynomial.legendre.leggauss(4)[0])
 _GL_WEIGHTS = 0.5 * np.polynomial.legendre.leggauss(4)[1]
 #: ``(4, nodes)``: the cubic Lagrange weights of the samples at ``-1, 0, 1, 2`` (sample intervals) at each node.
-_GL_LAGRANGE = np.array([[-x * (x - 1) * (x - 2) / 6, (x + 1) * (x - 1) * (x - 2) / 2,
-                          -(x + 1) * x * (x - 2) / 2, (x + 1) * x * (x - 1) / 6] for x in _GL_NODES]).T
+def _lagrange(xs) -> np.ndarray:
+    """``(4, len(xs))``: the cubic Lagrange weights of the samples at ``-1, 0, 1, 2`` (sample intervals) at ``xs``."""
+    return np.array([[-x * (x - 1) * (x - 2) / 6, (x + 1) * (x - 1) * (x - 2) / 2,
+                      -(x + 1) * x * (x - 2) / 2, (x + 1) * x * (x - 1) / 6] for x in np.asarray(xs, float)]).T
+
+
+#: ``(4, nodes)``: the cubic Lagrange weights of the samples at ``-1, 0, 1, 2`` (sample intervals) at each node.
+_GL_LAGRANGE = _lagrange(_GL_NODES)
 
 
 def _hann(n: int) -> np.ndarray:
@@ -198,6 +204,12 @@ class _Prepared:
     ts: float
     step: float | None = None
     acc_noise: float = 0.0
+    #: The logged current between two samples (:mod:`pgcomm.rotary.readings`): ``True`` held from each sample to the
+    #: next (a drive that controls at its log rate), ``False`` smooth: the cubic through the four samples around
+    #: each interval, ``lag`` samples late (one that controls faster and logs a snapshot of its current every
+    #: ``T_s``: at ``K`` control cycles per logged sample the held cycles lag that curve by ``1/(2K)``).
+    held: bool = True
+    lag: float = 0.0
 
 
 def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect"):
@@ -278,14 +290,16 @@ def _path_angles(theta_ext: np.ndarray, n_int: int) -> np.ndarray:
     return pts @ _GL_LAGRANGE
 
 
-def _interval_weights(path: np.ndarray, orders):
+def _interval_weights(path: np.ndarray, orders, current=None):
     """The exact second-difference weights of a Fourier map over each sample interval (module docstring,
     "The kernel"): ``A_k = ∫₀¹ x φ(θ(t_k + x T_s)) dx`` and ``B_k = ∫₀¹ (1 − x) φ(θ(t_k + x T_s)) dx``,
-    by Gauss–Legendre quadrature.
+    by Gauss–Legendre quadrature; with ``current``, of ``φ i_q`` (the ripple's columns under a current that varies
+    within the interval).
 
     Args:
         path: ``(n_int, nodes)`` angles at the nodes (:func:`_path_angles`).
         orders: ``(n,)`` harmonics per revolution.
+        current: ``(n_int, nodes)`` the current at the nodes (A), or ``None``.
 
     Returns:
         ``(A, B)``, each ``(n_int, 2n)`` (cosines, then sines).
@@ -295,6 +309,8 @@ def _interval_weights(path: np.ndarray, orders):
     B = np.zeros((path.shape[0], ncol))
     for m, (x, w) in enumerate(zip(_GL_NODES, _GL_WEIGHTS)):
         phi = harmonic_columns(path[:, m], orders)
+        if current is not None:
+            phi = phi * current[:, m, None]
         A += (w * x) * phi
         B += (w * (1.0 - x)) * phi
     return A, B
@@ -329,16 +345,33 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
             # Δ²θ at sample j weighs interval j-1 (held iq[j-1]) rising and interval j (iq[j]) falling
             n_int = hi - lo - 1
             path = _path_angles(_extended(p.theta, lo, hi), n_int)
-            a_r, b_r = _interval_weights(path, orders.ripple)
             a_c, b_c = _interval_weights(path, orders.cogging)
             a_d, b_d = _interval_weights(path, orders.direction)
-            iq_i, sg_i = iq[:n_int, None], sgn[:n_int, None]
+            sg_i = sgn[:n_int, None]
             out = {"row": st, "log": np.full(st.size, pos)}
-            if lines:
-                phase = np.arange(lo, hi)[:, None] * p.ts * freqs
-                out["line"] = _filt(np.concatenate([np.cos(phase), np.sin(phase)], axis=1), loc, g_zoh)
-            yield {**out, "y": _filt(iq, loc, g_zoh), "acc": _filt(d2, loc, g) / p.ts**2,
-                   "rip": _filt(iq_i * a_r, loc, g) + _filt(iq_i * b_r, loc + 1, g),
+            if p.held:
+                a_r, b_r = _interval_weights(path, orders.ripple)
+                a_r, b_r = iq[:n_int, None] * a_r, iq[:n_int, None] * b_r
+                y = _filt(iq, loc, g_zoh)
+                if lines:
+                    phase = np.arange(lo, hi)[:, None] * p.ts * freqs
+                    out["line"] = _filt(np.concatenate([np.cos(phase), np.sin(phase)], axis=1), loc, g_zoh)
+            else:
+                # the current between snapshots: the cubic through the four around each interval (as the angle's
+                # path), ``lag`` late
+                ext = _extended(p.iq, lo, hi)
+                cur = np.stack([ext[j:j + n_int] for j in range(4)], axis=1) @ _lagrange(_GL_NODES - p.lag)
+                a_r, b_r = _interval_weights(path, orders.ripple, cur)
+                rise, fall = cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES))
+                y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
+                if lines:
+                    # a time-periodic disturbance is smooth in time too: at the nodes' own instants
+                    ph = ((np.arange(lo, hi - 1)[:, None] + _GL_NODES - p.lag) * p.ts)[:, :, None] * freqs
+                    cs = np.concatenate([np.cos(ph), np.sin(ph)], axis=2)  # (n_int, nodes, 2 lines)
+                    out["line"] = (_filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * _GL_NODES), loc, g)
+                                   + _filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * (1.0 - _GL_NODES)), loc + 1, g))
+            yield {**out, "y": y, "acc": _filt(d2, loc, g) / p.ts**2,
+                   "rip": _filt(a_r, loc, g) + _filt(b_r, loc + 1, g),
                    "cog": _filt(a_c, loc, g) + _filt(b_c, loc + 1, g),
                    "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
                    "visc": _filt(p.w[lo:hi], loc, g_tri),

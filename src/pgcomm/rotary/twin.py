@@ -39,6 +39,7 @@ import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import jax.numpy as jnp
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from pgcomm.rotary.model import Fourier, RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
@@ -74,6 +75,10 @@ class RotaryTruth:
         encoder_counts: counts per revolution.
         winding: the winding and inverter behind the logged q-voltage (:mod:`pgcomm.rotary.winding`), or
             ``None`` for a twin that logs no voltage.
+        control_per_log: the drive's control samples per logged sample (``motor.sample_time`` is the log's
+            period). 1: the drive controls at its log rate. ``K > 1``: it controls at ``K`` times the log rate (an
+            ODrive at 8 kHz, a moteus at 15-40 kHz logged at 1 kHz), and the log holds a snapshot at every
+            ``K``-th control sample, so the current between two logged samples is not the one logged.
     """
 
     motor: RotaryMotor
@@ -90,6 +95,13 @@ class RotaryTruth:
     torque_noise: float
     encoder_counts: int
     winding: Winding | None = None
+    control_per_log: int = 1
+
+    def __post_init__(self):
+        k = self.control_per_log
+        if isinstance(k, bool) or int(k) != k or k < 1:
+            raise ValueError(f"control_per_log = {k!r} must be a positive integer")
+        object.__setattr__(self, "control_per_log", int(k))
 
     @property
     def k0(self) -> float:
@@ -120,7 +132,8 @@ class RotaryTruth:
                 "coulomb": self.coulomb, "viscous": self.viscous, "inertia": self.inertia,
                 "friction_velocity": self.friction_velocity, "current_noise": self.current_noise,
                 "torque_noise": self.torque_noise, "encoder_counts": self.encoder_counts,
-                **({"winding": self.winding.to_dict()} if self.winding is not None else {})}
+                **({"winding": self.winding.to_dict()} if self.winding is not None else {}),
+                **({"control_per_log": self.control_per_log} if self.control_per_log != 1 else {})}
 
     @classmethod
     def from_dict(cls, d: dict) -> "RotaryTruth":
@@ -130,7 +143,7 @@ class RotaryTruth:
                    Fourier.from_dict(d["cogging"]), Fourier.from_dict(d["drag"]), float(d["coulomb"]),
                    float(d["viscous"]), float(d["inertia"]), float(d["friction_velocity"]),
                    float(d["current_noise"]), float(d["torque_noise"]), int(d["encoder_counts"]),
-                   Winding.from_dict(d["winding"]) if "winding" in d else None)
+                   Winding.from_dict(d["winding"]) if "winding" in d else None, d.get("control_per_log", 1))
 
 
 @dataclass(frozen=True)
@@ -243,7 +256,7 @@ def _run(params, xs, n_sub: int):
 
     def step(carry, x):
         theta, omega, th_prev, w_f, integ = carry
-        th_r, w_r, a_r, dith, n_iq, n_id = x
+        th_r, w_r, a_r, dith = x
         th_m = jnp.round(theta / q) * q
         w_f = w_f + beta * ((th_m - th_prev) / ts - w_f)
         e_p, e_v = th_r - th_m, w_r - w_f
@@ -266,7 +279,7 @@ def _run(params, xs, n_sub: int):
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
         iq = jnp.clip(iq, -i_lim, i_lim)
         t_em0, _ = plant_torque(theta, omega, iq)
-        out = (th_m, w_f, iq + n_iq, n_id, theta, omega, t_em0, u, iq)
+        out = (th_m, w_f, theta, omega, t_em0, u, iq)
 
         def sub(_, st):
             th, om = st
@@ -295,19 +308,26 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         law: commutation law and feedforward (:class:`LawParams`).
         gains: feedback gains (:class:`Gains`).
         seed: current-noise seed (same seed, same numbers).
-        n_sub: plant sub-steps per sample.
+        n_sub: plant sub-steps per logged sample (per control sample ``ceil(n_sub / K)``, at least 2, where the drive
+            controls at ``K = truth.control_per_log`` times the log rate).
         theta0: initial true angle (rad; default the reference's first angle); starts at rest.
 
     Returns:
-        dict of ``(N,)`` arrays: ``t`` (s), ``theta`` (encoder, rad), ``velocity`` (rad/s, the drive's
-        estimate), ``iq_1``, ``id_1`` (A, measured), ``theta_true``, ``omega_true``, ``torque``
-        (air-gap N·m, with ``torque_noise``), ``iq_true`` (A, what flowed), ``demand`` (A), ``theta_ref``, ``omega_ref``;
-        and ``vq_1``, ``vd_1`` (V, the drive's q- and d-voltage commands, :mod:`pgcomm.rotary.winding`) when
-        ``truth.winding`` is set.
+        dict of ``(N,)`` arrays at the logged instants ``j T_s``: ``t`` (s), ``theta`` (encoder, rad), ``velocity``
+        (rad/s, the drive's estimate), ``iq_1``, ``id_1`` (A, measured), ``theta_true``, ``omega_true``, ``torque``
+        (air-gap N·m, with ``torque_noise``), ``iq_true`` (A, what flows from that instant), ``demand`` (A),
+        ``theta_ref``, ``omega_ref``; and ``vq_1``, ``vd_1`` (V, the drive's q- and d-voltage commands,
+        :mod:`pgcomm.rotary.winding`) when ``truth.winding`` is set. Where the drive controls faster than it logs
+        (``control_per_log = K > 1``) the references are interpolated linearly to the control samples and every
+        column is the snapshot of every ``K``-th control sample; the measurement noises are drawn per logged
+        sample, so they are the same numbers for every ``K``.
     """
     m = truth.motor
     ts = float(m.sample_time)
+    k_ctl = truth.control_per_log
+    tc = ts / k_ctl
     n = ref.n
+    n_f = n * k_ctl
     n_pad = _pad(truth.ripple.orders.size + truth.cogging.orders.size + truth.drag.orders.size)
     h_p, ((ra, rb), (ca, cb), (da, db)) = _pack_fourier([truth.ripple, truth.cogging, truth.drag], n_pad)
     lm = law.model
@@ -319,13 +339,13 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         t = np.asarray(law.table, float)
         table, n_table = np.concatenate([t, np.zeros(_pad(t.size) - t.size)]), t.size
     i_lim = float(m.current_limit) if m.current_limit else np.inf
-    beta = 1.0 - math.exp(-2 * math.pi * VELOCITY_CUTOFF_HZ * ts)
+    beta = 1.0 - math.exp(-2 * math.pi * VELOCITY_CUTOFF_HZ * tc)
     q = 2 * math.pi / truth.encoder_counts
     mode_pos = {"position": 1.0, "speed": 0.0}[ref.mode]
     th0 = float(ref.theta[0]) if theta0 is None else float(theta0)
     f = float
     params = (jnp.asarray(h_p), *(jnp.asarray(v) for v in (ra, rb, ca, cb, da, db)), f(truth.k0), f(truth.coulomb),
-              f(truth.viscous), f(truth.inertia), f(truth.friction_velocity), ts, q,
+              f(truth.viscous), f(truth.inertia), f(truth.friction_velocity), tc, q,
               jnp.asarray(h_l), *(jnp.asarray(v) for v in (lca, lcb, lra, lrb, lda, ldb)), jnp.asarray(table),
               float(n_table), f(law.ff_a), f(law.ff_b), f(law.ff_d),
               f(gains.kp), f(gains.ki), f(gains.kd), f(gains.kpv), f(gains.kiv), beta, i_lim, mode_pos, th0,
@@ -333,22 +353,36 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     rng = np.random.default_rng(seed)
     noise = rng.standard_normal((3, n))
     dither = np.zeros(n) if ref.dither is None else np.asarray(ref.dither, float)
-    xs = tuple(jnp.asarray(v, float) for v in (ref.theta, ref.omega, ref.alpha, dither,
-                                               truth.current_noise * noise[0], truth.current_noise * noise[1]))
-    outs = [np.asarray(o) for o in _run(params, xs, n_sub)]
-    th_m, w_f, iq, idd, th, om, tq, u, iq_act = outs
-    log = {"t": ts * np.arange(n), "theta": th_m, "velocity": w_f, "iq_1": iq, "id_1": idd, "theta_true": th,
-           "omega_true": om, "iq_true": iq_act, "torque": tq + truth.torque_noise * noise[2], "demand": u,
+    refs = [np.asarray(v, float) for v in (ref.theta, ref.omega, ref.alpha, dither)]
+    if k_ctl > 1:
+        # a drive generates its references and dither at its own rate: smooth between the logged samples (a linear
+        # interpolation's kinks put 3 % of a 100 Hz dither's amplitude into every logged interval's mean)
+        t_f = np.minimum(tc * np.arange(n_f), ts * (n - 1))
+        refs = [CubicSpline(ts * np.arange(n), v)(t_f) if n > 1 else np.repeat(v, k_ctl) for v in refs]
+        n_sub = max(2, -(-int(n_sub) // k_ctl))
+    outs = [np.asarray(o) for o in _run(params, tuple(jnp.asarray(v) for v in refs), n_sub)]
+    th_m, w_f, th_f, om_f, tq, u, iq_f = (o[::k_ctl] for o in outs)
+    iq_act = iq_f
+    iq = iq_act + truth.current_noise * noise[0]
+    idd = truth.current_noise * noise[1]
+    log = {"t": ts * np.arange(n), "theta": th_m, "velocity": w_f, "iq_1": iq, "id_1": idd, "theta_true": th_f,
+           "omega_true": om_f, "iq_true": iq_act, "torque": tq + truth.torque_noise * noise[2], "demand": u,
            "theta_ref": np.asarray(ref.theta, float), "omega_ref": np.asarray(ref.omega, float)}
     if truth.winding is not None:
+        w = truth.winding
+        # the voltages the loop commands between logged samples follow the current at the control rate (its slope
+        # L di/dt); the logged noises are per logged sample, added to the snapshots
+        th_c, om_c, iq_c = outs[2], outs[3], outs[6]
         # drawn after the currents' noise, so a twin with a winding logs the same currents as one without
-        log["vq_1"] = q_voltage(truth.winding, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th, om,
-                                iq_act, ts, rng.standard_normal(n), iq - iq_act)
+        v_noise = rng.standard_normal(n)
+        log["vq_1"] = (q_voltage(w, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th_c, om_c, iq_c, tc,
+                                 0.0)[::k_ctl] - w.loop_gain * (iq - iq_act) + w.voltage_noise * v_noise)
         # drawn after the q-voltage's, which is then the same as a twin's that logs no d-voltage
-        log["vd_1"] = d_voltage(truth.winding, truth.k_t, truth.offset_error, truth.ripple, m.pole_pairs,
-                                m.commutation_offset, th, om, iq_act, rng.standard_normal(n), idd)
-        if truth.winding.voltage_lag:
-            log["vd_1"], log["vq_1"] = logged_dq(log["vd_1"], log["vq_1"], m.pole_pairs, om, truth.winding.voltage_lag)
+        v_noise = rng.standard_normal(n)
+        log["vd_1"] = (d_voltage(w, truth.k_t, truth.offset_error, truth.ripple, m.pole_pairs, m.commutation_offset,
+                                 th_c, om_c, iq_c, 0.0)[::k_ctl] - w.loop_gain * idd + w.voltage_noise * v_noise)
+        if w.voltage_lag:
+            log["vd_1"], log["vq_1"] = logged_dq(log["vd_1"], log["vq_1"], m.pole_pairs, om_f, w.voltage_lag)
     return log
 
 

@@ -1,0 +1,82 @@
+"""A drive that controls faster than it logs (issue 18): identification from snapshots of a moving current.
+
+Usage: ``python bench/rotary_drive_rate.py [--seed 0] [--motors 0,1,...,7] [--rates 1,2,8,20] [--logs running|drive]``.
+
+Real drives run their loops at 8-40 kHz (ODrive 8 kHz, moteus 15-40 kHz) and log at about 1 kHz: each logged q-current
+is a snapshot of a current that moves between logged samples. The twin's drive does the same with
+``RotaryTruth.control_per_log = K``. Per zoo motor and ``K``, on one round of ``reproduce``'s running logs (``--logs
+running``, with the q-current dither) or on the drive-log mix without a dither (``--logs drive``: constant speeds,
+accelerations, the slow sweep; :func:`pgcomm.rotary.experiment.drive_log_mix`):
+
+* the current's reading :func:`pgcomm.rotary.identify.identify` detects: held, or smooth with its lag in samples (the
+  truth ``1/(2K)``);
+* cogging, ripple, direction map: RMS error over the revolution relative to the truth's RMS, and the cogging's and
+  the ripple's standard error; ``J/k0``'s relative error;
+* the same with the current read as held (``current_lag=None``), the reading before the smooth one existed;
+* the identification's time with the detection.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--motors", default="0,1,2,3,4,5,6,7")
+    ap.add_argument("--rates", default="1,2,8,20", help="control cycles per logged sample (K)")
+    ap.add_argument("--logs", choices=("running", "drive"), default="running")
+    args = ap.parse_args(argv)
+    from dataclasses import replace
+
+    from pgcomm.rotary.experiment import (RotarySettings, drive_log_mix, identification_errors, running_log,
+                                          running_references)
+    from pgcomm.rotary.identify import identify
+    from pgcomm.rotary.regression import Orders
+    from pgcomm.rotary.twin import LawParams, default_gains
+    from pgcomm.rotary.zoo import draw_rotary
+    from pgcomm.seeds import stream_seed
+
+    def fmt(e, se=None):
+        out = f"{100 * e['cogging_rel']:6.2f}% {100 * e['ripple_rel']:6.2f}% {100 * e['direction_rel']:6.2f}%"
+        if se is not None:
+            out += f" {100 * se['cogging']['relative']:6.2f}% {100 * se['ripple']['relative']:6.2f}%"
+        return out + f" {100 * e['inertia_ratio_rel']:5.2f}%"
+
+    print(f"{'#':>2} {'motor':7s} {'K':>3s} {'reading':>14s} | {'cog':>7s} {'rip':>7s} {'dir':>7s} {'cog SE':>7s} "
+          f"{'rip SE':>7s} {'J/k0':>6s} | held: {'cog':>7s} {'rip':>7s} {'dir':>7s} {'J/k0':>6s} | {'id s':>5s}")
+    for i in (int(x) for x in args.motors.split(",")):
+        t0 = draw_rotary(args.seed, i)
+        m = t0.motor
+        orders = Orders.for_motor(m)
+        a = t0.inertia / t0.k0
+        refs = running_references(m, a, RotarySettings(), orders)
+        for k in (int(x) for x in args.rates.split(",")):
+            t = replace(t0, control_per_log=k)
+            if args.logs == "running":
+                logs = [running_log(t, r, LawParams.classical(m.pole_pairs), default_gains(a),
+                                    stream_seed(args.seed, "rotary running log", 0, j)) for j, r in enumerate(refs)]
+            else:
+                mix = drive_log_mix(t, seed=args.seed)
+                logs = mix["const"] + mix["accel"] + mix["sweep"]
+            c0 = time.perf_counter()
+            res = identify(logs, m, orders)
+            wall = time.perf_counter() - c0
+            held = identify(logs, m, orders, current_lag=None)
+            tm = res.info["current_delay"]
+            reading = "held" if tm["held"] else f"smooth {tm['lag']:.4f}"
+            if tm["samples"]:
+                reading += f" {tm['samples']:+d}"
+            print(f"{i:2d} {m.name:7s} {k:3d} {reading:>14s} | {fmt(identification_errors(res.model, t), res.info['standard_error'])}"
+                  f" | held: {fmt(identification_errors(held.model, t))} | {wall:5.1f}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
