@@ -1,6 +1,7 @@
 """A drive that controls faster than it logs (issue 18): identification from snapshots of a moving current.
 
-Usage: ``python bench/rotary_drive_rate.py [--seed 0] [--motors 0,1,...,7] [--rates 1,2,8,20] [--logs running|drive]``.
+Usage: ``python bench/rotary_drive_rate.py [--seed 0] [--motors 0,1,...,7] [--rates 1,2,8,20] [--logs running|drive]
+[--pll]``.
 
 Real drives run their loops at 8-40 kHz (ODrive 8 kHz, moteus 15-40 kHz) and log at about 1 kHz: each logged q-current
 is a snapshot of a current that moves between logged samples. The twin's drive does the same with
@@ -14,6 +15,9 @@ accelerations, the slow sweep; :func:`pgcomm.rotary.experiment.drive_log_mix`):
   the ripple's standard error; ``J/k0``'s relative error;
 * the same with the current read as held (``current_lag=None``), the reading before the smooth one existed;
 * the identification's time with the detection.
+
+``--pll`` logs the angle an ODrive logs instead of the encoder's: the rotor's path through its PLL (1000 rad/s) run at
+the drive's rate (at least 8 kHz), as ``bench/rotary_time_lines.py`` does; the PLL's frequency read is printed too.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ def main(argv=None) -> int:
     ap.add_argument("--motors", default="0,1,2,3,4,5,6,7")
     ap.add_argument("--rates", default="1,2,8,20", help="control cycles per logged sample (K)")
     ap.add_argument("--logs", choices=("running", "drive"), default="running")
+    ap.add_argument("--pll", action="store_true", help="the angle through ODrive's PLL (tests/_drive_pll.py)")
     args = ap.parse_args(argv)
     from dataclasses import replace
 
@@ -49,7 +54,7 @@ def main(argv=None) -> int:
             out += f" {100 * se['cogging']['relative']:6.2f}% {100 * se['ripple']['relative']:6.2f}%"
         return out + f" {100 * e['inertia_ratio_rel']:5.2f}%"
 
-    print(f"{'#':>2} {'motor':7s} {'K':>3s} {'reading':>14s} | {'cog':>7s} {'rip':>7s} {'dir':>7s} {'cog SE':>7s} "
+    print(f"{'#':>2} {'motor':7s} {'K':>3s} {'reading':>24s} | {'cog':>7s} {'rip':>7s} {'dir':>7s} {'cog SE':>7s} "
           f"{'rip SE':>7s} {'J/k0':>6s} | held: {'cog':>7s} {'rip':>7s} {'dir':>7s} {'J/k0':>6s} | {'id s':>5s}")
     for i in (int(x) for x in args.motors.split(",")):
         t0 = draw_rotary(args.seed, i)
@@ -65,6 +70,10 @@ def main(argv=None) -> int:
             else:
                 mix = drive_log_mix(t, seed=args.seed)
                 logs = mix["const"] + mix["accel"] + mix["sweep"]
+            if args.pll:
+                from rotary_time_lines import _pll_read
+
+                logs = _pll_read(logs, every=max(k, 8))
             c0 = time.perf_counter()
             res = identify(logs, m, orders)
             wall = time.perf_counter() - c0
@@ -73,7 +82,10 @@ def main(argv=None) -> int:
             reading = "held" if tm["held"] else f"smooth {tm['lag']:.4f}"
             if tm["samples"]:
                 reading += f" {tm['samples']:+d}"
-            print(f"{i:2d} {m.name:7s} {k:3d} {reading:>14s} | {fmt(identification_errors(res.model, t), res.info['standard_error'])}"
+            if args.pll:
+                w = res.info["angle_pll"]["natural_frequency_rad_s"]
+                reading += f" PLL {w:.0f}" if w else " no PLL"
+            print(f"{i:2d} {m.name:7s} {k:3d} {reading:>24s} | {fmt(identification_errors(res.model, t), res.info['standard_error'])}"
                   f" | held: {fmt(identification_errors(held.model, t))} | {wall:5.1f}", flush=True)
     return 0
 

@@ -140,6 +140,40 @@ def test_a_drive_that_controls_faster_than_it_logs_is_read_smooth(motor0):
     assert e_held["inertia_ratio_rel"] > 0.03
 
 
+def test_an_odrive_log_pll_angle_and_snapshot_current(motor0):
+    """What an ODrive logs at 1 kHz from its 8 kHz loop: the angle its PLL estimates (1000 rad/s, run at 8 kHz) and a
+    snapshot of the current every eighth cycle. A smooth current a little late and a PLL's lag on the angle trade one
+    for the other; read together (the PLL's search with the smooth current's lag fitted at each frequency), the maps
+    and ``J/k0`` hold the bars of the drive that controls at its log rate
+    (:func:`test_identification_without_torque_sensor_matches_the_truth`); read with the current held, the cogging
+    is off by more than ten of the joint reading's standard errors and no PLL is found."""
+    from dataclasses import replace
+
+    from scipy.interpolate import CubicSpline
+
+    t0, _ = motor0
+    t = replace(t0, control_per_log=8)
+    a = t.inertia / t.k0
+    refs = running_references(t.motor, a, quick_settings(), Orders.for_motor(t.motor))
+    logs = []
+    for k, r in enumerate(refs):
+        c = simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=k)
+        fine = c["t"][0] + (c["t"][1] - c["t"][0]) / 8 * np.arange(c["t"].size * 8)
+        logs.append({"t": c["t"], "theta": odrive_pll(fine, CubicSpline(c["t"], c["theta"])(fine), 1000.0, 8),
+                     "iq_1": c["iq_1"]})
+    res = identify(logs, t.motor)
+    assert res.info["angle_pll"]["natural_frequency_rad_s"] == pytest.approx(1000.0, rel=0.3)
+    assert not res.info["current_delay"]["held"] and res.info["current_delay"]["samples"] == 0
+    e = identification_errors(res.model, t)
+    assert e["cogging_rel"] <= 0.05
+    assert e["ripple_rel"] <= 0.10
+    assert e["direction_rel"] <= 0.15
+    assert e["inertia_ratio_rel"] <= 0.01
+    held = identify(logs, t.motor, current_lag=None)
+    assert held.info["angle_pll"]["natural_frequency_rad_s"] is None
+    assert identification_errors(held.model, t)["cogging_rel"] > 10 * res.info["standard_error"]["cogging"]["relative"]
+
+
 def test_identification_with_torque_sensor(motor0):
     t, logs = motor0
     res = identify(logs, t.motor, torque_sensor=True)

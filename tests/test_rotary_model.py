@@ -228,3 +228,18 @@ def test_control_per_log_is_a_positive_integer_and_round_trips():
     for bad in (0, -2, 2.5, True):
         with pytest.raises(ValueError, match="control_per_log"):
             replace(t, control_per_log=bad)
+
+
+def test_a_preview_drive_controls_as_fast_as_the_logs_read():
+    """truth_from_identification: a current read smooth ``lag`` samples late makes the preview's drive control
+    ``1/(2 lag)`` times per logged sample (at most PREVIEW_MAX_CONTROL_PER_LOG); a held one, once."""
+    from pgcomm.rotary.zoo import PREVIEW_MAX_CONTROL_PER_LOG, draw_rotary, truth_from_identification
+
+    t = draw_rotary(0, 2)
+    m = t.model()
+    base = {"current_noise_A": t.current_noise}
+    for timing, k in (({"held": True, "lag": 0.0}, 1), ({"held": False, "lag": 0.25}, 2),
+                      ({"held": False, "lag": 0.0631}, 8), ({"held": False, "lag": 0.004}, PREVIEW_MAX_CONTROL_PER_LOG),
+                      ({"held": False, "lag": -0.01}, PREVIEW_MAX_CONTROL_PER_LOG), (None, 1)):
+        info = dict(base, **({"current_delay": timing} if timing else {}))
+        assert truth_from_identification(m, info, t.motor).control_per_log == k

@@ -16,7 +16,8 @@ class RotaryMotor:
         pole_pairs: ``p``; the electrical period ``2π/p`` (rad) takes the linear pole pitch's place.
         slots: ``Q`` stator slots; with ``p`` it sets the cogging orders (``LCM(Q, 2p)`` etc.); ``None``
             when unknown (``pgcomm identify`` then reads it from the logs, :mod:`pgcomm.rotary.slots`).
-        sample_time: the drive's control and logging period (s), e.g. 0.001.
+        sample_time: the period of the drive's logs (s), e.g. 0.001 (the drive may control faster and log snapshots:
+            :mod:`pgcomm.rotary.readings`).
         k_t: nominal torque constant (N·m/A, q-axis, peak-current convention) or ``None``;
             only needed to report N·m.
         inertia: moment of inertia of rotor and load (kg·m²) or ``None``; without it (and

@@ -27,6 +27,12 @@ that harmonic uncompensated (it was the floor of every row, the oracle's include
 ``n_sub`` sub-steps, each exact for a constant torque. The log holds what the drive records: ``t``, ``theta``
 (multi-turn, encoder), ``velocity``, ``iq_1``, ``id_1`` (measured, with noise), plus the truth
 (``theta_true``, ``omega_true``, ``torque`` = air-gap torque, e.g. for a torque sensor).
+
+**A drive faster than its log.** With :attr:`RotaryTruth.control_per_log` ``K > 1`` the drive runs all of the above
+``K`` times per logged sample (``T_s/K``: encoder, velocity estimate, loops, law, held current) on references and
+dither interpolated by a cubic spline, and logs a snapshot of every ``K``-th cycle: an ODrive at 8 kHz or a moteus at
+15-40 kHz logged at 1 kHz. The logged current is then not the one that flowed until the next row
+(:mod:`pgcomm.rotary.readings`, "Between logged samples").
 """
 
 from __future__ import annotations

@@ -225,12 +225,18 @@ def truth_from_model(model: RotaryModel, motor: RotaryMotor, *, current_noise: f
     return replace(truth, winding=w)
 
 
+#: The most control cycles per logged sample a preview's drive runs (:func:`truth_from_identification`): a drive read
+#: as faster is previewed at this rate, whose held cycles are already within an eighth of a logged sample.
+PREVIEW_MAX_CONTROL_PER_LOG = 8
+
+
 def truth_from_identification(model: RotaryModel, identification: dict, motor: RotaryMotor,
                               seed: int = 0) -> RotaryTruth:
     """:func:`truth_from_model` with what ``identify`` measured beside the model (its ``info``, results key
     ``identification``): the back-EMF's ``k0``, offset error, R and L where the voltage was read and agrees with the
     currents (else the model's or the description's ``k_t``, no offset, a drawn winding), the encoder's counts as the
-    logs showed them, the logged current's noise.
+    logs showed them, the logged current's noise, and a drive that controls ``K ≈ 1/(2 lag)`` times per logged sample
+    where the current read smooth (at most :data:`PREVIEW_MAX_CONTROL_PER_LOG`: the twin's time grows with ``K``).
 
     Raises:
         ConfigError: no ``current_noise_A`` (an identification by an older pgcomm), or what :func:`truth_from_model`
@@ -246,9 +252,15 @@ def truth_from_identification(model: RotaryModel, identification: dict, motor: R
     voltage = back_emf if back_emf.get("consistent") else {}
     k0 = voltage.get("k0_amplitude_invariant") or model.k_t or motor.k_t
     counts = ((identification.get("quantisation") or {}).get("counts_per_revolution") or [None])[0]
-    return truth_from_model(replace(model, k_t=k0), motor, current_noise=identification["current_noise_A"],
-                            encoder_counts=counts, offset_error=(voltage.get("offset_error") or {}).get("delta", 0.0),
-                            resistance=voltage.get("resistance"), inductance=voltage.get("inductance"), seed=seed)
+    truth = truth_from_model(replace(model, k_t=k0), motor, current_noise=identification["current_noise_A"],
+                             encoder_counts=counts, offset_error=(voltage.get("offset_error") or {}).get("delta", 0.0),
+                             resistance=voltage.get("resistance"), inductance=voltage.get("inductance"), seed=seed)
+    timing = identification.get("current_delay") or {}
+    if timing.get("held", True):
+        return truth
+    lag = float(timing.get("lag", 0.0))
+    k = PREVIEW_MAX_CONTROL_PER_LOG if lag <= 0.5 / PREVIEW_MAX_CONTROL_PER_LOG else max(1, round(0.5 / lag))
+    return replace(truth, control_per_log=int(k))
 
 
 def read_truth(path) -> RotaryTruth:
