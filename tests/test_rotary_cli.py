@@ -443,3 +443,28 @@ def test_reproduce_on_your_motor_as_identified(tmp_path, zoo, capsys):
                  "--out", str(tmp_path / "no")]) == 2
     err = capsys.readouterr().err
     assert "results.json" in err and "Traceback" not in err and not (tmp_path / "no").exists()
+
+
+def test_logs_of_a_drive_faster_than_its_log_through_the_cli(tmp_path, zoo, capsys):
+    """The zoo motor's running logs from a drive that controls 8 times per logged sample: identify says it read the
+    current as snapshots of a moving one (about 8 cycles per logged sample), reports the lag (within a 64th of
+    1/16) in results.json and report.html, and its table is within 5 % of the truth's RMS; with
+    ``--current-lag held`` it is not."""
+    from dataclasses import replace
+
+    from pgcomm.rotary.zoo import write_running_logs
+
+    truth = replace(read_truth(zoo / "truth.json"), control_per_log=8)
+    logs = [tmp_path / "logs" / name for name in write_running_logs(truth, tmp_path / "logs", seed=0)]
+    capsys.readouterr()
+    out = tmp_path / "id"
+    assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, logs), "--out", str(out)]) == 0
+    assert "a snapshot of a current that moves between logged samples" in capsys.readouterr().err
+    timing = json.loads((out / "results.json").read_text())["identification"]["current_delay"]
+    assert timing["held"] is False and timing["lag"] == pytest.approx(1 / 16, abs=1 / 64)
+    assert "about 8 control cycles per logged sample" in (out / "report.html").read_text()
+    ref = truth.model().table(3600)
+    rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
+    assert rms(read_angle_table(out / "compensation.csv").iq - ref) <= 0.05 * rms(ref)
+    held = _identify(tmp_path / "held", zoo / "motor.toml", logs, ["--current-lag", "held"])
+    assert rms(read_angle_table(held / "compensation.csv").iq - ref) > 0.05 * rms(ref)
