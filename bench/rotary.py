@@ -1,6 +1,6 @@
 """Rotary zoo figures (issue 18): identification error vs truth, tracking ratio law/standstill, time.
 
-Usage: ``python bench/rotary.py [--motors 8] [--seed 0] [--quick]``. Per motor it runs
+Usage: ``python bench/rotary.py [--motors 8] [--seed 0] [--quick] [--control-per-log K]``. Per motor it runs
 :func:`pgcomm.rotary.experiment.run` (running logs -> identification without a torque sensor,
 standstill sweep of 3600 angles, four rows in closed loop) and prints:
 
@@ -17,7 +17,9 @@ standstill sweep of 3600 angles, four rows in closed loop) and prints:
 * the orders outside the slot/pole basis that the identification added (each zoo motor has one cogging
   and one ripple order outside its basis).
 
-Several minutes on 2 cores (the 3600-point sweeps dominate); ``--quick`` uses 720 points.
+Several minutes on 2 cores (the 3600-point sweeps dominate); ``--quick`` uses 720 points. ``--control-per-log K`` runs
+every motor's drive ``K`` times per logged sample (:attr:`pgcomm.rotary.twin.RotaryTruth.control_per_log`; the zoo's
+drives control at their log rate).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ def main(argv=None) -> int:
     ap.add_argument("--motors", type=int, default=8)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--control-per-log", type=int, default=None, help="the drives' control cycles per logged sample")
     args = ap.parse_args(argv)
     from pgcomm.rotary.experiment import RotarySettings, quick_settings, run
     from pgcomm.rotary.zoo import draw_rotary
@@ -47,6 +50,10 @@ def main(argv=None) -> int:
     rows = []
     for i in range(args.motors):
         t = draw_rotary(args.seed, i)
+        if args.control_per_log:
+            from dataclasses import replace
+
+            t = replace(t, control_per_log=args.control_per_log)
         t0 = time.perf_counter()
         r = run(t, settings, seed=args.seed)
         e = r["identification"]["errors"]

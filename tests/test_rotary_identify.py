@@ -33,14 +33,31 @@ def motor0():
     return t, logs
 
 
-def test_identification_without_torque_sensor_matches_the_truth(motor0):
-    t, logs = motor0
-    res = identify(logs, t.motor)
-    e = identification_errors(res.model, t)
+@pytest.fixture(scope="module")
+def motor0_fast(motor0):
+    """Zoo motor 0's running logs (as ``motor0``'s) from a drive that controls 8 times per logged sample."""
+    from dataclasses import replace
+
+    t = replace(motor0[0], control_per_log=8)
+    a = t.inertia / t.k0
+    refs = running_references(t.motor, a, quick_settings(), Orders.for_motor(t.motor))
+    return t, [simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=k)
+               for k, r in enumerate(refs)]
+
+
+def _within_the_bars(model, t):
+    """The module's bars (its docstring) for a quick run of zoo motor 0 without a torque sensor."""
+    e = identification_errors(model, t)
     assert e["cogging_rel"] <= 0.05
     assert e["ripple_rel"] <= 0.10
     assert e["direction_rel"] <= 0.15
     assert e["inertia_ratio_rel"] <= 0.01
+
+
+def test_identification_without_torque_sensor_matches_the_truth(motor0):
+    t, logs = motor0
+    res = identify(logs, t.motor)
+    _within_the_bars(res.model, t)
     assert res.info["ridge_chosen_by"].startswith("validation")
     assert res.info["windows_used"] > 0
 
@@ -106,33 +123,22 @@ def test_a_current_shifted_against_the_angle_is_found(motor0, delay):
     assert rms(as_logged.model.cogging(th) - plain.model.cogging(th)) > 3 * se["cogging"]["rms_error"]
 
 
-def test_a_drive_that_controls_faster_than_it_logs_is_read_smooth(motor0):
+def test_a_drive_that_controls_faster_than_it_logs_is_read_smooth(motor0_fast):
     """The running logs of zoo 9N6P on a drive that controls 8 times per logged sample (an ODrive's 8 kHz loop logged
     at 1 kHz): each logged current is a snapshot of one that moves between samples. Detected, it reads as the smooth
     curve through the snapshots, 1/16 of a sample late (the cycles' currents are held: ``1/(2K)``), within the lag's
     resolution (a 64th), and the maps and ``J/k0`` hold the bars of the drive that controls at its log rate
     (:func:`test_identification_without_torque_sensor_matches_the_truth`). Read as held, the cogging is off by more than
     ten of the smooth reading's standard errors and ``J/k0`` by more than 3 %."""
-    from dataclasses import replace
-
     from pgcomm.rotary.readings import delay_text
 
-    t0, _ = motor0
-    t = replace(t0, control_per_log=8)
-    a = t.inertia / t.k0
-    refs = running_references(t.motor, a, quick_settings(), Orders.for_motor(t.motor))
-    logs = [simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=k)
-            for k, r in enumerate(refs)]
+    t, logs = motor0_fast
     res = identify(logs, t.motor)
     timing = res.info["current_delay"]
     assert timing["detected"] and not timing["held"] and timing["samples"] == 0
     assert timing["lag"] == pytest.approx(1 / 16, abs=1 / 64)
     assert "about 8 control cycles per logged sample" in delay_text(timing)
-    e = identification_errors(res.model, t)
-    assert e["cogging_rel"] <= 0.05
-    assert e["ripple_rel"] <= 0.10
-    assert e["direction_rel"] <= 0.15
-    assert e["inertia_ratio_rel"] <= 0.01
+    _within_the_bars(res.model, t)
     held = identify(logs, t.motor, current_lag=None)
     e_held = identification_errors(held.model, t)
     assert held.info["current_delay"]["held"]
@@ -140,35 +146,25 @@ def test_a_drive_that_controls_faster_than_it_logs_is_read_smooth(motor0):
     assert e_held["inertia_ratio_rel"] > 0.03
 
 
-def test_an_odrive_log_pll_angle_and_snapshot_current(motor0):
+def test_an_odrive_log_pll_angle_and_snapshot_current(motor0_fast):
     """What an ODrive logs at 1 kHz from its 8 kHz loop: the angle its PLL estimates (1000 rad/s, run at 8 kHz) and a
     snapshot of the current every eighth cycle. A smooth current a little late and a PLL's lag on the angle trade one
     for the other; read together (the PLL's search with the smooth current's lag fitted at each frequency), the maps
     and ``J/k0`` hold the bars of the drive that controls at its log rate
     (:func:`test_identification_without_torque_sensor_matches_the_truth`); read with the current held, the cogging
     is off by more than ten of the joint reading's standard errors and no PLL is found."""
-    from dataclasses import replace
-
     from scipy.interpolate import CubicSpline
 
-    t0, _ = motor0
-    t = replace(t0, control_per_log=8)
-    a = t.inertia / t.k0
-    refs = running_references(t.motor, a, quick_settings(), Orders.for_motor(t.motor))
+    t, fast = motor0_fast
     logs = []
-    for k, r in enumerate(refs):
-        c = simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=k)
+    for c in fast:
         fine = c["t"][0] + (c["t"][1] - c["t"][0]) / 8 * np.arange(c["t"].size * 8)
         logs.append({"t": c["t"], "theta": odrive_pll(fine, CubicSpline(c["t"], c["theta"])(fine), 1000.0, 8),
                      "iq_1": c["iq_1"]})
     res = identify(logs, t.motor)
     assert res.info["angle_pll"]["natural_frequency_rad_s"] == pytest.approx(1000.0, rel=0.3)
     assert not res.info["current_delay"]["held"] and res.info["current_delay"]["samples"] == 0
-    e = identification_errors(res.model, t)
-    assert e["cogging_rel"] <= 0.05
-    assert e["ripple_rel"] <= 0.10
-    assert e["direction_rel"] <= 0.15
-    assert e["inertia_ratio_rel"] <= 0.01
+    _within_the_bars(res.model, t)
     held = identify(logs, t.motor, current_lag=None)
     assert held.info["angle_pll"]["natural_frequency_rad_s"] is None
     assert identification_errors(held.model, t)["cogging_rel"] > 10 * res.info["standard_error"]["cogging"]["relative"]
