@@ -468,3 +468,23 @@ def test_logs_of_a_drive_faster_than_its_log_through_the_cli(tmp_path, zoo, caps
     assert rms(read_angle_table(out / "compensation.csv").iq - ref) <= 0.05 * rms(ref)
     held = _identify(tmp_path / "held", zoo / "motor.toml", logs, ["--current-lag", "held"])
     assert rms(read_angle_table(held / "compensation.csv").iq - ref) > 0.05 * rms(ref)
+
+
+def test_zoo_drives_faster_than_their_logs(tmp_path, capsys):
+    """``pgcomm zoo --kind rotary --control-per-log 8`` writes truths whose drives control 8 times per logged sample
+    (their motor.toml as without); a count outside 1..64, or on linear motors, is refused in one line, no output."""
+    out = tmp_path / "z"
+    assert main(["zoo", "--kind", "rotary", "--motors", "1", "--control-per-log", "8", "--out", str(out),
+                 "--quiet"]) == 0
+    assert read_truth(out / "motor_01" / "truth.json").control_per_log == 8
+    plain = tmp_path / "p"
+    assert main(["zoo", "--kind", "rotary", "--motors", "1", "--out", str(plain), "--quiet"]) == 0
+    assert (plain / "motor_01" / "motor.toml").read_text() == (out / "motor_01" / "motor.toml").read_text()
+    for args, match in ((["--kind", "rotary", "--control-per-log", "0"], "--control-per-log 0: expected 1 to 64"),
+                        (["--control-per-log", "8"], "--control-per-log: a rotary drive's control rate")):
+        capsys.readouterr()
+        bad = tmp_path / "bad"
+        assert main(["zoo", "--motors", "1", *args, "--out", str(bad)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and match in err[0] and "Traceback" not in err[0]
+        assert not bad.exists()

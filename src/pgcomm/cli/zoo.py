@@ -22,6 +22,9 @@ def configure(p) -> None:
     p.add_argument("--kind", choices=("linear", "rotary"), default="linear",
                    help="linear motors (force maps, default) or rotary PMSM/BLDC motors (motor.toml with "
                         "kind = \"rotary\" and truth.json; --logs writes running logs t, theta, velocity, iq_1, id_1, vq_1, vd_1)")
+    p.add_argument("--control-per-log", type=int, default=1, metavar="K",
+                   help="rotary: the drives control K times per logged sample and log a snapshot of every K-th cycle "
+                        "(8 for an ODrive's 8 kHz loop logged at 1 kHz; default 1: they control at their log rate)")
     add_common_options(p, out=True, plant=False)
 
 
@@ -33,8 +36,13 @@ def run(args, out: Path, progress) -> None:
     n = args.motors
     if not 1 <= n <= MAX_MOTORS:
         raise ConfigError(f"--motors {n}: expected 1 to {MAX_MOTORS} motors")
+    k = getattr(args, "control_per_log", 1)
     if getattr(args, "kind", "linear") == "rotary":
+        if not 1 <= k <= 64:
+            raise ConfigError(f"--control-per-log {k}: expected 1 to 64 control cycles per logged sample")
         return _run_rotary(args, out, progress, n)
+    if k != 1:
+        raise ConfigError("--control-per-log: a rotary drive's control rate (--kind rotary)")
     for i in range(1, n + 1):
         name = motor_folder_name(i, n)
         what = "force map and truth" + (", logs" if args.logs else "")
@@ -52,6 +60,8 @@ def run(args, out: Path, progress) -> None:
 def _run_rotary(args, out: Path, progress, n: int) -> None:
     """``--kind rotary``: ``out/motor_NN/motor.toml`` + ``truth.json`` (+ ``logs/run{k}.csv`` and
     ``sweep/sweep.csv``, a slow standstill sweep for ``pgcomm identify --sweep``)."""
+    from dataclasses import replace
+
     from pgcomm.rotary.zoo import draw_rotary, write_rotary_motor, write_running_logs, write_sweep_log
     from pgcomm.zoo import motor_folder_name
 
@@ -59,13 +69,15 @@ def _run_rotary(args, out: Path, progress, n: int) -> None:
         name = motor_folder_name(i, n)
         with progress.stage(f"{name} ({i}/{n}): rotary motor and truth"
                             + (", running logs, standstill sweep" if args.logs else "")):
-            t = draw_rotary(args.seed, i - 1)
+            t = replace(draw_rotary(args.seed, i - 1), control_per_log=args.control_per_log)
             folder = write_rotary_motor(t, out / name)
             if args.logs:
                 write_running_logs(t, folder / "logs", seed=args.seed)
                 write_sweep_log(t, folder / "sweep", seed=args.seed)
             progress.info(f"{t.motor.name}, k_t = {t.k_t:.3g} N·m/A, J = {t.inertia:.3g} kg·m², cogging "
                           f"{100 * t.cogging.rms() / (t.k_t * 0.5 * t.motor.current_limit):.1f} % of rated torque, "
-                          f"ripple {100 * t.ripple.rms():.2f} %")
+                          f"ripple {100 * t.ripple.rms():.2f} %"
+                          + (f", drive at {t.control_per_log} control cycles per logged sample"
+                             if t.control_per_log > 1 else ""))
     if not args.quiet:
         print(f"wrote {n} rotary motor folder(s) to {args.out}")
