@@ -201,7 +201,9 @@ def _run_rotary(args, out: Path, progress, t0: float) -> None:
     else:
         truth = default_truth(motor, seed=args.seed)
         source = f"drawn from the description (seed {args.seed})"
-    progress.info(f"rotary {motor.name}: twin truth {source}")
+    progress.info(f"rotary {motor.name}: twin truth {source}"
+                  + (f"; its drive controls {truth.control_per_log} times per logged sample"
+                     if truth.control_per_log > 1 else ""))
     settings = rexp.quick_settings() if args.quick else rexp.RotarySettings()
     results = rexp.run(truth, settings, seed=args.seed, progress=progress)
     results.update(command="reproduce", kind="rotary", version=__version__, quick=bool(args.quick), seed=args.seed,

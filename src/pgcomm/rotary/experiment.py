@@ -409,7 +409,8 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
     ratio = {loop: tracking["model"][loop] / tracking["standstill_table"][loop] for loop in ("position", "speed")}
     return {
         "motor": {**motor.to_dict(), "name": motor.name, "cogging_fundamental": motor.cogging_fundamental,
-                  "k0_true": truth.k0, "inertia_ratio_true": truth.inertia / truth.k0},
+                  "k0_true": truth.k0, "inertia_ratio_true": truth.inertia / truth.k0,
+                  "control_per_log": truth.control_per_log},
         "identification": {**ident.info, "errors": errs, "mechanics_fit": mech},
         "standstill": {"points": n_pts, "seconds": sweep.seconds, "noise_A": sweep.noise,
                        "simulation_seconds": sweep_sim, "agreement": agreement},
