@@ -324,7 +324,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         (air-gap N·m, with ``torque_noise``), ``iq_true`` (A, what flows from that instant), ``demand`` (A),
         ``theta_ref``, ``omega_ref``; and ``vq_1``, ``vd_1`` (V, the drive's q- and d-voltage commands,
         :mod:`pgcomm.rotary.winding`) when ``truth.winding`` is set. Where the drive controls faster than it logs
-        (``control_per_log = K > 1``) the references are interpolated linearly to the control samples and every
+        (``control_per_log = K > 1``) the references are interpolated to the control samples by a cubic spline and every
         column is the snapshot of every ``K``-th control sample; the measurement noises are drawn per logged
         sample, so they are the same numbers for every ``K``.
     """
