@@ -57,10 +57,6 @@ READING_EVIDENCE = 10.83
 #: Natural frequencies (rad/s) of a drive's angle-estimating PLL tried when no logged angle sits on an encoder's
 #: lattice (:func:`_angle_pll`): ODrive's encoder bandwidth defaults to 1000 rad/s.
 PLL_FREQUENCIES = tuple(float(x) for x in np.geomspace(50.0, 5000.0, 13))
-#: Where the current reads smooth, the angle's PLL is searched again with the current's lag fitted at each frequency
-#: (:func:`_angle_pll`), at the frequencies within this factor of the held current's reading (three grid steps each
-#: way; on zoo 9N6P at 8 control cycles per logged sample the two readings were 1221 and 1253 rad/s).
-PLL_NEAR = 3.2
 #: Dampings tried at the best natural frequency (1: ODrive's ``k_i = k_p² / 4``).
 PLL_DAMPINGS = (1.0, 0.707)
 #: The share of a PLL reading's move of the maps (from the angle as logged) taken as uncertain in the verdict: on the
@@ -214,8 +210,7 @@ def _with_pll(prepared, pll) -> list:
     return [replace(p, theta=pll_corrected(p.theta, p.ts, *pll)) for p in prepared]
 
 
-def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delay: int | None = None,
-               near: float | None = None) -> dict:
+def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delay: int | None = None) -> dict:
     """Whether the logged angle reads as a drive's PLL estimate (module docstring, "The angle's estimate"): the
     basis fit with the angle corrected for each natural frequency of :data:`PLL_FREQUENCIES` at ``ζ = 1``, then
     each :data:`PLL_DAMPINGS` at the best frequency and its neighbours, against the angle as logged; a PLL only
@@ -225,8 +220,7 @@ def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delay: int | None 
     best lag (:func:`_lag_search`): a PLL's lag on the angle and a smooth current's lag both turn the current against
     the acceleration, and along the valley they trade one for the other (zoo 9N6P at 8 control cycles per logged
     sample through ODrive's PLL: reading the two in turn stopped at 1581 rad/s and 0.18 sample, 10 % above the fit at
-    1200 rad/s and 1/16). ``near`` (rad/s) limits the grid to the frequencies within :data:`PLL_NEAR` of it (the
-    joint search costs a lag search per frequency; the held current's reading lands close to the joint one).
+    1200 rad/s and 1/16).
 
     Returns:
         ``{"natural_frequency_rad_s": float | None, "damping": float | None, "cost_as_logged": A², "cost": A²,
@@ -241,8 +235,6 @@ def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delay: int | None 
 
     plain, rows = cost_of(prepared)
     grid = np.asarray(PLL_FREQUENCIES, float)
-    if near is not None:
-        grid = grid[(grid >= near / PLL_NEAR) & (grid <= near * PLL_NEAR)]
     costs = np.array([cost_of(_with_pll(prepared, (w, 1.0)))[0] for w in grid])
     by_freq = {f"{w:.4g}": float(c) for w, c in zip(grid, costs)}  # results keys are strings
     j = int(np.argmin(costs))
@@ -332,8 +324,8 @@ def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, a
         runs = [alternate(None, estimate, pll, timing)]
         free = _current_delay(_with_pll(prepared, runs[0][1]), layout, taps, delays, "detect")
         if not free["held"]:
-            found = {**_angle_pll(_with_delay(prepared, free["samples"]), layout, taps, free["samples"],
-                                  runs[0][1][0] if runs[0][1] is not None else None), "searched": True}
+            found = {**_angle_pll(_with_delay(prepared, free["samples"]), layout, taps, free["samples"]),
+                     "searched": True}
             q = None if found["natural_frequency_rad_s"] is None else (found["natural_frequency_rad_s"],
                                                                        found["damping"])
             runs.append((found, q, _current_delay(_with_pll(prepared, q), layout, taps, delays, "detect")))
