@@ -34,7 +34,8 @@ from pgcomm.rotary.model import Fourier, RotaryModel, harmonic_columns
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
-from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _with_delay, _with_pll, apply_reading, current_noise
+from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _with_delay, _with_pll, apply_reading, current_noise, \
+    lag_of
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, Orders, \
     _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, _map_gram, _map_standard_error, \
     _prepare, _quantisation_correction, _significant_extra_orders
@@ -61,8 +62,7 @@ def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: 
             current_delay: int = 0, angle_pll=None, lines=(), current_lag=None):
     """All filtered rows of all logs at once (for the few columns of :func:`fit_mechanics`)."""
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples, taps, encoder_step)
-    parts = list(_chunks(_with_delay(_with_pll(prepared, angle_pll), current_delay, current_lag is None,
-                                     current_lag or 0.0), orders, taps,
+    parts = list(_chunks(_with_delay(_with_pll(prepared, angle_pll), current_delay, current_lag), orders, taps,
                          lines=lines))
     return {k: np.concatenate([c[k] for c in parts]) for k in parts[0]}, counts, v_limit, ts
 
@@ -122,8 +122,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     estimate, timing = _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll, current_lag)
     pll = None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
                                                                      estimate["damping"])
-    as_logged = _with_delay(prepared, timing["samples"], timing["held"], timing["lag"])
-    prepared = _with_delay(_with_pll(prepared, pll), timing["samples"], timing["held"], timing["lag"])
+    as_logged = _with_delay(prepared, timing["samples"], lag_of(timing))
+    prepared = _with_delay(_with_pll(prepared, pll), timing["samples"], lag_of(timing))
     if isinstance(time_lines, str):
         lines_info = _time_lines(prepared, orders, taps)
     else:

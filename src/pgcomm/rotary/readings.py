@@ -94,10 +94,10 @@ def _shifted(x: np.ndarray, delay: int) -> np.ndarray:
     return out
 
 
-def _with_delay(prepared, delay: int, held: bool = True, lag: float = 0.0) -> list:
-    """``prepared`` with the current shifted by ``delay`` samples and read as ``held`` between samples, or as the
-    smooth curve through them ``lag`` samples late (:class:`pgcomm.rotary.regression._Prepared`)."""
-    return [replace(p, iq=_shifted(p.iq, delay), held=bool(held), lag=0.0 if held else float(lag)) for p in prepared]
+def _with_delay(prepared, delay: int, lag: float | None = None) -> list:
+    """``prepared`` with the current shifted by ``delay`` samples and read held between samples (``lag`` ``None``), or
+    as the smooth curve through them ``lag`` samples late (:class:`pgcomm.rotary.regression._Prepared`)."""
+    return [replace(p, iq=_shifted(p.iq, delay), lag=None if lag is None else float(lag)) for p in prepared]
 
 
 def _vertex(points, lo: float, hi: float) -> float | None:
@@ -124,10 +124,10 @@ def _lag_search(prepared, layout: "_Layout", taps: int, delay: int) -> tuple[dic
     """
     costs, rows = {}, 0.0
     for f in CONTROL_LAGS:
-        costs[f], rows = _basis_cost(_with_delay(prepared, delay, False, f), layout, taps)
+        costs[f], rows = _basis_cost(_with_delay(prepared, delay, f), layout, taps)
     f = _vertex(sorted(costs.items()), -0.5, 0.5)
     if f is not None and f not in costs:
-        costs[f], rows = _basis_cost(_with_delay(prepared, delay, False, f), layout, taps)
+        costs[f], rows = _basis_cost(_with_delay(prepared, delay, f), layout, taps)
     return costs, rows
 
 
@@ -152,7 +152,7 @@ def _current_delay(prepared, layout: "_Layout", taps: int, delays=CURRENT_DELAYS
     detect = isinstance(lag, str)
     if detect or lag is None:
         for d in delays:
-            costs[d, True, 0.0], rows = _basis_cost(_with_delay(prepared, d), layout, taps)
+            costs[d, None], rows = _basis_cost(_with_delay(prepared, d), layout, taps)
     if detect or lag is not None:
         near = delays
         if costs:
@@ -162,18 +162,23 @@ def _current_delay(prepared, layout: "_Layout", taps: int, delays=CURRENT_DELAYS
         for d in near:
             if detect:
                 found, rows = _lag_search(prepared, layout, taps, d)
-                costs.update({(d, False, f): c for f, c in found.items()})
+                costs.update({(d, f): c for f, c in found.items()})
             else:
-                costs[d, False, float(lag)], rows = _basis_cost(_with_delay(prepared, d, False, lag), layout, taps)
-    base = (as_written, True, 0.0) if (detect or lag is None) else (as_written, False, float(lag))
+                costs[d, float(lag)], rows = _basis_cost(_with_delay(prepared, d, lag), layout, taps)
+    base = (as_written, None if detect or lag is None else float(lag))
     best = min(costs, key=costs.get)
     evidence = _evidence(costs[base], costs[best], rows, taps)
     chosen = best if evidence > READING_EVIDENCE else base
-    by_form = {name: min((v for k, v in costs.items() if k[1] == h), default=None)
-               for name, h in (("held", True), ("smooth", False))}
-    return {"samples": int(chosen[0]), "held": bool(chosen[1]), "lag": float(chosen[2]),
-            "cost_by_delay": {int(k[0]): v for k, v in costs.items() if k[1]} or None, "cost_by_form": by_form,
+    by_form = {name: min((v for k, v in costs.items() if (k[1] is None) == held), default=None)
+               for name, held in (("held", True), ("smooth", False))}
+    return {**_timing(chosen[0], chosen[1]),
+            "cost_by_delay": {int(k[0]): v for k, v in costs.items() if k[1] is None} or None, "cost_by_form": by_form,
             "evidence": float(evidence)}
+
+
+def _timing(delay: int, lag: float | None) -> dict:
+    """The results' entries of a reading of the current: ``samples``, ``held`` and ``lag`` (0 where held)."""
+    return {"samples": int(delay), "held": lag is None, "lag": 0.0 if lag is None else float(lag)}
 
 
 def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: float, damping: float) -> np.ndarray:
@@ -291,13 +296,12 @@ def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, a
     estimate = {"natural_frequency_rad_s": None if pll is None else pll[0], "damping": None if pll is None else pll[1],
                 "searched": False}
     detect_delay, detect_form = isinstance(current_delay, str), isinstance(current_lag, str)
-    timing = {"samples": 0 if detect_delay else int(current_delay), "held": detect_form or current_lag is None,
-              "lag": 0.0 if detect_form or current_lag is None else float(current_lag), "cost_by_delay": None,
-              "evidence": None}
+    timing = {**_timing(0 if detect_delay else current_delay, None if detect_form else current_lag),
+              "cost_by_delay": None, "evidence": None}
     delays = CURRENT_DELAYS if detect_delay else (timing["samples"],)
 
     def read_angle(timing):
-        found = {**_angle_pll(_with_delay(prepared, timing["samples"], timing["held"], timing["lag"]), layout, taps),
+        found = {**_angle_pll(_with_delay(prepared, timing["samples"], lag_of(timing)), layout, taps),
                  "searched": True}
         w = found["natural_frequency_rad_s"]
         return found, (None if w is None else (w, found["damping"]))
@@ -329,7 +333,7 @@ def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, a
             q = None if found["natural_frequency_rad_s"] is None else (found["natural_frequency_rad_s"],
                                                                        found["damping"])
             runs.append((found, q, _current_delay(_with_pll(prepared, q), layout, taps, delays, "detect")))
-        cost = [_basis_cost(_with_delay(_with_pll(prepared, q), t["samples"], t["held"], t["lag"]), layout, taps)[0]
+        cost = [_basis_cost(_with_delay(_with_pll(prepared, q), t["samples"], lag_of(t)), layout, taps)[0]
                 for _, q, t in runs]
         estimate, pll, timing = runs[int(np.argmin(cost))]
     else:

@@ -131,7 +131,6 @@ _TRI = np.array([1.0 / 12.0, 5.0 / 6.0, 1.0 / 12.0])
 #: samples per period of the highest order the phase turns 2.1 rad per interval: error ~1e-6 of a column).
 _GL_NODES = 0.5 * (1.0 + np.polynomial.legendre.leggauss(4)[0])
 _GL_WEIGHTS = 0.5 * np.polynomial.legendre.leggauss(4)[1]
-#: ``(4, nodes)``: the cubic Lagrange weights of the samples at ``-1, 0, 1, 2`` (sample intervals) at each node.
 def _lagrange(xs) -> np.ndarray:
     """``(4, len(xs))``: the cubic Lagrange weights of the samples at ``-1, 0, 1, 2`` (sample intervals) at ``xs``."""
     return np.array([[-x * (x - 1) * (x - 2) / 6, (x + 1) * (x - 1) * (x - 2) / 2,
@@ -204,12 +203,11 @@ class _Prepared:
     ts: float
     step: float | None = None
     acc_noise: float = 0.0
-    #: The logged current between two samples (:mod:`pgcomm.rotary.readings`): ``True`` held from each sample to the
-    #: next (a drive that controls at its log rate), ``False`` smooth: the cubic through the four samples around
-    #: each interval, ``lag`` samples late (one that controls faster and logs a snapshot of its current every
+    #: The logged current between two samples (:mod:`pgcomm.rotary.readings`): ``None`` held from each sample to the
+    #: next (a drive that controls at its log rate); a number: smooth, the cubic through the four samples around
+    #: each interval, that many samples late (one that controls faster and logs a snapshot of its current every
     #: ``T_s``: at ``K`` control cycles per logged sample the held cycles lag that curve by ``1/(2K)``).
-    held: bool = True
-    lag: float = 0.0
+    lag: float | None = None
 
 
 def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect"):
@@ -286,8 +284,14 @@ def _path_angles(theta_ext: np.ndarray, n_int: int) -> np.ndarray:
     Returns:
         ``(n_int, nodes)`` angles (rad).
     """
-    pts = np.stack([theta_ext[j:j + n_int] for j in range(4)], axis=1)  # θ_{k-1}, θ_k, θ_{k+1}, θ_{k+2}
-    return pts @ _GL_LAGRANGE
+    return _at_nodes(theta_ext, n_int, _GL_LAGRANGE)
+
+
+def _at_nodes(ext: np.ndarray, n_int: int, weights: np.ndarray) -> np.ndarray:
+    """``(n_int, nodes)``: the cubic through the four samples around each interval (``ext[k + 1]`` the sample at
+    ``t_k``, as :func:`_path_angles` takes them) at the nodes whose Lagrange weights are ``weights`` (:func:`_lagrange`)."""
+    pts = np.stack([ext[j:j + n_int] for j in range(4)], axis=1)  # x_{k-1}, x_k, x_{k+1}, x_{k+2}
+    return pts @ weights
 
 
 def _interval_weights(path: np.ndarray, orders, current=None):
@@ -349,7 +353,7 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
             a_d, b_d = _interval_weights(path, orders.direction)
             sg_i = sgn[:n_int, None]
             out = {"row": st, "log": np.full(st.size, pos)}
-            if p.held:
+            if p.lag is None:
                 a_r, b_r = _interval_weights(path, orders.ripple)
                 a_r, b_r = iq[:n_int, None] * a_r, iq[:n_int, None] * b_r
                 y = _filt(iq, loc, g_zoh)
@@ -359,8 +363,7 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
             else:
                 # the current between snapshots: the cubic through the four around each interval (as the angle's
                 # path), ``lag`` late
-                ext = _extended(p.iq, lo, hi)
-                cur = np.stack([ext[j:j + n_int] for j in range(4)], axis=1) @ _lagrange(_GL_NODES - p.lag)
+                cur = _at_nodes(_extended(p.iq, lo, hi), n_int, _lagrange(_GL_NODES - p.lag))
                 a_r, b_r = _interval_weights(path, orders.ripple, cur)
                 rise, fall = cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES))
                 y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
