@@ -17,9 +17,9 @@ standstill sweep of 3600 angles, four rows in closed loop) and prints:
 * the orders outside the slot/pole basis that the identification added (each zoo motor has one cogging
   and one ripple order outside its basis).
 
-Several minutes on 2 cores (the 3600-point sweeps dominate); ``--quick`` uses 720 points. ``--control-per-log K`` runs
-every motor's drive ``K`` times per logged sample (:attr:`pgcomm.rotary.twin.RotaryTruth.control_per_log`; the zoo's
-drives control at their log rate).
+Several minutes on 2 cores (the 3600-point sweeps dominate); ``--quick`` uses 720 points. The zoo's drives control at
+4-16 kHz, drawn per motor, and log at 1 kHz (:attr:`pgcomm.rotary.twin.RotaryTruth.control_per_log`, printed as ``K``);
+``--control-per-log K`` runs every motor's drive ``K`` times per logged sample instead (1: at its log rate).
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     from pgcomm.rotary.zoo import draw_rotary
 
     settings = quick_settings() if args.quick else RotarySettings()
-    print(f"{'#':>2} {'motor':7s} {'cog err':>8s} {'rip err':>8s} {'dir err':>8s} {'pos ratio':>9s} "
+    print(f"{'#':>2} {'motor':7s} {'K':>3s} {'cog err':>8s} {'rip err':>8s} {'dir err':>8s} {'pos ratio':>9s} "
           f"{'spd ratio':>9s} {'tab diff A':>10s} {'sweep err A':>11s} {'agree':>5s} {'run s':>6s} {'sweep s':>7s} "
           f"{'wall s':>6s} {'rip SE':>7s} {'s to 5%':>7s} {'floor p/s':>9s} orders added (outside the slot/pole basis)")
     rows = []
@@ -70,7 +70,7 @@ def main(argv=None) -> int:
         rows.append((e["cogging_rel"], e["ripple_rel"], q["position"], q["speed"], se["ripple"]["relative"],
                      se["ripple"]["log_time_factor_to_resolve"] * tm["running_logs_s"], excess["position"],
                      excess["speed"], floor["position"], floor["speed"]))
-        print(f"{i:2d} {t.motor.name:7s} {100 * e['cogging_rel']:7.1f}% {100 * e['ripple_rel']:7.1f}% {100 * e['ripple_rms']:5.2f}% "
+        print(f"{i:2d} {t.motor.name:7s} {t.control_per_log:3d} {100 * e['cogging_rel']:7.1f}% {100 * e['ripple_rel']:7.1f}% {100 * e['ripple_rms']:5.2f}% "
               f"{100 * e['direction_rel']:7.1f}% {q['position']:9.2f} {q['speed']:9.2f} "
               f"{a['rms_model_minus_sweep_A']:10.3g} {a['rms_sweep_minus_truth_A']:11.3g} "
               f"{'yes' if a['within_noise'] else 'no':>5s} {tm['running_logs_s']:6.0f} {tm['standstill_s']:7.0f} "

@@ -123,7 +123,8 @@ def test_a_current_logged_a_sample_late_is_found_and_shifted(tmp_path, zoo, caps
     """Each zoo log with its q-current written one sample late (a logger that writes the column a cycle later than
     the angle): identify says so, reports the delay, and the compensation table is the intact logs' within a
     fifth of its standard error (only the first and last sample of each log differ). As logged, the same delay
-    is reported as none."""
+    is reported as none. The zoo's drive controls faster than it logs, so both are read as the smooth curve through
+    the snapshots, with the same lag."""
 
     logs = sorted((zoo / "logs").glob("*.csv"))
     late = rewrite_logs(logs, tmp_path, "late",
@@ -131,12 +132,17 @@ def test_a_current_logged_a_sample_late_is_found_and_shifted(tmp_path, zoo, caps
     capsys.readouterr()
     a = tmp_path / "a"
     assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, logs), "--out", str(a)]) == 0
-    assert "the logged q-current is in time with the angle" in capsys.readouterr().err
+    assert "the logged q-current is a snapshot of a current that moves between" in capsys.readouterr().err
+    plain = json.loads((a / "results.json").read_text())["identification"]["current_delay"]
+    assert plain["samples"] == 0 and not plain["held"]
     out = tmp_path / "b"
     assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, late), "--out", str(out)]) == 0
-    assert "the logged q-current is 1 sample(s) late against the angle: used shifted by 1" in capsys.readouterr().err
+    assert "written 1 sample(s) late against the angle: used shifted by 1" in capsys.readouterr().err
     res = json.loads((out / "results.json").read_text())["identification"]
     assert res["current_delay"]["samples"] == 1 and res["current_delay"]["detected"]
+    k = read_truth(zoo / "truth.json").control_per_log
+    for timing in (plain, res["current_delay"]):
+        assert timing["lag"] == pytest.approx(1 / (2 * k), abs=1 / 64)  # the held cycles' lag, within the grid's step
     assert "1 sample(s) late" in (out / "report.html").read_text()
     ta, tb = read_angle_table(a / "compensation.csv").iq, read_angle_table(out / "compensation.csv").iq
     se = json.loads((a / "results.json").read_text())["identification"]["standard_error"]["cogging"]["rms_error"]
@@ -157,7 +163,7 @@ def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_pat
                  str(tmp_path / "map.toml"), "--out", str(out)]) == 0
     err = capsys.readouterr().err
     assert "read as a drive's PLL estimate of natural frequency" in err
-    assert "1 sample(s) late against the angle" in err
+    assert "1 sample(s) late against the angle" in err and "smooth curve through the samples" in err
     ident = json.loads((out / "results.json").read_text())["identification"]
     assert ident["angle_pll"]["natural_frequency_rad_s"] == pytest.approx(1000.0, rel=0.3)
     assert ident["current_delay"]["samples"] == 1
@@ -169,9 +175,11 @@ def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_pat
     # the same readings given on the command line: nothing searched, the same table
     given = tmp_path / "given"
     w, z = ident["angle_pll"]["natural_frequency_rad_s"], ident["angle_pll"]["damping"]
+    timing = ident["current_delay"]
+    lag = "held" if timing["held"] else repr(timing["lag"])
     assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, made), "--columns",
                  str(tmp_path / "map.toml"), "--out", str(given), "--quiet", "--current-delay", "1",
-                 "--current-lag", "held", "--angle-pll", f"{w!r},{z!r}"]) == 0
+                 "--current-lag", lag, "--angle-pll", f"{w!r},{z!r}"]) == 0
     again = json.loads((given / "results.json").read_text())["identification"]
     assert again["angle_pll"]["searched"] is False and again["current_delay"]["detected"] is False
     np.testing.assert_allclose(read_angle_table(given / "compensation.csv").iq, table.iq, rtol=0,

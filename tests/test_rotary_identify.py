@@ -2,7 +2,10 @@
 
 Tolerances: the issue's target (5 % RMS of the truth over the revolution) for the cogging; the
 ripple of a short (quick-sized) run is held to 10 %, the direction map to 15 %. The zoo motor 0
-(9N6P) has the lowest cogging orders (up to 54 per revolution), so its running logs are short.
+(9N6P) has the lowest cogging orders (up to 54 per revolution), so its running logs are short. Its drive,
+as the zoo draws it, controls 8 times per logged sample (``motor0_fast``); most tests here run it at its log rate
+(``motor0``: the current held between samples), where the readings of the angle and the current were built, and
+the tests of the snapshot current run it as drawn.
 """
 
 from __future__ import annotations
@@ -24,7 +27,10 @@ from _drive_pll import odrive_pll, with_sensor_pickup
 
 @pytest.fixture(scope="module")
 def motor0():
-    t = draw_rotary(0, 0)
+    """Zoo motor 0 with a drive that controls at its log rate (``control_per_log = 1``), and its quick running logs."""
+    from dataclasses import replace
+
+    t = replace(draw_rotary(0, 0), control_per_log=1)
     a = t.inertia / t.k0
     orders = Orders.for_motor(t.motor)
     refs = running_references(t.motor, a, quick_settings(), orders)
@@ -34,11 +40,11 @@ def motor0():
 
 
 @pytest.fixture(scope="module")
-def motor0_fast(motor0):
-    """Zoo motor 0's running logs (as ``motor0``'s) from a drive that controls 8 times per logged sample."""
-    from dataclasses import replace
-
-    t = replace(motor0[0], control_per_log=8)
+def motor0_fast():
+    """Zoo motor 0 as the zoo draws it, its drive controlling several times per logged sample, and its quick running
+    logs (as ``motor0``'s)."""
+    t = draw_rotary(0, 0)
+    assert t.control_per_log > 1
     a = t.inertia / t.k0
     refs = running_references(t.motor, a, quick_settings(), Orders.for_motor(t.motor))
     return t, [simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=k)
@@ -124,9 +130,9 @@ def test_a_current_shifted_against_the_angle_is_found(motor0, delay):
 
 
 def test_a_drive_that_controls_faster_than_it_logs_is_read_smooth(motor0_fast):
-    """The running logs of zoo 9N6P on a drive that controls 8 times per logged sample (an ODrive's 8 kHz loop logged
-    at 1 kHz): each logged current is a snapshot of one that moves between samples. Detected, it reads as the smooth
-    curve through the snapshots, 1/16 of a sample late (the cycles' currents are held: ``1/(2K)``), within the lag's
+    """The running logs of zoo 9N6P on its drive, which controls ``K`` = 8 times per logged sample (an ODrive's 8 kHz
+    loop logged at 1 kHz): each logged current is a snapshot of one that moves between samples. Detected, it reads as
+    the smooth curve through the snapshots, ``1/(2K)`` of a sample late (the cycles' currents are held), within the lag's
     resolution (a 64th), and the maps and ``J/k0`` hold the bars of the drive that controls at its log rate
     (:func:`test_identification_without_torque_sensor_matches_the_truth`). Read as held, the cogging is off by more than
     ten of the smooth reading's standard errors and ``J/k0`` by more than 3 %."""
@@ -136,8 +142,9 @@ def test_a_drive_that_controls_faster_than_it_logs_is_read_smooth(motor0_fast):
     res = identify(logs, t.motor)
     timing = res.info["current_delay"]
     assert timing["detected"] and not timing["held"] and timing["samples"] == 0
-    assert timing["lag"] == pytest.approx(1 / 16, abs=1 / 64)
-    assert "about 8 control cycles per logged sample" in delay_text(timing)
+    k = t.control_per_log
+    assert timing["lag"] == pytest.approx(1 / (2 * k), abs=1 / 64)
+    assert f"about {k} control cycles per logged sample" in delay_text(timing)
     _within_the_bars(res.model, t)
     held = identify(logs, t.motor, current_lag=None)
     e_held = identification_errors(held.model, t)

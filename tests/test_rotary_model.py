@@ -134,7 +134,9 @@ def test_twin_evaluates_the_law_at_the_middle_of_the_hold():
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
     from pgcomm.rotary.zoo import draw_rotary
 
-    t = draw_rotary(0, 0)
+    from dataclasses import replace
+
+    t = replace(draw_rotary(0, 0), control_per_log=1)  # the hold is the log's sample
     a = t.inertia / t.k0
     ref = tracking_references(t.motor, Orders.for_motor(t.motor), quick_settings())["speed"]
     mse = {}
@@ -190,7 +192,7 @@ def test_a_drive_faster_than_its_log_is_its_fast_twin_sampled():
     from pgcomm.rotary.zoo import draw_rotary
 
     k = 4
-    noisy = draw_rotary(0, 0)
+    noisy = replace(draw_rotary(0, 0), control_per_log=1)
     t = replace(noisy, current_noise=0.0, torque_noise=0.0, winding=replace(noisy.winding, voltage_noise=0.0))
     a = t.inertia / t.k0
     ref = tracking_references(t.motor, Orders.for_motor(t.motor), quick_settings())["position"]
@@ -220,7 +222,7 @@ def test_control_per_log_is_a_positive_integer_and_round_trips():
     from pgcomm.rotary.twin import RotaryTruth
     from pgcomm.rotary.zoo import draw_rotary
 
-    t = draw_rotary(0, 1)
+    t = replace(draw_rotary(0, 1), control_per_log=1)
     assert "control_per_log" not in t.to_dict()  # truth files of a drive at its log rate are as before
     d8 = replace(t, control_per_log=8).to_dict()
     back = RotaryTruth.from_dict(json.loads(json.dumps(d8)))
@@ -243,3 +245,36 @@ def test_a_preview_drive_controls_as_fast_as_the_logs_read():
                       ({"held": False, "lag": -0.01}, PREVIEW_MAX_CONTROL_PER_LOG), (None, 1)):
         info = dict(base, **({"current_delay": timing} if timing else {}))
         assert truth_from_identification(m, info, t.motor).control_per_log == k
+
+
+def test_the_zoos_drives_control_at_plausible_rates():
+    """Every zoo drive controls at a rate within :data:`~pgcomm.rotary.zoo.CONTROL_RATE_HZ` (to the rounding of whole
+    control cycles per logged sample), from a stream of its own: the motor's other draws are those of a drive at its
+    log rate, and the truth file keeps the rate. A user's motor description gets one too, and at a log rate above the
+    drive's range its drive logs every cycle."""
+    from dataclasses import replace
+
+    from pgcomm.rotary.twin import RotaryTruth
+    from pgcomm.rotary.zoo import CONTROL_RATE_HZ, default_truth, draw_rotary
+
+    lo, hi = CONTROL_RATE_HZ
+    ks = []
+    for seed in range(3):
+        for i in range(10):
+            t = draw_rotary(seed, i)
+            ts = t.motor.sample_time
+            assert lo * ts - 0.5 <= t.control_per_log <= hi * ts + 0.5
+            ks.append(t.control_per_log)
+            assert RotaryTruth.from_dict(t.to_dict()).control_per_log == t.control_per_log
+    assert len(set(ks)) >= 5  # drawn, not one rate for all
+    import numpy as np
+
+    from pgcomm.rotary.zoo import COMBINATIONS, draw_truth
+
+    t = draw_rotary(0, 2)
+    alone = draw_truth(np.random.default_rng([0, 2, 0x70]), *COMBINATIONS[2])  # the motor's own stream alone
+    assert t.k_t == alone.k_t and t.inertia == alone.inertia
+    np.testing.assert_array_equal(t.cogging.coef, alone.cogging.coef)
+    m = t.motor
+    assert lo * m.sample_time - 0.5 <= default_truth(m).control_per_log <= hi * m.sample_time + 0.5
+    assert default_truth(replace(m, sample_time=1 / (2 * hi))).control_per_log == 1

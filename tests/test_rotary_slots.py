@@ -32,15 +32,25 @@ def _logs(truth):
     return [running_log(truth, r, LawParams.classical(m.pole_pairs), default_gains(a), k) for k, r in enumerate(refs)]
 
 
-@pytest.mark.parametrize("index", [0, 1, 3])
-def test_the_logs_give_the_cogging_fundamental_and_the_slots(index):
+@pytest.mark.parametrize("index, held", [(0, False), (1, False), (3, False), (0, True)])
+def test_the_logs_give_the_cogging_fundamental_and_the_slots(index, held):
+    """The zoo's drives control several times per logged sample: their logs, read as the smooth curve through the
+    snapshots ``1/(2K)`` of a sample late (what the identification's reading finds), give the truth's count; read as
+    held from sample to sample, they show orders the motor does not have (9N6P: 18 slots counted for 9). A drive that
+    controls at its log rate (``held``), read held, gives it too."""
     truth = draw_rotary(0, index)
+    if held:
+        truth = replace(truth, control_per_log=1)
     m = truth.motor
-    q, info = detect_slots(_logs(truth), m.pole_pairs, m.sample_time)
+    logs = _logs(truth)
+    lag = None if held else 0.5 / truth.control_per_log
+    q, info = detect_slots(logs, m.pole_pairs, m.sample_time, current_lag=lag)
     assert info["cogging_fundamental"] == m.cogging_fundamental
     assert q == m.slots, info
     assert m.cogging_fundamental in info["orders_seen"]
     assert m.slots in info["slots_with_that_fundamental"]
+    if index == 0 and not held:
+        assert detect_slots(logs, m.pole_pairs, m.sample_time)[0] != m.slots  # the failure the reading is for
 
 
 def test_no_cogging_no_invented_fundamental():

@@ -364,17 +364,20 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
             est, timing = detect_reading(data, replace(motor, slots=q), current_delay=current_delay,
                                          angle_pll=angle_pll, current_lag=current_lag)
             pll = None if est["natural_frequency_rad_s"] is None else (est["natural_frequency_rad_s"], est["damping"])
+            # and so does a snapshot current read as held (zoo 9N6P at 8 control cycles per logged sample: 18 for 9)
+            lag = lag_of(timing)
             read = data
-            if pll is not None or timing["samples"]:
+            if pll is not None or timing["samples"] or lag is not None:
                 read = [apply_reading(d, timing["samples"], pll, motor.sample_time) for d in data]
-                q, slots_detected = detect_slots(read, motor.pole_pairs, motor.sample_time)
+                q, slots_detected = detect_slots(read, motor.pole_pairs, motor.sample_time, current_lag=lag)
                 slots_detected["counted_after_reading"] = True
             # so does a time-periodic disturbance at two speeds (zoo 24N20P with a 50 Hz pickup: 120 slots for 24)
-            lines = (detect_time_lines(read, replace(motor, slots=q))["hz"] if time_lines == "detect"
-                     else list(time_lines))
+            lines = (detect_time_lines(read, replace(motor, slots=q), current_lag=lag)["hz"]
+                     if time_lines == "detect" else list(time_lines))
             if lines:
                 counted = "counted_after_reading" in slots_detected
-                q, slots_detected = detect_slots(read, motor.pole_pairs, motor.sample_time, time_lines=lines)
+                q, slots_detected = detect_slots(read, motor.pole_pairs, motor.sample_time, time_lines=lines,
+                                                 current_lag=lag)
                 slots_detected["counted_with_time_lines"] = lines
                 if counted:
                     slots_detected["counted_after_reading"] = True

@@ -22,9 +22,10 @@ def configure(p) -> None:
     p.add_argument("--kind", choices=("linear", "rotary"), default="linear",
                    help="linear motors (force maps, default) or rotary PMSM/BLDC motors (motor.toml with "
                         "kind = \"rotary\" and truth.json; --logs writes running logs t, theta, velocity, iq_1, id_1, vq_1, vd_1)")
-    p.add_argument("--control-per-log", type=int, default=1, metavar="K",
+    p.add_argument("--control-per-log", type=int, default=None, metavar="K",
                    help="rotary: the drives control K times per logged sample and log a snapshot of every K-th cycle "
-                        "(8 for an ODrive's 8 kHz loop logged at 1 kHz; default 1: they control at their log rate)")
+                        "(8 for an ODrive's 8 kHz loop logged at 1 kHz; 1: they control at their log rate; default: "
+                        "drawn per motor, 4-16 kHz)")
     add_common_options(p, out=True, plant=False)
 
 
@@ -36,12 +37,12 @@ def run(args, out: Path, progress) -> None:
     n = args.motors
     if not 1 <= n <= MAX_MOTORS:
         raise ConfigError(f"--motors {n}: expected 1 to {MAX_MOTORS} motors")
-    k = getattr(args, "control_per_log", 1)
+    k = getattr(args, "control_per_log", None)
     if getattr(args, "kind", "linear") == "rotary":
-        if not 1 <= k <= 64:
+        if k is not None and not 1 <= k <= 64:
             raise ConfigError(f"--control-per-log {k}: expected 1 to 64 control cycles per logged sample")
         return _run_rotary(args, out, progress, n)
-    if k != 1:
+    if k is not None:
         raise ConfigError("--control-per-log: a rotary drive's control rate (--kind rotary)")
     for i in range(1, n + 1):
         name = motor_folder_name(i, n)
@@ -69,7 +70,9 @@ def _run_rotary(args, out: Path, progress, n: int) -> None:
         name = motor_folder_name(i, n)
         with progress.stage(f"{name} ({i}/{n}): rotary motor and truth"
                             + (", running logs, standstill sweep" if args.logs else "")):
-            t = replace(draw_rotary(args.seed, i - 1), control_per_log=args.control_per_log)
+            t = draw_rotary(args.seed, i - 1)
+            if args.control_per_log is not None:
+                t = replace(t, control_per_log=args.control_per_log)
             folder = write_rotary_motor(t, out / name)
             if args.logs:
                 write_running_logs(t, folder / "logs", seed=args.seed)

@@ -215,17 +215,19 @@ def _with_pll(prepared, pll) -> list:
     return [replace(p, theta=pll_corrected(p.theta, p.ts, *pll)) for p in prepared]
 
 
-def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delay: int | None = None) -> dict:
+def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()) -> dict:
     """Whether the logged angle reads as a drive's PLL estimate (module docstring, "The angle's estimate"): the
     basis fit with the angle corrected for each natural frequency of :data:`PLL_FREQUENCIES` at ``ζ = 1``, then
     each :data:`PLL_DAMPINGS` at the best frequency and its neighbours, against the angle as logged; a PLL only
     where its likelihood ratio (:func:`_evidence`) exceeds :data:`READING_EVIDENCE`.
 
-    With ``smooth_delay``, each reading of the angle is scored with the current read smooth at that delay and its
-    best lag (:func:`_lag_search`): a PLL's lag on the angle and a smooth current's lag both turn the current against
-    the acceleration, and along the valley they trade one for the other (zoo 9N6P at 8 control cycles per logged
-    sample through ODrive's PLL: reading the two in turn stopped at 1581 rad/s and 0.18 sample, 10 % above the fit at
-    1200 rad/s and 1/16).
+    With ``smooth_delays``, each reading of the angle is scored with the current read smooth at the best of those
+    delays and its best lag (:func:`_lag_search`): a PLL's lag on the angle and a smooth current's lag both turn the
+    current against the acceleration, and along the valley they trade one for the other (zoo 9N6P at 8 control cycles
+    per logged sample through ODrive's PLL: reading the two in turn stopped at 1581 rad/s and 0.18 sample, 10 % above
+    the fit at 1200 rad/s and 1/16). The valley crosses whole samples of delay: the same logs with the current written
+    a sample late read 500 rad/s, 2 samples and 1/2 at the delay of the held reading, where 1000 rad/s, 1 sample and
+    1/16 is the drive's; so the delay before is tried too.
 
     Returns:
         ``{"natural_frequency_rad_s": float | None, "damping": float | None, "cost_as_logged": A², "cost": A²,
@@ -233,10 +235,13 @@ def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delay: int | None 
         strings of 4 digits, the results' keys).
     """
     def cost_of(prep):
-        if smooth_delay is None:
+        if not smooth_delays:
             return _basis_cost(prep, layout, taps)
-        found, n = _lag_search(prep, layout, taps, smooth_delay)
-        return min(found.values()), n
+        best = None
+        for d in smooth_delays:
+            found, n = _lag_search(prep, layout, taps, d)
+            best = min(best or (np.inf, n), (min(found.values()), n))
+        return best
 
     plain, rows = cost_of(prepared)
     grid = np.asarray(PLL_FREQUENCIES, float)
@@ -328,7 +333,8 @@ def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, a
         runs = [alternate(None, estimate, pll, timing)]
         free = _current_delay(_with_pll(prepared, runs[0][1]), layout, taps, delays, "detect")
         if not free["held"]:
-            found = {**_angle_pll(_with_delay(prepared, free["samples"]), layout, taps, free["samples"]),
+            d = free["samples"]
+            found = {**_angle_pll(prepared, layout, taps, tuple(x for x in (d - 1, d) if x in delays)),
                      "searched": True}
             q = None if found["natural_frequency_rad_s"] is None else (found["natural_frequency_rad_s"],
                                                                        found["damping"])
@@ -397,10 +403,11 @@ def delay_text(timing: dict) -> str | None:
         better = (f"; it fits {_times(forms['held'] / forms['smooth'])} better so than held from sample to sample"
                   if forms.get("held") and forms.get("smooth") else "")
         rate = f", about {1.0 / (2.0 * lag):.0f} control cycles per logged sample" if lag > 0.5 / 1000 else ""
-        late = f", {abs(d)} sample(s) {'late' if d > 0 else 'early'}" if d else ""
+        late = (f"; written {abs(d)} sample(s) {'late' if d > 0 else 'early'} against the angle: used shifted by {d}"
+                if d else "")
         return (f"the logged q-current is a snapshot of a current that moves between logged samples (a drive that "
-                f"controls faster than it logs{rate}): read as the smooth curve through the samples{late}, "
-                f"{lag:.3g} sample late{better}")
+                f"controls faster than it logs{rate}): read as the smooth curve through the samples, {lag:.3g} sample "
+                f"late{better}{late}")
     if d == 0:
         near = [costs[k] / costs[0] for k in (-1, 1) if k in costs and costs.get(0)]
         return ("the logged q-current is in time with the angle" + (

@@ -210,10 +210,13 @@ class _Prepared:
     lag: float | None = None
 
 
-def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect"):
+def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect",
+             current_lag: float | None = None):
     """The usable windows of every log: the alias guard, and no window near standstill or reversing; and the
     encoder's quantisation noise in each log's acceleration (:mod:`pgcomm.rotary.quantisation`): ``encoder_step``
-    ``"detect"`` reads the step from each logged angle, a number (rad) gives it, ``None`` leaves it out.
+    ``"detect"`` reads the step from each logged angle, a number (rad) gives it, ``None`` leaves it out. The current is
+    read held between samples (``current_lag`` ``None``) or as the smooth curve through them, ``current_lag`` samples
+    late (:attr:`_Prepared.lag`).
 
     Returns:
         ``(prepared, counts, v_limit, ts)``: a :class:`_Prepared` per log with windows, the window counts
@@ -251,7 +254,8 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
             q = quantisation.encoder_step(th) if isinstance(encoder_step, str) else encoder_step
             noise = 0.0 if q is None else quantisation.acceleration_noise(quantisation.angle_noise(th, q), _hann(taps),
                                                                           ts)
-            prepared.append(_Prepared(i, th, iq, np.sign(w), w, s_all[ok], ts, q, noise))
+            prepared.append(_Prepared(i, th, iq, np.sign(w), w, s_all[ok], ts, q, noise,
+                                      lag=None if current_lag is None else float(current_lag)))
     if not prepared:
         lim = f"{v_limit:.3g} rad/s" if v_limit is not None else "?"
         raise ExcitationError(

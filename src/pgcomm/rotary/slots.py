@@ -70,7 +70,7 @@ def _highest_order(logs, sample_time: float) -> int:
     return int(min(MAX_ORDER, math.floor(2 * math.pi / (MIN_SAMPLES_PER_PERIOD * float(np.percentile(v, 90))))))
 
 
-def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=()) -> tuple[int, dict]:
+def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), current_lag=None) -> tuple[int, dict]:
     """The slot count whose cogging orders the logs show best (module docstring).
 
     Args:
@@ -81,6 +81,10 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=()) -> tu
         time_lines: frequencies (Hz) of time-periodic disturbances fitted beside the orders
             (:func:`pgcomm.rotary.time_lines.detect_time_lines`): a 50 Hz pickup at two speeds spreads over orders
             (zoo 24N20P: 120 slots counted for 24 without it).
+        current_lag: the logged current read held between samples (``None``) or as the smooth curve through them, this
+            many samples late (:func:`pgcomm.rotary.readings.lag_of` of the logs' reading): a drive that controls
+            faster than it logs, read held, shows orders its motor does not have (zoo 9N6P at 8 control cycles per
+            logged sample: 18 slots counted for 9).
 
     Returns:
         ``(slots, info)``: ``info`` has ``slots``, ``cogging_fundamental`` (``L``), ``slots_with_that_fundamental``
@@ -106,7 +110,7 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=()) -> tu
     ripple = ripple[ripple <= top]
     every = Orders(np.arange(1, top + 1), ripple, direction_orders(p))
     motor = RotaryMotor(pole_pairs=p, slots=None, sample_time=sample_time)
-    prepared, _, _, _ = _prepare(logs, motor, every, MIN_SAMPLES_PER_PERIOD, FILTER_TAPS)
+    prepared, _, _, _ = _prepare(logs, motor, every, MIN_SAMPLES_PER_PERIOD, FILTER_TAPS, current_lag=current_lag)
     layout = _Layout.of(every, tuple(time_lines), len(prepared))
     screen = _significant_extra_orders(_fit(prepared, layout, FILTER_TAPS, None, DETECTION_BLOCK_SECONDS), layout,
                                        Orders(np.zeros(0, int), ripple, every.direction), EXTRA_ORDER_ALPHA)

@@ -304,16 +304,18 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
 
 
 def detect_time_lines(logs, motor: RotaryMotor, orders: Orders | None = None, *,
-                      min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS) -> dict:
+                      min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
+                      current_lag=None) -> dict:
     """The time-periodic disturbances :func:`identify` would fit beside the maps of ``logs`` (read as they are: apply
-    :func:`apply_reading` first), without the identification: e.g. to count the slots with them fitted (a pickup at
-    two speeds spreads over orders the basis does not have).
+    :func:`apply_reading` first, and give the current's form, ``current_lag``, as
+    :func:`pgcomm.rotary.readings.lag_of` says), without the identification: e.g. to count the slots with them fitted
+    (a pickup at two speeds spreads over orders the basis does not have).
 
     Returns:
         the entry :func:`identify` reports as ``info["time_lines"]`` (without the amplitudes).
     """
     orders = orders or Orders.for_motor(motor)
-    prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps)
+    prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps, current_lag=current_lag)
     return _time_lines(prepared, orders, taps)
 
 

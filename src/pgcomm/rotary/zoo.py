@@ -18,7 +18,12 @@ drawn from a seed and an index (the same pair always gives the same motor):
   (orders 1, 2, ``2p``), viscous friction, encoder of 2^16–2^20 counts, current noise
   0.2–0.5 % of the limit;
 * a winding behind the logged q-voltage (:func:`pgcomm.rotary.winding.draw_winding`: resistance, inductance, the
-  inverter's dead time, the current loop's noise), drawn from a stream of its own.
+  inverter's dead time, the current loop's noise), drawn from a stream of its own;
+* a drive that controls at 4-16 kHz (log-uniform, :data:`CONTROL_RATE_HZ`) and logs a snapshot every millisecond
+  (:attr:`RotaryTruth.control_per_log`, the rate rounded to whole control cycles per logged sample), also from a
+  stream of its own: real field-oriented drives run their loops many times per logged sample (ODrive 8 kHz,
+  industrial servo drives 8-32 kHz), and a drive that controls only at its 1 kHz log rate cannot cancel the
+  cogging orders a law must follow at speed.
 """
 
 from __future__ import annotations
@@ -35,13 +40,17 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.twin import RotaryTruth
 from pgcomm.rotary.winding import draw_winding
 
-__all__ = ["COMBINATIONS", "draw_rotary", "default_truth", "truth_from_model", "truth_from_identification",
+__all__ = ["COMBINATIONS", "CONTROL_RATE_HZ", "draw_control_per_log", "draw_rotary", "default_truth", "truth_from_model", "truth_from_identification",
            "write_rotary_motor", "read_truth", "MAX_MOTORS"]
 
 #: (slots, pole pairs) of common concentrated-winding motors: 9N6P, 12N8P, 12N10P, 12N14P, 18N16P,
 #: 24N20P, 24N22P, 36N42P.
 COMBINATIONS = [(9, 3), (12, 4), (12, 5), (12, 7), (18, 8), (24, 10), (24, 11), (36, 21)]
 MAX_MOTORS = 999
+#: The range (Hz) the zoo's drives run their loops at, drawn log-uniform. Faster drives (a moteus at 40 kHz) read like
+#: the top of the range (their current is a snapshot of one that moves between logged samples, nearly without lag)
+#: and cost the twin time in proportion to their rate.
+CONTROL_RATE_HZ = (4000.0, 16000.0)
 
 
 def _random_fourier(rng, orders, rms: float, weights=None) -> Fourier:
@@ -87,7 +96,7 @@ def draw_truth(rng, slots: int, pole_pairs: int, *, k_t=None, current_limit=None
         rng: :class:`numpy.random.Generator`.
         slots, pole_pairs: ``Q``, ``p``.
         k_t, current_limit, inertia: fix these (N·m/A, A, kg·m²) instead of drawing them.
-        sample_time: the drive's period (s).
+        sample_time: the period of the drive's logs (s).
     """
     p, q = int(pole_pairs), int(slots)
     k_t = float(k_t) if k_t is not None else float(np.exp(rng.uniform(np.log(0.02), np.log(2.0))))
@@ -132,15 +141,29 @@ def draw_truth(rng, slots: int, pole_pairs: int, *, k_t=None, current_limit=None
                        encoder_counts=2**bits)
 
 
+def draw_control_per_log(rng, sample_time: float) -> int:
+    """The drive's control cycles per logged sample: a control rate drawn log-uniform over :data:`CONTROL_RATE_HZ`,
+    times the log's period ``sample_time`` (s), rounded (at least 1: a drive that logs at its own rate)."""
+    lo, hi = CONTROL_RATE_HZ
+    rate = float(np.exp(rng.uniform(math.log(lo), math.log(hi))))
+    return max(1, round(rate * float(sample_time)))
+
+
 def draw_rotary(seed: int, index: int) -> RotaryTruth:
     """Zoo motor ``index`` (0-based) of zoo ``seed``: combination ``COMBINATIONS[index]`` for the first
-    eight, a random one after that; everything else drawn (module docstring)."""
-    rng = np.random.default_rng([int(seed), int(index), 0x70]) 
+    eight, a random one after that; everything else drawn (module docstring). The winding and the drive's control
+    rate come from streams of their own, so the motor's mechanical and magnetic draws stay those of a zoo without
+    them."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng([int(seed), int(index), 0x70])
     if index < len(COMBINATIONS):
         q, p = COMBINATIONS[index]
     else:
         q, p = COMBINATIONS[int(rng.integers(len(COMBINATIONS)))]
-    return _with_winding(draw_truth(rng, q, p), np.random.default_rng([int(seed), int(index), 0x72]))
+    t = _with_winding(draw_truth(rng, q, p), np.random.default_rng([int(seed), int(index), 0x72]))
+    k = draw_control_per_log(np.random.default_rng([int(seed), int(index), 0x74]), t.motor.sample_time)
+    return replace(t, control_per_log=k)
 
 
 def _with_winding(truth: RotaryTruth, rng) -> RotaryTruth:
@@ -153,13 +176,15 @@ def _with_winding(truth: RotaryTruth, rng) -> RotaryTruth:
 
 def default_truth(motor: RotaryMotor, seed: int = 0) -> RotaryTruth:
     """A twin for a user's rotary motor description: its ``k_t``, limit and inertia where given,
-    parasitic effects drawn (seeded) from the zoo's ranges."""
+    parasitic effects and the drive's control rate drawn (seeded) from the zoo's ranges."""
     rng = np.random.default_rng([int(seed), 0x71])
     t = draw_truth(rng, motor.slots, motor.pole_pairs, k_t=motor.k_t, current_limit=motor.current_limit,
                    inertia=motor.inertia, sample_time=motor.sample_time)
     counts = motor.encoder_counts or t.encoder_counts
     from dataclasses import replace
-    return _with_winding(replace(t, motor=motor, encoder_counts=int(counts)), np.random.default_rng([int(seed), 0x73]))
+    k = draw_control_per_log(np.random.default_rng([int(seed), 0x75]), motor.sample_time)
+    return replace(_with_winding(replace(t, motor=motor, encoder_counts=int(counts)),
+                                 np.random.default_rng([int(seed), 0x73])), control_per_log=k)
 
 
 def write_rotary_motor(truth: RotaryTruth, folder) -> Path:
