@@ -78,6 +78,12 @@ def test_identify_without_slots_gives_the_same_table(tmp_path):
     np.testing.assert_allclose(b, a, rtol=0, atol=1e-9 * np.max(np.abs(a)))
     res = json.loads((tmp_path / "without" / "results.json").read_text())
     assert res["motor"]["slots"] == 9 and res["slots_detected"]["cogging_fundamental"] == 18
+    # the zoo's drive logs snapshots: counted again on the current read smooth, 1/(2K) of a sample late
+    from pgcomm.rotary.zoo import read_truth
+
+    k = read_truth(folder / "truth.json").control_per_log
+    assert k > 1 and res["slots_detected"]["counted_after_reading"] is True
+    assert res["slots_detected"]["read_with"]["current_lag"] == pytest.approx(1 / (2 * k), abs=1 / 64)
     assert "Slot count not in the motor description" in (tmp_path / "without" / "report.html").read_text()
 
 

@@ -303,9 +303,9 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.results import write_results
     from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
     from pgcomm.rotary.back_emf import offset_text, voltage_text
-    from pgcomm.rotary.readings import apply_reading, delay_text, detect_reading, lag_of, pll_text
+    from pgcomm.rotary.readings import delay_text, lag_of, pll_text
     from pgcomm.rotary.regression import Orders
-    from pgcomm.rotary.time_lines import detect_time_lines, lines_text
+    from pgcomm.rotary.time_lines import lines_text
 
     for opt in ("plant", "config"):
         if getattr(args, opt, None):
@@ -355,32 +355,11 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
             for lg in logs for a, b in lg.segments()]
     slots_detected = None
     if motor.slots is None:
-        from pgcomm.rotary.slots import detect_slots
+        from pgcomm.rotary.slots import count_slots
 
         with progress.stage(f"slot count from the logs (not in {args.motor}): every cogging order the logs carry"):
-            q, slots_detected = detect_slots(data, motor.pole_pairs, motor.sample_time)
-            # a late current or a PLL's angle hides the cogging's orders (zoo 9N6P: 18 slots counted for 9): read the
-            # logs with the first count's basis, and count again on the logs so read
-            est, timing = detect_reading(data, replace(motor, slots=q), current_delay=current_delay,
-                                         angle_pll=angle_pll, current_lag=current_lag)
-            pll = None if est["natural_frequency_rad_s"] is None else (est["natural_frequency_rad_s"], est["damping"])
-            # and so does a snapshot current read as held (zoo 9N6P at 8 control cycles per logged sample: 18 for 9)
-            lag = lag_of(timing)
-            read = data
-            if pll is not None or timing["samples"] or lag is not None:
-                read = [apply_reading(d, timing["samples"], pll, motor.sample_time) for d in data]
-                q, slots_detected = detect_slots(read, motor.pole_pairs, motor.sample_time, current_lag=lag)
-                slots_detected["counted_after_reading"] = True
-            # so does a time-periodic disturbance at two speeds (zoo 24N20P with a 50 Hz pickup: 120 slots for 24)
-            lines = (detect_time_lines(read, replace(motor, slots=q), current_lag=lag)["hz"]
-                     if time_lines == "detect" else list(time_lines))
-            if lines:
-                counted = "counted_after_reading" in slots_detected
-                q, slots_detected = detect_slots(read, motor.pole_pairs, motor.sample_time, time_lines=lines,
-                                                 current_lag=lag)
-                slots_detected["counted_with_time_lines"] = lines
-                if counted:
-                    slots_detected["counted_after_reading"] = True
+            q, slots_detected = count_slots(data, motor, current_delay=current_delay, angle_pll=angle_pll,
+                                            current_lag=current_lag, time_lines=time_lines)
             motor = replace(motor, slots=q)
             others = [x for x in slots_detected["slots_with_that_fundamental"] if x != q]
             progress.info(f"cogging fundamental {slots_detected['cogging_fundamental']} per revolution (orders seen, "

@@ -37,7 +37,7 @@ import numpy as np
 from pgcomm.errors import ExcitationError
 from pgcomm.rotary.model import cogging_orders, fundamental_cogging_order, ripple_orders
 
-__all__ = ["detect_slots", "MAX_SLOTS", "MAX_ORDER"]
+__all__ = ["detect_slots", "count_slots", "MAX_SLOTS", "MAX_ORDER"]
 
 #: Largest slot count considered (the motor TOML's plausibility bound).
 MAX_SLOTS = 600
@@ -146,3 +146,53 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
     if len(same) > 1:
         info["runner_up"] = {"slots": same[1][3], "sidebands_explained": same[1][0], "of": len(side)}
     return best[3], info
+
+
+def count_slots(logs, motor, *, current_delay="detect", angle_pll="detect", current_lag="detect",
+                time_lines="detect") -> tuple[int, dict]:
+    """The slot count of ``motor`` (a :class:`~pgcomm.rotary.motor.RotaryMotor` without ``slots``) as ``pgcomm
+    identify`` reads it from ``logs``: counted on the logs as written (:func:`detect_slots`), then, with that count's
+    basis, the logs read as :func:`~pgcomm.rotary.identify.identify` would read them (the angle's PLL, the current's
+    delay and form, :func:`pgcomm.rotary.readings.detect_reading`) and counted again on the logs so read; then with the
+    time-periodic disturbances fitted (:mod:`pgcomm.rotary.time_lines`). Each of these hides the cogging's orders
+    when it is not read: a late current or a PLL's angle (zoo 9N6P: 18 slots counted for 9), a snapshot current read
+    as held (9N6P at 8 control cycles per logged sample: 18 for 9), a 50 Hz pickup at two speeds (24N20P: 120 for 24).
+
+    Args:
+        logs: as for :func:`detect_slots`.
+        motor: the description (pole pairs, sample time (s); ``slots`` is ignored).
+        current_delay, angle_pll, current_lag, time_lines: each ``"detect"`` or as given, as for
+            :func:`~pgcomm.rotary.identify.identify`.
+
+    Returns:
+        ``(slots, info)`` as :func:`detect_slots`, ``info`` also with ``counted_after_reading`` (``True``, where a
+        reading other than the logs as written was taken), ``counted_with_time_lines`` (Hz, where lines were
+        fitted) and ``read_with`` (``current_delay`` samples, ``current_lag`` samples or ``None`` for held,
+        ``angle_pll_rad_s`` or ``None``).
+    """
+    from dataclasses import replace
+
+    from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
+    from pgcomm.rotary.time_lines import detect_time_lines
+
+    p, ts = motor.pole_pairs, motor.sample_time
+    q, info = detect_slots(logs, p, ts)
+    est, timing = detect_reading(logs, replace(motor, slots=q), current_delay=current_delay, angle_pll=angle_pll,
+                                 current_lag=current_lag)
+    pll = None if est["natural_frequency_rad_s"] is None else (est["natural_frequency_rad_s"], est["damping"])
+    lag = lag_of(timing)
+    read, counted = logs, False
+    if pll is not None or timing["samples"] or lag is not None:
+        read = [apply_reading(d, timing["samples"], pll, ts) for d in logs]
+        q, info = detect_slots(read, p, ts, current_lag=lag)
+        counted = True
+    lines = (detect_time_lines(read, replace(motor, slots=q), current_lag=lag)["hz"] if time_lines == "detect"
+             else list(time_lines))
+    if lines:
+        q, info = detect_slots(read, p, ts, time_lines=lines, current_lag=lag)
+        info["counted_with_time_lines"] = lines
+    if counted:
+        info["counted_after_reading"] = True
+    info["read_with"] = {"current_delay": int(timing["samples"]), "current_lag": lag,
+                         "angle_pll_rad_s": None if pll is None else float(pll[0])}
+    return q, info
