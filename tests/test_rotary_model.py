@@ -278,3 +278,33 @@ def test_the_zoos_drives_control_at_plausible_rates():
     m = t.motor
     assert lo * m.sample_time - 0.5 <= default_truth(m).control_per_log <= hi * m.sample_time + 0.5
     assert default_truth(replace(m, sample_time=1 / (2 * hi))).control_per_log == 1
+
+
+def test_a_motor_description_gives_its_drives_control_rate(tmp_path):
+    """``control_rate`` (Hz) in a rotary motor TOML: read, written back, and the twin's drive of that description
+    controls ``round(control_rate · sample_time)`` times per logged sample (the preview too, at most its cap); a rate
+    below the log rate, or one given in kHz, is refused in one line naming the file and the key."""
+    from dataclasses import replace
+
+    from pgcomm.errors import ConfigError
+    from pgcomm.io.config import load_rotary_motor, rotary_motor_to_toml
+    from pgcomm.rotary.zoo import PREVIEW_MAX_CONTROL_PER_LOG, default_truth, draw_rotary, truth_from_identification
+
+    t = draw_rotary(0, 0)
+    m = replace(t.motor, control_rate=6000.0)
+    path = tmp_path / "m.toml"
+    path.write_text(rotary_motor_to_toml(m))
+    back = load_rotary_motor(path)
+    assert back == m and back.control_per_log == 6
+    assert default_truth(back, seed=3).control_per_log == 6
+    assert replace(back, sample_time=5e-4).control_per_log == 3
+    info = {"current_noise_A": t.current_noise, "current_delay": {"held": False, "lag": 0.25}}
+    assert truth_from_identification(t.model(), info, back).control_per_log == 6  # the description over the lag
+    fast = replace(back, control_rate=40000.0)
+    assert truth_from_identification(t.model(), info, fast).control_per_log == PREVIEW_MAX_CONTROL_PER_LOG
+    assert truth_from_identification(t.model(), info, t.motor).control_per_log == 2  # no rate given: the lag's
+    for value, match in (("500.0", "below the log rate"), ("8.0", "did you give kHz")):
+        path.write_text(rotary_motor_to_toml(t.motor) + f"control_rate = {value}\n")
+        with pytest.raises(ConfigError, match=match) as e:
+            load_rotary_motor(path)
+        assert str(path) in str(e.value) and "control_rate" in str(e.value) and "\n" not in str(e.value)

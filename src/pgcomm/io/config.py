@@ -25,13 +25,14 @@ A rotary motor on a field-oriented drive has ``kind = "rotary"`` (linear is the 
     pole_pairs = 7            # p: the electrical period 2π/p replaces the pole pitch
     slots = 12                # Q: with p it sets the cogging orders (LCM(Q, 2p) per revolution);
                               # leave it out if unknown: identify reads it from the logs
-    sample_time = 0.001       # the drive's control and logging period (s)
+    sample_time = 0.001       # the drive's logging period (s)
     k_t = 0.1                 # optional, torque constant (N·m/A); needed only to report N·m
     inertia = 2e-4            # optional, rotor + load (kg·m²)
     current_limit = 20.0      # optional, q-current limit (A)
     commutation_offset = 0.0  # optional, the drive's electrical angle offset (rad, electrical)
     encoder_counts = 65536    # optional, counts per revolution
     friction = 0.01           # optional, nominal Coulomb friction (N·m)
+    control_rate = 8000.0     # optional, how often the drive runs its loops (Hz; the twin's drive)
 
 Every value is checked for plausibility, because the common mistake with such
 files is a unit of the wrong magnitude (a pole pitch of 30 "m" that was meant
@@ -601,6 +602,7 @@ ROTARY_PLAUSIBLE = {
     "commutation_offset": (-2.0 * math.pi, 2.0 * math.pi, "rad"),
     "encoder_counts": (16, 2**32, ""),
     "friction": (0.0, 1e4, "N·m"),
+    "control_rate": (100.0, 1e6, "Hz"),
 }
 _ROTARY_INT = ("pole_pairs", "slots", "encoder_counts")
 _ROTARY_REQUIRED = ("kind", "pole_pairs", "sample_time")
@@ -665,6 +667,8 @@ def load_rotary_motor(path):
                 hint = "; did you give ms?"
             elif key == "commutation_offset" and abs(x * math.pi / 180) <= hi:
                 hint = "; did you give degrees?"
+            elif key == "control_rate" and lo <= x * 1e3 <= hi:
+                hint = "; did you give kHz?"
             raise ConfigError(f"{file}: {key} = {_fmt(v)}{u} is implausible (expected {lo:g}–{hi:g}{u}{hint})")
         vals[key] = int(v) if key in _ROTARY_INT else x
     if "slots" in vals and vals["slots"] % 3:
@@ -683,7 +687,7 @@ def rotary_motor_to_toml(motor) -> str:
              (f"slots = {int(motor.slots)}  # Q: {motor.name}, cogging at LCM(Q, 2p) = {motor.cogging_fundamental} "
               "periods per revolution" if motor.slots is not None
               else "# slots unknown: pgcomm identify reads them from the logs"),
-             f"sample_time = {_toml_float(motor.sample_time)}  # the drive's period (s)"]
+             f"sample_time = {_toml_float(motor.sample_time)}  # the drive's logging period (s)"]
     for key, comment in (("k_t", "torque constant (N·m/A)"), ("inertia", "rotor + load (kg·m²)"),
                          ("current_limit", "q-current limit (A)"), ("friction", "Coulomb friction (N·m)")):
         v = getattr(motor, key)
@@ -692,4 +696,6 @@ def rotary_motor_to_toml(motor) -> str:
     lines.append(f"commutation_offset = {_toml_float(motor.commutation_offset)}  # drive's electrical offset (rad)")
     if motor.encoder_counts is not None:
         lines.append(f"encoder_counts = {int(motor.encoder_counts)}  # counts per revolution")
+    if motor.control_rate is not None:
+        lines.append(f"control_rate = {_toml_float(motor.control_rate)}  # the drive's loop rate (Hz)")
     return "\n".join(lines) + "\n"

@@ -27,6 +27,10 @@ class RotaryMotor:
             ``p θ + offset``; the analogue of the linear ``ζ̂``.
         encoder_counts: encoder counts per revolution (for the twin's quantisation) or ``None``.
         friction: nominal Coulomb friction (N·m) or ``None``.
+        control_rate: how often the drive runs its loops (Hz), e.g. 8000 for an ODrive, or ``None`` when unknown: at
+            least the log rate ``1/sample_time``. Only the twin uses it (``pgcomm reproduce`` on a description, whose
+            drive then controls ``round(control_rate · sample_time)`` times per logged sample); the identification reads
+            the drive's rate from the logs (:mod:`pgcomm.rotary.readings`).
     """
 
     pole_pairs: int
@@ -38,6 +42,7 @@ class RotaryMotor:
     commutation_offset: float = 0.0
     encoder_counts: int | None = None
     friction: float | None = None
+    control_rate: float | None = None
 
     kind = "rotary"
 
@@ -48,6 +53,10 @@ class RotaryMotor:
             raise ValueError(f"slots = {self.slots} must be an integer >= 3")
         if not (self.sample_time > 0 and math.isfinite(self.sample_time)):
             raise ValueError(f"sample_time = {self.sample_time} must be positive")
+        if self.control_rate is not None and not (math.isfinite(self.control_rate)
+                                                  and self.control_rate * self.sample_time >= 1.0 - 1e-9):
+            raise ValueError(f"control_rate = {self.control_rate} Hz is below the log rate 1/sample_time = "
+                             f"{1.0 / self.sample_time:g} Hz (a drive logs at most once per control cycle)")
 
     @property
     def electrical_period(self) -> float:
@@ -60,6 +69,12 @@ class RotaryMotor:
         return None if self.slots is None else math.lcm(int(self.slots), 2 * int(self.pole_pairs))
 
     @property
+    def control_per_log(self) -> int | None:
+        """The drive's control cycles per logged sample, ``round(control_rate · sample_time)``, or ``None`` when the
+        rate is unknown."""
+        return None if self.control_rate is None else max(1, round(self.control_rate * self.sample_time))
+
+    @property
     def name(self) -> str:
         """Slot/pole combination, e.g. ``"12N14P"`` (``"?N14P"`` while the slots are unknown)."""
         return f"{'?' if self.slots is None else self.slots}N{2 * self.pole_pairs}P"
@@ -68,4 +83,5 @@ class RotaryMotor:
         return {"kind": "rotary", "pole_pairs": int(self.pole_pairs), "slots": None if self.slots is None else int(self.slots),
                 "sample_time": self.sample_time, "k_t": self.k_t, "inertia": self.inertia,
                 "current_limit": self.current_limit, "commutation_offset": self.commutation_offset,
-                "encoder_counts": self.encoder_counts, "friction": self.friction}
+                "encoder_counts": self.encoder_counts, "friction": self.friction,
+                **({"control_rate": self.control_rate} if self.control_rate is not None else {})}

@@ -175,14 +175,14 @@ def _with_winding(truth: RotaryTruth, rng) -> RotaryTruth:
 
 
 def default_truth(motor: RotaryMotor, seed: int = 0) -> RotaryTruth:
-    """A twin for a user's rotary motor description: its ``k_t``, limit and inertia where given,
-    parasitic effects and the drive's control rate drawn (seeded) from the zoo's ranges."""
+    """A twin for a user's rotary motor description: its ``k_t``, limit, inertia and drive's control rate where given,
+    parasitic effects (and the rate where not given) drawn (seeded) from the zoo's ranges."""
     rng = np.random.default_rng([int(seed), 0x71])
     t = draw_truth(rng, motor.slots, motor.pole_pairs, k_t=motor.k_t, current_limit=motor.current_limit,
                    inertia=motor.inertia, sample_time=motor.sample_time)
     counts = motor.encoder_counts or t.encoder_counts
     from dataclasses import replace
-    k = draw_control_per_log(np.random.default_rng([int(seed), 0x75]), motor.sample_time)
+    k = motor.control_per_log or draw_control_per_log(np.random.default_rng([int(seed), 0x75]), motor.sample_time)
     return replace(_with_winding(replace(t, motor=motor, encoder_counts=int(counts)),
                                  np.random.default_rng([int(seed), 0x73])), control_per_log=k)
 
@@ -261,7 +261,8 @@ def truth_from_identification(model: RotaryModel, identification: dict, motor: R
     ``identification``): the back-EMF's ``k0``, offset error, R and L where the voltage was read and agrees with the
     currents (else the model's or the description's ``k_t``, no offset, a drawn winding), the encoder's counts as the
     logs showed them, the logged current's noise, and a drive that controls ``K ≈ 1/(2 lag)`` times per logged sample
-    where the current read smooth (at most :data:`PREVIEW_MAX_CONTROL_PER_LOG`: the twin's time grows with ``K``).
+    where the current read smooth, or as the description's ``control_rate`` says where it has one (at most
+    :data:`PREVIEW_MAX_CONTROL_PER_LOG`: the twin's time grows with ``K``).
 
     Raises:
         ConfigError: no ``current_noise_A`` (an identification by an older pgcomm), or what :func:`truth_from_model`
@@ -280,6 +281,8 @@ def truth_from_identification(model: RotaryModel, identification: dict, motor: R
     truth = truth_from_model(replace(model, k_t=k0), motor, current_noise=identification["current_noise_A"],
                              encoder_counts=counts, offset_error=(voltage.get("offset_error") or {}).get("delta", 0.0),
                              resistance=voltage.get("resistance"), inductance=voltage.get("inductance"), seed=seed)
+    if motor.control_per_log:  # the description's rate, where given, over the logs' reading of it
+        return replace(truth, control_per_log=min(motor.control_per_log, PREVIEW_MAX_CONTROL_PER_LOG))
     timing = identification.get("current_delay") or {}
     if timing.get("held", True):
         return truth
