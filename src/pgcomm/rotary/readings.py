@@ -237,11 +237,8 @@ def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()
     def cost_of(prep):
         if not smooth_delays:
             return _basis_cost(prep, layout, taps)
-        best = None
-        for d in smooth_delays:
-            found, n = _lag_search(prep, layout, taps, d)
-            best = min(best or (np.inf, n), (min(found.values()), n))
-        return best
+        found = [_lag_search(prep, layout, taps, d) for d in smooth_delays]
+        return min(min(costs.values()) for costs, _ in found), found[0][1]
 
     plain, rows = cost_of(prepared)
     grid = np.asarray(PLL_FREQUENCIES, float)

@@ -40,8 +40,8 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.twin import RotaryTruth
 from pgcomm.rotary.winding import draw_winding
 
-__all__ = ["COMBINATIONS", "CONTROL_RATE_HZ", "draw_control_per_log", "draw_rotary", "default_truth", "truth_from_model", "truth_from_identification",
-           "write_rotary_motor", "read_truth", "MAX_MOTORS"]
+__all__ = ["COMBINATIONS", "CONTROL_RATE_HZ", "draw_control_per_log", "draw_rotary", "default_truth", "truth_from_model",
+           "truth_from_identification", "write_rotary_motor", "read_truth", "MAX_MOTORS"]
 
 #: (slots, pole pairs) of common concentrated-winding motors: 9N6P, 12N8P, 12N10P, 12N14P, 18N16P,
 #: 24N20P, 24N22P, 36N42P.
