@@ -49,11 +49,7 @@ def main(argv=None) -> int:
           f"{'wall s':>6s} {'rip SE':>7s} {'s to 5%':>7s} {'floor p/s':>9s} orders added (outside the slot/pole basis)")
     rows = []
     for i in range(args.motors):
-        t = draw_rotary(args.seed, i)
-        if args.control_per_log:
-            from dataclasses import replace
-
-            t = replace(t, control_per_log=args.control_per_log)
+        t = draw_rotary(args.seed, i, args.control_per_log)
         t0 = time.perf_counter()
         r = run(t, settings, seed=args.seed)
         e = r["identification"]["errors"]

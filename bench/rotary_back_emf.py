@@ -30,6 +30,8 @@ os.environ.setdefault("JAX_PLATFORMS", "cpu")
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--control-per-log", type=int, default=None,
+                    help="the drives' control cycles per logged sample (default: the zoo's, drawn per motor)")
     ap.add_argument("--motors", default="0,1,2,3,4,5,6,7")
     ap.add_argument("--fast", default="3,6", help="speeds of the voltage-only runs, times the alias guard's")
     ap.add_argument("--revolutions", type=float, default=10.0)
@@ -52,7 +54,7 @@ def main(argv=None) -> int:
           f"{'δ °':>7s} {'δ err °':>8s} {'z':>6s} {'k_t err':>7s} {'τ µs':>11s}")
     z2 = []
     for i in (int(x) for x in args.motors.split(",")):
-        t = draw_rotary(args.seed, i)
+        t = draw_rotary(args.seed, i, args.control_per_log)
         o = Orders.for_motor(t.motor)
         a = t.inertia / t.k0
         law, gains = LawParams.classical(t.motor.pole_pairs), default_gains(a)

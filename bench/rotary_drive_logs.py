@@ -32,6 +32,8 @@ os.environ.setdefault("JAX_PLATFORMS", "cpu")
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--control-per-log", type=int, default=None,
+                    help="the drives' control cycles per logged sample (default: the zoo's, drawn per motor)")
     ap.add_argument("--motors", default="0,1,2,3", help="zoo indices, comma-separated")
     args = ap.parse_args(argv)
     from pgcomm.rotary.experiment import RotarySettings, closed_loop, drive_log_mix, identification_errors
@@ -42,7 +44,7 @@ def main(argv=None) -> int:
     from pgcomm.seeds import stream_seed
 
     for idx in (int(x) for x in args.motors.split(",")):
-        truth = draw_rotary(args.seed, idx)
+        truth = draw_rotary(args.seed, idx, args.control_per_log)
         m = truth.motor
         t0 = time.perf_counter()
         logs = drive_log_mix(truth, args.seed)

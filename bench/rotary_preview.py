@@ -23,6 +23,8 @@ os.environ.setdefault("JAX_PLATFORMS", "cpu")
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--control-per-log", type=int, default=None,
+                    help="the drives' control cycles per logged sample (default: the zoo's, drawn per motor)")
     ap.add_argument("--motors", default="0,1,2,3,4,5,6,7")
     ap.add_argument("--full", action="store_true", help="the full experiment (default: quick settings)")
     args = ap.parse_args(argv)
@@ -38,7 +40,7 @@ def main(argv=None) -> int:
           f"{'time s':>7s}")
     for i in (int(x) for x in args.motors.split(",")):
         t0 = time.perf_counter()
-        t = draw_rotary(args.seed, i)
+        t = draw_rotary(args.seed, i, args.control_per_log)
         a = t.inertia / t.k0
         refs = running_references(t.motor, a, RotarySettings(), Orders.for_motor(t.motor))
         # the zoo's running logs (pgcomm zoo --logs): the classical law, the drive's tuned gains, seeds as written

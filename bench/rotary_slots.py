@@ -44,9 +44,7 @@ def main(argv=None) -> int:
     right = {"round": [0, 0, 0], "const": [0, 0, 0]}
     for seed in (int(s) for s in args.seeds.split(",")):
         for i in range(args.motors):
-            t = draw_rotary(seed, i)
-            if args.control_per_log:
-                t = replace(t, control_per_log=args.control_per_log)
+            t = draw_rotary(seed, i, args.control_per_log)
             m = t.motor
             a = t.inertia / t.k0
             refs = running_references(m, a, RotarySettings(), Orders.for_motor(m))

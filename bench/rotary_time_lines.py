@@ -93,7 +93,7 @@ def _motors(args):
     from pgcomm.rotary.zoo import draw_rotary
 
     for idx in (int(x) for x in args.motors.split(",")):
-        truth = draw_rotary(args.seed, idx)
+        truth = draw_rotary(args.seed, idx, args.control_per_log)
         orders = Orders.for_motor(truth.motor)
         refs = running_references(truth.motor, truth.inertia / truth.k0, RotarySettings(), orders)
         yield idx, truth, orders, refs, 0.01 * truth.motor.current_limit
@@ -138,6 +138,8 @@ def _several(args) -> int:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--control-per-log", type=int, default=None,
+                    help="the drives' control cycles per logged sample (default: the zoo's, drawn per motor)")
     ap.add_argument("--motors", default="0,1,2,3,4,5,6,7", help="zoo indices, comma-separated")
     ap.add_argument("--repeat", type=int, default=3, help="alternating timed runs on the clean logs")
     ap.add_argument("--tracking", action="store_true", help="each model's law in closed loop against the table")

@@ -61,8 +61,6 @@ def run(args, out: Path, progress) -> None:
 def _run_rotary(args, out: Path, progress, n: int) -> None:
     """``--kind rotary``: ``out/motor_NN/motor.toml`` + ``truth.json`` (+ ``logs/run{k}.csv`` and
     ``sweep/sweep.csv``, a slow standstill sweep for ``pgcomm identify --sweep``)."""
-    from dataclasses import replace
-
     from pgcomm.rotary.zoo import draw_rotary, write_rotary_motor, write_running_logs, write_sweep_log
     from pgcomm.zoo import motor_folder_name
 
@@ -70,9 +68,7 @@ def _run_rotary(args, out: Path, progress, n: int) -> None:
         name = motor_folder_name(i, n)
         with progress.stage(f"{name} ({i}/{n}): rotary motor and truth"
                             + (", running logs, standstill sweep" if args.logs else "")):
-            t = draw_rotary(args.seed, i - 1)
-            if args.control_per_log is not None:
-                t = replace(t, control_per_log=args.control_per_log)
+            t = draw_rotary(args.seed, i - 1, args.control_per_log)
             folder = write_rotary_motor(t, out / name)
             if args.logs:
                 write_running_logs(t, folder / "logs", seed=args.seed)

@@ -149,11 +149,12 @@ def draw_control_per_log(rng, sample_time: float) -> int:
     return max(1, round(rate * float(sample_time)))
 
 
-def draw_rotary(seed: int, index: int) -> RotaryTruth:
+def draw_rotary(seed: int, index: int, control_per_log: int | None = None) -> RotaryTruth:
     """Zoo motor ``index`` (0-based) of zoo ``seed``: combination ``COMBINATIONS[index]`` for the first
     eight, a random one after that; everything else drawn (module docstring). The winding and the drive's control
     rate come from streams of their own, so the motor's mechanical and magnetic draws stay those of a zoo without
-    them."""
+    them; ``control_per_log`` gives the drive's control cycles per logged sample instead of drawing them (1: a drive
+    that controls at its log rate)."""
     from dataclasses import replace
 
     rng = np.random.default_rng([int(seed), int(index), 0x70])
@@ -162,7 +163,8 @@ def draw_rotary(seed: int, index: int) -> RotaryTruth:
     else:
         q, p = COMBINATIONS[int(rng.integers(len(COMBINATIONS)))]
     t = _with_winding(draw_truth(rng, q, p), np.random.default_rng([int(seed), int(index), 0x72]))
-    k = draw_control_per_log(np.random.default_rng([int(seed), int(index), 0x74]), t.motor.sample_time)
+    k = control_per_log or draw_control_per_log(np.random.default_rng([int(seed), int(index), 0x74]),
+                                                t.motor.sample_time)
     return replace(t, control_per_log=k)
 
 
