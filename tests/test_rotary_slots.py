@@ -84,7 +84,9 @@ def test_identify_without_slots_gives_the_same_table(tmp_path):
     k = read_truth(folder / "truth.json").control_per_log
     assert k > 1 and res["slots_detected"]["counted_after_reading"] is True
     assert res["slots_detected"]["read_with"]["current_lag"] == pytest.approx(1 / (2 * k), abs=1 / 64)
-    assert "Slot count not in the motor description" in (tmp_path / "without" / "report.html").read_text()
+    page = (tmp_path / "without" / "report.html").read_text()
+    assert "Slot count not in the motor description" in page
+    assert "the current read as the smooth curve through its snapshots" in page  # what the count was taken on
 
 
 def test_slots_are_counted_on_the_logs_as_read(tmp_path):

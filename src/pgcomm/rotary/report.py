@@ -87,11 +87,22 @@ def _identification_html(r: dict) -> str:
     det = r.get("slots_detected")
     if det:
         others = [q for q in det.get("slots_with_that_fundamental", []) if q != det["slots"]]
-        parts.append(f"<p>Slot count not in the motor description: the logs show a cogging fundamental of "
-                     f"{det['cogging_fundamental']} per revolution (orders seen, strongest first: "
-                     f"{html.escape(', '.join(map(str, det.get('orders_seen', [])[:8])))}), taken as {det['slots']} "
-                     "slots" + (f"; {html.escape(', '.join(map(str, others)))} slots have the same fundamental (set "
-                                "<code>slots</code> in the motor TOML if you know it)" if others else "") + ".</p>")
+        read = det.get("read_with") or {}
+        how = []  # what the count was taken on, where the logs were not read as written
+        if read.get("angle_pll_rad_s"):
+            how.append(f"the angle read through a PLL of {read['angle_pll_rad_s']:.4g} rad/s")
+        if read.get("current_delay"):
+            how.append(f"the current shifted by {read['current_delay']} sample(s)")
+        if read.get("current_lag") is not None:
+            how.append(f"the current read as the smooth curve through its snapshots, {read['current_lag']:.3g} sample "
+                       "late")
+        parts.append("<p>Slot count not in the motor description: the logs"
+                     + (f" ({html.escape(', '.join(how))})" if how else "")
+                     + f" show a cogging fundamental of {det['cogging_fundamental']} per revolution (orders seen, "
+                     f"strongest first: {html.escape(', '.join(map(str, det.get('orders_seen', [])[:8])))}), taken as "
+                     f"{det['slots']} slots" + (f"; {html.escape(', '.join(map(str, others)))} slots have the same "
+                                                "fundamental (set <code>slots</code> in the motor TOML if you know it)"
+                                                if others else "") + ".</p>")
     added = ident.get("orders_added") or {}
     if ident.get("orders_screened"):
         found = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in added.items() if v)
