@@ -572,11 +572,12 @@ def test_rounds_of_running_logs_do_not_retrace_the_same_path(motor0):
 def test_reproduce_fills_the_log_budget_unless_told_to_stop_when_resolved():
     """By default the rotary experiment records rounds for the whole budget (half the sweep's time); with
     ``stop_when_resolved`` it stops earlier, with both maps resolved (zoo motor 0, quick settings: its maps
-    resolve within the budget)."""
+    resolve within the budget). The early stop is :func:`record_running_logs` alone (what ``run`` calls first):
+    every round holds each reference once, and its time is the rounds' own."""
     import math
     from dataclasses import replace
 
-    from pgcomm.rotary.experiment import run
+    from pgcomm.rotary.experiment import record_running_logs, run
 
     t = draw_rotary(0, 0)
     s = quick_settings()
@@ -585,10 +586,14 @@ def test_reproduce_fills_the_log_budget_unless_told_to_stop_when_resolved():
     refs = running_references(t.motor, t.inertia / t.k0, s, Orders.for_motor(t.motor))
     round_s = sum(r.n for r in refs) * t.motor.sample_time
     assert ident["rounds"] == max(1, math.floor(ident["log_budget_s"] / round_s))
+    assert full["timing"]["running_logs_s"] == pytest.approx(ident["rounds"] * round_s, rel=1e-12)
     assert "first_round_standard_error" in ident
-    early = run(t, replace(s, stop_when_resolved=True), seed=3)["identification"]
-    assert early["rounds"] < ident["rounds"]
-    se = early["standard_error"]
+    early = record_running_logs(t, replace(s, stop_when_resolved=True), seed=3)
+    assert early.rounds < ident["rounds"]
+    assert len(early.logs) == early.rounds * len(refs)
+    assert early.seconds == pytest.approx(sum(g["t"].size for g in early.logs) * t.motor.sample_time, rel=1e-12)
+    assert early.identification.info["rounds"] == early.rounds
+    se = early.identification.info["standard_error"]
     assert se["cogging"]["resolved"] and se["ripple"]["resolved"]
 
 

@@ -52,8 +52,9 @@ from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
 from pgcomm.rotary.twin import LawParams, Reference, RotaryTruth, default_gains, simulate
 
-__all__ = ["RotarySettings", "running_references", "running_log", "drive_log_mix", "tracking_references",
-           "closed_loop", "run", "identification_errors", "ROWS", "quick_settings"]
+__all__ = ["RotarySettings", "running_references", "running_log", "record_running_logs", "RunningLogs",
+           "drive_log_mix", "tracking_references", "closed_loop", "run", "identification_errors", "ROWS",
+           "quick_settings"]
 
 ROWS = ("classical", "standstill_table", "model", "oracle")
 #: Running-log and standstill tables agree "within the noise of the sweep" when their RMS difference is at
@@ -267,52 +268,51 @@ def _commutation_error(truth: RotaryTruth, log: dict, ref: Reference, gains_u_fb
     return net / k0 - (log["u_fb"] + truth.inertia / k0 * ref.alpha)
 
 
-def closed_loop(truth: RotaryTruth, laws: dict, gains, settings: RotarySettings, seed: int = 0) -> tuple[dict, dict]:
-    """Each law in the position and the speed loop on :func:`tracking_references` (the same noise per loop).
+@dataclass
+class RunningLogs:
+    """What :func:`record_running_logs` recorded and identified.
 
-    Args:
-        truth: the twin; laws: ``{row: LawParams}``; gains: the drive's :class:`Gains`;
-        settings: :class:`RotarySettings` (evaluation speed and length); seed: noise seed.
-
-    Returns:
-        ``(tracking, commutation)``: per row and loop, the tracking MSE (position rad², speed (rad/s)² over
-        the cruise) and the commutation error's MSE (A², module docstring).
+    Attributes:
+        logs: the running logs (dicts of :func:`running_log`), ``rounds`` times the references.
+        identification: :class:`pgcomm.rotary.identify.RotaryIdentification` on all of them.
+        rounds: rounds of the references recorded; round_seconds: rig time of one round (s).
+        delay: the current's delay (logged samples) and lag: its lag within a sample (``None`` held), as read
+            on the first round and kept for the longer logs.
     """
-    tracking, commutation = {}, {}
-    evals = tracking_references(truth.motor, Orders.for_motor(truth.motor), settings)
-    for row, law in laws.items():
-        tracking[row], commutation[row] = {}, {}
-        for loop, ref in evals.items():
-            log = simulate(truth, ref, law, gains, seed=stream_seed(seed, "rotary evaluation", loop))
-            ff = law.ff_a * ref.alpha + law.ff_b * ref.omega + law.ff_d * np.sign(ref.omega)
-            log["u_fb"] = log["demand"] - ff
-            if loop == "position":
-                tracking[row][loop] = float(np.mean((ref.theta - log["theta_true"]) ** 2))
-            else:
-                cruise = np.abs(ref.omega) >= 0.999 * np.max(np.abs(ref.omega))
-                tracking[row][loop] = float(np.mean((ref.omega - log["omega_true"])[cruise] ** 2))
-            commutation[row][loop] = float(np.mean(_commutation_error(truth, log, ref) ** 2))
-    return tracking, commutation
+
+    logs: list
+    identification: object
+    rounds: int
+    round_seconds: float
+    delay: int
+    lag: object
+
+    @property
+    def seconds(self) -> float:
+        """Rig time of the running logs (s)."""
+        return self.rounds * self.round_seconds
 
 
-def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: int = 0, progress=None) -> dict:
-    """The whole rotary experiment on ``truth`` (module docstring); returns the results dict.
+def record_running_logs(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: int = 0,
+                        progress=None) -> RunningLogs:
+    """Record rounds of running logs on ``truth`` and identify the map from them, without a torque sensor.
+
+    One round of :func:`running_references` first; then, within ``settings.log_budget_share`` of the standstill
+    sweep's rig time, either the whole budget (``settings.stop_when_resolved`` false) or rounds until the
+    standard errors say both maps are resolved (module docstring, "How long to log"). The drive runs classical
+    commutation with the gains of the nominal ``J/k0``. Noise streams: ``"rotary running log", round, i``.
 
     Args:
-        truth: the twin (:class:`RotaryTruth`).
-        settings: :class:`RotarySettings`.
-        seed: noise seed (each run gets its own stream derived from it).
+        truth: the twin (:class:`RotaryTruth`); settings: :class:`RotarySettings`; seed: noise seed.
         progress: :class:`pgcomm.progress.Progress` or ``None``.
 
     Returns:
-        dict with ``motor``, ``identification``, ``standstill``, ``tracking_mse``, ``commutation_mse``,
-        ``reducible_share``, ``tracking_ratio_model_over_standstill``, ``timing`` and the models
-        (``models``: the identified and true :class:`RotaryModel`, the standstill table).
+        :class:`RunningLogs`; its identification's ``info`` has ``rounds``, ``first_round_standard_error``,
+        ``log_budget_s`` (s) and the ``current_delay`` read on the first round.
     """
     from pgcomm.progress import Progress
 
     progress = progress or Progress(enabled=False)
-    t_start = time.perf_counter()
     motor = truth.motor
     ts = motor.sample_time
     orders = Orders.for_motor(motor)
@@ -362,11 +362,69 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
             record(range(rounds, rounds + more))
             rounds += more
             ident = identify(logs, motor, orders, current_delay=delay, current_lag=lag)
-        run_seconds = rounds * round_seconds
         ident.info["rounds"] = rounds
         ident.info["first_round_standard_error"] = first
         ident.info["log_budget_s"] = budget
         ident.info["current_delay"] = {**first_timing, "samples": delay}
+    return RunningLogs(logs, ident, rounds, round_seconds, delay, lag)
+
+
+
+def closed_loop(truth: RotaryTruth, laws: dict, gains, settings: RotarySettings, seed: int = 0) -> tuple[dict, dict]:
+    """Each law in the position and the speed loop on :func:`tracking_references` (the same noise per loop).
+
+    Args:
+        truth: the twin; laws: ``{row: LawParams}``; gains: the drive's :class:`Gains`;
+        settings: :class:`RotarySettings` (evaluation speed and length); seed: noise seed.
+
+    Returns:
+        ``(tracking, commutation)``: per row and loop, the tracking MSE (position rad², speed (rad/s)² over
+        the cruise) and the commutation error's MSE (A², module docstring).
+    """
+    tracking, commutation = {}, {}
+    evals = tracking_references(truth.motor, Orders.for_motor(truth.motor), settings)
+    for row, law in laws.items():
+        tracking[row], commutation[row] = {}, {}
+        for loop, ref in evals.items():
+            log = simulate(truth, ref, law, gains, seed=stream_seed(seed, "rotary evaluation", loop))
+            ff = law.ff_a * ref.alpha + law.ff_b * ref.omega + law.ff_d * np.sign(ref.omega)
+            log["u_fb"] = log["demand"] - ff
+            if loop == "position":
+                tracking[row][loop] = float(np.mean((ref.theta - log["theta_true"]) ** 2))
+            else:
+                cruise = np.abs(ref.omega) >= 0.999 * np.max(np.abs(ref.omega))
+                tracking[row][loop] = float(np.mean((ref.omega - log["omega_true"])[cruise] ** 2))
+            commutation[row][loop] = float(np.mean(_commutation_error(truth, log, ref) ** 2))
+    return tracking, commutation
+
+
+def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: int = 0, progress=None) -> dict:
+    """The whole rotary experiment on ``truth`` (module docstring); returns the results dict.
+
+    Args:
+        truth: the twin (:class:`RotaryTruth`).
+        settings: :class:`RotarySettings`.
+        seed: noise seed (each run gets its own stream derived from it).
+        progress: :class:`pgcomm.progress.Progress` or ``None``.
+
+    Returns:
+        dict with ``motor``, ``identification``, ``standstill``, ``tracking_mse``, ``commutation_mse``,
+        ``reducible_share``, ``tracking_ratio_model_over_standstill``, ``timing`` and the models
+        (``models``: the identified and true :class:`RotaryModel`, the standstill table).
+    """
+    from pgcomm.progress import Progress
+
+    progress = progress or Progress(enabled=False)
+    t_start = time.perf_counter()
+    motor = truth.motor
+    orders = Orders.for_motor(motor)
+    a_nom = truth.inertia / truth.k0  # the drive is tuned: its gains come from the nominal J/k
+    gains = default_gains(a_nom)
+    classical = LawParams.classical(motor.pole_pairs)
+    rec = record_running_logs(truth, settings, seed, progress)
+    logs, ident, run_seconds = rec.logs, rec.identification, rec.seconds
+    delay, lag = rec.delay, rec.lag
+    with progress.stage("mechanics from the running logs (inertia ratio, friction)"):
         mech = fit_mechanics(logs, motor, orders, current_delay=delay, time_lines=ident.info["time_lines"]["hz"],
                              current_lag=lag)
         errs = identification_errors(ident.model, truth)
