@@ -648,7 +648,6 @@ class _Gen:
             consts.append(f"/* peak phase current limit (A) */\n"
                           f"#define {P.upper()}_CURRENT_LIMIT {_m(self.dlit(self.limit))}\n")
 
-        U = P.upper()
         consts += self._model_consts()
         model_fn = self._model_fn()
         extra_fn = self._extra_fns()

@@ -112,7 +112,7 @@ def identify_mechanics(data: list[CoilSetData], model, sample_time: float, pole_
     """
     t0 = time.perf_counter()
     n_sets = len(data)
-    force_cols, accel, fric_raw, ys, segs = [], [], [], [], []
+    force_cols, accel, fric_raw, segs = [], [], [], []
     filt = None
     for l, d in enumerate(data):
         if d.velocity is None:
