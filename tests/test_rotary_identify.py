@@ -218,9 +218,13 @@ def test_cli_zoo_and_reproduce_rotary(tmp_path):
     motor = tmp_path / "zoo" / "motor_1" / "motor.toml"
     if not motor.exists():
         motor = next((tmp_path / "zoo").glob("motor_*/motor.toml"))
-    assert main(["reproduce", "--motor", str(motor), "--quick", "--out", str(tmp_path / "rep"), "--quiet"]) == 0
+    # --log-budget: the running logs' rig time in seconds, whole rounds within it (a round is 5 s on this motor)
+    assert main(["reproduce", "--motor", str(motor), "--quick", "--log-budget", "20", "--out", str(tmp_path / "rep"),
+                 "--quiet"]) == 0
     r = read_results(tmp_path / "rep" / "results.json")
     assert r["kind"] == "rotary"
+    assert r["identification"]["log_budget_s"] == pytest.approx(20.0, rel=1e-12)
+    assert r["timing"]["running_logs_s"] <= 20.0 and r["identification"]["rounds"] >= 2
     assert set(r["tracking_mse"]) == {"classical", "standstill_table", "model", "oracle"}
     # the law beats no compensation and does not lose to the floor by more than noise
     assert r["tracking_mse"]["model"]["position"] < 0.1 * r["tracking_mse"]["classical"]["position"]
@@ -236,6 +240,37 @@ def test_cli_zoo_and_reproduce_rotary(tmp_path):
     assert read_results(tmp_path / "claw" / "results.json")["current_limit"] == pytest.approx(r["motor"]["current_limit"])
     assert main(["reproduce", "--motor", str(motor), "--plant", "x.csv", "--out", str(tmp_path / "bad")]) == 2
     assert not (tmp_path / "bad").exists()
+    for bad in (["--log-budget", "-5"], ["--log-budget", "nan"]):
+        assert main(["reproduce", "--motor", str(motor), *bad, "--out", str(tmp_path / "bad")]) == 2
+        assert not (tmp_path / "bad").exists()
+
+
+def test_log_budget_options_are_refused_for_a_linear_motor(tmp_path, capsys):
+    """--log-budget and --until-resolved size the rotary experiment's running logs; on the linear twin they would be
+    silently ignored, so they are refused in one line naming the option."""
+    from pgcomm.cli import main
+
+    for flag in (["--log-budget", "60"], ["--until-resolved"]):
+        capsys.readouterr()
+        assert main(["reproduce", "--quick", *flag, "--out", str(tmp_path / "lin")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and flag[0] in err[0] and "rotary" in err[0]
+        assert not (tmp_path / "lin").exists()
+
+
+def test_log_budget_is_a_share_of_this_motors_sweep():
+    """``--log-budget`` seconds become the settings' share of the sweep's rig time on the motor's own sample time."""
+    import argparse
+
+    from pgcomm.cli.reproduce import _log_budget
+
+    s = quick_settings()
+    for ts in (1e-3, 2.5e-4):
+        got = _log_budget(argparse.Namespace(log_budget=42.0, until_resolved=True), s, ts)
+        assert got.log_budget_share * got.standstill.duration(ts) == pytest.approx(42.0, rel=1e-12)
+        assert got.stop_when_resolved
+    kept = _log_budget(argparse.Namespace(log_budget=None, until_resolved=False), s, 1e-3)
+    assert kept.log_budget_share == s.log_budget_share and not kept.stop_when_resolved
 
 
 def test_standard_errors_predict_the_error_over_noise_seeds():

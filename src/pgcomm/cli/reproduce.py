@@ -19,6 +19,12 @@ def configure(p) -> None:
     add_common_options(p)
     p.add_argument("--quick", action="store_true",
                    help="shorter run for a first look (two velocities, fewer starts); under 30 s")
+    p.add_argument("--log-budget", type=float, metavar="SECONDS",
+                   help="rotary --motor: the running logs may take this much rig time (s; default half the "
+                        "standstill sweep's)")
+    p.add_argument("--until-resolved", action="store_true",
+                   help="rotary --motor: stop logging once the cogging and the ripple are resolved (their standard "
+                        "errors within 5 %% of their RMS), within --log-budget; default: log the whole budget")
     add_reference_options(p, "extra evaluation reference (CSV with r[,t], or .mat with r)")
 
 
@@ -37,6 +43,11 @@ def run(args, out: Path, progress) -> None:
     t0 = time.perf_counter()
     if motor_is_rotary(args):
         return _run_rotary(args, out, progress, t0)
+    for flag, given in (("--log-budget", args.log_budget is not None), ("--until-resolved", args.until_resolved)):
+        if given:
+            from pgcomm.errors import ConfigError
+            raise ConfigError(f"{flag}: only for a rotary motor (a --motor TOML with kind = \"rotary\"); a linear "
+                              "motor's data sets are sized by its config")
     setup = setup_from_args(args)
     if args.quick:
         setup = replace(setup, config=reproduce.quick_config(setup.config))
@@ -205,6 +216,7 @@ def _run_rotary(args, out: Path, progress, t0: float) -> None:
                   + (f"; its drive controls {truth.control_per_log} times per logged sample"
                      if truth.control_per_log > 1 else ""))
     settings = rexp.quick_settings() if args.quick else rexp.RotarySettings()
+    settings = _log_budget(args, settings, motor.sample_time)
     results = rexp.run(truth, settings, seed=args.seed, progress=progress)
     results.update(command="reproduce", kind="rotary", version=__version__, quick=bool(args.quick), seed=args.seed,
                    truth_source=source)
@@ -214,6 +226,19 @@ def _run_rotary(args, out: Path, progress, t0: float) -> None:
     if not args.quiet:
         _print_rotary(results)
         print(f"wrote {args.out}/results.json, model.json, table.csv, compensation.csv, rotary.png, report.html ({results['runtime_s']:.0f} s)")
+
+
+def _log_budget(args, settings, sample_time: float):
+    """``settings`` with ``--log-budget`` (rig s, turned into a share of the sweep's time) and ``--until-resolved``."""
+    from dataclasses import replace
+
+    from pgcomm.errors import ConfigError
+
+    if args.log_budget is not None:
+        if not (args.log_budget > 0 and args.log_budget < float("inf")):
+            raise ConfigError(f"--log-budget {args.log_budget:g}: give the running logs' rig time in seconds, above 0")
+        settings = replace(settings, log_budget_share=args.log_budget / settings.standstill.duration(sample_time))
+    return replace(settings, stop_when_resolved=bool(args.until_resolved))
 
 
 def _print_rotary(r: dict) -> None:
