@@ -268,6 +268,14 @@ def _commutation_error(truth: RotaryTruth, log: dict, ref: Reference, gains_u_fb
     return net / k0 - (log["u_fb"] + truth.inertia / k0 * ref.alpha)
 
 
+def _tuned_drive(truth: RotaryTruth):
+    """The drive the experiment runs: ``(orders, J/k0, gains, classical law)``; its gains come from the nominal
+    ``J/k0`` (A·s²/rad), as a drive user tunes them."""
+    a_nom = truth.inertia / truth.k0
+    return (Orders.for_motor(truth.motor), a_nom, default_gains(a_nom),
+            LawParams.classical(truth.motor.pole_pairs))
+
+
 @dataclass
 class RunningLogs:
     """What :func:`record_running_logs` recorded and identified.
@@ -315,10 +323,7 @@ def record_running_logs(truth: RotaryTruth, settings: RotarySettings = RotarySet
     progress = progress or Progress(enabled=False)
     motor = truth.motor
     ts = motor.sample_time
-    orders = Orders.for_motor(motor)
-    a_nom = truth.inertia / truth.k0  # the drive is tuned: its gains come from the nominal J/k
-    gains = default_gains(a_nom)
-    classical = LawParams.classical(motor.pole_pairs)
+    orders, a_nom, gains, classical = _tuned_drive(truth)
     refs = running_references(motor, a_nom, settings, orders)
     round_seconds = sum(r.n for r in refs) * ts
     budget = settings.log_budget_share * settings.standstill.duration(ts)
@@ -417,10 +422,7 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
     progress = progress or Progress(enabled=False)
     t_start = time.perf_counter()
     motor = truth.motor
-    orders = Orders.for_motor(motor)
-    a_nom = truth.inertia / truth.k0  # the drive is tuned: its gains come from the nominal J/k
-    gains = default_gains(a_nom)
-    classical = LawParams.classical(motor.pole_pairs)
+    orders, a_nom, gains, classical = _tuned_drive(truth)
     rec = record_running_logs(truth, settings, seed, progress)
     logs, ident, run_seconds = rec.logs, rec.identification, rec.seconds
     delay, lag = rec.delay, rec.lag
