@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["harmonic_columns", "cogging_orders", "ripple_orders", "direction_orders", "Fourier", "RotaryModel",
+__all__ = ["harmonic_columns", "harmonic_rows", "cogging_orders", "ripple_orders", "direction_orders", "Fourier", "RotaryModel",
            "fundamental_cogging_order"]
 
 
@@ -42,16 +42,58 @@ def harmonic_columns(theta, orders) -> np.ndarray:
 
     Args:
         theta: ``(N,)`` mechanical angle (rad, any turn).
-        orders: ``(n,)`` non-negative integer harmonics per revolution.
+        orders: ``(n,)`` integer harmonics per revolution (non-integer ones are taken as they are).
 
     Returns:
         ``(N, 2n)``: cosines first, then sines (the sine of order 0 is a zero column).
     """
-    th = np.asarray(theta, float).reshape(-1, 1)
-    h = np.asarray(orders, float).reshape(1, -1)
+    return np.ascontiguousarray(harmonic_rows(theta, orders).T)
+
+
+def harmonic_rows(theta, orders) -> np.ndarray:
+    """:func:`harmonic_columns` transposed, ``(2n, N)`` with each row contiguous: for sums over many angles.
+
+    Integer orders are built by the angle-addition recurrence over the sorted orders. Identification builds
+    these columns over every interval of minutes of logs, for hundreds of orders, and the sines and cosines were
+    most of its time. Sorted, the orders step by few distinct differences ``d`` (multiples of the slot and pole
+    numbers), so ``e^{i h θ}`` is the previous order's times ``e^{i d θ}``: two trigonometric calls per distinct
+    step instead of per order (3-5x faster at 60-200 orders). Each step adds about one rounding, and a step's
+    phase ``d θ`` is rounded as ``h θ`` is in the closed form: the rows agree with ``cos(h θ)`` within a few ulp
+    per order plus the spacing of floats at ``2π h_max`` (tests/test_rotary_model.py).
+
+    Args:
+        theta: ``(N,)`` mechanical angle (rad, any turn).
+        orders: ``(n,)`` harmonics per revolution.
+
+    Returns:
+        ``(2n, N)``: cosines first, then sines.
+    """
     # reduce the angle first: cos(h θ) for a multi-turn θ of 1e3 rad and h = 756 would lose digits
-    ph = h * np.mod(th, 2.0 * math.pi)
-    return np.concatenate([np.cos(ph), np.sin(ph)], axis=1)
+    th = np.mod(np.asarray(theta, float).ravel(), 2.0 * math.pi)
+    h = np.asarray(orders, float).ravel()
+    if not np.array_equal(h, np.round(h)):
+        ph = h[:, None] * th[None, :]
+        return np.concatenate([np.cos(ph), np.sin(ph)], axis=0)
+    n, size = h.size, th.size
+    rows = np.empty((2 * n, size))
+    steps: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    cos_prev, sin_prev, h_prev = np.ones(size), np.zeros(size), 0
+    tmp = np.empty(size)
+    for j in np.argsort(h, kind="stable"):
+        c, s, hj = rows[j], rows[n + j], int(h[j])
+        d = hj - h_prev
+        if d == 0:
+            c[:], s[:] = cos_prev, sin_prev
+        else:
+            if d not in steps:
+                steps[d] = (np.cos(d * th), np.sin(d * th))
+            cd, sd = steps[d]
+            np.multiply(cos_prev, cd, out=c)
+            c -= np.multiply(sin_prev, sd, out=tmp)
+            np.multiply(sin_prev, cd, out=s)
+            s += np.multiply(cos_prev, sd, out=tmp)
+        cos_prev, sin_prev, h_prev = c, s, hj
+    return rows
 
 
 def fundamental_cogging_order(slots: int, pole_pairs: int) -> int:
