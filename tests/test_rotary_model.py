@@ -43,6 +43,49 @@ def test_fourier_closed_forms(rng):
     assert Fourier.from_dict(f.to_dict()).coef.tolist() == f.coef.tolist()
 
 
+def test_harmonic_columns_by_recurrence_match_the_closed_form(rng):
+    """The integer orders' columns come from the angle-addition recurrence: unsorted orders with a repeat and
+    order 0, up to 756 (36N42P's third cogging multiple), on multi-turn angles, against cos/sin of ``h θ`` in
+    extended precision on the same reduced angle. Each step of the recurrence adds about one rounding, and a step's
+    own phase ``d θ`` is rounded as the closed form's ``h θ`` is: the error is bounded by the number of orders
+    times a few ulp plus the spacing of floats at ``2π h_max``; a non-integer order is taken by the closed form."""
+    orders = np.array([252, 0, 1, 756, 36, 42, 504, 2, 36, 84, 168, 3, 14, 700])
+    theta = rng.uniform(-1e3, 1e3, 5000)
+    cols = harmonic_columns(theta, orders)
+    red = np.mod(theta, 2 * math.pi).astype(np.longdouble)
+    ph = red[:, None] * orders[None, :].astype(np.longdouble)
+    tol = 8 * orders.size * np.finfo(float).eps + np.spacing(2 * math.pi * orders.max())
+    np.testing.assert_allclose(cols[:, : orders.size], np.cos(ph).astype(float), rtol=0, atol=tol)
+    np.testing.assert_allclose(cols[:, orders.size:], np.sin(ph).astype(float), rtol=0, atol=tol)
+    assert np.all(cols[:, orders.size + 1] == 0.0)  # the sine of order 0
+    half = harmonic_columns(theta, [0.5, 3])
+    np.testing.assert_allclose(half[:, 0], np.cos(0.5 * np.mod(theta, 2 * math.pi)), rtol=0, atol=1e-15)
+    assert harmonic_columns(theta, []).shape == (theta.size, 0)
+
+
+def test_twin_harmonics_by_repeated_squaring_match_the_closed_form(rng):
+    """The twin's plant and law read their maps through ``e^{i h θ}`` built from the binary digits of ``h``
+    (pgcomm.rotary.twin._harmonics): against cos/sin of ``h θ`` in extended precision, on multi-turn angles, for the
+    zoo's orders up to 756 and an order 0 (the padding). Each squaring doubles the phase's error, as the rounding
+    of ``h θ`` scales with ``h``: the bound is a few ulp times the highest order; and a negative or fractional order
+    is refused, not read as its bits."""
+    from pgcomm.rotary.twin import _harmonics, _order_bits
+
+    orders = np.array([0, 1, 2, 36, 42, 84, 252, 504, 756, 0])
+    bits = _order_bits(orders)
+    assert bits.shape == (orders.size, 10)
+    np.testing.assert_array_equal(bits @ 2.0 ** np.arange(10), orders)
+    tol = 16 * orders.max() * np.finfo(float).eps
+    for theta in rng.uniform(-1e3, 1e3, 20):
+        c, s = (np.asarray(v) for v in _harmonics(bits, theta))
+        red = np.longdouble(np.mod(theta, 2 * math.pi))
+        np.testing.assert_allclose(c, np.cos(red * orders).astype(float), rtol=0, atol=tol)
+        np.testing.assert_allclose(s, np.sin(red * orders).astype(float), rtol=0, atol=tol)
+    for bad in ([1, -2], [0.5]):
+        with pytest.raises(ValueError, match="non-negative integers"):
+            _order_bits(np.array(bad))
+
+
 def test_table_is_the_compensating_current(rng):
     m = _model(rng)
     n = 1024

@@ -244,6 +244,37 @@ def _pack_fourier(parts, n_pad):
     return h, blocks
 
 
+def _order_bits(orders: np.ndarray) -> np.ndarray:
+    """``(n, B)`` the binary digits (0/1, least significant first) of non-negative integer orders, ``B`` the bit
+    length of the highest (at least 1): what :func:`_harmonics` multiplies by."""
+    h = np.asarray(orders, float)
+    if np.any(h < 0) or not np.array_equal(h, np.round(h)):
+        raise ValueError(f"the twin's orders must be non-negative integers, got {h[(h < 0) | (h != np.round(h))][:3]}")
+    hi = h.astype(np.int64)
+    nbits = max(1, int(hi.max(initial=0)).bit_length())
+    return ((hi[:, None] >> np.arange(nbits)[None, :]) & 1).astype(float)
+
+
+def _harmonics(bits, theta):
+    """``(cos(h θ), sin(h θ))`` ``(n,)`` each, for the orders whose binary digits are ``bits`` (:func:`_order_bits`).
+
+    ``e^{i h θ}`` is the product of ``e^{i 2^b θ}`` over the set bits ``b``, each the square of the one before: two
+    trigonometric calls per step for any number of orders, where ``cos(h θ)`` took two per order and per plant
+    evaluation and was most of the twin's time (XLA's float64 sine costs ~30 ns). The phase's error grows with
+    the order as the rounding of ``h θ`` does in the closed form.
+    """
+    th = jnp.mod(theta, 2 * jnp.pi)
+    zr, zi = jnp.cos(th), jnp.sin(th)
+    cr = jnp.ones(bits.shape[0])
+    ci = jnp.zeros(bits.shape[0])
+    for b in range(bits.shape[1]):
+        sel = bits[:, b]
+        nr, ni = cr * zr - ci * zi, cr * zi + ci * zr
+        cr, ci = cr + sel * (nr - cr), ci + sel * (ni - ci)
+        zr, zi = zr * zr - zi * zi, 2.0 * zr * zi
+    return cr, ci
+
+
 @partial(jax.jit, static_argnames=("n_sub",))
 def _run(params, xs, n_sub: int):
     (h_p, rho_a, rho_b, cog_a, cog_b, drag_a, drag_b, k0, coul, visc, inertia, w_eps, ts, q,
@@ -252,11 +283,12 @@ def _run(params, xs, n_sub: int):
     dt = ts / n_sub
 
     def plant_torque(theta, omega, iq):
-        ph = h_p * jnp.mod(theta, 2 * jnp.pi)
-        c, s = jnp.cos(ph), jnp.sin(ph)
-        rho = c @ rho_a + s @ rho_b
-        cog = c @ cog_a + s @ cog_b
-        drag = c @ drag_a + s @ drag_b
+        c, s = _harmonics(h_p, theta)
+        # sums of products rather than dot products: XLA fuses them into one loop, where each small dot was a
+        # library call of its own (the dots were half the twin's time)
+        rho = jnp.sum(c * rho_a + s * rho_b)
+        cog = jnp.sum(c * cog_a + s * cog_b)
+        drag = jnp.sum(c * drag_a + s * drag_b)
         t_em = k0 * (1.0 + rho) * iq + cog
         return t_em, t_em - (coul + drag) * jnp.tanh(omega / w_eps) - visc * omega
 
@@ -272,8 +304,7 @@ def _run(params, xs, n_sub: int):
         u = u_fb + ff_a * a_r + ff_b * w_r + ff_d * sgn + dith
         # the commutation law at the angle of the middle of the hold (LawParams.advance)
         th_l = th_m + advance * ts * w_f
-        ph = h_l * jnp.mod(th_l, 2 * jnp.pi)
-        c, s = jnp.cos(ph), jnp.sin(ph)
+        c, s = _harmonics(h_l, th_l)
         x_t = jnp.mod(th_l, 2 * jnp.pi) / (2 * jnp.pi) * n_table
         j0 = jnp.floor(x_t)
         fr = x_t - j0
@@ -281,7 +312,7 @@ def _run(params, xs, n_sub: int):
         j0 = j0.astype(jnp.int32) % n_int
         j1 = (j0 + 1) % n_int
         tab = (1.0 - fr) * table[j0] + fr * table[j1]
-        iq = (u - (c @ lc_a + s @ lc_b) + (c @ ld_a + s @ ld_b) * sgn) / (1.0 + c @ lr_a + s @ lr_b) + tab
+        iq = (u - jnp.sum(c * lc_a + s * lc_b) + jnp.sum(c * ld_a + s * ld_b) * sgn) / (1.0 + jnp.sum(c * lr_a + s * lr_b)) + tab
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
         iq = jnp.clip(iq, -i_lim, i_lim)
         t_em0, _ = plant_torque(theta, omega, iq)
@@ -295,7 +326,7 @@ def _run(params, xs, n_sub: int):
             acc = t_net / inertia
             return th + dt * om + 0.5 * dt * dt * acc, om + dt * acc
 
-        theta_n, omega_n = jax.lax.fori_loop(0, n_sub, sub, (theta, omega))
+        theta_n, omega_n = jax.lax.fori_loop(0, n_sub, sub, (theta, omega), unroll=n_sub <= 4)
         return (theta_n, omega_n, th_m, w_f, integ), out
 
     q0 = jnp.round(theta0 / q) * q
@@ -350,9 +381,9 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     mode_pos = {"position": 1.0, "speed": 0.0}[ref.mode]
     th0 = float(ref.theta[0]) if theta0 is None else float(theta0)
     f = float
-    params = (jnp.asarray(h_p), *(jnp.asarray(v) for v in (ra, rb, ca, cb, da, db)), f(truth.k0), f(truth.coulomb),
+    params = (jnp.asarray(_order_bits(h_p)), *(jnp.asarray(v) for v in (ra, rb, ca, cb, da, db)), f(truth.k0), f(truth.coulomb),
               f(truth.viscous), f(truth.inertia), f(truth.friction_velocity), tc, q,
-              jnp.asarray(h_l), *(jnp.asarray(v) for v in (lca, lcb, lra, lrb, lda, ldb)), jnp.asarray(table),
+              jnp.asarray(_order_bits(h_l)), *(jnp.asarray(v) for v in (lca, lcb, lra, lrb, lda, ldb)), jnp.asarray(table),
               float(n_table), f(law.ff_a), f(law.ff_b), f(law.ff_d),
               f(gains.kp), f(gains.ki), f(gains.kd), f(gains.kpv), f(gains.kiv), beta, i_lim, mode_pos, th0,
               f(law.advance))
@@ -378,15 +409,16 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         w = truth.winding
         # the voltages the loop commands between logged samples follow the current at the control rate (its slope
         # L di/dt); the logged noises are per logged sample, added to the snapshots
-        th_c, om_c, iq_c = outs[2], outs[3], outs[6]
+        # only the slope needs the control rate's samples; the rest is read at the logged instants
+        di = np.gradient(outs[6], tc)[::k_ctl] if outs[6].size > 1 else np.zeros(n)
         # drawn after the currents' noise, so a twin with a winding logs the same currents as one without
         v_noise = rng.standard_normal(n)
-        log["vq_1"] = (q_voltage(w, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th_c, om_c, iq_c, tc,
-                                 0.0)[::k_ctl] - w.loop_gain * (iq - iq_act) + w.voltage_noise * v_noise)
+        log["vq_1"] = (q_voltage(w, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th_f, om_f, iq_act, tc,
+                                 0.0, slope=di) - w.loop_gain * (iq - iq_act) + w.voltage_noise * v_noise)
         # drawn after the q-voltage's, which is then the same as a twin's that logs no d-voltage
         v_noise = rng.standard_normal(n)
         log["vd_1"] = (d_voltage(w, truth.k_t, truth.offset_error, truth.ripple, m.pole_pairs, m.commutation_offset,
-                                 th_c, om_c, iq_c, 0.0)[::k_ctl] - w.loop_gain * idd + w.voltage_noise * v_noise)
+                                 th_f, om_f, iq_act, 0.0) - w.loop_gain * idd + w.voltage_noise * v_noise)
         if w.voltage_lag:
             log["vd_1"], log["vq_1"] = logged_dq(log["vd_1"], log["vq_1"], m.pole_pairs, om_f, w.voltage_lag)
     return log

@@ -121,7 +121,7 @@ def deadtime_q(iq, theta_e, deadtime_voltage: float, deadtime_current: float) ->
 
 
 def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: float, theta, omega, iq, sample_time: float,
-              noise, current_noise=0.0) -> np.ndarray:
+              noise, current_noise=0.0, slope=None) -> np.ndarray:
     """The q-voltage a drive logs at each sample instant (module docstring).
 
     Args:
@@ -132,13 +132,19 @@ def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: floa
         sample_time: ``T_s`` (s); noise: ``(N,)`` standard normal draws (the voltage's own noise).
         current_noise: ``(N,)`` the logged current's noise (A; measured minus flowing), which the loop's gain puts
             into the command.
+        slope: ``(N,)`` the current's slope at the instants (A/s), or ``None``: its central difference over
+            ``sample_time`` (a twin whose drive controls faster than it logs passes the control rate's, and the
+            other arrays at the logged instants only).
 
     Returns:
         ``(N,)`` logged ``v_q`` (V).
     """
     th, om, iq = (np.asarray(v, float) for v in (theta, omega, iq))
     # the current's slope at the instant: the drive's loop moves the current from one sample's value to the next
-    di = np.gradient(iq, sample_time) if iq.size > 1 else np.zeros_like(iq)
+    if slope is not None:
+        di = np.asarray(slope, float)
+    else:
+        di = np.gradient(iq, sample_time) if iq.size > 1 else np.zeros_like(iq)
     emf = BACK_EMF_FACTOR * k0 * (1.0 + np.asarray(ripple(th), float)) * om
     dt = deadtime_q(iq, pole_pairs * th + offset, winding.deadtime_voltage, winding.deadtime_current)
     return (winding.resistance * iq + winding.inductance * di + emf + dt - winding.loop_gain * np.asarray(current_noise)
