@@ -186,6 +186,28 @@ def test_identification_with_torque_sensor(motor0):
     assert e["ripple_rel"] <= 0.10
 
 
+def test_the_reading_found_reads_the_logs_again_without_a_search(motor0_fast, motor0):
+    """:meth:`RotaryIdentification.reading` hands the reading the search chose (a drive that controls 8x faster
+    than it logs: the current smooth and late) to a second identification of the same logs: it searches nothing,
+    reads them the same way and gives the same maps (within rounding of the maps' own scale); an identification
+    with a torque sensor has no reading to give."""
+    t, logs = motor0_fast
+    res = identify(logs, t.motor)
+    read = res.reading()
+    assert read["current_lag"] is not None and read["current_lag"] == res.info["current_delay"]["lag"]
+    again = identify(logs, t.motor, **read)
+    assert not again.info["angle_pll"]["searched"] and not again.info["time_lines"]["searched"]
+    assert again.info["current_delay"]["detected"] is False
+    assert again.reading() == read
+    for name in ("cogging", "ripple", "direction"):
+        a, b = getattr(res.model, name), getattr(again.model, name)
+        assert np.array_equal(a.orders, b.orders)
+        np.testing.assert_allclose(b.coef, a.coef, rtol=0, atol=1e-9 * np.abs(a.coef).max())
+    t0, logs0 = motor0
+    with pytest.raises(ValueError, match="torque sensor"):
+        identify(logs0, t0.motor, torque_sensor=True).reading()
+
+
 def test_alias_guard_refuses_fast_windows(motor0):
     t, logs = motor0
     orders = Orders.for_motor(t.motor)
@@ -394,8 +416,10 @@ def test_screening_adds_the_order_outside_the_basis_and_no_noise_order():
     assert 15.0 < sum(r.n for r in refs) * t.motor.sample_time < 30.0
     law, gains = LawParams.classical(t.motor.pole_pairs), default_gains(a)
     logs = [simulate(t, r, law, gains, seed=k) for k, r in enumerate(refs)]
-    base = identify(logs, t.motor, extra_orders=False)
     res = identify(logs, t.motor)
+    # the same drive's logs, read as the first identification read them (the reading is not what is tested here)
+    read = res.reading()
+    base = identify(logs, t.motor, extra_orders=False, **read)
     assert res.info["orders_screened"] and not base.info["orders_screened"]
     assert res.info["orders_added"]["cogging"] == outside.tolist()
     assert np.array_equal(base.model.cogging.orders, orders.cogging)
@@ -404,7 +428,7 @@ def test_screening_adds_the_order_outside_the_basis_and_no_noise_order():
     clean = _strip_outside(t)
     for seed in range(3):
         logs = [simulate(clean, r, law, gains, seed=100 * seed + 7 + k) for k, r in enumerate(refs)]
-        added = identify(logs, t.motor).info["orders_added"]
+        added = identify(logs, t.motor, **read).info["orders_added"]
         assert added == {"cogging": [], "ripple": []}, (seed, added)
 
 

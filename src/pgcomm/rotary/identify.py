@@ -57,6 +57,20 @@ class RotaryIdentification:
     model: RotaryModel
     info: dict = field(default_factory=dict)
 
+    def reading(self) -> dict:
+        """How the logs were read, as the keyword arguments of :func:`identify` (and :func:`fit_mechanics`) that
+        read more logs of the same drive the same way without searching again: ``current_delay`` (samples),
+        ``current_lag`` (samples, ``None`` held), ``angle_pll`` (``(ω_n rad/s, ζ)`` or ``None``) and ``time_lines``
+        (Hz). The search tries tens of readings, each a fit of all the logs: most of an identification's time."""
+        if "current_delay" not in self.info:
+            raise ValueError("an identification with a torque sensor reads no current's timing and no angle's PLL")
+        timing, pll = self.info["current_delay"], self.info["angle_pll"]
+        w = pll["natural_frequency_rad_s"]
+        return {"current_delay": int(timing["samples"]),
+                "current_lag": None if timing["held"] else float(timing["lag"]),
+                "angle_pll": None if w is None else (float(w), float(pll["damping"])),
+                "time_lines": [float(f) for f in self.info["time_lines"]["hz"]]}
+
 
 def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect",
             current_delay: int = 0, angle_pll=None, lines=(), current_lag=None):

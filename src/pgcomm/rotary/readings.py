@@ -38,8 +38,8 @@ import numpy as np
 
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
-from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _evidence, \
-    _prepare
+from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _basis_costs, \
+    _evidence, _prepare
 
 #: Delays (samples) of the logged q-current behind the current that acted over each sample that
 #: :func:`identify` tries (:func:`_current_delay`): drives sample the current and the encoder at different
@@ -122,9 +122,9 @@ def _lag_search(prepared, layout: "_Layout", taps: int, delay: int) -> tuple[dic
     Returns:
         ``({lag: A²}, rows)``.
     """
-    costs, rows = {}, 0.0
-    for f in CONTROL_LAGS:
-        costs[f], rows = _basis_cost(_with_delay(prepared, delay, f), layout, taps)
+    found = _basis_costs([_with_delay(prepared, delay, f) for f in CONTROL_LAGS], layout, taps)
+    costs = {f: c for f, (c, _) in zip(CONTROL_LAGS, found)}
+    rows = found[-1][1]
     f = _vertex(sorted(costs.items()), -0.5, 0.5)
     if f is not None and f not in costs:
         costs[f], rows = _basis_cost(_with_delay(prepared, delay, f), layout, taps)
@@ -151,8 +151,9 @@ def _current_delay(prepared, layout: "_Layout", taps: int, delays=CURRENT_DELAYS
     as_written = 0 if 0 in delays else delays[0]
     detect = isinstance(lag, str)
     if detect or lag is None:
-        for d in delays:
-            costs[d, None], rows = _basis_cost(_with_delay(prepared, d), layout, taps)
+        found = _basis_costs([_with_delay(prepared, d) for d in delays], layout, taps)
+        costs.update({(d, None): c for d, (c, _) in zip(delays, found)})
+        rows = found[-1][1]
     if detect or lag is not None:
         near = delays
         if costs:

@@ -347,6 +347,23 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
         frequency of ``lines`` (Hz) over the log's own time, through the current's kernel and filter: a
         time-periodic disturbance, :mod:`pgcomm.rotary.time_lines`).
     """
+    for chunks in _reading_chunks([prepared], orders, taps, chunk, block_seconds, lines):
+        yield chunks[0]
+
+
+def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS,
+                    block_seconds: float = BLOCK_SECONDS, lines=()):
+    """:func:`_chunks` for several readings of the same logs' current (each a list of :class:`_Prepared` as
+    :func:`pgcomm.rotary.readings._with_delay` makes them: the same angle arrays and windows, the current shifted or
+    read smooth): what depends on the angle alone, most of the work, is built once per chunk.
+
+    Yields:
+        a list of :func:`_chunks`' dicts, one per reading (the angle's arrays shared between them).
+    """
+    first = readings[0]
+    for r in readings[1:]:
+        if len(r) != len(first) or any(p.theta is not q.theta or p.starts is not q.starts for p, q in zip(r, first)):
+            raise ValueError("readings of the current must share the logs' angle and windows")
     g = _hann(taps)
     g_zoh = np.convolve(g, _ZOH)  # (T+1,) on samples s .. s+T
     g_tri = np.convolve(g, _TRI)  # (T+2,) on samples s .. s+T+1
@@ -357,12 +374,12 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
     for name in ("cogging", "ripple", "direction"):
         at = np.searchsorted(union, getattr(orders, name))
         cols[name] = np.concatenate([at, union.size + at])
-    for pos, p in enumerate(prepared):
+    for pos, p in enumerate(first):
         for k in range(0, p.starts.size, chunk):
             st = p.starts[k:k + chunk]
             lo, hi = int(st[0]), int(st[-1]) + span
             loc = st - lo
-            th, iq, sgn = p.theta[lo:hi], p.iq[lo:hi], p.sgn[lo:hi]
+            th, sgn = p.theta[lo:hi], p.sgn[lo:hi]
             d2 = th[2:] - 2 * th[1:-1] + th[:-2]  # d2[i-1] is Δ²θ at sample i
             # Δ²θ at sample j weighs interval j-1 (held iq[j-1]) rising and interval j (iq[j]) falling
             n_int = hi - lo - 1
@@ -372,36 +389,47 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
             a_u, b_u = _weights_at_nodes(phi)
             a_c, b_c = a_u[:, cols["cogging"]], b_u[:, cols["cogging"]]
             a_d, b_d = a_u[:, cols["direction"]], b_u[:, cols["direction"]]
+            a_rh, b_rh = a_u[:, cols["ripple"]], b_u[:, cols["ripple"]]
+            phi_r = phi[cols["ripple"]] if any(r[pos].lag is not None for r in readings) else None
             sg_i = sgn[:n_int, None]
-            out = {"row": st, "log": np.full(st.size, pos)}
-            if p.lag is None:
-                a_r, b_r = a_u[:, cols["ripple"]], b_u[:, cols["ripple"]]
-                a_r, b_r = iq[:n_int, None] * a_r, iq[:n_int, None] * b_r
-                y = _filt(iq, loc, g_zoh)
-                if lines:
-                    phase = np.arange(lo, hi)[:, None] * p.ts * freqs
-                    out["line"] = _filt(np.concatenate([np.cos(phase), np.sin(phase)], axis=1), loc, g_zoh)
-            else:
-                # the current between snapshots: the cubic through the four around each interval (as the angle's
-                # path), ``lag`` late
-                cur = _at_nodes(_extended(p.iq, lo, hi), n_int, _lagrange(_GL_NODES - p.lag))
-                a_r, b_r = _weights_at_nodes(phi[cols["ripple"]], cur)
-                rise, fall = cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES))
-                y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
-                if lines:
-                    # a time-periodic disturbance is smooth in time too: at the nodes' own instants
-                    ph = ((np.arange(lo, hi - 1)[:, None] + _GL_NODES - p.lag) * p.ts)[:, :, None] * freqs
-                    cs = np.concatenate([np.cos(ph), np.sin(ph)], axis=2)  # (n_int, nodes, 2 lines)
-                    out["line"] = (_filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * _GL_NODES), loc, g)
-                                   + _filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * (1.0 - _GL_NODES)), loc + 1, g))
-            yield {**out, "y": y, "acc": _filt(d2, loc, g) / p.ts**2,
-                   "rip": _filt(a_r, loc, g) + _filt(b_r, loc + 1, g),
-                   "cog": _filt(a_c, loc, g) + _filt(b_c, loc + 1, g),
-                   "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
-                   "visc": _filt(p.w[lo:hi], loc, g_tri),
-                   "sgn": sgn[loc + span // 2],
-                   "block": np.floor(st * p.ts / block_seconds).astype(np.int64) + 100003 * p.index,
-                   "acc_noise": np.full(st.size, p.acc_noise)}
+            common = {"row": st, "log": np.full(st.size, pos), "acc": _filt(d2, loc, g) / p.ts**2,
+                      "cog": _filt(a_c, loc, g) + _filt(b_c, loc + 1, g),
+                      "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
+                      "visc": _filt(p.w[lo:hi], loc, g_tri),
+                      "sgn": sgn[loc + span // 2],
+                      "block": np.floor(st * p.ts / block_seconds).astype(np.int64) + 100003 * p.index,
+                      "acc_noise": np.full(st.size, p.acc_noise)}
+            held_line = None
+            out = []
+            for r in readings:
+                q = r[pos]
+                iq = q.iq[lo:hi]
+                ch = dict(common)
+                if q.lag is None:
+                    a_r, b_r = iq[:n_int, None] * a_rh, iq[:n_int, None] * b_rh
+                    y = _filt(iq, loc, g_zoh)
+                    if lines:
+                        if held_line is None:
+                            phase = np.arange(lo, hi)[:, None] * p.ts * freqs
+                            held_line = _filt(np.concatenate([np.cos(phase), np.sin(phase)], axis=1), loc, g_zoh)
+                        ch["line"] = held_line
+                else:
+                    # the current between snapshots: the cubic through the four around each interval (as the angle's
+                    # path), ``lag`` late
+                    cur = _at_nodes(_extended(q.iq, lo, hi), n_int, _lagrange(_GL_NODES - q.lag))
+                    a_r, b_r = _weights_at_nodes(phi_r, cur)
+                    rise, fall = cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES))
+                    y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
+                    if lines:
+                        # a time-periodic disturbance is smooth in time too: at the nodes' own instants
+                        ph = ((np.arange(lo, hi - 1)[:, None] + _GL_NODES - q.lag) * p.ts)[:, :, None] * freqs
+                        cs = np.concatenate([np.cos(ph), np.sin(ph)], axis=2)  # (n_int, nodes, 2 lines)
+                        ch["line"] = (_filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * _GL_NODES), loc, g)
+                                      + _filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * (1.0 - _GL_NODES)), loc + 1, g))
+                ch["y"] = y
+                ch["rip"] = _filt(a_r, loc, g) + _filt(b_r, loc + 1, g)
+                out.append(ch)
+            yield out
 
 
 @dataclass
@@ -473,19 +501,25 @@ def _normal_equations(prepared, layout: _Layout, taps: int, block_seconds: float
     """Normal equations of the training and the validation rows: ``G (2, p, p)``, ``b (2, p)``,
     ``yy (2,)``, ``n (2,)``, and ``noise (2,)``, the encoder's noise in the acceleration summed over the rows
     (index 0 training, 1 validation)."""
+    return _reading_normal_equations([prepared], layout, taps, block_seconds)[0]
+
+
+def _reading_normal_equations(readings, layout: _Layout, taps: int, block_seconds: float = BLOCK_SECONDS) -> list:
+    """:func:`_normal_equations` of each of several readings of the same logs' current (:func:`_reading_chunks`)."""
     p = int(layout.keep.sum())
-    G, b, yy, n, noise = np.zeros((2, p, p)), np.zeros((2, p)), np.zeros(2), np.zeros(2), np.zeros(2)
-    for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds, lines=layout.lines):
-        X, y = layout.rows(ch), ch["y"]
-        val = _is_validation(ch["block"])
-        for k, m in ((0, ~val), (1, val)):
-            Xm, ym = X[m], y[m]
-            G[k] += Xm.T @ Xm
-            b[k] += Xm.T @ ym
-            yy[k] += ym @ ym
-            n[k] += ym.size
-            noise[k] += float(ch["acc_noise"][m].sum())
-    return G, b, yy, n, noise
+    acc = [(np.zeros((2, p, p)), np.zeros((2, p)), np.zeros(2), np.zeros(2), np.zeros(2)) for _ in readings]
+    for chunks in _reading_chunks(readings, layout.orders, taps, block_seconds=block_seconds, lines=layout.lines):
+        val = _is_validation(chunks[0]["block"])
+        for ch, (G, b, yy, n, noise) in zip(chunks, acc):
+            X, y = layout.rows(ch), ch["y"]
+            for k, m in ((0, ~val), (1, val)):
+                Xm, ym = X[m], y[m]
+                G[k] += Xm.T @ Xm
+                b[k] += Xm.T @ ym
+                yy[k] += ym @ ym
+                n[k] += ym.size
+                noise[k] += float(ch["acc_noise"][m].sum())
+    return acc
 
 
 def _quantisation_correction(G: np.ndarray, noise: np.ndarray):
@@ -701,7 +735,12 @@ def _map_standard_error(cov_block, gram) -> float:
 def _basis_fit(prepared, layout: "_Layout", taps: int) -> tuple[np.ndarray, float, float]:
     """The ridge-validated fit of ``layout`` (encoder-noise corrected): its coefficients (kept columns), mean squared
     residual (A², from the normal equations) and the rows, ``(beta, cost, rows)``."""
-    G, b, yy, n, noise = _normal_equations(prepared, layout, taps)
+    return _fit_of_normal_equations(_normal_equations(prepared, layout, taps), layout)
+
+
+def _fit_of_normal_equations(equations, layout: "_Layout") -> tuple[np.ndarray, float, float]:
+    """:func:`_basis_fit` from its normal equations (:func:`_normal_equations`)."""
+    G, b, yy, n, noise = equations
     G, _, _ = _quantisation_correction(G, noise)
     pen = layout.pen[layout.keep].astype(float)
     beta, _, _ = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, _validated_ridge(G, b, yy, n, pen)[0])
@@ -713,6 +752,12 @@ def _basis_fit(prepared, layout: "_Layout", taps: int) -> tuple[np.ndarray, floa
 def _basis_cost(prepared, layout: "_Layout", taps: int) -> tuple[float, float]:
     """:func:`_basis_fit`'s ``(cost, rows)``."""
     return _basis_fit(prepared, layout, taps)[1:]
+
+
+def _basis_costs(readings, layout: "_Layout", taps: int) -> list:
+    """:func:`_basis_cost` of each of several readings of the same logs' current, in one pass over the angle
+    (:func:`_reading_chunks`)."""
+    return [_fit_of_normal_equations(e, layout)[1:] for e in _reading_normal_equations(readings, layout, taps)]
 
 
 def _evidence(cost_plain: float, cost_best: float, rows: float, taps: int) -> float:
