@@ -312,7 +312,8 @@ def _run(params, xs, n_sub: int):
         j0 = j0.astype(jnp.int32) % n_int
         j1 = (j0 + 1) % n_int
         tab = (1.0 - fr) * table[j0] + fr * table[j1]
-        iq = (u - jnp.sum(c * lc_a + s * lc_b) + jnp.sum(c * ld_a + s * ld_b) * sgn) / (1.0 + jnp.sum(c * lr_a + s * lr_b)) + tab
+        law_cog, law_dir = jnp.sum(c * lc_a + s * lc_b), jnp.sum(c * ld_a + s * ld_b)
+        iq = (u - law_cog + law_dir * sgn) / (1.0 + jnp.sum(c * lr_a + s * lr_b)) + tab
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
         iq = jnp.clip(iq, -i_lim, i_lim)
         t_em0, _ = plant_torque(theta, omega, iq)
@@ -381,9 +382,11 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     mode_pos = {"position": 1.0, "speed": 0.0}[ref.mode]
     th0 = float(ref.theta[0]) if theta0 is None else float(theta0)
     f = float
-    params = (jnp.asarray(_order_bits(h_p)), *(jnp.asarray(v) for v in (ra, rb, ca, cb, da, db)), f(truth.k0), f(truth.coulomb),
+    params = (jnp.asarray(_order_bits(h_p)), *(jnp.asarray(v) for v in (ra, rb, ca, cb, da, db)), f(truth.k0),
+              f(truth.coulomb),
               f(truth.viscous), f(truth.inertia), f(truth.friction_velocity), tc, q,
-              jnp.asarray(_order_bits(h_l)), *(jnp.asarray(v) for v in (lca, lcb, lra, lrb, lda, ldb)), jnp.asarray(table),
+              jnp.asarray(_order_bits(h_l)), *(jnp.asarray(v) for v in (lca, lcb, lra, lrb, lda, ldb)),
+              jnp.asarray(table),
               float(n_table), f(law.ff_a), f(law.ff_b), f(law.ff_d),
               f(gains.kp), f(gains.ki), f(gains.kd), f(gains.kpv), f(gains.kiv), beta, i_lim, mode_pos, th0,
               f(law.advance))
