@@ -13,9 +13,8 @@ Per motor and ``m`` it prints, per ripple order of the basis, the identified coe
 part of the complex ratio, mean over the seeds; 1 is unbiased), and the spread over the seeds. The order marked ``*``
 is the fundamental cogging order ``LCM(Q, 2p)``: on motors where the ripple's ``12p`` falls on it (36N42P, 24N20P,
 12N10P) the ripple's coefficient there shares its column's angle dependence with the largest cogging order, and the
-fit tells them apart only by the q-current's variation at each angle. The figures (motors 3:7, 1:7, 2:7, 1:5, 3:5, 0:4) are in
-docs/rotary.md, "The ripple
-at the fundamental cogging order".
+fit tells them apart only by the q-current's variation at each angle. The figures (motors 3:7, 1:7, 2:7, 1:5, 3:5,
+0:4) are in docs/rotary.md, "The ripple at the fundamental cogging order".
 A few minutes per motor: the twin runs 650 s of a 36N42P's logs in about 35 s, and each of the nine identifications
 takes about 10 s.
 """
