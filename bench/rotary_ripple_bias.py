@@ -1,4 +1,4 @@
-"""The ripple's bias at the fundamental cogging order: does the q-current's noise pull it towards zero?
+"""The ripple at the fundamental cogging order, identified from the true current and with its noise at 1x and 2x.
 
 Usage: ``python bench/rotary_ripple_bias.py [--motors 3:7,3:5,0:4] [--seconds 600] [--seeds 4]``. Each motor is zoo
 motor ``seed:index`` (:func:`pgcomm.rotary.zoo.draw_rotary`). The rotary experiment's running logs (speed loop, two
