@@ -1,4 +1,5 @@
-"""The ripple at the fundamental cogging order, identified from the true current and with its noise at 1x and 2x.
+"""The ripple at the fundamental cogging order from the true current and with its noise at 1x and 2x, fitted with and
+without the correction for that noise.
 
 Usage: ``python bench/rotary_ripple_bias.py [--motors 3:7,3:5,0:4] [--seconds 600] [--seeds 4]``. Each motor is zoo
 motor ``seed:index`` (:func:`pgcomm.rotary.zoo.draw_rotary`). The rotary experiment's running logs (speed loop, two
@@ -7,7 +8,9 @@ once; then the identification (without a torque sensor) is run on them with the 
 twin's true current at the logged instants plus ``m`` times the motor's current noise (fresh draws, ``--seeds`` of
 them per ``m``; ``m = 0``: no noise). The reading of the logs is the twin's own (no delay, the lag of a drive that
 controls ``K`` times per logged sample, no PLL, no time lines) and the screening of outside orders is off, so only
-the current's noise differs between the rows.
+the current's noise differs between the rows. Each is fitted twice: without the correction for the current's
+noise (``current_noise=None``) and with it, the noise read from a logged d-current that carries the same noise
+(:mod:`pgcomm.rotary.regression`, "The current's noise").
 
 Per motor and ``m`` it prints, per ripple order of the basis, the identified coefficient over the true one (the real
 part of the complex ratio, mean over the seeds; 1 is unbiased), and the spread over the seeds. The order marked ``*``
@@ -15,8 +18,8 @@ is the fundamental cogging order ``LCM(Q, 2p)``: on motors where the ripple's ``
 12N10P) the ripple's coefficient there shares its column's angle dependence with the largest cogging order, and the
 fit tells them apart only by the q-current's variation at each angle. The figures (motors 3:7, 1:7, 2:7, 1:5, 3:5,
 0:4) are in docs/rotary.md, "The ripple at the fundamental cogging order".
-A few minutes per motor: the twin runs 650 s of a 36N42P's logs in about 35 s, and each of the nine identifications
-takes about 10 s.
+A few minutes per motor: the twin runs 650 s of a 36N42P's logs in about 35 s, and each of the eighteen
+identifications takes 10-20 s.
 """
 
 from __future__ import annotations
@@ -61,18 +64,21 @@ def main(argv=None) -> int:
               f"{truth.control_per_log}, current noise {truth.current_noise:.3g} A, LCM(Q, 2p) = {lcm}", flush=True)
         print("  m  " + " ".join(f"{str(h) + ('*' if h == lcm else ''):>14s}" for h in basis), flush=True)
         for mult in (0.0, 1.0, 2.0):
-            ratios = []
+            ratios = {"off": [], "detect": []}
             for s in range(args.seeds if mult else 1):
                 rng = np.random.default_rng([seed, index, s, int(10 * mult)])
-                fed = [{**log, "iq_1": log["iq_true"] + mult * truth.current_noise * rng.standard_normal(log["t"].size)}
-                       for log in logs]
-                res = identify(fed, m, orders, current_delay=0, current_lag=0.5 / truth.control_per_log,
-                               angle_pll=None, time_lines=[], extra_orders=False)
-                got = {int(h): complex(*c) for h, c in zip(res.model.ripple.orders, res.model.ripple.coef)}
-                ratios.append([(got[h] / true[h]).real for h in basis])
-            r = np.asarray(ratios)
-            print(f"  {mult:.0f}  " + " ".join(f"{mean:7.3f} ±{sd:5.3f}" for mean, sd in zip(r.mean(0), r.std(0))),
-                  flush=True)
+                # the d-current the drive logs beside it carries the same noise (the fit reads it from there)
+                fed = [{**log, "iq_1": log["iq_true"] + mult * truth.current_noise * rng.standard_normal(log["t"].size),
+                        "id_1": mult * truth.current_noise * rng.standard_normal(log["t"].size)} for log in logs]
+                for key, noise in (("off", None), ("detect", "detect")):
+                    res = identify(fed, m, orders, current_delay=0, current_lag=0.5 / truth.control_per_log,
+                                   angle_pll=None, time_lines=[], extra_orders=False, current_noise=noise)
+                    got = {int(h): complex(*c) for h, c in zip(res.model.ripple.orders, res.model.ripple.coef)}
+                    ratios[key].append([(got[h] / true[h]).real for h in basis])
+            for key, label in (("off", "uncorrected"), ("detect", "corrected")):
+                r = np.asarray(ratios[key])
+                print(f"  {mult:.0f}  " + " ".join(f"{mean:7.3f} ±{sd:5.3f}" for mean, sd in zip(r.mean(0), r.std(0)))
+                      + f"  {label}", flush=True)
     return 0
 
 

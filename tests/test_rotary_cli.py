@@ -71,14 +71,21 @@ def test_identify_rotary_logs_recovers_the_cogging(tmp_path, zoo):
 
 def test_real_drive_log_shape_gives_the_same_model(tmp_path, zoo):
     """The drive's own names and units: time, position in revolutions wrapped to [0, 1), speed in rpm, Iq, plus
-    vq and vbus that identification does not need."""
+    vq and vbus that identification does not need; against the same columns in pgcomm's names and units (no
+    d-current in either: where the logs have one, the current's noise is read from it)."""
     from pgcomm.io.logs import read_log
 
     logs = sorted((zoo / "logs").glob("*.csv"))
-    mapped = []
+    mapped, native = [], []
     for k, path in enumerate(logs):
         lg = read_log(path, required=("theta",))
         c = lg.columns
+        p = tmp_path / f"native{k}.csv"
+        with open(p, "w") as f:
+            f.write("t,theta,velocity,iq_1,vq_1\n")
+            np.savetxt(f, np.column_stack([c["t"], c["theta"], c["velocity"], c["iq_1"], 0.1 * c["iq_1"]]),
+                       delimiter=",", fmt="%.15g")
+        native.append(p)
         rev = np.mod(c["theta"] / (2 * math.pi), 1.0)
         rows = np.column_stack([c["t"], rev, c["velocity"] * 60 / (2 * math.pi), c["iq_1"],
                                 0.1 * c["iq_1"], np.full(rev.size, 24.0)])
@@ -90,7 +97,7 @@ def test_real_drive_log_shape_gives_the_same_model(tmp_path, zoo):
     (tmp_path / "map.toml").write_text(
         '[columns]\nt = "time_s"\ntheta = "pos_rev"\nvelocity = "speed_rpm"\niq_1 = "Iq"\nvq_1 = "Vq"\n'
         'vbus = "Vbus"\n[units]\ntheta = "rev"\nvelocity = "rpm"\n')
-    a = _identify(tmp_path / "a", zoo / "motor.toml", logs)
+    a = _identify(tmp_path / "a", zoo / "motor.toml", native)
     b = _identify(tmp_path / "b", zoo / "motor.toml", mapped, ["--columns", str(tmp_path / "map.toml")])
     ta, tb = read_angle_table(a / "compensation.csv").iq, read_angle_table(b / "compensation.csv").iq
     np.testing.assert_allclose(tb, ta, rtol=0, atol=1e-6 * np.max(np.abs(ta)))

@@ -352,6 +352,44 @@ def test_chunked_rows_and_normal_equations_match_a_dense_ridge_solve(motor0):
     assert fit["rows"] == y.size and fit["cost"] == pytest.approx(float(np.mean((y - X @ beta) ** 2)), rel=1e-6)
 
 
+@pytest.mark.parametrize("lag", [None, 1.0 / 16.0])
+def test_current_noise_equations_are_the_sum_over_logged_samples(motor0, lag):
+    """Second formulation of the current-noise correction's expectation (regression, "The current's noise"): the
+    probes' sums equal the sum over every logged sample ``j`` of the rows built with a current that is 1 at ``j``
+    alone (brute force on the middle 0.4 s of a log), for the current held between samples and read smooth."""
+    from dataclasses import replace
+
+    from pgcomm.rotary import regression as ri
+
+    t, logs = motor0
+    orders = Orders.for_motor(t.motor)
+    n_log = logs[0]["t"].size
+    mid = n_log // 2
+    short = [{k: np.asarray(v)[mid - 200:mid + 200] for k, v in logs[0].items()
+              if np.ndim(v) == 1 and len(v) == n_log}]
+    prepared, _, _, _ = ri._prepare(short, t.motor, orders, ri.MIN_SAMPLES_PER_PERIOD, ri.FILTER_TAPS, None)
+    prepared = [replace(p, lag=lag) for p in prepared]
+    assert prepared[0].starts.size > 100
+    lay = ri._Layout.of(orders)
+    Gn, bn, yyn = ri._current_noise_equations(prepared, lay, ri.FILTER_TAPS)
+    n = prepared[0].iq.size
+    k = int(lay.keep.sum())
+    G, b, yy = np.zeros((k, k)), np.zeros(k), 0.0
+    for j in range(n):
+        e = np.zeros(n)
+        e[j] = 1.0
+        for ch in ri._chunks([replace(prepared[0], iq=e)], orders, ri.FILTER_TAPS):
+            # only the target and the ripple's columns read the current
+            X = lay.rows({**ch, **{c: 0.0 * ch[c] for c in ("acc", "cog", "dir", "visc")}})
+            G += X.T @ X
+            b += X.T @ ch["y"]
+            yy += float(ch["y"] @ ch["y"])
+    assert np.max(np.abs(G)) > 0
+    np.testing.assert_allclose(Gn.sum(axis=0), G, rtol=0, atol=1e-12 * np.max(np.abs(G)))
+    np.testing.assert_allclose(bn.sum(axis=0), b, rtol=0, atol=1e-12 * np.max(np.abs(b)))
+    assert yyn.sum() == pytest.approx(yy, rel=1e-12)
+
+
 def test_ridge_bias_is_the_shift_of_a_refit_on_the_fitted_currents(motor0):
     """Second formulation of the ridge's bias ``(A⁻¹N − I) β̂``: the ridge solution (a dense QR solve of the rows
     augmented by the ridge) of currents that are exactly ``X β̂`` lands at ``β̂ + bias``. A strong ridge leaves a

@@ -85,7 +85,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
              min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
              ridge: float | None = None, extra_orders: bool = True, encoder_step="detect",
              current_delay="detect", angle_pll="detect", time_lines="detect",
-             back_emf: bool = True, current_lag="detect") -> RotaryIdentification:
+             back_emf: bool = True, current_lag="detect", current_noise="detect") -> RotaryIdentification:
     """Identify cogging, torque-constant ripple, the direction-dependent torque and friction.
 
     Args:
@@ -118,6 +118,11 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             drive that controls faster and logs snapshots: ``1/(2K)`` at ``K`` control cycles per logged sample), or
             ``"detect"`` (:mod:`pgcomm.rotary.readings`, "The current's timing"; results ``info["current_delay"]``'s
             ``held`` and ``lag``).
+        current_noise: the logged current's white noise (A, standard deviation) that the fit corrects for
+            (:mod:`pgcomm.rotary.regression`, "The current's noise"), ``None`` for no correction, or ``"detect"``:
+            from the logged d-current where every log has one, else half the variance of the q-current's sixth
+            difference, an upper bound (results ``info["current_noise_correction"]``; the verdict counts what the
+            correction may leave, ``current_noise_bias``).
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -160,7 +165,10 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     if n_windows < 2 * n_unknowns:
         raise ExcitationError(f"{n_windows} usable windows for {n_unknowns} unknowns: record longer running logs "
                               f"(speeds up to {v_limit:.3g} rad/s, both directions)")
-    fit = _fit(prepared, layout, taps, ridge)
+    noise_info = _noise_info(logs, ts)
+    correction = _current_noise_setting(current_noise, noise_info)
+    fit = _fit(prepared, layout, taps, ridge, current_noise=correction["noise_A"],
+               current_noise_uncertainty=correction["uncertainty"])
     beta = np.zeros(layout.keep.size)
     beta[layout.keep] = fit["beta"]
     cov = np.zeros((layout.keep.size, layout.keep.size))
@@ -169,10 +177,13 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     bias[layout.keep] = fit["bias"]
     shift = np.zeros(layout.keep.size)
     shift[layout.keep] = fit["quantisation_shift"]
+    c_shift = np.zeros(layout.keep.size)
+    c_shift[layout.keep] = fit["current_shift"]
     reading = np.zeros(layout.keep.size)
     if pll is not None:
         # what a PLL's reading may leave: a share of the maps' move from the angle as logged (pgcomm.rotary.readings)
-        reading[layout.keep] = PLL_UNCERTAINTY * (_fit(as_logged, layout, taps, fit["ridge"])["beta"] - fit["beta"])
+        reading[layout.keep] = PLL_UNCERTAINTY * (_fit(as_logged, layout, taps, fit["ridge"],
+                                                       current_noise=correction["noise_A"])["beta"] - fit["beta"])
     o_r, o_c, o_d = layout.o_r, layout.o_c, layout.o_d
     if lines:
         # per log a cosine and a sine of each line (A): the amplitude of each line in each log
@@ -188,11 +199,12 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     blind = None
     if screen is not None:
         blind = {k: float(np.median(v)) for k, v in screen["blind_rms"].items() if np.size(v)}
-    standard_error = _standard_errors(model, cov, bias, o_r, o_c, o_d, final, fit["blocks"], blind, shift, reading)
+    standard_error = _standard_errors(model, cov, bias, o_r, o_c, o_d, final, fit["blocks"], blind, shift, reading,
+                                      c_shift)
     voltage_info = None
     if back_emf and has_voltage(logs):
         # the parts of the currents' error that its covariance does not hold, as the verdict counts them
-        fixed = [fit["bias"], fit["quantisation_shift"], reading[layout.keep]]
+        fixed = [fit["bias"], fit["quantisation_shift"], reading[layout.keep], fit["current_shift"]]
         voltage_info = _voltage_check(fit, fixed, (blind or {}).get("ripple"), logs, motor, final, layout, ts,
                                       timing["samples"], pll)
     info = {"windows": counts["windows"], "windows_used": int(n_windows), "windows_refused_alias": counts["alias"],
@@ -206,7 +218,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             "cost_A2": fit["cost"], "inertia_ratio": float(beta[0]), "standard_error": standard_error,
             "quantisation": _quantisation_info(prepared, fit), "current_delay": timing, "angle_pll": estimate,
             "time_lines": lines_info, "back_emf": voltage_info,
-            **_noise_info(logs, ts),
+            **noise_info, "current_noise_correction": {**correction, **fit["current_noise"]},
             "seconds": time.perf_counter() - t0}
     if counts["alias"]:
         info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "
@@ -268,6 +280,28 @@ def _noise_info(logs, ts: float) -> dict:
             "also holds the current the loop commands from the encoder's noise)"}
 
 
+#: The share of the current-noise correction taken as uncertain in the verdict when the noise is read from the logged
+#: d-current (or given): the d- and q-current's noises are the same phase sensors' through the drive's transform, equal
+#: on average over the electrical angle, but a drive with two phase sensors makes them differ with the angle.
+CURRENT_NOISE_UNCERTAINTY = 0.25
+
+
+def _current_noise_setting(current_noise, noise_info: dict) -> dict:
+    """The current's noise the fit corrects for (``noise_A``, A) and the share of that correction the verdict counts
+    as uncertain (``uncertainty``), from :func:`identify`'s ``current_noise`` and :func:`_noise_info`: the logged
+    d-current's noise as it is; the q-current's sixth difference, an upper bound, at half its variance with the whole
+    correction uncertain (the noise lies between none and the bound)."""
+    if current_noise is None:
+        return {"noise_A": 0.0, "uncertainty": 0.0, "from": "off"}
+    if not isinstance(current_noise, str):
+        return {"noise_A": float(current_noise), "uncertainty": CURRENT_NOISE_UNCERTAINTY, "from": "given"}
+    sigma = float(noise_info["current_noise_A"])
+    if noise_info["current_noise_from"].startswith("the logged d-current"):
+        return {"noise_A": sigma, "uncertainty": CURRENT_NOISE_UNCERTAINTY, "from": "the logged d-current"}
+    return {"noise_A": sigma / math.sqrt(2.0), "uncertainty": 1.0,
+            "from": "half the q-current's sixth difference's variance (an upper bound)"}
+
+
 def _quantisation_info(prepared, fit: dict) -> dict:
     """What the results say about the encoder's quantisation correction."""
     steps = [p.step for p in prepared if p.step is not None]
@@ -314,7 +348,7 @@ RESOLVED_CONFIDENCE = 0.9
 
 
 def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Orders, blocks: int,
-                     blind: dict | None = None, shift=None, reading=None) -> dict:
+                     blind: dict | None = None, shift=None, reading=None, current=None) -> dict:
     """How well the logs determine each map: expected RMS error over the revolution, relative to the
     map's identified RMS, and the running-log time that would bring it to :data:`RESOLVED_SHARE`.
 
@@ -340,6 +374,10 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
     ``pll_bias`` (``reading``: :data:`PLL_UNCERTAINTY` times the fit's move from the angle as logged to the angle read
     through a drive's PLL, :func:`_angle_pll`; zero when the angle is the encoder's) is the RMS of that over the
     revolution, relative: what the PLL's reading may leave. It counts like the quantisation bias.
+
+    ``current_noise_bias`` (``current``: the fit's shift were the current-noise correction its uncertain share
+    smaller, :func:`_current_noise_setting`) is the RMS of that shift over the revolution, relative. It counts like the
+    quantisation bias.
     """
     out = {"blocks": int(blocks), "resolved_share": RESOLVED_SHARE, "confidence": RESOLVED_CONFIDENCE}
     th = 2 * math.pi * np.arange(4096) / 4096
@@ -359,13 +397,15 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
         q_rel = float(np.sqrt(max(float(sh @ gram @ sh), 0.0))) / rms if rms > 0 else float("inf")
         rd = np.zeros(len(cols)) if reading is None else reading[cols]
         p_rel = float(np.sqrt(max(float(rd @ gram @ rd), 0.0))) / rms if rms > 0 else float("inf")
+        cs = np.zeros(len(cols)) if current is None else current[cols]
+        c_rel = float(np.sqrt(max(float(cs @ gram @ cs), 0.0))) / rms if rms > 0 else float("inf")
         lim = (blind or {}).get(name)
         lim_rel = (float(lim) / rms if rms > 0 else float("inf")) if lim is not None else None
         noise = math.hypot(rel_q, lim_rel or 0.0)
-        fixed = math.hypot(b_rel, q_rel, p_rel)
+        fixed = math.hypot(b_rel, q_rel, p_rel, c_rel)
         out[name] = {"rms_error": se, "rms": rms, "relative": rel, "relative_at_confidence": rel_q,
                      "outside_order_limit": lim_rel, "ridge_bias": b_rel, "quantisation_bias": q_rel,
-                     "pll_bias": p_rel, "resolved": bool(math.hypot(noise, fixed) <= RESOLVED_SHARE),
+                     "pll_bias": p_rel, "current_noise_bias": c_rel, "resolved": bool(math.hypot(noise, fixed) <= RESOLVED_SHARE),
                      "log_time_factor_to_resolve": _time_factor(noise, fixed)}
     # the ripple is seen only through q-current that varies at a given angle: its need falls with the square of that
     # variation, which constant-speed logs hardly carry (zoo 9N6P: 34 s of constant speeds left its standard error at
@@ -417,6 +457,8 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
         parts.append(f"an unseen order outside the basis up to {100 * entry['outside_order_limit']:.1f} %")
     if entry.get("quantisation_bias", 0.0) >= 0.1 * RESOLVED_SHARE:
         parts.append(f"the encoder's rounding up to {100 * entry['quantisation_bias']:.1f} %")
+    if entry.get("current_noise_bias", 0.0) >= 0.1 * RESOLVED_SHARE:
+        parts.append(f"the current's noise up to {100 * entry['current_noise_bias']:.1f} %")
     if entry.get("pll_bias", 0.0) >= 0.1 * RESOLVED_SHARE:
         parts.append(f"the PLL's reading up to {100 * entry['pll_bias']:.1f} %")
     why = f" ({', '.join(parts)})" if parts else ""

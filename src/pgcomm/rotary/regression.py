@@ -40,6 +40,21 @@ constant speed with 16–17-bit encoders on the zoo). Where the logged angle sit
 step is read from it and the noise's known variance taken out of the normal equations
 (:mod:`pgcomm.rotary.quantisation`, :func:`_quantisation_correction`).
 
+**The current's noise.** The logged current is in the target and, through ``i_q φ_h``, in the ripple's columns: its
+noise is the same in both, and their product does not average out where the rotor's angle is not sampled evenly over
+the revolution. A speed loop that answers the cogging makes the rotor slower at some angles of the largest cogging
+order than at others, so the rows hold more of those angles, and the ripple at that order (where it is one of the
+ripple's orders: ``LCM(Q, 2p) = 12p`` on 36N42P and 24N20P motors) was pulled towards zero as the noise's variance:
+on zoo seed 3's 36N42P, 0.92 of its truth without noise, 0.73 with the twin's noise and 0.27 with twice it (the mean
+over draws; the noise in the target alone or in the columns alone moved nothing). The expectation of that product is
+known given the noise's variance: the sum over rows and logged samples of ``a_j a_jᵀ``, ``a_j`` the part of a row that
+sample ``j`` sets, built by running the rows on probe currents, each 1 on every ``P``-th sample (no row reads two of
+them). :func:`_current_noise_equations` builds it and :func:`_current_noise_correction` subtracts it times the
+variance (0.88 and 0.89 of the truth at the twin's noise and twice it). The noise is read from the logged d-current
+(:mod:`pgcomm.rotary.identify`); where the logs have none, the q-current's sixth difference is an upper bound (it holds
+the current the loop commands from the encoder's noise too, which is real current), and half its variance is
+corrected, the whole counted as uncertain in the verdict.
+
 **Regularisation.** A ridge on the Fourier coefficients (columns scaled to unit RMS; the
 mechanical columns ``J/k0``, ``b`` and the Coulomb term are not penalised), its weight chosen
 by validation on held-out **time blocks** (every ``VALIDATION_EVERY``-th block of about one
@@ -91,6 +106,9 @@ CHUNK_WINDOWS = 512
 #: share of the acceleration's part that the maps and friction do not explain: beyond it the logs do not carry
 #: the rotor's acceleration above the encoder's noise, and ``J/k0`` would be noise over almost nothing.
 MAX_NOISE_SHARE = 0.75
+#: The current-noise correction (:func:`_current_noise_correction`) removes at most this share of the ripple
+#: columns' part that the other columns do not explain, as :data:`MAX_NOISE_SHARE` does for the acceleration.
+MAX_CURRENT_NOISE_SHARE = 0.75
 #: The share of the encoder-noise correction taken as uncertain in the verdict: on the twin, the noise the
 #: acceleration actually carries (with the drive's loop reacting to it) was 0.83-1.44 times the white model's
 #: (zoo seed 1, 12N14P and 18N16P, per constant-speed log).
@@ -334,7 +352,7 @@ def _weights_at_nodes(phi: np.ndarray, current=None):
 
 
 def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, block_seconds: float = BLOCK_SECONDS,
-            lines=()):
+            lines=(), probes: bool = False):
     """Filtered target and regressor blocks (module docstring), ``chunk`` windows at a time: the Fourier
     columns are built only over the samples a chunk needs, so a basis of hundreds of orders on minutes of
     1 kHz logs stays within a few tens of MB.
@@ -345,14 +363,16 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
         variance in ``acc``, (rad/s²)²), ``row`` (each window's first sample in its log), ``log`` (the log's
         position in ``prepared``) and, with ``lines``, ``line`` (``(J, 2 len(lines))``: a cosine and a sine of each time
         frequency of ``lines`` (Hz) over the log's own time, through the current's kernel and filter: a
-        time-periodic disturbance, :mod:`pgcomm.rotary.time_lines`).
+        time-periodic disturbance, :mod:`pgcomm.rotary.time_lines`); with ``probes``, ``noise_rows``: a list of
+        ``(y, rip)`` pairs whose products, summed over the list, are each row's products of the parts that one
+        logged current sample puts in ``y`` and ``rip``, summed over the samples (:func:`_current_noise_equations`).
     """
-    for chunks in _reading_chunks([prepared], orders, taps, chunk, block_seconds, lines):
+    for chunks in _reading_chunks([prepared], orders, taps, chunk, block_seconds, lines, probes):
         yield chunks[0]
 
 
 def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS,
-                    block_seconds: float = BLOCK_SECONDS, lines=()):
+                    block_seconds: float = BLOCK_SECONDS, lines=(), probes: bool = False):
     """:func:`_chunks` for several readings of the same logs' current (each a list of :class:`_Prepared` as
     :func:`pgcomm.rotary.readings._with_delay` makes them: the same angle arrays and windows, the current shifted or
     read smooth): what depends on the angle alone, most of the work, is built once per chunk.
@@ -365,6 +385,7 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
         if len(r) != len(first) or any(p.theta is not q.theta or p.starts is not q.starts for p, q in zip(r, first)):
             raise ValueError("readings of the current must share the logs' angle and windows")
     g = _hann(taps)
+    n_probes = taps + 4  # the samples one row reads its current from (the smooth reading's cubic reaches one further)
     g_zoh = np.convolve(g, _ZOH)  # (T+1,) on samples s .. s+T
     g_tri = np.convolve(g, _TRI)  # (T+2,) on samples s .. s+T+1
     span = taps + 2
@@ -374,6 +395,22 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
     for name in ("cogging", "ripple", "direction"):
         at = np.searchsorted(union, getattr(orders, name))
         cols[name] = np.concatenate([at, union.size + at])
+    def current_rows(x, lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh):
+        """``(y, rip)``: the filtered current and the ripple's columns of the chunk's rows under the current ``x``
+        (the log's ``(N,)`` samples, A), held (``lag`` ``None``) or smooth ``lag`` samples late."""
+        if lag is None:
+            xi = x[lo:hi]
+            a_r, b_r = xi[:n_int, None] * a_rh, xi[:n_int, None] * b_rh
+            y = _filt(xi, loc, g_zoh)
+        else:
+            # the current between snapshots: the cubic through the four around each interval (as the angle's path),
+            # ``lag`` late
+            cur = _at_nodes(_extended(x, lo, hi), n_int, _lagrange(_GL_NODES - lag))
+            a_r, b_r = _weights_at_nodes(phi_r, cur)
+            rise, fall = cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES))
+            y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
+        return y, _filt(a_r, loc, g) + _filt(b_r, loc + 1, g)
+
     for pos, p in enumerate(first):
         for k in range(0, p.starts.size, chunk):
             st = p.starts[k:k + chunk]
@@ -403,31 +440,26 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
             out = []
             for r in readings:
                 q = r[pos]
-                iq = q.iq[lo:hi]
                 ch = dict(common)
-                if q.lag is None:
-                    a_r, b_r = iq[:n_int, None] * a_rh, iq[:n_int, None] * b_rh
-                    y = _filt(iq, loc, g_zoh)
-                    if lines:
+                ch["y"], ch["rip"] = current_rows(q.iq, q.lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh)
+                if probes:
+                    # the rows' sensitivity to each logged current sample: probe k is 1 on the samples k, k + P, ...
+                    # (P the samples one row reads), so no row reads two of them and each probe's rows hold one
+                    # sample's part of every row
+                    ch["noise_rows"] = [current_rows((np.arange(q.iq.size) % n_probes == k).astype(float), q.lag, lo,
+                                                     hi, n_int, loc, phi_r, a_rh, b_rh) for k in range(n_probes)]
+                if lines:
+                    if q.lag is None:
                         if held_line is None:
                             phase = np.arange(lo, hi)[:, None] * p.ts * freqs
                             held_line = _filt(np.concatenate([np.cos(phase), np.sin(phase)], axis=1), loc, g_zoh)
                         ch["line"] = held_line
-                else:
-                    # the current between snapshots: the cubic through the four around each interval (as the angle's
-                    # path), ``lag`` late
-                    cur = _at_nodes(_extended(q.iq, lo, hi), n_int, _lagrange(_GL_NODES - q.lag))
-                    a_r, b_r = _weights_at_nodes(phi_r, cur)
-                    rise, fall = cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES))
-                    y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
-                    if lines:
+                    else:
                         # a time-periodic disturbance is smooth in time too: at the nodes' own instants
                         ph = ((np.arange(lo, hi - 1)[:, None] + _GL_NODES - q.lag) * p.ts)[:, :, None] * freqs
                         cs = np.concatenate([np.cos(ph), np.sin(ph)], axis=2)  # (n_int, nodes, 2 lines)
                         ch["line"] = (_filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * _GL_NODES), loc, g)
                                       + _filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * (1.0 - _GL_NODES)), loc + 1, g))
-                ch["y"] = y
-                ch["rip"] = _filt(a_r, loc, g) + _filt(b_r, loc + 1, g)
                 out.append(ch)
             yield out
 
@@ -522,6 +554,62 @@ def _reading_normal_equations(readings, layout: _Layout, taps: int, block_second
     return acc
 
 
+def _current_noise_equations(prepared, layout: _Layout, taps: int, block_seconds: float = BLOCK_SECONDS):
+    """What a white noise of unit variance in the logged current adds, in expectation, to the normal equations of
+    :func:`_normal_equations` (module docstring, "The current's noise"): ``Σ_rows Σ_j a_j a_jᵀ``, ``a_j`` the part of
+    a row's ``[X | y]`` that the current's sample ``j`` sets (the target and the ripple's columns), training and
+    validation rows apart.
+
+    Returns:
+        ``(Gn (2, p, p), bn (2, p), yyn (2,))``.
+    """
+    p = int(layout.keep.sum())
+    Gn, bn, yyn = np.zeros((2, p, p)), np.zeros((2, p)), np.zeros(2)
+    kept = np.flatnonzero(layout.keep)
+    rip_keep = layout.keep[layout.o_r]  # the ripple's columns of ``ch["rip"]`` that the layout keeps
+    at = np.searchsorted(kept, layout.o_r[rip_keep])  # ... and where they sit among the kept columns
+    for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds, lines=layout.lines, probes=True):
+        val = _is_validation(ch["block"])
+        for y_k, rip_k in ch["noise_rows"]:
+            r_k = -rip_k[:, rip_keep]  # the layout's columns are -rip
+            for k, m in ((0, ~val), (1, val)):
+                rm, ym = r_k[m], y_k[m]
+                Gn[k][np.ix_(at, at)] += rm.T @ rm
+                bn[k][at] += rm.T @ ym
+                yyn[k] += ym @ ym
+    return Gn, bn, yyn
+
+
+def _current_noise_correction(G, b, yy, noise_equations, variance: float):
+    """Normal equations corrected for the logged current's white noise of ``variance`` (A²): its expectation
+    (:func:`_current_noise_equations`) subtracted, at most :data:`MAX_CURRENT_NOISE_SHARE` of what the ripple's
+    columns hold beyond the others (the largest generalised eigenvalue of their noise part over their Schur
+    complement, over training and validation rows).
+
+    Returns:
+        ``(G, b, yy, applied, share)``: ``applied`` the variance subtracted (A²), ``share`` the noise part's largest
+        share at the full variance.
+    """
+    Gn, bn, yyn = noise_equations
+    if variance <= 0.0:
+        return G, b, yy, 0.0, 0.0
+    Gt, Gnt = G.sum(axis=0), Gn.sum(axis=0)
+    idx = np.flatnonzero(np.diag(Gnt) > 0.0)
+    if idx.size == 0:
+        return G, b, yy, 0.0, 0.0
+    d = np.sqrt(np.diag(Gt))
+    d[d == 0] = 1.0
+    A = Gt / np.outer(d, d)
+    A[np.diag_indices_from(A)] += RIDGE_GRID[0] * np.trace(A) / A.shape[0]
+    schur = np.linalg.inv(np.linalg.inv(A)[np.ix_(idx, idx)])
+    part = variance * Gnt[np.ix_(idx, idx)] / np.outer(d[idx], d[idx])
+    from scipy.linalg import eigh
+
+    share = float(eigh(part, 0.5 * (schur + schur.T), eigvals_only=True)[-1])
+    applied = variance * min(1.0, MAX_CURRENT_NOISE_SHARE / share) if share > 0 else variance
+    return G - applied * Gn, b - applied * bn, yy - applied * yyn, float(applied), share
+
+
 def _quantisation_correction(G: np.ndarray, noise: np.ndarray):
     """Subtract the encoder's noise from the acceleration's diagonal (column 0) of the normal matrices
     (:mod:`pgcomm.rotary.quantisation`), at most :data:`MAX_NOISE_SHARE` of the acceleration's part that the
@@ -581,20 +669,33 @@ def _validated_ridge(G, b, yy, n, pen) -> tuple[float, list]:
     return RIDGE_GRID[int(np.argmin(curve))], curve
 
 
-def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_seconds: float = BLOCK_SECONDS):
+def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_seconds: float = BLOCK_SECONDS,
+         current_noise: float = 0.0, current_noise_uncertainty: float = 0.0):
     """Ridge fit of one layout: the weight validated on held-out time blocks (or ``ridge``), the refit on all
     rows, and the estimate's covariance ``A⁻¹ (Σ_b X_bᵀ e_b e_bᵀ X_b) A⁻¹`` (``A`` the regularised normal
     matrix, ``e`` the residuals, ``b`` the one-second blocks): the sandwich that holds when the rows are
     correlated within a block (the overlapping filter windows) and the noise is not white (encoder
     quantisation, friction), as long as the blocks are roughly independent. The normal matrices are
     corrected for the encoder's noise in the acceleration (:func:`_quantisation_correction`), and the
-    sandwich's block scores are those of the corrected estimating equation.
+    sandwich's block scores are those of the corrected estimating equation; with ``current_noise`` (the logged
+    current's white noise, A) for that noise in the target and the ripple's columns too
+    (:func:`_current_noise_correction`; the module docstring, "The current's noise"), whose expectation the block
+    scores keep (a little conservative).
+
+    Args:
+        current_noise_uncertainty: the share of the current-noise correction taken as uncertain: ``current_shift``
+            is the fit's shift were the correction that share smaller.
 
     Returns:
         dict: ``beta`` (kept columns, unscaled), ``cov``, ``ridge``, ``curve`` (validation MSE per grid
-        weight, A²), ``cost`` (mean squared residual, A²), ``rows``, ``blocks``.
+        weight, A²), ``cost`` (mean squared residual, A²), ``rows``, ``blocks``, ``current_noise`` (the variance
+        subtracted, A², and the noise part's share, :func:`_current_noise_correction`), ``current_shift``.
     """
     G, b, yy, n, noise = _normal_equations(prepared, layout, taps, block_seconds)
+    applied, c_share, noise_eq = 0.0, 0.0, None
+    if current_noise > 0.0:
+        noise_eq = _current_noise_equations(prepared, layout, taps, block_seconds)
+        G, b, yy, applied, c_share = _current_noise_correction(G, b, yy, noise_eq, float(current_noise) ** 2)
     G, factor, share = _quantisation_correction(G, noise)
     pen = layout.pen[layout.keep].astype(float)
     curve = []
@@ -611,6 +712,11 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
         A2 = A.copy()
         A2[0, 0] += QUANTISATION_UNCERTAINTY * factor * float(np.sum(noise)) / scale[0] ** 2
         shift = np.linalg.solve(A2, (b[0] + b[1]) / scale) / scale - beta
+    c_shift = np.zeros_like(beta)
+    if applied > 0.0 and current_noise_uncertainty > 0.0:
+        u = float(current_noise_uncertainty) * applied
+        A2 = A + u * (noise_eq[0][0] + noise_eq[0][1]) / np.outer(scale, scale)
+        c_shift = np.linalg.solve(A2, (b[0] + b[1] + u * (noise_eq[1][0] + noise_eq[1][1])) / scale) / scale - beta
     scores, sse = {}, 0.0
     for ch in _chunks(prepared, layout.orders, taps, block_seconds=block_seconds, lines=layout.lines):
         X = layout.rows(ch)
@@ -635,7 +741,8 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
     bias = (a_inv @ ((G[0] + G[1]) / np.outer(scale, scale) @ bs) - bs) / scale
     return {"beta": beta, "cov": cov, "ridge": float(lam), "curve": curve, "cost": sse / rows, "rows": int(rows),
             "blocks": len(scores), "influence": influence, "bias": bias, "noise_share": share,
-            "noise_factor": factor, "quantisation_shift": shift}
+            "noise_factor": factor, "quantisation_shift": shift,
+            "current_noise": {"variance_A2": applied, "share": c_share}, "current_shift": c_shift}
 
 
 def _full(structured: np.ndarray) -> np.ndarray:
