@@ -520,7 +520,8 @@ def test_map_error_quantile_against_monte_carlo():
 
 def test_resolution_verdict_says_what_would_help():
     """Resolved; not resolved for noise (the factor rounded up, so a factor just above 1 never reads 1.0x); not
-    resolved because the ridge sets the map (then it names the excitation, not the log time)."""
+    resolved because the ridge sets the map (then it names the excitation, not the log time); the encoder's rounding,
+    a PLL's reading and the current's noise, named among the parts or as the reason."""
     from pgcomm.rotary.identify import RESOLVED_SHARE, resolution_verdict
 
     assert resolution_verdict({"resolved": True, "ridge_bias": 0.0, "log_time_factor_to_resolve": 1.0}) == "resolved"
@@ -550,6 +551,13 @@ def test_resolution_verdict_says_what_would_help():
     pll = resolution_verdict({"resolved": False, "ridge_bias": 0.01, "quantisation_bias": 0.02, "pll_bias": 0.079,
                               "log_time_factor_to_resolve": float("inf")})
     assert "PLL's reading of the angle could move it by 8 %" in pll and "encoder's count" in pll
+    # the correction for the current's noise: likewise
+    part = resolution_verdict({"resolved": False, "ridge_bias": 0.0, "current_noise_bias": 0.021,
+                               "log_time_factor_to_resolve": 1.4, "relative_at_confidence": 0.04})
+    assert "the current's noise up to 2.1 %" in part and "1.4x" in part
+    cur = resolution_verdict({"resolved": False, "ridge_bias": 0.01, "quantisation_bias": 0.02, "pll_bias": 0.0,
+                              "current_noise_bias": 0.061, "log_time_factor_to_resolve": float("inf")})
+    assert "current's noise could move it by 6 %" in cur and "d-current" in cur and "x the running" not in cur
 
 
 def test_the_log_time_factor_leaves_room_for_what_longer_logs_do_not_change():

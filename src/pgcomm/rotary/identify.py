@@ -405,7 +405,8 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
         fixed = math.hypot(b_rel, q_rel, p_rel, c_rel)
         out[name] = {"rms_error": se, "rms": rms, "relative": rel, "relative_at_confidence": rel_q,
                      "outside_order_limit": lim_rel, "ridge_bias": b_rel, "quantisation_bias": q_rel,
-                     "pll_bias": p_rel, "current_noise_bias": c_rel, "resolved": bool(math.hypot(noise, fixed) <= RESOLVED_SHARE),
+                     "pll_bias": p_rel, "current_noise_bias": c_rel,
+                     "resolved": bool(math.hypot(noise, fixed) <= RESOLVED_SHARE),
                      "log_time_factor_to_resolve": _time_factor(noise, fixed)}
     # the ripple is seen only through q-current that varies at a given angle: its need falls with the square of that
     # variation, which constant-speed logs hardly carry (zoo 9N6P: 34 s of constant speeds left its standard error at
@@ -442,6 +443,10 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     if math.hypot(ridge, quant, pll) >= RESOLVED_SHARE and pll >= quant and pll >= ridge:
         return (f"not resolved: the drive PLL's reading of the angle could move it by {100 * pll:.0f} % (log the "
                 "encoder's count if the drive has it)")
+    cur = entry.get("current_noise_bias", 0.0)
+    if math.hypot(ridge, quant, pll, cur) >= RESOLVED_SHARE and cur >= max(quant, pll, ridge):
+        return (f"not resolved: the correction for the logged current's noise could move it by {100 * cur:.0f} % (log "
+                "the d-current beside the q-current: its noise is then read, not bounded)")
     if math.hypot(ridge, quant) >= RESOLVED_SHARE:
         return (f"not resolved: the encoder's rounding could move it by {100 * entry['quantisation_bias']:.0f} % (the "
                 "logs hardly carry the rotor's acceleration above it; log accelerations or a dither, or use a finer "
