@@ -431,7 +431,8 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     longer logs of the same kind when the noise part is too large (with
     ``log_seconds``, the seconds of running log so far, also the total it would take; with the noise part at
     :data:`RESOLVED_CONFIDENCE` and the outside-order limit it weighs, when the entry has them), a different
-    excitation when the ridge sets the map or the encoder's rounding could move it by more than the share (then
+    excitation when the ridge sets the map or the encoder's rounding could move it by more than the share, the
+    encoder's count when a PLL's reading could, the d-current when the correction for the current's noise could (then
     longer logs of the same kind do not help)."""
     if entry["resolved"]:
         return "resolved"
