@@ -250,6 +250,7 @@ def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, z
     ("lag", "--current-lag 2: held, or a lag in samples between -0.5 and 0.5"),
     ("pll", "--angle-pll 1000,-1: a natural frequency in rad/s and optionally a damping, both positive"),
     ("lines", "--time-lines 50,x: frequencies in Hz, positive"),
+    ("noise", "--current-noise -0.1: the logged current's noise in A"),
 ])
 def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
     log = sorted((zoo / "logs").glob("*.csv"))[0]
@@ -284,6 +285,8 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
         args += ["--data", str(log), "--angle-pll", "1000,-1"]
     elif case == "lines":
         args += ["--data", str(log), "--time-lines", "50,x"]
+    elif case == "noise":
+        args += ["--data", str(log), "--current-noise", "-0.1"]
     capsys.readouterr()
     assert main(args) == 2
     err = capsys.readouterr().err.strip()

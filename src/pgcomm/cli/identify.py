@@ -55,6 +55,10 @@ def configure(p) -> None:
                    help="rotary motors: the logged angle is a drive's PLL estimate of natural frequency W rad/s "
                         "(damping ZETA, default 1; ODrive's encoder bandwidth), or 'none' for the encoder's own "
                         "angle (default: detected when no logged angle sits on an encoder's lattice)")
+    p.add_argument("--current-noise", metavar="A|none",
+                   help="rotary motors: the logged q-current's white noise (A, standard deviation) that the fit "
+                        "corrects for, or 'none' (default: read from the logged d-current id_1 where every log has "
+                        "it, else bounded by the q-current's sixth difference and half of that corrected)")
     p.add_argument("--time-lines", metavar="HZ[,HZ...]",
                    help="rotary motors: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a "
                         "current sensor's mains pickup, a fan, a resonance), or 'none' (default: detected as lines at "
@@ -90,7 +94,7 @@ def run(args, out: Path, progress) -> None:
 
         raise ConfigError("--sweep: the drives' standstill sweep is a rotary motor's comparison (--motor with "
                           "kind = \"rotary\"); a linear motor's cogging table comes from pgcomm reproduce")
-    for opt in ("current_delay", "current_lag", "angle_pll", "time_lines"):
+    for opt in ("current_delay", "current_lag", "angle_pll", "time_lines", "current_noise"):
         if getattr(args, opt, None) is not None:
             from pgcomm.errors import ConfigError
 
@@ -265,6 +269,28 @@ def _reading_options(args):
     return delay, pll, lag
 
 
+def _current_noise_option(args):
+    """``--current-noise`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out); one line
+    naming the option on a bad value."""
+    import math
+
+    from pgcomm.errors import ConfigError
+
+    text = getattr(args, "current_noise", None)
+    if text is None:
+        return "detect"
+    if text.strip().lower() == "none":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and value >= 0):
+        raise ConfigError(f"--current-noise {text}: the logged current's noise in A (a standard deviation, >= 0), "
+                          "or none")
+    return value
+
+
 def _time_lines_option(args):
     """``--time-lines`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out); one line
     naming the option on a bad value."""
@@ -319,6 +345,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     motor = load_rotary_motor(args.motor)
     current_delay, angle_pll, current_lag = _reading_options(args)
     time_lines = _time_lines_option(args)
+    current_noise = _current_noise_option(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         mapping = load_column_mapping(args.columns) if args.columns else None
         logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED, gaps=True)
@@ -370,7 +397,8 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     how = "with the torque sensor" if torque_sensor else "without a torque sensor (from the motion)"
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
         res = identify(data, motor, orders, torque_sensor=torque_sensor, current_delay=current_delay,
-                       angle_pll=angle_pll, time_lines=time_lines, current_lag=current_lag)
+                       angle_pll=angle_pll, time_lines=time_lines, current_lag=current_lag,
+                       current_noise=current_noise)
         timing = res.info.get("current_delay") or {}
         estimate = res.info.get("angle_pll") or {}
         pll = (None if estimate.get("natural_frequency_rad_s") is None
