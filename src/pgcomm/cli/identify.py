@@ -58,7 +58,7 @@ def configure(p) -> None:
     p.add_argument("--current-noise", metavar="A|none",
                    help="rotary motors: the logged q-current's white noise (A, standard deviation) that the fit "
                         "corrects for, or 'none' (default: read from the logged d-current id_1 where every log has "
-                        "it, else bounded by the q-current's sixth difference and half of that corrected)")
+                        "it, else from the q-current's own less what the logged angle predicts of it)")
     p.add_argument("--time-lines", metavar="HZ[,HZ...]",
                    help="rotary motors: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a "
                         "current sensor's mains pickup, a fan, a resonance), or 'none' (default: detected as lines at "

@@ -34,8 +34,8 @@ from pgcomm.rotary.model import Fourier, RotaryModel, harmonic_columns
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
-from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _with_delay, _with_pll, apply_reading, current_noise, \
-    lag_of
+from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _with_delay, _with_pll, apply_reading, \
+    current_noise_beside_angle, lag_of
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, Orders, \
     _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, _map_gram, _map_standard_error, \
     _prepare, _quantisation_correction, _significant_extra_orders
@@ -120,9 +120,9 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             ``held`` and ``lag``).
         current_noise: the logged current's white noise (A, standard deviation) that the fit corrects for
             (:mod:`pgcomm.rotary.regression`, "The current's noise"), ``None`` for no correction, or ``"detect"``:
-            from the logged d-current where every log has one, else half the variance of the q-current's sixth
-            difference, an upper bound (results ``info["current_noise_correction"]``; the verdict counts what the
-            correction may leave, ``current_noise_bias``).
+            from the logged d-current where every log has one, else from the q-current's own less what the logged angle
+            predicts of it (results ``info["current_noise_correction"]``; the verdict counts what the correction may
+            leave, ``current_noise_bias``).
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -266,18 +266,19 @@ def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Ord
 def _noise_info(logs, ts: float) -> dict:
     """The logged current's white noise (A), what a twin of this motor logs (``pgcomm reproduce --truth model.json``):
     from the logged d-current where every log has one (held at zero, it is the noise alone: the median absolute
-    deviation), else from the q-current's sixth difference (:func:`pgcomm.rotary.readings.current_noise`), which also
-    counts the current the speed loop commands from the encoder's noise: 1.0-1.2 times the twin's noise on zoo seed 0,
-    up to 3 times on seed 1's 16-bit encoders."""
+    deviation), else from the q-current's sixth difference less the current the speed loop commands from the encoder's
+    noise, which the logged angle predicts (:func:`pgcomm.rotary.readings.current_noise_beside_angle`: 0.96-1.11 times
+    the twin's noise on zoo seed 1, where the difference alone read up to 3.3 times it on 16-bit encoders)."""
     if logs and all("id_1" in log for log in logs):
         d = [np.asarray(log["id_1"], float) for log in logs]
         noise = float(np.median([np.median(np.abs(x - np.median(x))) / 0.6745 for x in d if x.size]))
         # a drive that writes its d-current command (zeros) rather than the measurement shows no noise there
         if noise > 0:
             return {"current_noise_A": noise, "current_noise_from": "the logged d-current (held at zero)"}
-    noise = float(np.median([current_noise(_log_arrays(log, i, ts)[2], order=6) for i, log in enumerate(logs)]))
-    return {"current_noise_A": noise, "current_noise_from": "the q-current's sixth difference (an upper bound: it "
-            "also holds the current the loop commands from the encoder's noise)"}
+    arrays = [_log_arrays(log, i, ts) for i, log in enumerate(logs)]
+    noise = float(np.median([current_noise_beside_angle(a[2], a[1]) for a in arrays]))
+    return {"current_noise_A": noise, "current_noise_from": "the q-current's sixth difference less what the logged "
+            "angle predicts of it (the current the loop commands from the encoder's noise)"}
 
 
 #: The share of the current-noise correction taken as uncertain in the verdict when the noise is read from the logged
@@ -289,8 +290,9 @@ CURRENT_NOISE_UNCERTAINTY = 0.25
 def _current_noise_setting(current_noise, noise_info: dict) -> dict:
     """The current's noise the fit corrects for (``noise_A``, A) and the share of that correction the verdict counts
     as uncertain (``uncertainty``), from :func:`identify`'s ``current_noise`` and :func:`_noise_info`: the logged
-    d-current's noise as it is; the q-current's sixth difference, an upper bound, at half its variance with the whole
-    correction uncertain (the noise lies between none and the bound)."""
+    d-current's noise as it is, a quarter of the correction uncertain (:data:`CURRENT_NOISE_UNCERTAINTY`); the
+    q-current's own, less what the angle predicts (:func:`_noise_info`), half of it uncertain (it read up to 1.11 times
+    the twin's noise, 1.23 times its variance)."""
     if current_noise is None:
         return {"noise_A": 0.0, "uncertainty": 0.0, "from": "off"}
     if not isinstance(current_noise, str):
@@ -298,8 +300,8 @@ def _current_noise_setting(current_noise, noise_info: dict) -> dict:
     sigma = float(noise_info["current_noise_A"])
     if noise_info["current_noise_from"].startswith("the logged d-current"):
         return {"noise_A": sigma, "uncertainty": CURRENT_NOISE_UNCERTAINTY, "from": "the logged d-current"}
-    return {"noise_A": sigma / math.sqrt(2.0), "uncertainty": 1.0,
-            "from": "half the q-current's sixth difference's variance (an upper bound)"}
+    return {"noise_A": sigma, "uncertainty": 2 * CURRENT_NOISE_UNCERTAINTY,
+            "from": "the q-current's own, less what the logged angle predicts"}
 
 
 def _quantisation_info(prepared, fit: dict) -> dict:
