@@ -156,7 +156,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         lay_full = _Layout.of(full, lines, len(prepared))
         if n_extra and n_windows >= 2 * int(lay_full.keep.sum()):
             # not corrected for the current's noise: over every order to the basis's highest its probes would cost
-            # several times the fit, and the screening only decides which orders enter the corrected final fit
+            # about as much again as the fit, and the screening only decides which orders enter the corrected fit
             screen = _significant_extra_orders(_fit(prepared, lay_full, taps, ridge), lay_full, orders,
                                                EXTRA_ORDER_ALPHA)
             added = {k: screen[k] for k in ("cogging", "ripple")}
