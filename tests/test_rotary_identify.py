@@ -888,7 +888,7 @@ def test_the_currents_own_line_is_read_beside_its_strong_neighbours(motor0, monk
 def test_current_noise_beside_the_angle_leaves_the_loops_current_out():
     """Zoo seed 1's 18N16P on a 16-bit encoder: the speed loop turns the encoder's noise into real current, which the
     q-current's sixth difference alone counts as noise (more than twice the twin's); less what the logged angle
-    predicts of it, the estimate is within 15 % of the twin's noise (0.96-1.11 times it over zoo seeds 0 and 1), and
+    predicts of it, the estimate is within 15 % of the twin's noise (0.97-1.11 times it over zoo seeds 0 and 1), and
     a log whose angle carries no encoder noise reads the same as the difference alone."""
     from pgcomm.rotary.experiment import RotarySettings, _tuned_drive, running_log
     from pgcomm.rotary.readings import current_noise, current_noise_beside_angle
