@@ -89,8 +89,8 @@ def current_noise_beside_angle(iq, theta, order: int = 6, lags: int = ANGLE_LAGS
     two-sided filter of ``2 lags + 1`` taps (least squares), scaled as :func:`current_noise` scales it. The speed loop
     turns the encoder's noise into real current, a linear filter of the logged angle, which the difference alone counts
     as noise (up to 3.3 times the twin's noise on zoo seed 1's 16-bit encoders); the measurement's noise is not in the
-    angle. On the sixteen motors of zoo seeds 0 and 1, 0.97-1.11 times the twin's noise. Falls back to :func:`current_noise`
-    where the log is too short for the filter."""
+    angle. On the sixteen motors of zoo seeds 0 and 1, 0.97-1.11 times the twin's noise. Falls back to
+    :func:`current_noise` where the log is too short for the filter."""
     iq, theta = np.asarray(iq, float), np.asarray(theta, float)
     k, m = int(order), int(lags)
     d, e = np.diff(iq, k), np.diff(theta, k)
