@@ -413,6 +413,8 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
         return y, _filt(a_r, loc, g) + _filt(b_r, loc + 1, g)
 
     for pos, p in enumerate(first):
+        # the probe currents (below), once per log: probe k is 1 on the samples k, k + P, ... (bool: a byte a sample)
+        probe_x = ((np.arange(p.theta.size) % n_probes)[None, :] == np.arange(n_probes)[:, None]) if probes else None
         for k in range(0, p.starts.size, chunk):
             st = p.starts[k:k + chunk]
             lo, hi = int(st[0]), int(st[-1]) + span
@@ -444,11 +446,9 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
                 ch = dict(common)
                 ch["y"], ch["rip"] = current_rows(q.iq, q.lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh)
                 if probes:
-                    # the rows' sensitivity to each logged current sample: probe k is 1 on the samples k, k + P, ...
-                    # (P the samples one row reads), so no row reads two of them and each probe's rows hold one
-                    # sample's part of every row
-                    ch["noise_rows"] = [current_rows((np.arange(q.iq.size) % n_probes == k).astype(float), q.lag, lo,
-                                                     hi, n_int, loc, phi_r, a_rh, b_rh) for k in range(n_probes)]
+                    # the rows' sensitivity to each logged current sample: P is the samples one row reads, so no
+                    # row reads two of a probe's samples and each probe's rows hold one sample's part of every row
+                    ch["noise_rows"] = [current_rows(x, q.lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh) for x in probe_x]
                 if lines:
                     if q.lag is None:
                         if held_line is None:
