@@ -24,7 +24,9 @@ has in the middle of that hold, ``θ_enc + advance · ω̂ · T_s`` (:attr:`LawP
 ½, :func:`pgcomm.rotary.law.hold_angle`): evaluated at the sample's start, a compensation held for a
 sample lags half a sample, which at 16 samples per cogging period leaves ``2 sin(π/32) ≈ 20 %`` of
 that harmonic uncompensated (it was the floor of every row, the oracle's included); the mechanics are integrated in
-``n_sub`` sub-steps, each exact for a constant torque. The log holds what the drive records: ``t``, ``theta``
+``n_sub`` sub-steps, each exact for a constant torque, with the torques taken at the sub-step's middle (second order:
+taken at its start, each harmonic lagged half a sub-step, a torque odd in the direction that the identification put
+into the ripple at the largest cogging order, 10 % of it on a 36N42P). The log holds what the drive records: ``t``, ``theta``
 (multi-turn, encoder), ``velocity``, ``iq_1``, ``id_1`` (measured, with noise), plus the truth
 (``theta_true``, ``omega_true``, ``torque`` = air-gap torque, e.g. for a torque sensor).
 
