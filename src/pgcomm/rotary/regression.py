@@ -45,12 +45,12 @@ noise is the same in both, and their product does not average out where the roto
 the revolution. A speed loop that answers the cogging makes the rotor slower at some angles of the largest cogging
 order than at others, so the rows hold more of those angles, and the ripple at that order (where it is one of the
 ripple's orders: ``LCM(Q, 2p) = 12p`` on 36N42P and 24N20P motors) was pulled towards zero as the noise's variance:
-on zoo seed 3's 36N42P, 0.92 of its truth without noise, 0.83 with the twin's noise and 0.28 with twice it (the mean
+on zoo seed 3's 36N42P, 0.97 of its truth without noise, 0.89 with the twin's noise and 0.35 with twice it (the mean
 of four draws, ``bench/rotary_ripple_bias.py``; the noise in the target alone or in the columns alone moved
 nothing). The expectation of that product is known given the noise's variance: the sum over rows and logged samples
 of ``a_j a_jᵀ``, ``a_j`` the part of a row that sample ``j`` sets, built by running the rows on probe currents, each
 1 on every ``P``-th sample (no row reads two of them). :func:`_current_noise_equations` builds it and
-:func:`_current_noise_correction` subtracts it times the variance (0.98 and 0.88 of the truth at the twin's noise and
+:func:`_current_noise_correction` subtracts it times the variance (1.04 and 0.93 of the truth at the twin's noise and
 twice it). The noise is read from the logged d-current
 (:mod:`pgcomm.rotary.identify`); where the logs have none, from the q-current's sixth difference less the current the
 loop commands from the encoder's noise (real current, which the logged angle predicts:
