@@ -196,9 +196,9 @@ def test_twin_evaluates_the_law_at_the_middle_of_the_hold():
 def test_twin_sub_steps_converge_at_second_order():
     """The twin's sub-steps take the angle's torques (cogging, ripple, drag) at each sub-step's middle: the rotor's
     path converges as ``dt²``, halving the sub-step quarters its error (the torques taken at the sub-step's start
-    converge as ``dt``, halving halves it). Speed loop at the evaluation speed, noises off and an encoder of 2⁴⁰ counts
-    so that the loop reads the same angle at every sub-step count; the error is each run's largest angle difference
-    from a run of 256 sub-steps, scaled by the first order's prediction (the ratio of 4 to 8 sub-steps)."""
+    converge as ``dt``, halving halves it). Speed loop at the evaluation speed, noises off, and an encoder of 2⁴⁰
+    counts, so that the loop reads the same angle at every sub-step count. The error is each run's largest angle
+    difference from a run of 256 sub-steps; the test compares the errors at 4 and 8 sub-steps."""
     from dataclasses import replace
 
     from pgcomm.rotary.experiment import quick_settings, tracking_references
