@@ -1,15 +1,16 @@
 """The ripple at the fundamental cogging order from the true current and with its noise at 1x and 2x, fitted with and
 without the correction for that noise.
 
-Usage: ``python bench/rotary_ripple_bias.py [--motors 3:7,3:5,0:4] [--seconds 600] [--seeds 4]``. Each motor is zoo
-motor ``seed:index`` (:func:`pgcomm.rotary.zoo.draw_rotary`). The rotary experiment's running logs (speed loop, two
-speeds, both directions, q-current dither; classical commutation) are recorded for about ``--seconds`` of rig time
-once; then the identification (without a torque sensor) is run on them with the logged q-current replaced by the
-twin's true current at the logged instants plus ``m`` times the motor's current noise (fresh draws, ``--seeds`` of
-them per ``m``; ``m = 0``: no noise). The reading of the logs is the twin's own (no delay, the lag of a drive that
-controls ``K`` times per logged sample, no PLL, no time lines) and the screening of outside orders is off, so only
-the current's noise differs between the rows. Each is fitted twice: without the correction for the current's
-noise (``current_noise=None``) and with it, the noise read from a logged d-current that carries the same noise
+Usage: ``python bench/rotary_ripple_bias.py [--motors 3:7,3:5,0:4] [--seconds 600] [--seeds 4] [--control-per-log
+K]``. Each motor is zoo motor ``seed:index`` (:func:`pgcomm.rotary.zoo.draw_rotary`). The rotary experiment's
+running logs (speed loop, two speeds, both directions, q-current dither; classical commutation) are recorded for
+about ``--seconds`` of rig time once; then the identification (without a torque sensor) is run on them with the
+logged q-current replaced by the twin's true current at the logged instants plus ``m`` times the motor's current
+noise (fresh draws, ``--seeds`` of them per ``m``; ``m = 0``: no noise). The reading of the logs is the twin's own
+(no delay, the lag of a drive that controls ``K`` times per logged sample or held at ``K = 1``, no PLL, no time
+lines) and the screening of outside orders is off, so only the current's noise differs between the rows. Each is
+fitted twice: without the correction for the current's noise (``current_noise=None``) and with it, the noise read
+from a logged d-current that carries the same noise
 (:mod:`pgcomm.rotary.regression`, "The current's noise").
 
 Per motor and ``m`` it prints, per ripple order of the basis, the identified coefficient over the true one (the real
@@ -38,7 +39,12 @@ def main(argv=None) -> int:
     ap.add_argument("--motors", default="3:7,3:5,0:4", help="zoo motors as seed:index, comma-separated")
     ap.add_argument("--seconds", type=float, default=600.0, help="rig time of running logs per motor (s)")
     ap.add_argument("--seeds", type=int, default=4, help="noise draws per noise multiple")
+    ap.add_argument("--control-per-log", type=int, default=0, metavar="K",
+                    help="run every motor's drive K times per logged sample (1: at its log rate, where the held reading "
+                         "is exact); 0: each motor's own")
     args = ap.parse_args(argv)
+    from dataclasses import replace
+
     import numpy as np
     from pgcomm.rotary.experiment import RotarySettings, _tuned_drive, running_log, running_references
     from pgcomm.rotary.identify import identify
@@ -49,6 +55,8 @@ def main(argv=None) -> int:
     for item in args.motors.split(","):
         seed, index = (int(x) for x in item.split(":"))
         truth = draw_rotary(seed, index)
+        if args.control_per_log:
+            truth = replace(truth, control_per_log=args.control_per_log)
         m = truth.motor
         t0 = time.perf_counter()
         orders, a_nom, gains, classical = _tuned_drive(truth)
@@ -63,6 +71,8 @@ def main(argv=None) -> int:
         print(f"{seed}:{index} {m.name}: {rounds * round_s:.0f} s of logs ({time.perf_counter() - t0:.0f} s), K = "
               f"{truth.control_per_log}, current noise {truth.current_noise:.3g} A, LCM(Q, 2p) = {lcm}", flush=True)
         print("  m  " + " ".join(f"{str(h) + ('*' if h == lcm else ''):>14s}" for h in basis), flush=True)
+        # the twin's own reading: held at its log rate, else the smooth curve half a control cycle late
+        lag = None if truth.control_per_log == 1 else 0.5 / truth.control_per_log
         for mult in (0.0, 1.0, 2.0):
             ratios = {"off": [], "detect": []}
             for s in range(args.seeds if mult else 1):
@@ -71,7 +81,7 @@ def main(argv=None) -> int:
                 fed = [{**log, "iq_1": log["iq_true"] + mult * truth.current_noise * rng.standard_normal(log["t"].size),
                         "id_1": mult * truth.current_noise * rng.standard_normal(log["t"].size)} for log in logs]
                 for key, noise in (("off", None), ("detect", "detect")):
-                    res = identify(fed, m, orders, current_delay=0, current_lag=0.5 / truth.control_per_log,
+                    res = identify(fed, m, orders, current_delay=0, current_lag=lag,
                                    angle_pll=None, time_lines=[], extra_orders=False, current_noise=noise)
                     got = {int(h): complex(*c) for h, c in zip(res.model.ripple.orders, res.model.ripple.coef)}
                     ratios[key].append([(got[h] / true[h]).real for h in basis])

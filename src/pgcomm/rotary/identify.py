@@ -270,7 +270,8 @@ def _noise_info(logs, ts: float) -> dict:
     from the logged d-current where every log has one (held at zero, it is the noise alone: the median absolute
     deviation), else from the q-current's sixth difference less the current the speed loop commands from the encoder's
     noise, which the logged angle predicts (:func:`pgcomm.rotary.readings.current_noise_beside_angle`: 0.97-1.11 times
-    the twin's noise on zoo seed 1, where the difference alone read up to 3.3 times it on 16-bit encoders)."""
+    the twin's noise on zoo seeds 0 and 1, where the difference alone read up to 3.3 times it on seed 1's 16-bit
+    encoders)."""
     if logs and all("id_1" in log for log in logs):
         d = [np.asarray(log["id_1"], float) for log in logs]
         noise = float(np.median([np.median(np.abs(x - np.median(x))) / 0.6745 for x in d if x.size]))
