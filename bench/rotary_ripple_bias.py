@@ -53,6 +53,12 @@ def main(argv=None) -> int:
     ap.add_argument("--trajectories", type=int, default=1,
                     help="independent recordings of the running logs per motor (the m = 0 row's spread is theirs)")
     args = ap.parse_args(argv)
+    if args.trajectories < 1 or args.seeds < 1:
+        ap.error("--trajectories and --seeds must be at least 1")
+    try:
+        multiples = [float(x) for x in args.multiples.split(",")]
+    except ValueError:
+        ap.error(f"--multiples: expected numbers separated by commas, got {args.multiples!r}")
     from dataclasses import replace
 
     import numpy as np
@@ -96,7 +102,7 @@ def main(argv=None) -> int:
         print("  m  " + " ".join(f"{str(h) + ('*' if h == lcm else ''):>14s}" for h in basis), flush=True)
         # the twin's own reading: held at its log rate, else the smooth curve half a control cycle late
         lag = None if truth.control_per_log == 1 else 0.5 / truth.control_per_log
-        for mult in (float(x) for x in args.multiples.split(",")):
+        for mult in multiples:
             ratios = {"off": [], "detect": []}
             # the whole map's error against the truth and the standard error the fit reports for it (both relative to
             # the map's RMS): does the verdict see the spread?
