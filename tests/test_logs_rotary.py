@@ -189,7 +189,7 @@ def test_velocity_unit_must_match_the_kind_of_log(tmp_path):
     _write(tmp_path / "log.csv", ["t", "theta", "velocity", "iq_1"], [t, theta, omega, 0 * t])
     with pytest.raises(DataError, match=r"log.csv column 'velocity': unit 'm/s' is linear"):
         read_log(tmp_path / "log.csv", columns={"units": {"velocity": "m/s"}}, required=ROTARY_REQUIRED)
-    with pytest.raises(DataError, match=r"'furlong' is not a known rotation unit \(known: rad, mrad, deg, rev, turn\)"):
+    with pytest.raises(DataError, match=r"'furlong' is not a known rotation unit \(known: rad, mrad, deg, rev, turn, counts\)"):
         read_log(tmp_path / "log.csv", columns={"units": {"theta": "furlong"}}, required=ROTARY_REQUIRED)
 
 

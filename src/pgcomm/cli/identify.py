@@ -325,11 +325,11 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.export.angle_table import make_table, write_angle_table
     from pgcomm.io.atomic import atomic_write_text
     from pgcomm.io.config import load_rotary_motor
-    from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
+    from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs, with_encoder_counts
     from pgcomm.io.results import write_results
-    from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
+    from pgcomm.rotary.identify import fit_mechanics, identify, map_text, resolution_verdict
     from pgcomm.rotary.back_emf import offset_text, voltage_text
-    from pgcomm.rotary.readings import delay_text, lag_of, pll_text
+    from pgcomm.rotary.readings import delay_text, filter_text, lag_of, pll_text
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.time_lines import lines_text
 
@@ -347,8 +347,9 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     time_lines = _time_lines_option(args)
     current_noise = _current_noise_option(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
-        mapping = load_column_mapping(args.columns) if args.columns else None
-        logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED, gaps=True)
+        mapping = with_encoder_counts(load_column_mapping(args.columns) if args.columns else None, motor)
+        logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED, gaps=True,
+                         stamps=True)
         for lg in logs:
             if not lg.is_rotary:
                 raise DataError(f"{lg.source}: a linear motor's log (it has 'y'), but --motor {args.motor} is rotary; "
@@ -405,8 +406,9 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                else (estimate["natural_frequency_rad_s"], estimate["damping"]))
         mech = None if torque_sensor else fit_mechanics(data, motor, orders, current_delay=timing.get("samples", 0),
                                                        angle_pll=pll, current_lag=lag_of(timing),
+                                                       current_filter=(res.info.get("current_filter") or {}).get("tau_s", 0.0),
                                                        time_lines=(res.info.get("time_lines") or {}).get("hz", ()))
-        for text in (pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines")),
+        for text in (filter_text(res.info.get("current_filter")), pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines")),
                      voltage_text(res.info.get("back_emf")), offset_text(res.info.get("back_emf"))):
             if text:
                 progress.info(text)
@@ -427,7 +429,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                              "log accelerations or a dither" if quant["correction_capped"] else ""))
         for name in ("cogging", "ripple", "direction") if se else ():
             e = se[name]
-            progress.info(f"{name}: standard error {100 * e['relative']:.1f} % of its RMS, {resolution_verdict(e)}")
+            progress.info(map_text(name, e))
     model = replace(res.model, info={**res.model.info, "motor": motor.name, "current_limit": motor.current_limit,
                                      "logs": [lg.source for lg in logs]})
     sweep = None
@@ -598,7 +600,9 @@ def _plot_rotary(path, model, info: dict, motor, n: int = 3600, sweep=None) -> N
     for a, (key, label, unit, scale, values) in zip(ax, panels):
         a.plot(th, scale * values, lw=0.7, label="identified" + (" (forward and reverse averaged)"
                                                                  if key == "cogging" else ""))
-        if key in se:
+        if key in se and se[key].get("determined") is False:
+            a.set_title(f"{label}: not determined by these logs ({se[key]['pinned']})", fontsize=9)
+        elif key in se:
             band = scale * se[key]["rms_error"]
             a.fill_between(th, scale * values - band, scale * values + band, alpha=0.25, lw=0,
                            label=f"± standard error ({100 * se[key]['relative']:.1f} % of its RMS)")

@@ -86,7 +86,7 @@ import glob
 import math
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -100,6 +100,7 @@ __all__ = [
     "Log",
     "ColumnMapping",
     "load_column_mapping",
+    "with_encoder_counts",
     "column_mapping",
     "read_log",
     "read_logs",
@@ -158,16 +159,23 @@ UNITS = {
     "angle": {"rad": 1.0, "deg": math.pi / 180.0, "mrad": 1e-3},
     "current": {"A": 1.0, "mA": 1e-3},
     "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6},
-    # a rotary motor's mechanical angle: one revolution is 2π rad
-    "rotation": {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0, "rev": 2.0 * math.pi, "turn": 2.0 * math.pi},
+    # a rotary motor's mechanical angle: one revolution is 2π rad; "counts" (the encoder's) take their factor
+    # 2π / encoder_counts from the mapping's [options] or the motor description (ColumnMapping.factor)
+    "rotation": {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0, "rev": 2.0 * math.pi, "turn": 2.0 * math.pi,
+                 "counts": math.nan},
     # the drive's velocity estimate: angular beside theta, linear beside y
     "velocity": {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rev/s": 2.0 * math.pi, "rpm": 2.0 * math.pi / 60.0,
-                 "m/s": 1.0, "mm/s": 1e-3},
+                 "counts/s": math.nan, "m/s": 1.0, "mm/s": 1e-3},
     "voltage": {"V": 1.0, "mV": 1e-3, "kV": 1e3},
 }
 
 #: Velocity units that are angular (the others are linear).
-ANGULAR_VELOCITY_UNITS = ("rad/s", "deg/s", "rev/s", "rpm")
+ANGULAR_VELOCITY_UNITS = ("rad/s", "deg/s", "rev/s", "rpm", "counts/s")
+#: Units in encoder counts: their factor is 2π / ``encoder_counts`` (per revolution).
+COUNT_UNITS = ("counts", "counts/s")
+#: A host-stamped log is split where a step exceeds this many times its median step: the drive's state across such a
+#: gap is not known, and no filter window may span it.
+GAP_STEPS = 10.0
 
 _QUANTITY = {
     "t": "time", "y": "length", "r": "length",
@@ -216,6 +224,7 @@ class ColumnMapping:
         sample_time: sample time (s) for files without ``t``, or ``None``.
         group: HDF5 group / .mat struct holding the columns, or ``None``.
         source: file the mapping came from (for messages).
+        encoder_counts: counts per revolution for the unit ``counts`` (``counts/s``), or ``None``.
     """
 
     columns: dict = field(default_factory=dict)
@@ -223,11 +232,23 @@ class ColumnMapping:
     sample_time: float | None = None
     group: str | None = None
     source: str = "column mapping"
+    encoder_counts: int | None = None
 
     def factor(self, name: str) -> float:
-        """Factor converting column ``name`` (log-format name) to SI."""
+        """Factor converting column ``name`` (log-format name) to SI (``2π / encoder_counts`` for counts).
+
+        Raises:
+            ConfigError: a column in counts without ``encoder_counts``.
+        """
         unit = self.units.get(name)
-        return 1.0 if unit is None else UNITS[_quantity(name)][unit]
+        if unit is None:
+            return 1.0
+        if unit in COUNT_UNITS:
+            if self.encoder_counts is None:
+                raise ConfigError(f"{self.source}: [units] {name} = '{unit}' needs the encoder's counts per revolution: "
+                                  "set [options] encoder_counts, or encoder_counts in the motor TOML")
+            return 2.0 * math.pi / self.encoder_counts
+        return UNITS[_quantity(name)][unit]
 
 
 def column_mapping(table: dict, source: str = "column mapping") -> ColumnMapping:
@@ -281,12 +302,17 @@ def column_mapping(table: dict, source: str = "column mapping") -> ColumnMapping
             raise DataError(f"{source}: [units] {name} = '{unit}' is not a known {q} unit (known: {', '.join(UNITS[q])})")
         units[name] = u
     opts = sections["options"]
+    valid = ["sample_time", "group", "encoder_counts"]
     for key in opts:
-        if key not in ("sample_time", "group"):
+        if key not in valid:
             raise ConfigError(
                 f"{source}: unknown key '{key}' in table [options]"
-                f"{closest_hint(key, ['sample_time', 'group'], 'closest valid key')}; valid keys: sample_time, group"
+                f"{closest_hint(key, valid, 'closest valid key')}; valid keys: {', '.join(valid)}"
             )
+    counts = opts.get("encoder_counts")
+    if counts is not None and (isinstance(counts, bool) or not isinstance(counts, int) or not 4 <= counts <= 2**40):
+        raise ConfigError(f"{source}: [options] encoder_counts = {counts!r} must be a whole number of counts per "
+                          "revolution (at least 4)")
     ts = opts.get("sample_time")
     if ts is not None:
         if isinstance(ts, bool) or not isinstance(ts, (int, float)) or not (0 < ts < math.inf):
@@ -295,7 +321,16 @@ def column_mapping(table: dict, source: str = "column mapping") -> ColumnMapping
     group = opts.get("group")
     if group is not None and not isinstance(group, str):
         raise ConfigError(f"{source}: [options] group = {group!r} must be a string")
-    return ColumnMapping(dict(sections["columns"]), units, ts, group, source)
+    return ColumnMapping(dict(sections["columns"]), units, ts, group, source, counts)
+
+
+def with_encoder_counts(mapping: "ColumnMapping | None", motor) -> "ColumnMapping | None":
+    """``mapping`` with the motor description's ``encoder_counts`` (counts per revolution) where the mapping has none
+    of its own: a rotary log's angle may then be given in counts (``[units] theta = "counts"``)."""
+    counts = getattr(motor, "encoder_counts", None)
+    if mapping is None or mapping.encoder_counts is not None or counts is None:
+        return mapping
+    return replace(mapping, encoder_counts=int(counts))
 
 
 def load_column_mapping(path) -> ColumnMapping:
@@ -333,7 +368,10 @@ class Log:
             a missing ``id_{l}`` taken as 0 A), for the user's report.
         gaps: rows ``i`` (0-based) after which samples were dropped (``t[i+1] − t[i]`` a whole number of
             sample times above one; only when :func:`read_log` was asked to accept them): the log is then
-            uniform between them, and :meth:`segments` gives those stretches.
+            uniform between them, and :meth:`segments` gives those stretches; for a log with non-uniform
+            stamps, the steps longer than :data:`GAP_STEPS` median steps.
+        uniform: whether ``t`` is a uniform grid of ``sample_time`` (between gaps); ``False`` for a host's stamps kept
+            as recorded (``read_log(..., stamps=True)``), ``sample_time`` then their median step.
     """
 
     columns: dict
@@ -342,6 +380,7 @@ class Log:
     angle_wraps: int = 0
     notes: tuple = ()
     gaps: tuple = ()
+    uniform: bool = True
 
     def __post_init__(self):
         cols = {}
@@ -550,7 +589,7 @@ def _first_bad(a: np.ndarray) -> int | None:
 
 
 def read_log(path, sample_time: float | None = None, columns=None, required=REQUIRED, min_coil_sets: int = 1,
-             gaps: bool = False) -> Log:
+             gaps: bool = False, stamps: bool = False) -> Log:
     """Read and validate one log file.
 
     Args:
@@ -565,6 +604,10 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
         gaps: accept dropped samples (steps of ``t`` that are whole numbers of sample times): the log keeps
             them in :attr:`Log.gaps`, with a note; its user must not difference across them (the rotary
             identification uses each stretch between them as a log). Otherwise a dropped sample is refused.
+        stamps: keep non-uniform time stamps as recorded (a host's clock: :attr:`Log.uniform` is then ``False`` and
+            ``sample_time`` the median step), split where a step exceeds :data:`GAP_STEPS` median steps
+            (:attr:`Log.gaps`); only stamps that repeat or go back are refused. For readers that use the real
+            intervals (the rotary identification); otherwise non-uniform time is refused.
 
     Returns:
         :class:`Log` whose columns use log-format names and SI units; it always
@@ -704,22 +747,24 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
         given_ts = float(given_ts)
         if not (0.0 < given_ts < math.inf):
             raise DataError(f"{src}: sample time {given_ts:g} s must be positive and finite")
+    uniform = True
     if "t" in cols:
         t = cols["t"]
         dt = np.diff(t)
         nonpos = np.flatnonzero(dt <= 0)
         if nonpos.size:
             i = int(nonpos[0])
+            what = "repeats the stamp" if dt[i] == 0 else "goes back"
             raise DataError(
-                f"{src} row {i + 2} {kind} {lab('t')}: t = {t[i + 1]:.17g} s is not after t = {t[i]:.17g} s of row {i + 1}"
-                " (t must be strictly increasing)"
+                f"{src} row {i + 2} {kind} {lab('t')}: t = {t[i + 1]:.17g} s is not after t = {t[i]:.17g} s of row "
+                f"{i + 1} (the time {what}; t must be strictly increasing)"
             )
         est = (t[-1] - t[0]) / (n - 1)
         # uniform up to the rounding of t's own values (float32, few digits in a text file): every sample within
         # TIME_JITTER of a step of the grid; a change of the sample time or a dropped sample moves them by steps
         grid = np.arange(n, dtype=float)
         dev = t - (t[0] + est * grid)
-        if gaps and np.max(np.abs(dev)) > TIME_JITTER * est:
+        if (gaps or stamps) and np.max(np.abs(dev)) > TIME_JITTER * est:
             # dropped samples: every sample on a grid of the median step, its index jumping where samples are missing
             step = float(np.median(dt))
             idx = np.rint((t - t[0]) / step)
@@ -727,7 +772,20 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
                 grid = idx
                 est = float(np.polyfit(grid, t, 1)[0])
                 dev = t - (t[0] + est * grid)
-        if np.max(np.abs(dev)) > TIME_JITTER * est:
+        if stamps and np.max(np.abs(dev)) > TIME_JITTER * est:
+            # a host's stamps: kept as recorded (the rotary regression integrates over the real intervals); a step
+            # long against the median splits the log, since the state across it is not known
+            uniform = False
+            est = float(np.median(dt))
+            long = np.flatnonzero(dt > GAP_STEPS * est)
+            notes.append(f"t: non-uniform time stamps (steps {dt.min() * 1e3:.3g} to {dt.max() * 1e3:.3g} ms around "
+                         f"{est * 1e3:.3g} ms), kept as recorded")
+            if long.size:
+                notes.append(f"t: split at {long.size} gap(s) longer than {GAP_STEPS:g} times the median step, the "
+                             f"first after row {long[0] + 1} (t = {t[long[0]]:.9g} s, {dt[long[0]] * 1e3:.3g} ms): "
+                             f"{long.size + 1} stretches")
+                gap_rows = tuple(int(i) for i in long)
+        elif np.max(np.abs(dev)) > TIME_JITTER * est:
             dt0 = dt[0]
             off = np.flatnonzero(np.abs(dt - dt0) > TIME_JITTER * dt0)
             i = int(off[0]) if off.size else int(np.argmax(np.abs(dev))) - 1
@@ -736,19 +794,20 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
                 f"(t must be uniformly sampled, each sample within {100 * TIME_JITTER:g} % of a step of its grid; "
                 "split or resample the log)"
             )
-        if np.max(np.abs(dev)) > TIME_TOLERANCE * est:
-            notes.append(f"t: samples up to {np.max(np.abs(dev)) * 1e6:.3g} µs off a uniform grid of {est:.9g} s "
-                         "(the rounding of its stored values), taken as that grid")
-            cols["t"] = t = t[0] + est * grid
-        jumps = np.flatnonzero(np.diff(grid) > 1.5)
-        if jumps.size:
-            dropped = int(round(float(np.sum(np.diff(grid)[jumps] - 1))))
-            notes.append(f"t: {dropped} dropped sample(s) in {jumps.size} gap(s), the first after row {jumps[0] + 1} "
-                         f"(t = {t[jumps[0]]:.9g} s): {jumps.size + 1} uniform stretches between them")
-            gap_rows = tuple(int(i) for i in jumps)
+        if uniform:
+            if np.max(np.abs(dev)) > TIME_TOLERANCE * est:
+                notes.append(f"t: samples up to {np.max(np.abs(dev)) * 1e6:.3g} µs off a uniform grid of {est:.9g} s "
+                             "(the rounding of its stored values), taken as that grid")
+                cols["t"] = t = t[0] + est * grid
+            jumps = np.flatnonzero(np.diff(grid) > 1.5)
+            if jumps.size:
+                dropped = int(round(float(np.sum(np.diff(grid)[jumps] - 1))))
+                notes.append(f"t: {dropped} dropped sample(s) in {jumps.size} gap(s), the first after row "
+                             f"{jumps[0] + 1} (t = {t[jumps[0]]:.9g} s): {jumps.size + 1} uniform stretches between them")
+                gap_rows = tuple(int(i) for i in jumps)
         ts = est
         for cand, what in ((given_ts, "given"), (file_ts, "in the file metadata")):
-            if cand is None:
+            if cand is None or not uniform:
                 continue
             if abs(cand - est) > TIME_TOLERANCE * est:
                 if what == "given":
@@ -784,7 +843,7 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
     if rotary:
         from pgcomm.io.angles import unwrap_angle
 
-        steps = np.diff(cols["t"]) if gap_rows else ts  # the motion over a gap is that of its time
+        steps = np.diff(cols["t"]) if gap_rows or not uniform else ts  # the motion over a step is that of its time
         cols["theta"], angle_wraps = unwrap_angle(cols["theta"], steps, cols.get("velocity"), src, lab("theta"))
         if angle_wraps:
             notes.append(f"theta: {angle_wraps} wrap(s) of one revolution removed (the file's angle was wrapped; "
@@ -796,11 +855,11 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
                     if big * 1e-3 <= MAX_POSITION else "")
             raise DataError(f"{src} {kind} {lab(name)}: |{name}| reaches {big:.6g} m, implausible for a linear "
                             f"motor (at most {MAX_POSITION:g} m){hint}")
-    return Log(cols, ts, src, angle_wraps, tuple(notes), gap_rows)
+    return Log(cols, ts, src, angle_wraps, tuple(notes), gap_rows, uniform)
 
 
 def read_logs(patterns, sample_time: float | None = None, columns=None, required=REQUIRED, min_coil_sets: int = 1,
-              gaps: bool = False) -> list[Log]:
+              gaps: bool = False, stamps: bool = False) -> list[Log]:
     """Read several logs given as file names or glob patterns.
 
     Each pattern is expanded with :func:`glob.glob` (sorted; ``**`` recursive);
@@ -825,4 +884,4 @@ def read_logs(patterns, sample_time: float | None = None, columns=None, required
                 files.append(m)
     if not files:
         raise DataError("no log files given")
-    return [read_log(f, sample_time, mapping, required, min_coil_sets, gaps) for f in files]
+    return [read_log(f, sample_time, mapping, required, min_coil_sets, gaps, stamps) for f in files]

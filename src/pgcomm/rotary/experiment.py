@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.seeds import stream_seed
-from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
+from pgcomm.rotary.identify import fit_mechanics, identify, map_text, resolution_verdict
 from pgcomm.rotary.readings import delay_text, lag_of
 from pgcomm.rotary.regression import Orders, max_speed
 from pgcomm.rotary.model import RotaryModel
@@ -428,14 +428,13 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
     delay, lag = rec.delay, rec.lag
     with progress.stage("mechanics from the running logs (inertia ratio, friction)"):
         mech = fit_mechanics(logs, motor, orders, current_delay=delay, time_lines=ident.info["time_lines"]["hz"],
-                             current_lag=lag)
+                             current_lag=lag, current_filter=ident.info["current_filter"]["tau_s"])
         errs = identification_errors(ident.model, truth)
         progress.info(f"cogging error {100 * errs['cogging_rel']:.1f} %, ripple error {100 * errs['ripple_rel']:.1f} "
                       f"% of the truth's RMS; ridge {ident.info['ridge']:.0e}")
         for name in ("cogging", "ripple"):
             se = ident.info["standard_error"][name]
-            progress.info(f"{name}: standard error {100 * se['relative']:.1f} % of its RMS, "
-                          f"{resolution_verdict(se, run_seconds)}")
+            progress.info(map_text(name, se, run_seconds))
     with progress.stage(f"standstill sweep ({settings.standstill.points} angles, both directions)"):
         t0 = time.perf_counter()
         sweep = run_standstill(truth, gains, settings.standstill, seed=stream_seed(seed, "rotary standstill sweep"))

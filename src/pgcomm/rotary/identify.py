@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -34,9 +34,10 @@ from pgcomm.rotary.model import Fourier, RotaryModel, harmonic_columns
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
-from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _with_delay, _with_pll, apply_reading, \
-    current_noise_beside_angle, lag_of
-from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, Orders, \
+from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _report_filter, _with_delay, _with_pll, _with_report, \
+    apply_reading, current_noise_beside_angle, lag_of
+from pgcomm.rotary.regression import DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, \
+    Orders, information_shares, \
     _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, _map_gram, _map_standard_error, \
     _prepare, _quantisation_correction, _significant_extra_orders
 from pgcomm.rotary.time_lines import _time_lines
@@ -73,9 +74,10 @@ class RotaryIdentification:
 
 
 def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect",
-            current_delay: int = 0, angle_pll=None, lines=(), current_lag=None):
+            current_delay: int = 0, angle_pll=None, lines=(), current_lag=None, current_filter: float = 0.0):
     """All filtered rows of all logs at once (for the few columns of :func:`fit_mechanics`)."""
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples, taps, encoder_step)
+    prepared = _with_report(prepared, current_filter)
     parts = list(_chunks(_with_delay(_with_pll(prepared, angle_pll), current_delay, current_lag), orders, taps,
                          lines=lines))
     return {k: np.concatenate([c[k] for c in parts]) for k in parts[0]}, counts, v_limit, ts
@@ -85,7 +87,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
              min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
              ridge: float | None = None, extra_orders: bool = True, encoder_step="detect",
              current_delay="detect", angle_pll="detect", time_lines="detect",
-             back_emf: bool = True, current_lag="detect", current_noise="detect") -> RotaryIdentification:
+             back_emf: bool = True, current_lag="detect", current_noise="detect",
+             current_filter="detect") -> RotaryIdentification:
     """Identify cogging, torque-constant ripple, the direction-dependent torque and friction.
 
     Args:
@@ -123,6 +126,9 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             from the logged d-current where every log has one, else from the q-current's own less what the logged angle
             predicts of it (results ``info["current_noise_correction"]``; the verdict counts what the correction may
             leave, ``current_noise_bias``).
+        current_filter: the time constant (s) of a first-order filter through which the drive reports the current
+            (``0`` for none), or ``"detect"`` (:mod:`pgcomm.rotary.readings`, "A filtered report"; results
+            ``info["current_filter"]``).
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -138,6 +144,16 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         return check_plausible(_identify_torque(logs, motor, orders, t0))
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
     n_windows = sum(p.starts.size for p in prepared)
+    # a map the logs do not determine is pinned (the ripple at zero, a one-direction log's direction map folded into
+    # the cogging) before anything is read off the basis fit: its columns would take the cogging's part
+    shares = information_shares(prepared, orders, taps)
+    pinned = {name: share for name, share in shares.items() if share < DETERMINED_SHARE}
+    orders = replace(orders, **{name: np.zeros(0, int) for name in pinned})
+    if isinstance(current_filter, str):
+        report = _report_filter(prepared, _Layout.of(orders), taps)
+    else:
+        report = {"tau_s": float(current_filter or 0.0), "evidence": None, "cost_by_tau": None}
+    prepared = _with_report(prepared, report["tau_s"])
     estimate, timing = _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll, current_lag)
     pll = None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
                                                                      estimate["damping"])
@@ -151,7 +167,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     added = {"cogging": np.zeros(0, int), "ripple": np.zeros(0, int)}
     screen = None
     if extra_orders:
-        full = Orders(_full(orders.cogging), _full(orders.ripple), orders.direction)
+        full = Orders(_full(orders.cogging), _full(orders.ripple) if orders.ripple.size else orders.ripple,
+                      orders.direction)
         n_extra = full.cogging.size + full.ripple.size - orders.cogging.size - orders.ripple.size
         lay_full = _Layout.of(full, lines, len(prepared))
         if n_extra and n_windows >= 2 * int(lay_full.keep.sum()):
@@ -203,6 +220,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         blind = {k: float(np.median(v)) for k, v in screen["blind_rms"].items() if np.size(v)}
     standard_error = _standard_errors(model, cov, bias, o_r, o_c, o_d, final, fit["blocks"], blind, shift, reading,
                                       c_shift)
+    for name, share in pinned.items():
+        standard_error[name] = _pinned_entry(name, share)
     voltage_info = None
     if back_emf and has_voltage(logs):
         # the parts of the currents' error that its covariance does not hold, as the verdict counts them
@@ -219,6 +238,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             "orders_screened": screen is not None,
             "cost_A2": fit["cost"], "inertia_ratio": float(beta[0]), "standard_error": standard_error,
             "quantisation": _quantisation_info(prepared, fit), "current_delay": timing, "angle_pll": estimate,
+            "current_filter": report, "information_share": shares,
+            "pinned": sorted(pinned),
             "time_lines": lines_info, "back_emf": voltage_info,
             **noise_info, "current_noise_correction": {**correction, **fit["current_noise"]},
             "seconds": time.perf_counter() - t0}
@@ -430,6 +451,24 @@ def _time_factor(noise: float, fixed: float) -> float:
     return float(max(1.0, noise**2 / room))
 
 
+#: The experiment that determines a map the logs leave undetermined (:func:`_pinned_entry`).
+_DETERMINING_EXPERIMENT = {
+    "ripple": "running logs with more than one q-current at each angle: a dither that keeps the speed's sign, or "
+              "accelerations, or two speeds",
+    "direction": "running logs in both directions",
+}
+
+
+def _pinned_entry(name: str, share: float) -> dict:
+    """A map's ``info["standard_error"]`` entry where the logs do not determine it
+    (:func:`pgcomm.rotary.regression.information_shares`): pinned (the ripple at zero; the direction map folded into
+    the cogging, which then holds the logs' direction's sum of both), with the experiment that would determine it."""
+    how = "pinned at zero" if name == "ripple" else "folded into the cogging (the logs' one direction)"
+    return {"resolved": False, "determined": False, "pinned": how, "information_share": float(share),
+            "experiment": _DETERMINING_EXPERIMENT[name], "rms_error": None, "rms": 0.0, "relative": None,
+            "relative_at_confidence": None, "log_time_factor_to_resolve": None}
+
+
 def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     """One phrase for a map's entry of ``info["standard_error"]`` (:func:`_standard_errors`): ``"resolved"``, or
     why not and what would help (and the entry's ``excitation_hint``, the ripple's: more q-current variation):
@@ -441,6 +480,9 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     longer logs of the same kind do not help)."""
     if entry["resolved"]:
         return "resolved"
+    if entry.get("determined") is False:
+        return (f"not determined by these logs ({100 * entry['information_share']:.2g} % of its information beyond "
+                f"the angle's): {entry['pinned']}; to determine it, record {entry['experiment']}")
     ridge, quant = entry.get("ridge_bias", 0.0), entry.get("quantisation_bias", 0.0)
     if math.hypot(ridge, quant) >= RESOLVED_SHARE and ridge >= quant:
         return (f"not resolved: the ridge sets {100 * entry['ridge_bias']:.0f} % of it (the logs do not excite it; "
@@ -478,15 +520,23 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
             f"would resolve it{hint}")
 
 
+def map_text(name: str, entry: dict, log_seconds: float | None = None) -> str:
+    """One line on a map's entry of ``info["standard_error"]``: its standard error and :func:`resolution_verdict`, or
+    only the verdict for a map the logs do not determine."""
+    if entry.get("determined") is False:
+        return f"{name}: {resolution_verdict(entry, log_seconds)}"
+    return f"{name}: standard error {100 * entry['relative']:.1f} % of its RMS, {resolution_verdict(entry, log_seconds)}"
+
+
 def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
                   min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
                   encoder_step="detect", current_delay: int = 0, angle_pll=None, time_lines=(),
-                  current_lag=None) -> dict:
+                  current_lag=None, current_filter: float = 0.0) -> dict:
     """The feedforward a drive user tunes: ``i_q ≈ (J/k0) θ̈ + b ω + d0 sign(ω)`` fitted on the same
     windows as :func:`identify`, without any position dependence, with the same correction for the encoder's
     quantisation (:mod:`pgcomm.rotary.quantisation`; ``encoder_step`` as in :func:`identify`), the current
     shifted by ``current_delay`` samples and read held (``current_lag`` ``None``) or smooth with that lag between
-    samples, the angle read through ``angle_pll`` and the time-periodic disturbances ``time_lines`` (Hz) fitted beside
+    samples after the report filter ``current_filter`` (s) is taken out, the angle read through ``angle_pll`` and the time-periodic disturbances ``time_lines`` (Hz) fitted beside
     (the ones :func:`identify` reports: ``info["current_delay"]``'s ``samples``, and ``lag`` where not ``held``,
     ``info["angle_pll"]``'s natural frequency and damping, ``info["time_lines"]["hz"]``; a 50 Hz pickup of 1 % of
     the current limit moved the Coulomb term by up to 27 % and turned the viscous term's sign on zoo seed 0).
@@ -497,7 +547,7 @@ def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
     orders = orders or Orders.for_motor(motor)
     lines = tuple(float(f) for f in time_lines or ())
     d, _, _, _ = _design(logs, motor, orders, min_samples_per_period, taps, encoder_step, current_delay, angle_pll,
-                         lines, current_lag)
+                         lines, current_lag, current_filter)
     # the Coulomb column is the order-0 direction column (cos 0 · s)
     j0 = int(np.flatnonzero(orders.direction == 0)[0]) if np.any(orders.direction == 0) else None
     s_col = d["dir"][:, j0] if j0 is not None else np.sign(d["visc"])

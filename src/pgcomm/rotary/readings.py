@@ -18,6 +18,14 @@ angle's path), ``1/(2K)`` of a sample late at ``K`` control cycles per logged sa
 they fit as well as a drive's that controls at its log rate. The fit is repeated with the current smooth at each of
 :data:`CONTROL_LAGS`, refined by a parabola, and taken by the same likelihood ratio (results: ``held``, ``lag``).
 
+**A filtered report.** Drives report the q-current through a low-pass (ODrive's ``Iq_measured``; on a real ODrive
+logged by a host, a first-order lag of about 80-100 ms): the logged current is ``i_m = i / (1 + τ s)``, and read as
+the current that acted it puts every map late by ``τ`` at every speed (the maps turned by ``h ω τ``, shrunk by
+``1/√(1 + (h ω τ)²)``). The current that acted is ``i = i_m + τ di_m/dt``; the basis fit is repeated with the current so
+read at each ``τ`` of :data:`REPORT_FILTERS` (in units of the log's median step, so that no time is assumed),
+refined by a parabola, and ``τ`` taken by the same likelihood ratio (:func:`_report_filter`; results
+``current_filter``).
+
 **The angle's estimate.** Open drives log the angle their PLL estimates from the encoder (ODrive's ``pos_estimate``,
 a type-2 loop of 1000 rad/s by default), not the encoder's count: its acceleration is the rotor's through
 ``(k_p s + k_i)/(s² + k_p s + k_i)``, which at 1000 rad/s halves a cogging harmonic at 3 samples per period. Read
@@ -50,6 +58,9 @@ CURRENT_DELAYS = (-2, -1, 0, 1, 2)
 #: logged sample (K = ∞, 16, 8, 4, 2, 1; an ODrive at 8 kHz and a moteus at 15-40 kHz logged at 1 kHz), and one a
 #: little early (a current sampled later in the drive's cycle than the angle); refined between them by a parabola.
 CONTROL_LAGS = (-1.0 / 32.0, 0.0, 1.0 / 32.0, 1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0)
+#: Time constants (in median log steps) of a first-order report filter on the logged current that :func:`_report_filter`
+#: tries: none to 96 steps (220 ms at a host's 2.3 ms), geometric, refined between them by a parabola.
+REPORT_FILTERS = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 24.0, 32.0, 48.0, 64.0, 96.0)
 #: How much better (``n_eff ln(cost_as_logged / cost)``, a likelihood ratio, :func:`_evidence`) another reading of
 #: the logs (a shifted current, a PLL's angle) must fit than the logs as written to be taken: the χ²₁ quantile at
 #: 0.1 %.
@@ -127,6 +138,63 @@ def _with_delay(prepared, delay: int, lag: float | None = None) -> list:
     """``prepared`` with the current shifted by ``delay`` samples and read held between samples (``lag`` ``None``), or
     as the smooth curve through them ``lag`` samples late (:class:`pgcomm.rotary.regression._Prepared`)."""
     return [replace(p, iq=_shifted(p.iq, delay), lag=None if lag is None else float(lag)) for p in prepared]
+
+
+def unfiltered(iq: np.ndarray, t, tau: float) -> np.ndarray:
+    """The current that acted, from a report of it through a first-order low-pass of time constant ``tau`` (s):
+    ``i = i_m + τ di_m/dt`` (module docstring, "A filtered report").
+
+    Args:
+        iq: ``(N,)`` the logged current (A).
+        t: ``(N,)`` time stamps (s), or the sample time (s) of a uniform log.
+        tau: ``τ`` (s), ``0`` for the current as logged.
+
+    Returns:
+        ``(N,)`` A (``iq`` itself where ``tau`` is 0).
+    """
+    if tau == 0.0 or iq.size < 2:
+        return iq
+    return iq + tau * np.gradient(iq, t)
+
+
+def _with_report(prepared, tau: float) -> list:
+    """``prepared`` with the current read through a report filter of ``tau`` (s) (:func:`unfiltered`)."""
+    if tau == 0.0:
+        return prepared
+    return [replace(p, iq=unfiltered(p.iq, p.ts if p.t is None else p.t, tau)) for p in prepared]
+
+
+def _report_filter(prepared, layout: "_Layout", taps: int) -> dict:
+    """The time constant of a first-order filter on the logged current (module docstring, "A filtered report"):
+    the basis fit with the current read at each of :data:`REPORT_FILTERS` median steps and at the vertex of the
+    parabola through the best and its neighbours; a filter only where its likelihood ratio (:func:`_evidence`) over the
+    current as logged exceeds :data:`READING_EVIDENCE`.
+
+    Returns:
+        ``{"tau_s": float (0: as logged), "evidence": float, "cost_by_tau": {τ (s): A²}}``.
+    """
+    ts = float(np.median([p.ts for p in prepared]))
+    taus = [f * ts for f in REPORT_FILTERS]
+    found = _basis_costs([_with_report(prepared, tau) for tau in taus], layout, taps)
+    costs = {tau: c for tau, (c, _) in zip(taus, found)}
+    rows = found[0][1]
+    tau = _vertex(sorted(costs.items()), 0.0, taus[-1])
+    if tau is not None and tau not in costs:
+        costs[tau] = _basis_cost(_with_report(prepared, tau), layout, taps)[0]
+    best = min(costs, key=costs.get)
+    evidence = _evidence(costs[0.0], costs[best], rows, taps)
+    return {"tau_s": float(best) if evidence > READING_EVIDENCE else 0.0, "evidence": float(evidence),
+            "cost_by_tau": {f"{k:.6g}": float(v) for k, v in sorted(costs.items())}}
+
+
+def filter_text(found: dict | None) -> str | None:
+    """One line on the current's report filter as :func:`_report_filter` found it, or ``None`` where not searched."""
+    if not found:
+        return None
+    if found["tau_s"] == 0.0:
+        return "the logged q-current is the current that acted (no report filter fits better)"
+    return (f"the logged q-current is a filtered report: a first-order lag of {found['tau_s'] * 1e3:.3g} ms, read back "
+            f"as i = i_logged + tau di/dt (likelihood ratio {found['evidence']:.3g} over the current as logged)")
 
 
 def _vertex(points, lo: float, hi: float) -> float | None:

@@ -81,7 +81,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.errors import DataError, ExcitationError
-from pgcomm.rotary.model import cogging_orders, direction_orders, harmonic_columns, harmonic_rows, ripple_orders
+from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, harmonic_columns, harmonic_rows, ripple_orders
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
 
@@ -101,6 +101,9 @@ RIDGE_GRID = tuple(10.0 ** np.arange(-10, 0.5, 1.0))
 #: Orders outside the slot/pole basis enter the model when their amplitude is significant at this
 #: family-wise level (chance that a noise-only order gets in, per map).
 EXTRA_ORDER_ALPHA = 0.01
+#: Steps within this share of their median are a uniform grid (the kernel's constant weights); beyond it the
+#: regression integrates over each real interval (module docstring, "Time stamps").
+UNIFORM_TOLERANCE = 1e-6
 #: Filter windows per block of rows built at once (memory: rows x columns x 8 bytes).
 CHUNK_WINDOWS = 512
 #: The encoder-noise correction of the acceleration (:func:`_quantisation_correction`) removes at most this
@@ -126,11 +129,13 @@ class Orders:
 
     @classmethod
     def for_motor(cls, motor: RotaryMotor) -> "Orders":
-        """The orders the slot/pole combination sets (:mod:`pgcomm.rotary.model`), and order 0 in the cogging
-        map: a constant torque (a load, the current sensor's offset) that the law compensates with the cogging.
+        """The orders the slot/pole combination sets (:mod:`pgcomm.rotary.model`), the drive's own
+        (:func:`~pgcomm.rotary.model.drive_orders`: its current sensors' offsets and mismatch, dead time) in the
+        cogging map, and order 0 there: a constant torque (a load, the current sensor's offset) that the law compensates with the cogging.
         Without it, an offset of 1 % of the current limit went into the ripple (153 % of its RMS off, zoo
         9N6P) and the cogging (0.7 → 6.2 %, still called resolved)."""
-        return cls(np.union1d([0], cogging_orders(motor.slots, motor.pole_pairs)),
+        return cls(np.union1d(np.union1d([0], cogging_orders(motor.slots, motor.pole_pairs)),
+                              drive_orders(motor.pole_pairs)),
                    ripple_orders(motor.slots, motor.pole_pairs), direction_orders(motor.pole_pairs))
 
     @property
@@ -190,14 +195,70 @@ def _log_arrays(log, i: int, sample_time):
         if d.size and (np.any(~np.isfinite(d)) or np.any(d <= 0)):
             raise DataError(f"{name}: column 't' must increase strictly")
         if d.size:
-            ts_log = float(np.median(d))
-            if np.max(np.abs(d - ts_log)) > 1e-3 * ts_log:
-                raise DataError(f"{name}: column 't' is not uniformly sampled (steps {d.min():g} to {d.max():g} s)")
-            ts = ts_log
+            ts = float(np.median(d))  # non-uniform stamps: their median step (:func:`_log_time` keeps them)
     if ts is None:
         raise DataError(f"{name}: no 't' column and no sample time given")
     torque = np.asarray(log["torque"], float) if "torque" in log else None
     return name, th, iq, torque, float(ts)
+
+
+def _log_time(log) -> np.ndarray | None:
+    """The log's time stamps ``(N,)`` (s) where they are not uniform (a host's clock: the regression integrates over
+    the real intervals), ``None`` where they are (the kernel's constant weights then hold)."""
+    if "t" not in log:
+        return None
+    t = np.asarray(log["t"], float)
+    d = np.diff(t)
+    if d.size == 0 or np.max(np.abs(d - np.median(d))) <= UNIFORM_TOLERANCE * np.median(d):
+        return None
+    return t
+
+
+def _lagrange_at(u: np.ndarray, xs) -> np.ndarray:
+    """``(n_int, 4, len(xs))``: the cubic Lagrange weights of four samples at the times ``u`` ``(n_int, 4)`` (in units
+    of each interval's own length, from its start) at ``xs`` (same units); :func:`_lagrange` for ``u = -1, 0, 1, 2``."""
+    xs = np.asarray(xs, float)
+    w = np.ones((u.shape[0], 4, xs.size))
+    for j in range(4):
+        for m in range(4):
+            if m != j:
+                w[:, j, :] *= (xs[None, :] - u[:, m, None]) / (u[:, j, None] - u[:, m, None])
+    return w
+
+
+@dataclass(frozen=True)
+class _Steps:
+    """A chunk's non-uniform sample intervals (module docstring, "Time stamps"): ``u`` ``(n_int, 4)`` the four samples
+    around each interval in units of its length, ``h`` ``(n_int,)`` its length (s), ``rise``/``fall`` ``(n_int,)`` the
+    weights ``h_k / h̄_{k+1}`` and ``h_k / h̄_k`` of its torque integrals in the rows of the samples at its end and
+    start (``h̄_i`` the mean of the two intervals around sample ``i``)."""
+
+    u: np.ndarray
+    h: np.ndarray
+    rise: np.ndarray
+    fall: np.ndarray
+    t0: np.ndarray
+
+    @classmethod
+    def of(cls, t: np.ndarray, lo: int, hi: int) -> "_Steps":
+        te = _extended(t, lo, hi)  # te[j] is t_{lo - 1 + j}
+        n_int = hi - lo - 1
+        h = te[2:n_int + 2] - te[1:n_int + 1]
+        u = np.stack([(te[j:j + n_int] - te[1:n_int + 1]) / h for j in range(4)], axis=1)
+        hb = 0.5 * (te[2:n_int + 3] - te[:n_int + 1])  # h̄ at samples lo .. hi - 1
+        return cls(u, h, h / hb[1:], h / hb[:-1], te[1:n_int + 1])
+
+    def at(self, xs) -> np.ndarray:
+        return _lagrange_at(self.u, xs)
+
+
+def _rise_fall(a: np.ndarray, b: np.ndarray, steps: "_Steps | None"):
+    """The interval weights ``(A, B)`` scaled by the intervals' rise and fall weights (unchanged where uniform)."""
+    if steps is None:
+        return a, b
+    if a.ndim == 1:
+        return a * steps.rise, b * steps.fall
+    return a * steps.rise[:, None], b * steps.fall[:, None]
 
 
 def _filt(x, starts, taps):
@@ -227,6 +288,8 @@ class _Prepared:
     #: each interval, that many samples late (one that controls faster and logs a snapshot of its current every
     #: ``T_s``: at ``K`` control cycles per logged sample the held cycles lag that curve by ``1/(2K)``).
     lag: float | None = None
+    #: The log's time stamps where they are not uniform (:func:`_log_time`), else ``None``.
+    t: np.ndarray | None = None
 
 
 def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect",
@@ -248,12 +311,13 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
     v_limit = None
     for i, log in enumerate(logs):
         name, th, iq, _, ts = _log_arrays(log, i, motor.sample_time)
+        t = _log_time(log)
         ts_all.append(ts)
         n = th.size
         if n < span + 2:
             continue
         w = np.empty(n)
-        w[1:-1] = (th[2:] - th[:-2]) / (2 * ts)
+        w[1:-1] = (th[2:] - th[:-2]) / (2 * ts if t is None else t[2:] - t[:-2])
         w[0], w[-1] = w[1], w[-2]
         speed = np.abs(w)
         v95 = float(np.percentile(speed, 95))
@@ -261,7 +325,13 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
         s_all = np.arange(0, n - span + 1, stride)
         idx = s_all[:, None] + np.arange(span)
         wmin = speed[idx].min(axis=1)
-        wmax = speed[idx].max(axis=1)
+        if t is None:
+            wmax = speed[idx].max(axis=1)
+        else:
+            # the guard on the angle one step turns: the speed times the longer of the two steps around a sample
+            h = np.diff(t)
+            h_at = np.maximum(np.r_[h[0], h], np.r_[h, h[-1]])
+            wmax = (speed * h_at)[idx].max(axis=1) / ts
         one_dir = np.all(np.sign(w[idx]) == np.sign(w[idx[:, :1]]), axis=1)
         slow = (wmin <= MIN_SPEED_SHARE * v95) | ~one_dir
         alias = ~slow & (wmax > v_limit)
@@ -274,7 +344,7 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
             noise = 0.0 if q is None else quantisation.acceleration_noise(quantisation.angle_noise(th, q), _hann(taps),
                                                                           ts)
             prepared.append(_Prepared(i, th, iq, np.sign(w), w, s_all[ok], ts, q, noise,
-                                      lag=None if current_lag is None else float(current_lag)))
+                                      lag=None if current_lag is None else float(current_lag), t=t))
     if not prepared:
         lim = f"{v_limit:.3g} rad/s" if v_limit is not None else "?"
         raise ExcitationError(
@@ -312,9 +382,11 @@ def _path_angles(theta_ext: np.ndarray, n_int: int) -> np.ndarray:
 
 def _at_nodes(ext: np.ndarray, n_int: int, weights: np.ndarray) -> np.ndarray:
     """``(n_int, nodes)``: the cubic through the four samples around each interval (``ext[k + 1]`` the sample at
-    ``t_k``, as :func:`_path_angles` takes them) at the nodes whose Lagrange weights are ``weights`` (:func:`_lagrange`)."""
+    ``t_k``, as :func:`_path_angles` takes them) at the nodes whose Lagrange weights are ``weights``: ``(4, nodes)``
+    on a uniform grid (:func:`_lagrange`), ``(n_int, 4, nodes)`` per interval on non-uniform stamps
+    (:meth:`_Steps.at`)."""
     pts = np.stack([ext[j:j + n_int] for j in range(4)], axis=1)  # x_{k-1}, x_k, x_{k+1}, x_{k+2}
-    return pts @ weights
+    return pts @ weights if weights.ndim == 2 else np.einsum("kj,kjn->kn", pts, weights)
 
 
 def _interval_weights(path: np.ndarray, orders, current=None):
@@ -401,14 +473,19 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
         (the log's ``(N,)`` samples, A), held (``lag`` ``None``) or smooth ``lag`` samples late."""
         if lag is None:
             xi = x[lo:hi]
-            a_r, b_r = xi[:n_int, None] * a_rh, xi[:n_int, None] * b_rh
-            y = _filt(xi, loc, g_zoh)
+            a_r, b_r = _rise_fall(xi[:n_int, None] * a_rh, xi[:n_int, None] * b_rh, steps)
+            if steps is None:
+                y = _filt(xi, loc, g_zoh)
+            else:
+                rise, fall = _rise_fall(0.5 * xi[:n_int], 0.5 * xi[:n_int], steps)
+                y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
         else:
             # the current between snapshots: the cubic through the four around each interval (as the angle's path),
             # ``lag`` late
-            cur = _at_nodes(_extended(x, lo, hi), n_int, _lagrange(_GL_NODES - lag))
-            a_r, b_r = _weights_at_nodes(phi_r, cur)
-            rise, fall = cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES))
+            lw = _lagrange(_GL_NODES - lag) if steps is None else steps.at(_GL_NODES - lag)
+            cur = _at_nodes(_extended(x, lo, hi), n_int, lw)
+            a_r, b_r = _rise_fall(*_weights_at_nodes(phi_r, cur), steps)
+            rise, fall = _rise_fall(cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES)), steps)
             y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
         return y, _filt(a_r, loc, g) + _filt(b_r, loc + 1, g)
 
@@ -420,24 +497,36 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
             lo, hi = int(st[0]), int(st[-1]) + span
             loc = st - lo
             th, sgn = p.theta[lo:hi], p.sgn[lo:hi]
-            d2 = th[2:] - 2 * th[1:-1] + th[:-2]  # d2[i-1] is Δ²θ at sample i
-            # Δ²θ at sample j weighs interval j-1 (held iq[j-1]) rising and interval j (iq[j]) falling
             n_int = hi - lo - 1
-            path = _path_angles(_extended(p.theta, lo, hi), n_int)
+            steps = None if p.t is None else _Steps.of(p.t, lo, hi)
+            if steps is None:
+                acc = (th[2:] - 2 * th[1:-1] + th[:-2]) / p.ts**2  # acc[i-1] at sample i
+                path = _path_angles(_extended(p.theta, lo, hi), n_int)
+                t_rows = st * p.ts
+            else:
+                # the divided difference over the two real intervals around each sample (module docstring)
+                tt = p.t[lo:hi]
+                acc = ((th[2:] - th[1:-1]) / (tt[2:] - tt[1:-1]) - (th[1:-1] - th[:-2]) / (tt[1:-1] - tt[:-2])) \
+                    / (0.5 * (tt[2:] - tt[:-2]))
+                path = _at_nodes(_extended(p.theta, lo, hi), n_int, steps.at(_GL_NODES))
+                t_rows = p.t[st] - p.t[0]
+            # the sample at j weighs interval j-1 (held iq[j-1]) rising and interval j (iq[j]) falling
             # the three maps share orders (the slot and pole multiples): their columns in one call
             phi = _node_columns(path, union)
-            a_u, b_u = _weights_at_nodes(phi)
+            a_0, b_0 = _weights_at_nodes(phi)
+            a_u, b_u = _rise_fall(a_0, b_0, steps)
             a_c, b_c = a_u[:, cols["cogging"]], b_u[:, cols["cogging"]]
             a_d, b_d = a_u[:, cols["direction"]], b_u[:, cols["direction"]]
-            a_rh, b_rh = a_u[:, cols["ripple"]], b_u[:, cols["ripple"]]
+            # the ripple's columns are scaled with the current that multiplies them (current_rows)
+            a_rh, b_rh = a_0[:, cols["ripple"]], b_0[:, cols["ripple"]]
             phi_r = phi[cols["ripple"]] if any(r[pos].lag is not None for r in readings) else None
             sg_i = sgn[:n_int, None]
-            common = {"row": st, "log": np.full(st.size, pos), "acc": _filt(d2, loc, g) / p.ts**2,
+            common = {"row": st, "log": np.full(st.size, pos), "acc": _filt(acc, loc, g),
                       "cog": _filt(a_c, loc, g) + _filt(b_c, loc + 1, g),
                       "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
                       "visc": _filt(p.w[lo:hi], loc, g_tri),
                       "sgn": sgn[loc + span // 2],
-                      "block": np.floor(st * p.ts / block_seconds).astype(np.int64) + 100003 * p.index,
+                      "block": np.floor(t_rows / block_seconds).astype(np.int64) + 100003 * p.index,
                       "acc_noise": np.full(st.size, p.acc_noise)}
             held_line = None
             out = []
@@ -452,15 +541,25 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
                 if lines:
                     if q.lag is None:
                         if held_line is None:
-                            phase = np.arange(lo, hi)[:, None] * p.ts * freqs
-                            held_line = _filt(np.concatenate([np.cos(phase), np.sin(phase)], axis=1), loc, g_zoh)
+                            at = np.arange(lo, hi) * p.ts if steps is None else p.t[lo:hi] - p.t[0]
+                            cs = np.concatenate([np.cos(at[:, None] * freqs), np.sin(at[:, None] * freqs)], axis=1)
+                            if steps is None:
+                                held_line = _filt(cs, loc, g_zoh)
+                            else:
+                                rise, fall = _rise_fall(0.5 * cs[:n_int], 0.5 * cs[:n_int], steps)
+                                held_line = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
                         ch["line"] = held_line
                     else:
                         # a time-periodic disturbance is smooth in time too: at the nodes' own instants
-                        ph = ((np.arange(lo, hi - 1)[:, None] + _GL_NODES - q.lag) * p.ts)[:, :, None] * freqs
+                        if steps is None:
+                            at = (np.arange(lo, hi - 1)[:, None] + _GL_NODES - q.lag) * p.ts
+                        else:
+                            at = steps.t0[:, None] - p.t[0] + (_GL_NODES - q.lag) * steps.h[:, None]
+                        ph = at[:, :, None] * freqs
                         cs = np.concatenate([np.cos(ph), np.sin(ph)], axis=2)  # (n_int, nodes, 2 lines)
-                        ch["line"] = (_filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * _GL_NODES), loc, g)
-                                      + _filt(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * (1.0 - _GL_NODES)), loc + 1, g))
+                        rise, fall = _rise_fall(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * _GL_NODES),
+                                                np.einsum("knc,n->kc", cs, _GL_WEIGHTS * (1.0 - _GL_NODES)), steps)
+                        ch["line"] = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
                 out.append(ch)
             yield out
 
@@ -750,6 +849,36 @@ def _full(structured: np.ndarray) -> np.ndarray:
     """Every order from 1 to the basis's highest, and the basis's own (order 0 where it has it)."""
     top = int(np.max(structured, initial=0))
     return np.union1d(np.asarray(structured, int), np.arange(1, top + 1))
+
+
+#: A map is determined by the logs where its columns keep at least this share of their information (the trace of
+#: their Schur complement in the scaled Gram matrix over their own block) once every function of the angle alone, a
+#: cogging of every order to the basis's highest, has taken its part: below it the map's variance is inflated more
+#: than twentyfold against the same columns alone. Logs at one current per angle (one pass, no dither) leave the
+#: ripple 1e-4 of it, logs in one direction the direction map 0-1e-2; logs at two speeds with a dither 0.5-0.9.
+DETERMINED_SHARE = 0.05
+
+
+def information_shares(prepared, orders: Orders, taps: int) -> dict:
+    """How much of the ripple's and the direction map's information the logs hold beyond what any function of the
+    angle alone explains (:data:`DETERMINED_SHARE`): ``{"ripple": share, "direction": share}``, each the trace of the
+    map's Schur complement over its own block of the Gram matrix (columns scaled to unit norm), with the cogging of
+    every order to the basis's highest beside it; a map without orders is absent."""
+    layout = _Layout.of(Orders(_full(orders.cogging), orders.ripple, orders.direction))
+    G = _normal_equations(prepared, layout, taps)[0].sum(axis=0)
+    d = np.sqrt(np.diag(G))
+    d[d == 0] = 1.0
+    G = G / np.outer(d, d)
+    kept = np.flatnonzero(layout.keep)
+    out = {}
+    for name, cols in (("ripple", layout.o_r), ("direction", layout.o_d)):
+        m = np.isin(kept, cols)
+        if not m.any():
+            continue
+        g_mo = G[np.ix_(m, ~m)]
+        schur = G[np.ix_(m, m)] - g_mo @ np.linalg.pinv(G[np.ix_(~m, ~m)], rcond=1e-12, hermitian=True) @ g_mo.T
+        out[name] = float(max(np.trace(schur), 0.0) / max(np.trace(G[np.ix_(m, m)]), 1e-300))
+    return out
 
 
 def _significant_extra_orders(fit: dict, layout: _Layout, structured: Orders, alpha: float) -> dict:

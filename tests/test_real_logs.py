@@ -1,0 +1,152 @@
+"""Logs as drives and hosts record them: non-uniform stamps, counts, a filtered current report, and the parts of the
+model a log does not determine (pinned, with the experiment that would determine them). The truth is a rotor with a
+known cogging (tests/_rotor.py), noise-free, so each tolerance is the kernel's own error at the logs' step."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import _rotor
+from pgcomm.errors import DataError, ExcitationError
+from pgcomm.io.logs import ROTARY_REQUIRED, column_mapping, read_log, with_encoder_counts
+from pgcomm.rotary.identify import identify, resolution_verdict
+from pgcomm.rotary.motor import RotaryMotor
+from pgcomm.rotary.regression import DETERMINED_SHARE
+
+MOTOR = RotaryMotor(pole_pairs=3, slots=9, sample_time=1e-3, k_t=0.1, current_limit=5.0)
+GRID = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
+#: Every reading fixed (none of them is under test here) except where a test detects one.
+FIXED = dict(current_delay=0, current_lag=0.0, angle_pll=None, time_lines=(), current_noise=None, extra_orders=False)
+
+
+def cogging_error(model) -> float:
+    """RMS of the identified cogging's difference from the truth (offsets removed), share of the truth's RMS."""
+    c, tru = model.cogging(GRID), _rotor.cogging(GRID)
+    return float(np.sqrt(np.mean((c - c.mean() - tru + tru.mean()) ** 2)) / tru.std())
+
+
+def two_directions(jitter: float) -> list:
+    return [_rotor.run(4.0, speed=20.0, jitter=jitter, seed=1), _rotor.run(4.0, speed=-15.0, jitter=jitter, seed=2)]
+
+
+@pytest.fixture(scope="module")
+def uniform_logs():
+    return two_directions(0.0)
+
+
+@pytest.fixture(scope="module")
+def jittered_logs():
+    return two_directions(0.5)
+
+
+def test_non_uniform_stamps_against_the_uniform_fit(uniform_logs, jittered_logs):
+    """Steps of 0.5-1.5 times the median, integrated over the real intervals, give the cogging as a uniform log does:
+    both within the kernel's error at this step (the cubic path at 6 samples per period of the highest order)."""
+    uniform = identify(uniform_logs, MOTOR, current_filter=0.0, **FIXED)
+    jittered = identify(jittered_logs, MOTOR, current_filter=0.0, **FIXED)
+    e_u, e_j = cogging_error(uniform.model), cogging_error(jittered.model)
+    assert e_u < 2e-3 and e_j < 2e-3, (e_u, e_j)
+    assert jittered.model.inertia_ratio == pytest.approx(_rotor.INERTIA_RATIO, rel=1e-2)
+    # the same stamps replaced by a uniform grid: the time the regression integrates over is wrong
+    as_uniform = [{**lg, "t": np.arange(lg["t"].size) * np.median(np.diff(lg["t"]))} for lg in jittered_logs]
+    try:
+        wrong = cogging_error(identify(as_uniform, MOTOR, current_filter=0.0, **FIXED).model)
+    except ExcitationError:
+        wrong = np.inf  # refused as implausible: also a sign that the real intervals matter
+    assert wrong > 10 * max(e_j, 1e-3)
+
+
+def test_a_filtered_report_is_found_and_read_back(jittered_logs):
+    """A current reported through a 20 ms first-order lag (20 median steps) is found to within a few per cent, and the
+    cogging comes out as from the current that acted."""
+    tau = 0.02
+    logs = [_rotor.report_filtered(lg, tau) for lg in jittered_logs]
+    res = identify(logs, MOTOR, current_filter="detect", **FIXED)
+    found = res.info["current_filter"]
+    assert found["tau_s"] == pytest.approx(tau, rel=0.05)
+    assert found["evidence"] > 10.83
+    # what is left is the misestimate of τ turning each order h by h ω Δτ (ω up to 20 rad/s) and the kernel's error
+    dtau = abs(found["tau_s"] - tau)
+    a = np.array(_rotor.AMPLITUDES)
+    turned = float(np.sqrt(np.sum((a * np.array(_rotor.ORDERS) * 20.0 * dtau) ** 2) / np.sum(a ** 2)))
+    assert cogging_error(res.model) < 1.5 * turned + 2e-3, (found["tau_s"], turned)
+    # as logged, the table is late by τ: far off
+    try:
+        plain = cogging_error(identify(logs, MOTOR, current_filter=0.0, **FIXED).model)
+    except ExcitationError:
+        plain = np.inf  # refused as implausible
+    assert plain > 5 * cogging_error(res.model)
+
+
+def test_one_direction_without_dither_pins_ripple_and_direction():
+    """A speed-loop log at one speed, one direction, no dither determines the cogging only: the ripple is pinned at
+    zero and the direction map folded into the cogging, each verdict naming the experiment that would determine it."""
+    log = _rotor.run(6.0, speed=20.0, dither=0.0, seed=3)
+    res = identify([log], MOTOR, current_filter=0.0, **FIXED)
+    assert set(res.info["pinned"]) == {"ripple", "direction"}
+    assert res.model.ripple.orders.size == 0 and res.model.direction.orders.size == 0
+    se = res.info["standard_error"]
+    assert "dither" in resolution_verdict(se["ripple"]) and "both directions" in resolution_verdict(se["direction"])
+    # noise-free, what is left is the ridge's pull on columns that one pass makes nearly collinear (J/k0's θ̈ is a
+    # function of the angle too): the verdict reports it, and the error stays within it
+    c = se["cogging"]
+    assert cogging_error(res.model) < 2 * np.hypot(c["relative"], c["ridge_bias"]) + 2e-3, c
+
+
+def test_both_directions_with_a_dither_pin_nothing(uniform_logs):
+    res = identify(uniform_logs, MOTOR, current_filter=0.0, **FIXED)
+    assert res.info["pinned"] == []
+    assert min(res.info["information_share"].values()) > DETERMINED_SHARE
+
+
+# --------------------------------------------------------------------------- the reader
+
+
+def write(tmp_path, name, t, theta, iq):
+    p = tmp_path / name
+    np.savetxt(p, np.column_stack([t, theta, iq]), delimiter=",", header="time_s,pos,iq", comments="", fmt="%.9g")
+    return p
+
+
+MAP = {"columns": {"t": "time_s", "theta": "pos", "iq_1": "iq"}, "units": {"theta": "counts"},
+       "options": {"encoder_counts": 8192}}
+
+
+def test_counts_and_host_stamps_are_read_as_recorded(tmp_path):
+    rng = np.random.default_rng(0)
+    t = np.cumsum(rng.uniform(1.4e-3, 6e-3, 500))
+    counts = 8192 * 0.1 * t  # 0.1 rev/s
+    log = read_log(write(tmp_path, "a.csv", t, counts, np.zeros_like(t)), columns=MAP, required=ROTARY_REQUIRED,
+                   stamps=True)
+    assert not log.uniform
+    # written with 9 significant digits: t to 1e-8 s, the counts to 1e-9 of their value
+    np.testing.assert_allclose(log["t"], t, rtol=0, atol=2e-8)
+    np.testing.assert_allclose(log["theta"], 2 * np.pi * 0.1 * t, rtol=1e-8, atol=2 * np.pi * 0.1 * 2e-8)
+    assert log.sample_time == pytest.approx(np.median(np.diff(t)), abs=4e-8)
+    # a gap longer than GAP_STEPS median steps splits the log
+    t2 = t.copy()
+    t2[300:] += 0.5
+    log2 = read_log(write(tmp_path, "b.csv", t2, 8192 * 0.1 * t2, np.zeros_like(t)), columns=MAP,
+                    required=ROTARY_REQUIRED, stamps=True)
+    assert log2.gaps == (299,) and any("split" in n for n in log2.notes)
+
+
+@pytest.mark.parametrize("bad, word", [(0.0, "repeats"), (-1e-3, "goes back")])
+def test_stamps_that_repeat_or_go_back_are_refused_with_the_row(tmp_path, bad, word):
+    t = np.arange(100) * 2e-3
+    t[50] = t[49] + bad
+    p = write(tmp_path, "c.csv", t, np.arange(100.0), np.zeros(100))
+    with pytest.raises(DataError, match=rf"c.csv row 51 column 'time_s' \(t\): .*{word}"):
+        read_log(p, columns=MAP, required=ROTARY_REQUIRED, stamps=True)
+
+
+def test_counts_need_the_encoder_counts(tmp_path):
+    p = write(tmp_path, "d.csv", np.arange(10) * 1e-3, np.arange(10.0), np.zeros(10))
+    no_counts = {**MAP, "options": {}}
+    with pytest.raises(Exception, match="encoder_counts"):
+        read_log(p, columns=no_counts, required=ROTARY_REQUIRED, stamps=True)
+    mapping = with_encoder_counts(column_mapping(no_counts), MOTOR.__class__(pole_pairs=3, sample_time=1e-3,
+                                                                              encoder_counts=4096))
+    assert read_log(p, columns=mapping, required=ROTARY_REQUIRED, stamps=True)["theta"][1] == pytest.approx(
+        2 * np.pi / 4096)
