@@ -75,8 +75,8 @@ def identify(real: Path, name: str, out: Path) -> tuple[dict, np.ndarray, np.nda
     seconds = time.perf_counter() - t0
     if run.returncode != 0:
         raise SystemExit(f"{name}: pgcomm identify exited {run.returncode}: {run.stderr.strip().splitlines()[-1]}")
-    table = np.loadtxt(out / "compensation.csv", delimiter=",", comments="#", skiprows=1)
-    return json.loads((out / "results.json").read_text()), table[:, 0], table[:, 1], seconds
+    table = np.genfromtxt(out / "compensation.csv", delimiter=",", comments="#", names=True)
+    return json.loads((out / "results.json").read_text()), table["angle"], table["iq"], seconds
 
 
 def spinup_inertia(real: Path, k_t: float, tau: float, window: float) -> tuple[float, float, int]:

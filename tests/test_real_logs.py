@@ -150,3 +150,32 @@ def test_counts_need_the_encoder_counts(tmp_path):
                                                                               encoder_counts=4096))
     assert read_log(p, columns=mapping, required=ROTARY_REQUIRED, stamps=True)["theta"][1] == pytest.approx(
         2 * np.pi / 4096)
+
+
+def test_counts_declared_as_radians_name_the_unit(tmp_path):
+    rng = np.random.default_rng(1)
+    t = np.cumsum(rng.uniform(1.4e-3, 6e-3, 2000))
+    counts = 8192 * 1.0 * t + 40 * np.sin(50 * t)  # 1 rev/s in counts, with a cogging wobble
+    p = write(tmp_path, "e.csv", t, counts, np.zeros_like(t))
+    as_rad = {**MAP, "units": {}}
+    with pytest.raises(DataError, match=r"e.csv row \d+: .*theta.*declare it \(\[units\] theta = \"counts\""):
+        read_log(p, columns=as_rad, required=ROTARY_REQUIRED, stamps=True)
+
+
+def test_a_log_that_never_moves_is_refused_by_the_cli(tmp_path):
+    import subprocess
+    import sys
+
+    t = np.arange(3000) * 2e-3
+    p = write(tmp_path, "still.csv", t, np.full(t.size, 100.0), 0.3 + 0.01 * np.sin(t))
+    (tmp_path / "map.toml").write_text('[columns]\nt = "time_s"\ntheta = "pos"\niq_1 = "iq"\n[units]\n'
+                                       'theta = "counts"\n[options]\nencoder_counts = 8192\n')
+    (tmp_path / "motor.toml").write_text('kind = "rotary"\npole_pairs = 7\nslots = 12\nsample_time = 0.002\n'
+                                         'k_t = 0.05\ncurrent_limit = 10.0\n')
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "pgcomm", "identify", "--motor", str(tmp_path / "motor.toml"),
+                          "--columns", str(tmp_path / "map.toml"), "--data", str(p), "--out", str(out), "--quiet"],
+                         capture_output=True, text=True)
+    assert run.returncode == 2
+    assert run.stderr.count("\n") == 1 and "no usable window" in run.stderr and "Traceback" not in run.stderr
+    assert not out.exists()

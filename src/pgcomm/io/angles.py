@@ -85,7 +85,11 @@ def unwrap_angle(theta, sample_time: float, velocity=None, source: str = "log", 
             why = (f"ambiguous: {e[i]:.3g} rad from any whole revolution, more than a quarter revolution per "
                    f"{dts[i]:.6g} s sample (add the velocity column so that fast motion can be told from a "
                    "wrap, or check the log for a glitch)")
-        raise DataError(f"{source} {rows}: {jump}: {why}")
+        # an angle in counts or degrees read as radians moves by far more than a revolution over the log
+        span = float(np.max(th) - np.min(th)) / REVOLUTION
+        unit = (f"; the angle spans {span:.0f} revolutions: if it is in encoder counts or degrees, declare it "
+                "([units] theta = \"counts\" with encoder_counts, or \"deg\")") if span > 100 else ""
+        raise DataError(f"{source} {rows}: {jump}: {why}{unit}")
     n = int(np.sum(np.abs(k)))
     if n == 0:
         return th, 0
