@@ -50,12 +50,12 @@ def compare(table: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
 
 
 def binned(log: Path, angle: np.ndarray) -> np.ndarray:
-    """The logged current averaged in bins of the map's spacing around each of its angles (empty bins: the
-    neighbours' mean, circularly)."""
+    """The logged current averaged in bins of the map's spacing, bin ``k`` from the map's angle ``k`` to the next, as
+    the rig's README bins it (empty bins: interpolated from their neighbours, circularly)."""
     d = np.genfromtxt(log, delimiter=",", names=True)
     th = np.mod(2 * np.pi * d["pos_estimate_counts"] / COUNTS, 2 * np.pi)
     step = angle[1] - angle[0]
-    idx = np.floor(np.mod(th + step / 2, 2 * np.pi) / step).astype(int) % angle.size
+    idx = np.floor(th / step).astype(int) % angle.size
     s = np.bincount(idx, d["Iq_measured_A"], angle.size)
     n = np.bincount(idx, None, angle.size)
     out = np.where(n > 0, s / np.maximum(n, 1), np.nan)
@@ -75,8 +75,9 @@ def identify(real: Path, name: str, out: Path) -> tuple[dict, np.ndarray, np.nda
     seconds = time.perf_counter() - t0
     if run.returncode != 0:
         raise SystemExit(f"{name}: pgcomm identify exited {run.returncode}: {run.stderr.strip().splitlines()[-1]}")
-    table = np.genfromtxt(out / "compensation.csv", delimiter=",", comments="#", names=True)
-    return json.loads((out / "results.json").read_text()), table["angle"], table["iq"], seconds
+    lines = [ln for ln in (out / "compensation.csv").read_text().splitlines() if not ln.startswith("#")]
+    table = np.loadtxt(lines[1:], delimiter=",")  # after the header line "angle,iq"
+    return json.loads((out / "results.json").read_text()), table[:, 0], table[:, 1], seconds
 
 
 def spinup_inertia(real: Path, k_t: float, tau: float, window: float) -> tuple[float, float, int]:
