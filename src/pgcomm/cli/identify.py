@@ -18,6 +18,7 @@ and whether the logs resolve it. It writes ``model.json``, ``compensation.csv`` 
 
 from __future__ import annotations
 
+import glob
 import sys
 import time
 from pathlib import Path
@@ -42,7 +43,9 @@ def configure(p) -> None:
     p.add_argument("--sweep", nargs="+", metavar="LOG",
                    help="rotary motors: a logged slow position sweep in both directions (t, theta, iq_1), the "
                         "drives' own calibration: its table is computed, compared with the identified model's "
-                        "against both noises, and written as standstill_table.csv")
+                        "against both noises, and written as standstill_table.csv; or the drive's own static map "
+                        "(columns angle in rad or count in encoder counts, and the holding current): compared with the "
+                        "identified table, an index offset between the sessions found and removed")
     p.add_argument("--current-delay", metavar="N",
                    help="rotary motors: samples by which the logged q-current lags the current that acted over each "
                         "sample (an integer; default: detected, the fit repeated with the current shifted by -2..2)")
@@ -433,6 +436,18 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     model = replace(res.model, info={**res.model.info, "motor": motor.name, "current_limit": motor.current_limit,
                                      "logs": [lg.source for lg in logs]})
     sweep = None
+    static = []
+    if args.sweep:
+        from pgcomm.rotary.static_map import compare, is_static_map, read_static_map, text
+
+        maps = [p for pat in args.sweep for p in sorted(glob.glob(pat)) or [pat] if is_static_map(p)]
+        args.sweep = [p for p in args.sweep if p not in maps]
+        # the maps' independent values: the cogging's highest order resolved, a sine and a cosine each
+        independent = 2 * int(np.max(model.cogging.orders, initial=1))
+        for path in maps:
+            found = compare(read_static_map(path, motor.encoder_counts), model, independent)
+            static.append(found)
+            progress.info(text(found))
     if args.sweep:
         with progress.stage(f"the drives' table from the standstill sweep ({len(args.sweep)} log pattern(s))"):
             sweep, sweep_info = _sweep_table(args, mapping, model, res.info)
@@ -467,6 +482,8 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         results["table"]["torque_constant_from"] = k_from
         results["in_SI"] = _in_si(model, k_si, k_from)
     written = ["model.json", "compensation.csv", "results.json", "identify_rotary.png", "report.html"]
+    if static:
+        results["static_maps"] = static
     if sweep is not None:
         results["standstill_sweep"] = sweep_info
         if sweep_info["table_written"]:

@@ -1,0 +1,195 @@
+"""A drive's own static cogging map as data: read it, find the index offset between its session and the logs', and
+compare it with the table identified from running logs.
+
+**What a static map measures.** A drive calibrates its anti-cogging table by holding the rotor at each angle in
+position control and recording the q-current that holds it: the cogging, the drive's own current-measurement
+errors (:func:`pgcomm.rotary.model.drive_orders`) and, per direction, half the friction's sign. Averaging a forward
+and a reverse map removes the friction; a one-direction map carries it as a constant, which the comparison removes
+(offsets are not compared). The table to compare with is the identified compensation at zero demand, in the drive's
+sign (:meth:`pgcomm.rotary.model.RotaryModel.iq_comp`).
+
+**File format.** CSV (or any table :func:`pgcomm.io.tables.read_table` reads) with a position column, ``angle``
+(rad) or ``count`` (encoder counts from the index, with the motor's ``encoder_counts``), and the holding current (A):
+one column (one direction, any name such as ``iq`` or ``Iq_A``), or ``forward`` and ``reverse``. Positions within
+one revolution, strictly increasing, evenly spaced: a hole (a step over 1.5 times the spacing) is refused with the
+row.
+
+**The index between sessions.** An incremental encoder's zero is where it found its index on that power-up; on a
+real ODrive it moved by half a revolution between sessions. Comparing misaligned maps reads as disagreement, so the
+offset is found by circular cross-correlation and removed where it fits clearly better than none: the Fisher
+``z = atanh(r)`` of the best shift exceeds that of no shift by three standard errors ``1/√(n − 3)``, ``n`` the map's
+independent values (:func:`index_offset`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pgcomm.errors import DataError
+from pgcomm.io.tables import read_table
+
+#: Position columns a static map may have, and whether they are in encoder counts.
+POSITION_COLUMNS = {"angle": False, "count": True}
+#: A step of the positions beyond this many times their spacing is a hole in the map.
+HOLE_STEPS = 1.5
+
+
+@dataclass(frozen=True)
+class StaticMap:
+    """A drive's static map on one revolution.
+
+    Attributes:
+        theta: ``(n,)`` mechanical angle from the index (rad), evenly spaced in ``[0, 2π)``.
+        iq: ``(n,)`` holding q-current (A): the mean of both directions where the file has both, else its one.
+        directions: ``2`` where both directions were averaged (friction removed), ``1`` otherwise.
+        source: the file, for messages.
+    """
+
+    theta: np.ndarray
+    iq: np.ndarray
+    directions: int
+    source: str
+
+
+def read_static_map(path, encoder_counts: int | None = None) -> StaticMap:
+    """Read a drive's static map (module docstring, "File format").
+
+    Args:
+        path: the file.
+        encoder_counts: counts per revolution, for a ``count`` column.
+
+    Raises:
+        DataError: no position column, no current column, counts without ``encoder_counts``, positions not
+            increasing, beyond one revolution or with a hole, non-finite values; one line naming file, row, column.
+    """
+    src = str(path)
+    table = read_table(path, source=src, what="static map")
+    cols = table.columns
+    pos = next((c for c in POSITION_COLUMNS if c in cols), None)
+    if pos is None:
+        raise DataError(f"{src}: no position column (a static map has 'angle' in rad or 'count' in encoder counts); "
+                        f"found {', '.join(cols)}")
+    currents = [c for c in cols if c != pos]
+    if not currents:
+        raise DataError(f"{src}: no holding-current column beside '{pos}'")
+    if "forward" in cols and "reverse" in cols:
+        both = True
+    elif len(currents) == 1:
+        both = False
+    else:
+        raise DataError(f"{src}: {len(currents)} current columns ({', '.join(currents)}); a static map has one, or "
+                        "'forward' and 'reverse'")
+    x = np.asarray(cols[pos], float)
+    if POSITION_COLUMNS[pos]:
+        if encoder_counts is None:
+            raise DataError(f"{src}: column 'count' needs the encoder's counts per revolution (encoder_counts in the "
+                            "motor TOML)")
+        x = 2 * math.pi * x / encoder_counts
+    iq = 0.5 * (np.asarray(cols["forward"], float) + np.asarray(cols["reverse"], float)) if both else \
+        np.asarray(cols[currents[0]], float)
+    for name, v in ((pos, x), ("current", iq)):
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise DataError(f"{src} row {bad[0] + 1}: column '{name}' is not a finite number")
+    if x.size < 16:
+        raise DataError(f"{src}: {x.size} rows; a static map needs at least 16 positions over the revolution")
+    d = np.diff(x)
+    if np.any(d <= 0):
+        i = int(np.flatnonzero(d <= 0)[0])
+        raise DataError(f"{src} row {i + 2}: column '{pos}' does not increase (a static map lists its positions in order)")
+    if x[-1] - x[0] >= 2 * math.pi:
+        raise DataError(f"{src}: column '{pos}' spans more than one revolution ({(x[-1] - x[0]) / (2 * math.pi):.3g}); "
+                        "a static map covers one (check encoder_counts)")
+    step = float(np.median(d))
+    holes = np.flatnonzero(d > HOLE_STEPS * step)
+    if holes.size:
+        i = int(holes[0])
+        raise DataError(f"{src} row {i + 2}: a hole in the map: column '{pos}' steps {d[i] / step:.3g} times its "
+                        f"spacing after row {i + 1}; measure the missing positions or interpolate them yourself")
+    return StaticMap(np.mod(x, 2 * math.pi), iq, 2 if both else 1, src)
+
+
+def _centred(x: np.ndarray) -> np.ndarray:
+    return x - x.mean()
+
+
+def correlation(a: np.ndarray, b: np.ndarray) -> float:
+    """The correlation of two maps on one grid (their offsets removed)."""
+    a, b = _centred(a), _centred(b)
+    return float(a @ b / math.sqrt(max((a @ a) * (b @ b), 1e-300)))
+
+
+def index_offset(reference: np.ndarray, other: np.ndarray, independent: int) -> dict:
+    """The index offset between two maps on the same evenly spaced grid of one revolution: the circular shift of
+    ``other`` that correlates best with ``reference``, taken where it beats no shift clearly (module docstring).
+
+    Args:
+        reference, other: ``(n,)`` maps (A).
+        independent: the maps' independent values (e.g. twice the highest order the model resolves).
+
+    Returns:
+        ``{"shift": entries (other rolled by it), "rad": the offset, "correlation_at_zero", "correlation",
+        "taken": bool}``.
+    """
+    a, b = _centred(np.asarray(reference, float)), _centred(np.asarray(other, float))
+    n = a.size
+    xc = np.fft.irfft(np.fft.rfft(a) * np.conj(np.fft.rfft(b)), n) / math.sqrt(max((a @ a) * (b @ b), 1e-300))
+    best = int(np.argmax(xc))
+    r0, rb = float(xc[0]), float(xc[best])
+    se = 1.0 / math.sqrt(max(independent - 3, 1))
+    z = lambda r: math.atanh(min(max(r, -0.999999), 0.999999))  # noqa: E731
+    taken = best != 0 and z(rb) - z(r0) > 3 * se
+    shift = best if taken else 0
+    return {"shift": int(shift), "rad": float(2 * math.pi * (shift if shift <= n // 2 else shift - n) / n),
+            "correlation_at_zero": r0, "correlation": rb if taken else r0, "taken": bool(taken)}
+
+
+def compare(static: StaticMap, model, independent: int) -> dict:
+    """The identified table at zero demand against a drive's static map, the index offset found and removed.
+
+    Args:
+        static: :class:`StaticMap`.
+        model: :class:`pgcomm.rotary.model.RotaryModel`.
+        independent: the maps' independent values (:func:`index_offset`).
+
+    Returns:
+        ``{"source", "points", "directions", "index_offset": {...}, "correlation", "rms_difference_share"}``: the
+        correlation and the RMS of the difference (offsets removed) as a share of the static map's RMS, after the
+        offset is removed.
+    """
+    n = static.theta.size
+    grid = 2 * math.pi * np.arange(n) / n
+    # the static map on an even grid from angle 0 (its own spacing), then the model there
+    ref = np.interp(grid, static.theta, static.iq, period=2 * math.pi)
+    ours = 0.5 * (model.iq_comp(grid, 1.0) + model.iq_comp(grid, -1.0))
+    off = index_offset(ours, ref, independent)
+    aligned = np.roll(ref, off["shift"])
+    diff = _centred(ours) - _centred(aligned)
+    rms = float(np.sqrt(np.mean(_centred(aligned) ** 2)))
+    return {"source": static.source, "points": int(n), "directions": static.directions, "index_offset": off,
+            "correlation": correlation(ours, aligned),
+            "rms_difference_share": float(np.sqrt(np.mean(diff ** 2)) / rms) if rms > 0 else math.inf}
+
+
+def is_static_map(path) -> bool:
+    """Whether ``path`` holds a static map (a position column ``angle`` or ``count`` and no time ``t``) rather than a
+    logged sweep; a file that cannot be read is left to the log reader and its messages."""
+    try:
+        cols = read_table(path, source=str(path), what="static map").columns
+    except DataError:
+        return False
+    return any(c in cols for c in POSITION_COLUMNS) and "t" not in cols
+
+
+def text(found: dict) -> str:
+    """One line on :func:`compare`'s result."""
+    off = found["index_offset"]
+    moved = (f"; the index sits {off['rad'] / (2 * math.pi):+.3f} revolution away (correlation "
+             f"{off['correlation_at_zero']:.3f} as indexed): removed" if off["taken"] else "")
+    return (f"static map {found['source']}: correlation {found['correlation']:.3f} with the identified table, RMS "
+            f"difference {100 * found['rms_difference_share']:.0f} % of its RMS"
+            f"{' (one direction: its friction is a constant, not compared)' if found['directions'] == 1 else ''}"
+            f"{moved}")
