@@ -1,0 +1,72 @@
+"""A drive's static map as data: the reader's refusals, and the index offset between sessions found on a rolled map
+(the truth: the roll) and removed."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pgcomm.errors import DataError
+from pgcomm.rotary.model import Fourier, RotaryModel
+from pgcomm.rotary.static_map import compare, index_offset, is_static_map, read_static_map
+
+COUNTS = 8192
+
+
+def a_map(n=512):
+    th = 2 * math.pi * np.arange(n) / n
+    return th, 0.9 * np.cos(7 * th + 0.4) + 0.5 * np.cos(28 * th + 1.0) + 0.3 * np.sin(14 * th) + 0.1 * np.cos(84 * th)
+
+
+@pytest.mark.parametrize("shift", [0, 1, 37, 256, 400])
+def test_index_offset_of_a_rolled_map_is_the_roll(shift):
+    _, m = a_map()
+    rng = np.random.default_rng(shift)
+    other = np.roll(m, -shift) + 0.02 * rng.standard_normal(m.size) + 0.3  # another session: moved, noisy, offset
+    found = index_offset(m, other, independent=2 * 84)
+    assert found["taken"] == (shift != 0)
+    assert found["shift"] == shift
+    assert found["correlation"] > 0.99
+    assert found["rad"] == pytest.approx(2 * math.pi * (shift if shift <= 256 else shift - 512) / 512)
+
+
+def test_compare_removes_half_a_revolution(tmp_path):
+    th, m = a_map()
+    model = RotaryModel(7, cogging=Fourier(np.array([7, 14, 28, 84]),
+                                           np.array([[0.9 * math.cos(0.4), -0.9 * math.sin(0.4)], [0.0, 0.3],
+                                                     [0.5 * math.cos(1.0), -0.5 * math.sin(1.0)], [0.1, 0.0]])),
+                        ripple=Fourier.zeros([]), direction=Fourier.zeros([]), viscous=0.0, inertia_ratio=1e-3)
+    # the model's compensation is what holds the rotor: the map's own sign, whatever the model's convention
+    sign = np.sign(np.corrcoef(model.iq_comp(th, 1.0), m)[0, 1])
+    counts = np.arange(512) * 16
+    p = tmp_path / "map.csv"
+    np.savetxt(p, np.column_stack([counts, sign * np.roll(m, -256)]), delimiter=",", header="count,Iq_A",
+               comments="", fmt="%.10g")
+    assert is_static_map(p)
+    found = compare(read_static_map(p, COUNTS), model, independent=168)
+    assert found["index_offset"]["taken"] and abs(found["index_offset"]["rad"]) == pytest.approx(math.pi)
+    assert found["correlation"] > 0.9999 and found["rms_difference_share"] < 1e-3
+
+
+def write(tmp_path, rows, header="count,Iq_A"):
+    p = tmp_path / "m.csv"
+    p.write_text(header + "\n" + "\n".join(",".join(map(str, r)) for r in rows) + "\n")
+    return p
+
+
+def test_a_hole_is_refused_with_its_row(tmp_path):
+    rows = [(16 * k, 0.1) for k in range(64) if k not in (20, 21)]
+    with pytest.raises(DataError, match=r"m.csv row 21: a hole in the map"):
+        read_static_map(write(tmp_path, rows), COUNTS)
+
+
+def test_counts_need_encoder_counts_and_one_revolution(tmp_path):
+    rows = [(16 * k, 0.1) for k in range(64)]
+    with pytest.raises(DataError, match="encoder_counts"):
+        read_static_map(write(tmp_path, rows), None)
+    with pytest.raises(DataError, match="more than one revolution"):
+        read_static_map(write(tmp_path, rows), 512)
+    with pytest.raises(DataError, match="no position column"):
+        read_static_map(write(tmp_path, rows, header="pos,Iq_A"), COUNTS)
