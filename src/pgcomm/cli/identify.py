@@ -330,7 +330,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.io.config import load_rotary_motor
     from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs, with_encoder_counts
     from pgcomm.io.results import write_results
-    from pgcomm.rotary.identify import fit_mechanics, identify, map_text, resolution_verdict
+    from pgcomm.rotary.identify import drive_text, fit_mechanics, identify, map_text, resolution_verdict
     from pgcomm.rotary.back_emf import offset_text, voltage_text
     from pgcomm.rotary.readings import delay_text, filter_text, lag_of, pll_text
     from pgcomm.rotary.regression import Orders
@@ -411,7 +411,9 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                                                        angle_pll=pll, current_lag=lag_of(timing),
                                                        current_filter=(res.info.get("current_filter") or {}).get("tau_s", 0.0),
                                                        time_lines=(res.info.get("time_lines") or {}).get("hz", ()))
-        for text in (filter_text(res.info.get("current_filter")), pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines")),
+        for text in (filter_text(res.info.get("current_filter")), drive_text(res.info.get("drive_orders"),
+                                                                             motor.pole_pairs),
+                     pll_text(estimate), delay_text(timing), lines_text(res.info.get("time_lines")),
                      voltage_text(res.info.get("back_emf")), offset_text(res.info.get("back_emf"))):
             if text:
                 progress.info(text)

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from pgcomm.errors import DataError, ExcitationError
-from pgcomm.rotary.model import Fourier, RotaryModel, harmonic_columns
+from pgcomm.rotary.model import Fourier, RotaryModel, drive_orders, harmonic_columns
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
@@ -215,6 +215,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         direction=Fourier.from_vector(final.direction, beta[o_d]),
         viscous=float(beta[-1]), inertia_ratio=float(beta[0]), k_t=motor.k_t,
         info={"method": "running logs, no torque sensor"})
+    drive = _drive_share(model.cogging, motor.pole_pairs)
     blind = None
     if screen is not None:
         blind = {k: float(np.median(v)) for k, v in screen["blind_rms"].items() if np.size(v)}
@@ -238,7 +239,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
             "orders_screened": screen is not None,
             "cost_A2": fit["cost"], "inertia_ratio": float(beta[0]), "standard_error": standard_error,
             "quantisation": _quantisation_info(prepared, fit), "current_delay": timing, "angle_pll": estimate,
-            "current_filter": report, "information_share": shares,
+            "current_filter": report, "information_share": shares, "drive_orders": drive,
             "pinned": sorted(pinned),
             "time_lines": lines_info, "back_emf": voltage_info,
             **noise_info, "current_noise_correction": {**correction, **fit["current_noise"]},
@@ -449,6 +450,30 @@ def _time_factor(noise: float, fixed: float) -> float:
     if room <= 0.0:
         return float("inf")
     return float(max(1.0, noise**2 / room))
+
+
+def _drive_share(cogging: Fourier, pole_pairs: int) -> dict:
+    """How much of the identified cogging sits at the drive's own orders (:func:`pgcomm.rotary.model.drive_orders`):
+    ``{"share": RMS at those orders / RMS of the map (order 0 left out), "amplitude_A": {order: amplitude}}``, the
+    largest first."""
+    amp = np.hypot(cogging.coef[:, 0], cogging.coef[:, 1])
+    moving = cogging.orders > 0
+    at = np.isin(cogging.orders, drive_orders(pole_pairs)) & moving
+    total = float(np.sum(amp[moving] ** 2))
+    top = np.argsort(-amp * at)[:int(at.sum())]
+    return {"share": float(np.sqrt(np.sum(amp[at] ** 2) / total)) if total > 0 else 0.0,
+            "amplitude_A": {str(int(cogging.orders[j])): float(amp[j]) for j in top}}
+
+
+def drive_text(found: dict | None, pole_pairs: int) -> str | None:
+    """One line on :func:`_drive_share`'s result, or ``None`` where it holds little (under a tenth of the RMS)."""
+    if not found or found["share"] < 0.1:
+        return None
+    top = ", ".join(f"{o}: {a:.3g} A" for o, a in list(found["amplitude_A"].items())[:4])
+    return (f"the drive's own orders (p = {pole_pairs}: p, 2p, 4p, 6p and their ±1 sidebands) hold "
+            f"{100 * found['share']:.0f} % of the cogging table's RMS ({top}): where a drive's current measurement "
+            "and inverter add torque (a motor's pole tolerances add some at 2p and its multiples too); the table "
+            "compensates both on this drive")
 
 
 #: The experiment that determines a map the logs leave undetermined (:func:`_pinned_entry`).
