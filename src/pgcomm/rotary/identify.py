@@ -149,14 +149,32 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     shares = information_shares(prepared, orders, taps)
     pinned = {name: share for name, share in shares.items() if share < DETERMINED_SHARE}
     orders = replace(orders, **{name: np.zeros(0, int) for name in pinned})
+    report = {"tau_s": float(current_filter or 0.0) if not isinstance(current_filter, str) else 0.0,
+              "evidence": None, "cost_by_tau": None}
+
+    def read(tau):
+        return _reading(_with_report(prepared, tau), orders, taps, encoder_step, current_delay, angle_pll,
+                        current_lag)
+
+    def angle(estimate):
+        return None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
+                                                                         estimate["damping"])
+
+    estimate, timing = read(report["tau_s"])
     if isinstance(current_filter, str):
-        report = _report_filter(prepared, _Layout.of(orders), taps)
-    else:
-        report = {"tau_s": float(current_filter or 0.0), "evidence": None, "cost_by_tau": None}
+        # a report filter is searched on the current read as the delay and PLL found (a whole-sample delay fits
+        # as a short filter, and would be taken for one), and the delay read again under the filter found
+        layout = _Layout.of(orders)
+        for _ in range(2):
+            found = _report_filter(_with_delay(_with_pll(prepared, angle(estimate)), timing["samples"],
+                                               lag_of(timing)), layout, taps)
+            moved = found["tau_s"] != report["tau_s"]
+            report = found
+            if not moved:
+                break
+            estimate, timing = read(report["tau_s"])
     prepared = _with_report(prepared, report["tau_s"])
-    estimate, timing = _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll, current_lag)
-    pll = None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
-                                                                     estimate["damping"])
+    pll = angle(estimate)
     as_logged = _with_delay(prepared, timing["samples"], lag_of(timing))
     prepared = _with_delay(_with_pll(prepared, pll), timing["samples"], lag_of(timing))
     if isinstance(time_lines, str):
@@ -470,7 +488,7 @@ def drive_text(found: dict | None, pole_pairs: int) -> str | None:
     if not found or found["share"] < 0.1:
         return None
     top = ", ".join(f"{o}: {a:.3g} A" for o, a in list(found["amplitude_A"].items())[:4])
-    return (f"the drive's own orders (p = {pole_pairs}: p, 2p, 4p, 6p and their ±1 sidebands) hold "
+    return (f"the drive's own orders (p = {pole_pairs}: p, 2p, 3p, 4p, 6p) hold "
             f"{100 * found['share']:.0f} % of the cogging table's RMS ({top}): where a drive's current measurement "
             "and inverter add torque (a motor's pole tolerances add some at 2p and its multiples too); the table "
             "compensates both on this drive")

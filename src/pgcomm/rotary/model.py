@@ -124,23 +124,22 @@ def cogging_orders(slots: int, pole_pairs: int, multiples: int = 3, low: int = 2
 
 
 #: Multiples of the electrical order ``p`` at which a drive's own errors add torque (:func:`drive_orders`).
-DRIVE_MULTIPLES = (1, 2, 4, 6)
+DRIVE_MULTIPLES = (1, 2, 3, 4, 6)
 
 
 def drive_orders(pole_pairs: int) -> np.ndarray:
     """Harmonics per revolution at which a field-oriented drive adds torque of its own, whatever the motor.
 
     A current sensor's offset turns with the electrical angle: torque at order ``p``; a gain mismatch between the
-    phase sensors: ``2p``; the inverter's dead time: ``6p``; and the measurement's ``4p`` (both seen in a real ODrive's
-    static map, larger than the slot cogging). An eccentric rotor or encoder modulates each by order 1: the sidebands
-    ``k p ± 1``.
+    phase sensors: ``2p``; the inverter's dead time: ``6p``; and the measurement's ``3p`` and ``4p`` (all seen in a
+    real ODrive's static map, ``p``, ``4p`` and ``2p`` larger than its slot cogging). Other orders (sidebands of an
+    eccentric encoder) enter where the screening finds them (:mod:`pgcomm.rotary.regression`).
 
     Returns:
         sorted unique ``(n,)`` int array (orders ≥ 1).
     """
     p = int(pole_pairs)
-    orders = {k * p + s for k in DRIVE_MULTIPLES for s in (-1, 0, 1)}
-    return np.array(sorted(o for o in orders if o >= 1), int)
+    return np.array(sorted({k * p for k in DRIVE_MULTIPLES}), int)
 
 
 def ripple_orders(slots: int | None, pole_pairs: int, low: int = 3) -> np.ndarray:
