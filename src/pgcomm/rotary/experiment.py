@@ -220,6 +220,8 @@ def drive_log_mix(truth: RotaryTruth, seed: int = 0) -> dict:
       the current limit's acceleration (each ramp at least 50 ms);
     * ``sweep``: the drives' slow sweep, a revolution each way in 60 s (position loop).
 
+    All as the host logs them where the truth has a host's habits, in one recording session.
+
     Args:
         truth: the twin; seed: noise seed (streams ``"drive log mix", k``; each run starts at its own angle).
 

@@ -79,7 +79,7 @@ from pgcomm.rotary.winding import Winding, d_voltage, logged_dq, q_voltage
 
 __all__ = ["RotaryTruth", "Gains", "LawParams", "Reference", "simulate", "default_gains", "VELOCITY_CUTOFF_HZ",
            "SUBSTEPS", "HOLD_ADVANCE", "drive_current_error", "breakaway_current", "host_instants", "session_offset",
-           "HOST_STEP_RANGE", "HOST_GAP_STEPS"]
+           "HOST_STEP_RANGE", "HOST_GAP_STEPS", "STAMP_NOISE_CLIP"]
 
 #: Cut-off of the drive's velocity estimate (Hz): first-order low-pass on the encoder difference.
 VELOCITY_CUTOFF_HZ = 200.0
@@ -122,8 +122,8 @@ class RotaryTruth:
         sensor_offset: ``(o_a, o_b)`` (A): the offsets of the drive's current sensors on phases a and b (module
             docstring, "A real drive's habits"); torque at the electrical order ``p``.
         sensor_gain: ``(g_a, g_b)`` (-): their relative gain errors; torque at ``2p`` and a mean gain.
-        deadtime_error: ``(A)``: how far each phase current falls short over the inverter's dead time (torque at
-            ``6p``); deadtime_width: ``i_ε`` (A) of its ``tanh(i_ph / i_ε)``, positive when ``deadtime_error`` is.
+        deadtime_error: how far each phase current falls short over the inverter's dead time (A; torque at ``6p``).
+        deadtime_width: ``i_ε`` (A) of its ``tanh(i_ph / i_ε)``, positive when ``deadtime_error`` is.
         report_filter: ``τ`` (s) of the first-order low-pass the logged q-current goes through; 0: none.
         pll_bandwidth: ``bw`` (rad/s) of the drive's encoder PLL (``k_p = 2 bw``, ``k_i = bw²``); 0: the encoder's
             count and the low-passed difference (:data:`VELOCITY_CUTOFF_HZ`).

@@ -191,8 +191,9 @@ def draw_drive_habits(rng, truth: RotaryTruth) -> dict:
     r = REAL_DRIVE_RANGES
     i_lim = truth.rated_current()
     full = r["sensor_range"] * i_lim
-    habits = {"sensor_offset": tuple(float(x) for x in rng.normal(0.0, _log_uniform(rng, r["sensor_offset"]) * full, 2)),
-              "sensor_gain": tuple(float(x) for x in rng.normal(0.0, _log_uniform(rng, r["sensor_gain"]), 2)),
+    offsets = rng.normal(0.0, _log_uniform(rng, r["sensor_offset"]) * full, 2)
+    gains = rng.normal(0.0, _log_uniform(rng, r["sensor_gain"]), 2)
+    habits = {"sensor_offset": tuple(float(x) for x in offsets), "sensor_gain": tuple(float(x) for x in gains),
               "deadtime_error": _log_uniform(rng, r["deadtime_error"]) * i_lim,
               "deadtime_width": max(truth.current_noise, 1e-6 * i_lim) * float(rng.uniform(*r["deadtime_width"]))}
     filtered = rng.random() >= r["report_filter_none"]
