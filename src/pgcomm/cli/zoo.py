@@ -26,6 +26,13 @@ def configure(p) -> None:
                    help="rotary: the drives control K times per logged sample and log a snapshot of every K-th cycle "
                         "(8 for an ODrive's 8 kHz loop logged at 1 kHz; 1: they control at their log rate; default: "
                         "drawn per motor, 4-16 kHz)")
+    p.add_argument("--real-drive", action="store_true",
+                   help="rotary: give every drive a real drive's and host's habits (current-sensor offsets and gain "
+                        "mismatch, a filtered current report, a PLL angle, a host's jittered stamps, an index that "
+                        "moves between sessions), drawn per motor")
+    p.add_argument("--stall", action="store_true",
+                   help="rotary, with --logs: also write logs/stall.csv, a low-speed run in a speed loop too soft for "
+                        "the cogging that stalls about halfway")
     add_common_options(p, out=True, plant=False)
 
 
@@ -41,9 +48,14 @@ def run(args, out: Path, progress) -> None:
     if getattr(args, "kind", "linear") == "rotary":
         if k is not None and not 1 <= k <= 64:
             raise ConfigError(f"--control-per-log {k}: expected 1 to 64 control cycles per logged sample")
+        if getattr(args, "stall", False) and not args.logs:
+            raise ConfigError("--stall writes a log: give it with --logs")
         return _run_rotary(args, out, progress, n)
     if k is not None:
         raise ConfigError("--control-per-log: a rotary drive's control rate (--kind rotary)")
+    for flag, name in (("real_drive", "--real-drive"), ("stall", "--stall")):
+        if getattr(args, flag, False):
+            raise ConfigError(f"{name}: a rotary drive's option (--kind rotary)")
     for i in range(1, n + 1):
         name = motor_folder_name(i, n)
         what = "force map and truth" + (", logs" if args.logs else "")
@@ -68,15 +80,16 @@ def _run_rotary(args, out: Path, progress, n: int) -> None:
         name = motor_folder_name(i, n)
         with progress.stage(f"{name} ({i}/{n}): rotary motor and truth"
                             + (", running logs, standstill sweep" if args.logs else "")):
-            t = draw_rotary(args.seed, i - 1, args.control_per_log)
+            t = draw_rotary(args.seed, i - 1, args.control_per_log, real_drive=getattr(args, "real_drive", False))
             folder = write_rotary_motor(t, out / name)
             if args.logs:
-                write_running_logs(t, folder / "logs", seed=args.seed)
+                write_running_logs(t, folder / "logs", seed=args.seed, stall=getattr(args, "stall", False))
                 write_sweep_log(t, folder / "sweep", seed=args.seed)
             progress.info(f"{t.motor.name}, k_t = {t.k_t:.3g} N·m/A, J = {t.inertia:.3g} kg·m², cogging "
                           f"{100 * t.cogging.rms() / (t.k_t * 0.5 * t.motor.current_limit):.1f} % of rated torque, "
                           f"ripple {100 * t.ripple.rms():.2f} %"
                           + (f", drive at {t.control_per_log} control cycles per logged sample"
-                             if t.control_per_log > 1 else ""))
+                             if t.control_per_log > 1 else "")
+                          + (f"; habits: {', '.join(t.habits())}" if t.habits() else ""))
     if not args.quiet:
         print(f"wrote {n} rotary motor folder(s) to {args.out}")

@@ -8,8 +8,9 @@ sensor. This subpackage mirrors the linear pipeline for them:
 * :mod:`pgcomm.rotary.motor`: :class:`RotaryMotor` (pole pairs, slots, ``k_t``, inertia, limit);
 * :mod:`pgcomm.rotary.model`: periodic maps over one revolution (Fourier on the circle, orders
   from the slot/pole combination) and :class:`RotaryModel` (with ``table(n)`` for exports);
-* :mod:`pgcomm.rotary.twin`: the rotary PMSM twin on a FOC drive in closed loop (``lax.scan``); its winding and the
-  q- and d-voltages the drive logs in :mod:`pgcomm.rotary.winding`;
+* :mod:`pgcomm.rotary.twin`: the rotary PMSM twin on a FOC drive in closed loop (``lax.scan``), with a real drive's
+  habits to switch on (current-sensor errors, a filtered report, a PLL angle, a host's clock, a moving index); its
+  winding and the q- and d-voltages the drive logs in :mod:`pgcomm.rotary.winding`;
 * :mod:`pgcomm.rotary.zoo`: random plausible motors (slot/pole combinations, tolerances);
 * :mod:`pgcomm.rotary.identify`: least squares from running logs, with or without torque sensor, with standard
   errors; its regression in :mod:`pgcomm.rotary.regression`, the logs' readings (the current's timing, a PLL's

@@ -50,11 +50,11 @@ from pgcomm.rotary.readings import delay_text, lag_of
 from pgcomm.rotary.regression import Orders, max_speed
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import StandstillPlan, run_standstill
-from pgcomm.rotary.twin import LawParams, Reference, RotaryTruth, default_gains, simulate
+from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, breakaway_current, default_gains, simulate
 
 __all__ = ["RotarySettings", "running_references", "running_log", "record_running_logs", "RunningLogs",
            "drive_log_mix", "tracking_references", "closed_loop", "run", "identification_errors", "ROWS",
-           "quick_settings"]
+           "quick_settings", "stall_log"]
 
 ROWS = ("classical", "standstill_table", "model", "oracle")
 #: Running-log and standstill tables agree "within the noise of the sweep" when their RMS difference is at
@@ -163,13 +163,52 @@ def running_log(truth: RotaryTruth, ref: Reference, law: LawParams, gains, seed:
     quantisation error in every sample, and more rounds would not average it (on 16-bit encoders the screening
     took that repeated error for a dozen orders outside the basis).
 
+    The log is the host's where the truth has a host's habits (``simulate(..., host=True)``: jittered rows), in
+    recording session 0.
+
     Args:
         truth: the twin; ref: a speed-loop :class:`Reference`; law, gains: as for ``simulate``;
         seed: the log's noise seed (also draws the start angle, uniform over the revolution).
     """
     start = float(np.random.default_rng([int(seed), 0x57A7]).uniform(0.0, 2 * math.pi))
     shifted = Reference(np.asarray(ref.theta, float) + start, ref.omega, ref.alpha, ref.mode, ref.dither)
-    return simulate(truth, shifted, law, gains, seed=seed)
+    return simulate(truth, shifted, law, gains, seed=seed, host=True)
+
+
+def stall_log(truth: RotaryTruth, seed: int = 0, seconds: float = 10.0, direction: float = 1.0,
+              session: int = 0) -> dict:
+    """A low-speed run in a speed loop too soft for the cogging, which stalls about halfway: what two of three runs
+    at 0.1 rev/s did on the ODrive of ``../real``.
+
+    The loop is the drive's tuned proportional gain ``k_pv`` (:func:`pgcomm.rotary.twin.default_gains` at the true
+    ``J/k0``) with its integrator off and no feedforward: at standstill its current is ``k_pv ω_r``. The reference
+    falls linearly from 1.5 to 0.5 times the speed at which that current equals the break-away current
+    (:func:`pgcomm.rotary.twin.breakaway_current`: the cogging, the drive's current errors and the friction), so the
+    rotor turns in the first half and sticks on the first angle that holds it in the second (at these speeds the
+    rotor's kinetic energy is small against a cogging period's). The log is the host's where the truth has a host's
+    habits.
+
+    Args:
+        truth: the twin; seed: noise seed (also the start angle); seconds: the run's length (s);
+        direction: ``+1`` or ``-1``; session: the recording session.
+
+    Returns:
+        the log (:func:`pgcomm.rotary.twin.simulate`), with ``stall_speed`` (rad/s, the speed at which the loop's
+        standstill current is the break-away current) beside the columns.
+    """
+    ts = truth.motor.sample_time
+    a = truth.inertia / truth.k0
+    kpv = default_gains(a).kpv
+    s = 1.0 if direction >= 0 else -1.0
+    w_b = breakaway_current(truth, s) / kpv
+    n = max(2, int(round(seconds / ts)))
+    om = s * w_b * np.linspace(1.5, 0.5, n)
+    start = float(np.random.default_rng([int(seed), 0x57A7]).uniform(0.0, 2 * math.pi))
+    ref = Reference(start + ts * np.cumsum(om), om, np.gradient(om, ts), "speed")
+    log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), Gains(0.0, 0.0, 0.0, kpv, 0.0),
+                   seed=seed, host=True, session=session)
+    log["stall_speed"] = s * w_b
+    return log
 
 
 def drive_log_mix(truth: RotaryTruth, seed: int = 0) -> dict:
@@ -180,6 +219,8 @@ def drive_log_mix(truth: RotaryTruth, seed: int = 0) -> dict:
     * ``accel``: two runs (one per direction) of repeated speed ramps between 0.2 and 0.9 of the limit at half
       the current limit's acceleration (each ramp at least 50 ms);
     * ``sweep``: the drives' slow sweep, a revolution each way in 60 s (position loop).
+
+    All as the host logs them where the truth has a host's habits, in one recording session.
 
     Args:
         truth: the twin; seed: noise seed (streams ``"drive log mix", k``; each run starts at its own angle).
@@ -216,7 +257,7 @@ def drive_log_mix(truth: RotaryTruth, seed: int = 0) -> dict:
         logs["accel"].append(running_log(truth, Reference(np.cumsum(om) * ts, om, np.gradient(om, ts), "speed"),
                                          law, gains, stream_seed(seed, "drive log mix", k)))
     logs["sweep"].append(simulate(truth, sweep_reference(ts, 60.0), LawParams.classical(m.pole_pairs), gains,
-                                  seed=stream_seed(seed, "drive log mix", "sweep")))
+                                  seed=stream_seed(seed, "drive log mix", "sweep"), host=True))
     return logs
 
 

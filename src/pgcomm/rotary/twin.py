@@ -35,6 +35,28 @@ into the ripple at the largest cogging order, 10 % of it on a 36N42P). The log h
 dither interpolated by a cubic spline, and logs a snapshot of every ``K``-th cycle: an ODrive at 8 kHz or a moteus at
 15-40 kHz logged at 1 kHz. The logged current is then not the one that flowed until the next row
 (:mod:`pgcomm.rotary.readings`, "Between logged samples").
+
+**A real drive's habits** (each its own field of :class:`RotaryTruth`, all off by default; the zoo draws them with
+``real_drive=True``, :func:`pgcomm.rotary.zoo.draw_rotary`):
+
+* *current sensors* (``sensor_offset``, ``sensor_gain``, ``deadtime_error``): the drive measures two phase currents
+  with an offset and a gain error each and regulates the *measured* current to its command in its frame; the phase
+  currents that flow are the command less those errors (the third phase closes the star), and the inverter's dead time
+  leaves each phase ``deadtime_error · tanh(i_ph/deadtime_width)`` short. In the drive's frame the offsets make an error
+  at the electrical order ``p``, the gain mismatch ``2p`` (and a mean gain), the dead time ``6p``. The torque the motor
+  makes is that of the current that flows (:func:`drive_current_error`); the log holds the command the drive measures;
+* *a filtered current report* (``report_filter``, s): the logged q-current is the drive's first-order low-pass of
+  the current it measures, updated every control cycle (ODrive's ``Iq_measured``);
+* *a PLL angle* (``pll_bandwidth``, rad/s): the drive's angle and velocity are ODrive's encoder PLL's (``k_p = 2 bw``,
+  ``k_i = bw²``, run every control cycle on the encoder count), for its loops, its law and its log;
+* *the host's clock* (``host_jitter``, ``host_gaps``, ``stamp_noise``): a PC polls the drive at jittered instants
+  (:func:`host_instants`), and each row is the drive's state at its last control cycle before the instant, stamped
+  with the instant plus a little noise (``simulate(..., host=True)``);
+* *an index that moves between sessions* (``session_offsets``, rad): recorded in session ``s``, the drive's angle is
+  the encoder's plus ``session_offsets[s]`` (rounded to whole counts): its position loop, its law and its log work in
+  that frame, its commutation is calibrated again (``simulate(..., session=s)``);
+* *stalls*: the plant's cogging, drive errors and friction hold a rotor a soft speed loop cannot move
+  (:func:`breakaway_current`; :func:`pgcomm.rotary.experiment.stall_log`).
 """
 
 from __future__ import annotations
@@ -48,13 +70,16 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from scipy.interpolate import CubicSpline
+from scipy.optimize import minimize_scalar
+from scipy.signal import lfilter
 
 from pgcomm.rotary.model import Fourier, RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.winding import Winding, d_voltage, logged_dq, q_voltage
 
 __all__ = ["RotaryTruth", "Gains", "LawParams", "Reference", "simulate", "default_gains", "VELOCITY_CUTOFF_HZ",
-           "SUBSTEPS", "HOLD_ADVANCE"]
+           "SUBSTEPS", "HOLD_ADVANCE", "drive_current_error", "breakaway_current", "host_instants", "session_offset",
+           "HOST_STEP_RANGE", "HOST_GAP_STEPS", "STAMP_NOISE_CLIP"]
 
 #: Cut-off of the drive's velocity estimate (Hz): first-order low-pass on the encoder difference.
 VELOCITY_CUTOFF_HZ = 200.0
@@ -63,6 +88,13 @@ SUBSTEPS = 10
 #: Where in the sample the drive evaluates the law (share of ``T_s`` past the encoder sample, at the
 #: estimated velocity): the middle of the sample over which the current is held.
 HOLD_ADVANCE = 0.5
+#: The host's steps between logged rows, as multiples of the log's median step :attr:`RotaryMotor.sample_time`: the
+#: jitter is clipped to this range (a PC's Python loop over USB: 0.6-2.6x on the ODrive logs of ``../real``).
+HOST_STEP_RANGE = (0.6, 2.6)
+#: A missed stretch of the host's log: this many median steps (uniform, inclusive).
+HOST_GAP_STEPS = (5, 40)
+#: The host's stamp noise is clipped to this share of the median step, so the stamps keep increasing.
+STAMP_NOISE_CLIP = 0.2
 
 
 @dataclass(frozen=True)
@@ -87,6 +119,20 @@ class RotaryTruth:
             period). 1: the drive controls at its log rate. ``K > 1``: it controls at ``K`` times the log rate (an
             ODrive at 8 kHz, a moteus at 15-40 kHz logged at 1 kHz), and the log holds a snapshot at every
             ``K``-th control sample, so the current between two logged samples is not the one logged.
+        sensor_offset: ``(o_a, o_b)`` (A): the offsets of the drive's current sensors on phases a and b (module
+            docstring, "A real drive's habits"); torque at the electrical order ``p``.
+        sensor_gain: ``(g_a, g_b)`` (-): their relative gain errors; torque at ``2p`` and a mean gain.
+        deadtime_error: how far each phase current falls short over the inverter's dead time (A; torque at ``6p``).
+        deadtime_width: ``i_ε`` (A) of its ``tanh(i_ph / i_ε)``, positive when ``deadtime_error`` is.
+        report_filter: ``τ`` (s) of the first-order low-pass the logged q-current goes through; 0: none.
+        pll_bandwidth: ``bw`` (rad/s) of the drive's encoder PLL (``k_p = 2 bw``, ``k_i = bw²``); 0: the encoder's
+            count and the low-passed difference (:data:`VELOCITY_CUTOFF_HZ`).
+        host_jitter: ``σ`` of the log of the host's steps between rows (log-normal around the median step, clipped
+            to :data:`HOST_STEP_RANGE`); 0 with ``host_gaps`` and ``stamp_noise``: rows at ``j T_s``.
+        host_gaps: the chance per row that the host misses :data:`HOST_GAP_STEPS` median steps after it.
+        stamp_noise: std (s) of a stamp about its row's instant (clipped at :data:`STAMP_NOISE_CLIP` of the step).
+        session_offsets: the drive's angle zero in recording sessions ``0, 1, ...`` (rad, ``session s`` uses entry
+            ``s mod len``); empty: the index never moves.
     """
 
     motor: RotaryMotor
@@ -104,26 +150,94 @@ class RotaryTruth:
     encoder_counts: int
     winding: Winding | None = None
     control_per_log: int = 1
+    sensor_offset: tuple = (0.0, 0.0)
+    sensor_gain: tuple = (0.0, 0.0)
+    deadtime_error: float = 0.0
+    deadtime_width: float = 0.0
+    report_filter: float = 0.0
+    pll_bandwidth: float = 0.0
+    host_jitter: float = 0.0
+    host_gaps: float = 0.0
+    stamp_noise: float = 0.0
+    session_offsets: tuple = ()
 
     def __post_init__(self):
         k = self.control_per_log
         if isinstance(k, bool) or int(k) != k or k < 1:
             raise ValueError(f"control_per_log = {k!r} must be a positive integer")
         object.__setattr__(self, "control_per_log", int(k))
+        for name in ("sensor_offset", "sensor_gain"):
+            v = tuple(float(x) for x in getattr(self, name))
+            if len(v) != 2 or not all(math.isfinite(x) for x in v):
+                raise ValueError(f"{name} = {getattr(self, name)!r} must be two finite numbers (phases a and b)")
+            object.__setattr__(self, name, v)
+        if min(self.sensor_gain) <= -1.0:
+            raise ValueError(f"sensor_gain = {self.sensor_gain!r}: a gain error of -100 % or less reads no current")
+        for name in _HABITS_NONNEGATIVE:
+            v = float(getattr(self, name))
+            if not (v >= 0.0 and math.isfinite(v)):
+                raise ValueError(f"{name} = {getattr(self, name)!r} must be a non-negative number")
+            object.__setattr__(self, name, v)
+        if self.host_gaps > 1.0:
+            raise ValueError(f"host_gaps = {self.host_gaps!r} is a chance per row, at most 1")
+        if self.deadtime_error > 0 and self.deadtime_width <= 0:
+            raise ValueError(f"deadtime_width = {self.deadtime_width!r} must be positive with a deadtime_error")
+        offs = tuple(float(x) for x in self.session_offsets)
+        if not all(math.isfinite(x) for x in offs):
+            raise ValueError(f"session_offsets = {self.session_offsets!r} must be finite angles (rad)")
+        object.__setattr__(self, "session_offsets", offs)
+
+    @property
+    def drive_errors(self) -> bool:
+        """Whether the current that flows differs from what the drive measures (sensor offset, gain, dead time)."""
+        return any(self.sensor_offset) or any(self.sensor_gain) or self.deadtime_error > 0
+
+    @property
+    def host_logger(self) -> bool:
+        """Whether a host's clock stamps the logs (:func:`host_instants`) rather than the drive's uniform samples."""
+        return self.host_jitter > 0 or self.host_gaps > 0 or self.stamp_noise > 0
 
     @property
     def k0(self) -> float:
         """Mean effective torque constant seen from the drive frame: ``k_t cos δ`` (N·m/A)."""
         return self.k_t * math.cos(self.offset_error)
 
-    def model(self) -> RotaryModel:
-        """The truth in current units (:class:`RotaryModel`): what an ideal identification returns."""
+    def model(self, drive: bool = True) -> RotaryModel:
+        """The truth in current units (:class:`RotaryModel`): what an ideal identification returns.
+
+        With the drive's current errors (:attr:`drive_errors`) and ``drive`` true, the maps are those of the motor
+        *seen through the drive's current*: the torque is ``k0 (1 + ρ)(1 + G) i_q + k0 (1 + ρ) E + T_cog`` with the
+        sensors' error ``E`` (A, order ``p``) and gain ``G`` (orders 0 and ``2p``) of :meth:`drive_maps`, so the
+        torque constant is ``k0`` times the mean of ``(1 + ρ)(1 + G)``, the ripple the rest of it, and the cogging
+        takes ``k0 (1 + ρ) E``: the maps a compensation has to hold. The dead time's error depends on the current's
+        sign and stays outside (it is not a map). ``drive=False``: the motor alone.
+        """
         k0 = self.k0
+        cog, rip = self.cogging, self.ripple
+        if drive and (any(self.sensor_offset) or any(self.sensor_gain)):
+            e, g = self.drive_maps()
+            one = Fourier(np.array([0]), np.array([[1.0, 0.0]]))
+            both = _product(_sum(one, rip), _sum(one, g))
+            mean = both.mean()
+            rip = _sum(both.scaled(1.0 / mean), one.scaled(-1.0), drop_zero_order=True)
+            cog = _sum(cog, _product(_sum(one, self.ripple), e).scaled(k0))
+            k0 = k0 * mean
         direction = Fourier(np.concatenate([[0], self.drag.orders]),
                             np.concatenate([[[self.coulomb, 0.0]], self.drag.coef]) / k0)
-        return RotaryModel(self.motor.pole_pairs, self.cogging.scaled(1.0 / k0), self.ripple, direction,
+        return RotaryModel(self.motor.pole_pairs, cog.scaled(1.0 / k0), rip, direction,
                            viscous=self.viscous / k0, inertia_ratio=self.inertia / k0, k_t=k0,
-                           info={"source": "twin truth"})
+                           info={"source": "twin truth" if drive else "twin truth, the motor alone"})
+
+    def drive_maps(self) -> tuple[Fourier, Fourier]:
+        """The current sensors' errors as maps over the revolution (:func:`drive_current_error` without the dead
+        time, at the true angle): ``(E, G)`` with the current that flows ``(1 + G(θ)) i_q + E(θ)`` (in the drive's
+        ``k0`` units): ``E`` (A) at order ``p`` (the offsets), ``G`` (-) at orders 0 and ``2p`` (the gains). Exact
+        (the error is linear in ``i_q`` and band-limited): read off the FFT of the error at ``i_q`` = 0 and 1 A."""
+        p = self.motor.pole_pairs
+        n = 16 * p
+        th = 2 * math.pi * np.arange(n) / n
+        e0, e1 = (drive_current_error(self, th, np.full(n, float(i)), deadtime=False) for i in (0.0, 1.0))
+        return _fit_orders(e0, [p]), _fit_orders(e1 - e0, [0, 2 * p])
 
     def air_gap_torque(self, theta, iq) -> np.ndarray:
         """``T_em`` (N·m) at angles ``theta`` (rad) and drive-frame q-currents ``iq`` (A), broadcast."""
@@ -134,6 +248,15 @@ class RotaryTruth:
         """A nominal scale for currents (A): the current limit, else 1 A."""
         return float(self.motor.current_limit) if self.motor.current_limit else 1.0
 
+    def habits(self) -> dict:
+        """The drive's and host's habits that differ from their defaults (all off): ``{field: value}``."""
+        out = {}
+        for name, default in _HABIT_DEFAULTS.items():
+            v = getattr(self, name)
+            if v != default:
+                out[name] = list(v) if isinstance(v, tuple) else v
+        return out
+
     def to_dict(self) -> dict:
         return {"motor": self.motor.to_dict(), "k_t": self.k_t, "offset_error": self.offset_error,
                 "ripple": self.ripple.to_dict(), "cogging": self.cogging.to_dict(), "drag": self.drag.to_dict(),
@@ -141,7 +264,7 @@ class RotaryTruth:
                 "friction_velocity": self.friction_velocity, "current_noise": self.current_noise,
                 "torque_noise": self.torque_noise, "encoder_counts": self.encoder_counts,
                 **({"winding": self.winding.to_dict()} if self.winding is not None else {}),
-                **({"control_per_log": self.control_per_log} if self.control_per_log != 1 else {})}
+                **({"control_per_log": self.control_per_log} if self.control_per_log != 1 else {}), **self.habits()}
 
     @classmethod
     def from_dict(cls, d: dict) -> "RotaryTruth":
@@ -151,7 +274,171 @@ class RotaryTruth:
                    Fourier.from_dict(d["cogging"]), Fourier.from_dict(d["drag"]), float(d["coulomb"]),
                    float(d["viscous"]), float(d["inertia"]), float(d["friction_velocity"]),
                    float(d["current_noise"]), float(d["torque_noise"]), int(d["encoder_counts"]),
-                   Winding.from_dict(d["winding"]) if "winding" in d else None, d.get("control_per_log", 1))
+                   Winding.from_dict(d["winding"]) if "winding" in d else None, d.get("control_per_log", 1),
+                   **{k: (tuple(d[k]) if isinstance(v, tuple) else d[k]) for k, v in _HABIT_DEFAULTS.items() if k in d})
+
+
+#: The habits' fields and their defaults (off): truth files without them are twins without them.
+_HABIT_DEFAULTS = {"sensor_offset": (0.0, 0.0), "sensor_gain": (0.0, 0.0), "deadtime_error": 0.0,
+                   "deadtime_width": 0.0, "report_filter": 0.0, "pll_bandwidth": 0.0, "host_jitter": 0.0,
+                   "host_gaps": 0.0, "stamp_noise": 0.0, "session_offsets": ()}
+_HABITS_NONNEGATIVE = ("deadtime_error", "deadtime_width", "report_filter", "pll_bandwidth", "host_jitter",
+                       "host_gaps", "stamp_noise")
+_SQRT3 = math.sqrt(3.0)
+
+
+def _current_error(xp, theta_e, iq, o_a, o_b, g_a, g_b, dt_error, dt_width, tan_delta):
+    """The q-current that flows less the command, in the drive's ``k0`` units (A) (module docstring, "A real drive's
+    habits"), for array module ``xp`` (NumPy or JAX). The drive holds its *measured* phase currents at the command's
+    (``i_d = 0``, amplitude-invariant Park at the drive's electrical angle ``theta_e``); the sensors of phases a and b
+    read ``(1 + g) i + o``, phase c closes the star; the dead time takes ``dt_error tanh(i_ph/dt_width)`` off each
+    phase. The true-frame q-current of the drive-frame ``(i_d, i_q)`` is ``(i_q cos δ − i_d sin δ)``, over ``cos δ``
+    for ``k0``."""
+    s, c = xp.sin(theta_e), xp.cos(theta_e)
+    m_a = -iq * s
+    m_b = 0.5 * iq * s + 0.5 * _SQRT3 * iq * c
+    i_a = (m_a - o_a) / (1.0 + g_a)
+    i_b = (m_b - o_b) / (1.0 + g_b)
+    al, be = i_a, (i_a + 2.0 * i_b) / _SQRT3
+    i_d = al * c + be * s
+    i_q = -al * s + be * c
+    for k in range(3):
+        ph = theta_e - 2.0 * math.pi * k / 3.0
+        pk = -xp.sin(ph)
+        short = (2.0 / 3.0) * dt_error * xp.tanh(iq * pk / dt_width)
+        i_d = i_d - xp.cos(ph) * short
+        i_q = i_q - pk * short
+    return i_q - i_d * tan_delta - iq
+
+
+def drive_current_error(truth: "RotaryTruth", theta, iq, deadtime: bool = True) -> np.ndarray:
+    """How far the q-current that flows is from the one the drive measures and logs (A, in its ``k0`` units): the
+    current sensors' offsets and gains and the dead time of ``truth`` (module docstring, "A real drive's habits").
+
+    Args:
+        truth: the twin; theta: ``(N,)`` the rotor's angle in the drive's commutation (rad, mechanical: its
+            electrical angle is ``p θ + commutation_offset``); iq: ``(N,)`` the q-current the drive holds (A).
+        deadtime: with the dead time's share (``False``: the sensors' alone, linear in ``iq``).
+
+    Returns:
+        ``(N,)`` A; zero without :attr:`RotaryTruth.drive_errors`.
+    """
+    th, i = np.broadcast_arrays(np.asarray(theta, float), np.asarray(iq, float))
+    dte = truth.deadtime_error if deadtime else 0.0
+    return _current_error(np, truth.motor.pole_pairs * th + truth.motor.commutation_offset, i, *truth.sensor_offset,
+                          *truth.sensor_gain, dte, truth.deadtime_width if dte > 0 else 1.0,
+                          math.tan(truth.offset_error))
+
+
+def _fit_orders(values: np.ndarray, orders) -> Fourier:
+    """The Fourier coefficients at ``orders`` of ``values`` sampled at ``2π j / N`` (FFT; exact for band-limited
+    values below ``N/2``)."""
+    n = values.size
+    x = np.fft.rfft(values) / n
+    coef = [[x[h].real, 0.0] if h == 0 else [2 * x[h].real, -2 * x[h].imag] for h in orders]
+    return Fourier(np.asarray(orders, int), np.asarray(coef, float))
+
+
+def _sum(*parts: Fourier, drop_zero_order: bool = False) -> Fourier:
+    """The sum of Fourier maps, one coefficient pair per order (sorted); ``drop_zero_order``: without the mean."""
+    acc: dict[int, np.ndarray] = {}
+    for f in parts:
+        for h, c in zip(f.orders.tolist(), f.coef):
+            acc[h] = acc.get(h, np.zeros(2)) + (c * [1.0, 0.0] if h == 0 else c)
+    hs = sorted(h for h in acc if not (drop_zero_order and h == 0))
+    return Fourier(np.asarray(hs, int), np.asarray([acc[h] for h in hs], float).reshape(-1, 2))
+
+
+def _product(f: Fourier, g: Fourier) -> Fourier:
+    """The product of two Fourier maps (orders ``|h1 − h2|`` and ``h1 + h2``), by the product-to-sum identities."""
+    parts = []
+    for h1, (a1, b1) in zip(f.orders.tolist(), f.coef):
+        b1 = 0.0 if h1 == 0 else b1
+        for h2, (a2, b2) in zip(g.orders.tolist(), g.coef):
+            b2 = 0.0 if h2 == 0 else b2
+            d, sgn = abs(h1 - h2), (1.0 if h1 >= h2 else -1.0)
+            parts.append(Fourier(np.array([d, h1 + h2]),
+                                 0.5 * np.array([[a1 * a2 + b1 * b2, sgn * (b1 * a2 - a1 * b2)],
+                                                 [a1 * a2 - b1 * b2, a1 * b2 + b1 * a2]])))
+    return _sum(*parts)
+
+
+def session_offset(truth: "RotaryTruth", session: int) -> float:
+    """The drive's angle zero in recording session ``session`` (rad): ``truth.session_offsets[session mod len]``
+    rounded to whole encoder counts (0 without offsets)."""
+    if not truth.session_offsets:
+        return 0.0
+    q = 2 * math.pi / truth.encoder_counts
+    return float(np.round(truth.session_offsets[int(session) % len(truth.session_offsets)] / q) * q)
+
+
+def host_instants(truth: "RotaryTruth", duration: float, rng) -> tuple[np.ndarray, np.ndarray]:
+    """The instants a host polls the drive at and the stamps it writes, over ``[0, duration)`` (s).
+
+    The steps are the log's median step ``T_s`` (:attr:`RotaryMotor.sample_time`) times ``exp(σ z)``, ``z`` standard
+    normal, ``σ = host_jitter``, clipped to :data:`HOST_STEP_RANGE`; after a row, with chance ``host_gaps``, the host
+    misses :data:`HOST_GAP_STEPS` median steps (drawn uniform); the first row comes within the first step. Each stamp
+    is its instant plus normal noise of std ``stamp_noise`` clipped at :data:`STAMP_NOISE_CLIP` of ``T_s``, so the
+    stamps keep increasing.
+
+    Args:
+        truth: the twin (its host's habits); duration: s; rng: :class:`numpy.random.Generator`.
+
+    Returns:
+        ``(instants, stamps)``, ``(M,)`` each, s.
+    """
+    ts = truth.motor.sample_time
+    lo, hi = HOST_STEP_RANGE
+    m = int(math.ceil(duration / (lo * ts))) + 2
+    steps = ts * np.clip(np.exp(truth.host_jitter * rng.standard_normal(m)), lo, hi)
+    gap = rng.random(m) < truth.host_gaps
+    steps = steps + gap * ts * rng.integers(HOST_GAP_STEPS[0], HOST_GAP_STEPS[1] + 1, m)
+    inst = ts * rng.random() + np.concatenate([[0.0], np.cumsum(steps[:-1])])
+    inst = inst[inst < duration]
+    clip = STAMP_NOISE_CLIP * ts
+    stamps = inst + np.clip(truth.stamp_noise * rng.standard_normal(inst.size), -clip, clip)
+    return inst, stamps
+
+
+def breakaway_current(truth: "RotaryTruth", direction: float = 1.0, n: int | None = None) -> float:
+    """The least demand (A, in the drive's ``k0`` units) at which a rotor at rest turns in ``direction`` from every
+    angle: where the static torque ``k0 (1 + ρ)(u + e(θ, u)) + T_cog`` (the drive's current errors ``e``,
+    :func:`drive_current_error`) exceeds the friction ``T_c + D(θ)`` that creeping meets, everywhere. Below it, a speed
+    loop whose current at standstill is less stalls on the first angle that holds it (a cogging or drive-error peak).
+
+    Args:
+        truth: the twin; direction: ``+1`` or ``-1``; n: angles on the revolution (default 16 per highest order).
+
+    Returns:
+        A, at most the current limit (a rotor the limit cannot turn everywhere).
+    """
+    s = 1.0 if direction >= 0 else -1.0
+    orders = np.concatenate([truth.cogging.orders, truth.ripple.orders, truth.drag.orders,
+                             [6 * truth.motor.pole_pairs]])
+    n = int(n or 16 * max(1, int(orders.max())))
+    th = 2 * math.pi * np.arange(n) / n
+
+    def excess(x, u):
+        iq = np.full(x.shape, s * u)
+        t = truth.k0 * (1.0 + truth.ripple(x)) * (iq + drive_current_error(truth, x, iq)) + truth.cogging(x)
+        return s * t - truth.coulomb - truth.drag(x)
+
+    def margin(u):
+        # the least excess on the grid, refined between the grid's neighbours of its smallest
+        v = excess(th, u)
+        j = int(np.argmin(v))
+        step = 2 * math.pi / n
+        res = minimize_scalar(lambda x: float(excess(np.array([x]), u)[0]), bounds=(th[j] - step, th[j] + step),
+                              method="bounded", options={"xatol": 1e-12})
+        return min(float(v[j]), float(res.fun))
+
+    lo, hi = 0.0, truth.rated_current()
+    if margin(hi) <= 0:
+        return hi
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if margin(mid) > 0 else (mid, hi)
+    return hi
 
 
 @dataclass(frozen=True)
@@ -281,7 +568,8 @@ def _harmonics(bits, theta):
 def _run(params, xs, n_sub: int):
     (h_p, rho_a, rho_b, cog_a, cog_b, drag_a, drag_b, k0, coul, visc, inertia, w_eps, ts, q,
      h_l, lc_a, lc_b, lr_a, lr_b, ld_a, ld_b, table, n_table, ff_a, ff_b, ff_d,
-     kp, ki, kd, kpv, kiv, beta, i_lim, mode_pos, theta0, advance) = params
+     kp, ki, kd, kpv, kiv, beta, i_lim, mode_pos, theta0, advance,
+     use_pll, pll_kp, pll_ki, errors_on, sensors, index0, pole_pairs, comm_offset) = params
     dt = ts / n_sub
 
     def plant_torque(theta, omega, iq):
@@ -295,17 +583,27 @@ def _run(params, xs, n_sub: int):
         return t_em, t_em - (coul + drag) * jnp.tanh(omega / w_eps) - visc * omega
 
     def step(carry, x):
-        theta, omega, th_prev, w_f, integ, acc = carry
+        theta, omega, th_prev, w_f, integ, acc, pe, ve = carry
         th_r, w_r, a_r, dith = x
+        # the encoder's count; the estimates are made from it as in session 0 (they are translation-invariant), and
+        # the session's offset (index0, whole counts) is added where the drive uses its angle as such
         th_m = jnp.round(theta / q) * q
         w_f = w_f + beta * ((th_m - th_prev) / ts - w_f)
-        e_p, e_v = th_r - th_m, w_r - w_f
+        # ODrive's encoder PLL: predict, then correct with the count
+        pe = pe + ts * ve
+        e_pll = th_m - pe
+        pe = pe + ts * pll_kp * e_pll
+        ve = ve + ts * pll_ki * e_pll
+        th_0 = jnp.where(use_pll > 0, pe, th_m)
+        th_d = th_0 + index0
+        w_d = jnp.where(use_pll > 0, ve, w_f)
+        e_p, e_v = th_r - th_d, w_r - w_d
         integ = integ + ts * (mode_pos * e_p + (1.0 - mode_pos) * e_v)
         u_fb = mode_pos * (kp * e_p + ki * integ + kd * e_v) + (1.0 - mode_pos) * (kpv * e_v + kiv * integ)
         sgn = jnp.sign(w_r)
         u = u_fb + ff_a * a_r + ff_b * w_r + ff_d * sgn + dith
         # the commutation law at the angle of the middle of the hold (LawParams.advance)
-        th_l = th_m + advance * ts * w_f
+        th_l = th_d + advance * ts * w_d
         c, s = _harmonics(h_l, th_l)
         x_t = jnp.mod(th_l, 2 * jnp.pi) / (2 * jnp.pi) * n_table
         j0 = jnp.floor(x_t)
@@ -318,8 +616,11 @@ def _run(params, xs, n_sub: int):
         iq = (u - law_cog + law_dir * sgn) / (1.0 + jnp.sum(c * lr_a + s * lr_b)) + tab
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
         iq = jnp.clip(iq, -i_lim, i_lim)
-        t_em0, _ = plant_torque(theta, omega, iq)
-        out = (th_m, w_f, theta, omega, t_em0, u, iq)
+        # what flows: the measured current held at the command, less the sensors' and the dead time's errors, at the
+        # electrical angle the drive commutates with (calibrated again in every session: the true frame's)
+        i_flow = jnp.where(errors_on > 0, iq + _current_error(jnp, pole_pairs * th_0 + comm_offset, iq, *sensors), iq)
+        t_em0, _ = plant_torque(theta, omega, i_flow)
+        out = (th_d, w_d, theta, omega, t_em0, u, iq, i_flow)
 
         def sub(_, st):
             th, om, acc = st
@@ -331,43 +632,55 @@ def _run(params, xs, n_sub: int):
             # odd torque at the largest cogging order only in the ripple's column there (through the friction's
             # current): on zoo seed 1's 36N42P it put 10 % of the ripple's order 252 there
             # (bench/rotary_ripple_bias.py)
-            _, t_net = plant_torque(th + 0.5 * dt * om + 0.125 * dt * dt * acc, om + 0.5 * dt * acc, iq)
+            _, t_net = plant_torque(th + 0.5 * dt * om + 0.125 * dt * dt * acc, om + 0.5 * dt * acc, i_flow)
             acc = t_net / inertia
             return th + dt * om + 0.5 * dt * dt * acc, om + dt * acc, acc
 
         theta_n, omega_n, acc_n = jax.lax.fori_loop(0, n_sub, sub, (theta, omega, acc), unroll=n_sub <= 4)
-        return (theta_n, omega_n, th_m, w_f, integ, acc_n), out
+        return (theta_n, omega_n, th_m, w_f, integ, acc_n, pe, ve), out
 
     q0 = jnp.round(theta0 / q) * q
-    # the acceleration the first sub-step predicts its middle from: the rotor starts at rest, with none
-    carry0 = (theta0, 0.0 * theta0, q0, 0.0 * theta0, 0.0 * theta0, 0.0 * theta0)
+    # the acceleration the first sub-step predicts its middle from: the rotor starts at rest, with none; the PLL
+    # starts on the count, at rest
+    carry0 = (theta0, 0.0 * theta0, q0, 0.0 * theta0, 0.0 * theta0, 0.0 * theta0, q0, 0.0 * theta0)
     _, outs = jax.lax.scan(step, carry0, xs)
     return outs
 
 
 def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, seed: int = 0,
-             n_sub: int = SUBSTEPS, theta0: float | None = None) -> dict[str, np.ndarray]:
+             n_sub: int = SUBSTEPS, theta0: float | None = None, host: bool = False,
+             session: int = 0) -> dict[str, np.ndarray]:
     """Closed-loop run of the twin on a drive with ``law``.
 
     Args:
         truth: the motor (:class:`RotaryTruth`).
-        ref: reference samples (:class:`Reference`); the run has ``ref.n`` samples of ``T_s``.
+        ref: reference samples (:class:`Reference`, in the drive's frame); the run has ``ref.n`` samples of ``T_s``.
         law: commutation law and feedforward (:class:`LawParams`).
         gains: feedback gains (:class:`Gains`).
         seed: current-noise seed (same seed, same numbers).
         n_sub: plant sub-steps per logged sample (per control sample ``ceil(n_sub / K)``, at least 2, where the drive
             controls at ``K = truth.control_per_log`` times the log rate).
-        theta0: initial true angle (rad; default the reference's first angle); starts at rest.
+        theta0: initial true angle (rad; default the reference's first angle, less the session's offset); starts at
+            rest.
+        host: the log as the truth's host records it (:attr:`RotaryTruth.host_logger`: rows at jittered instants,
+            :func:`host_instants`); the same as ``False`` for a truth without a host's habits. ``False``: the drive's
+            own samples ``j T_s`` (for evaluations against the reference).
+        session: the recording session (the drive's angle zero, :func:`session_offset`).
 
     Returns:
-        dict of ``(N,)`` arrays at the logged instants ``j T_s``: ``t`` (s), ``theta`` (encoder, rad), ``velocity``
-        (rad/s, the drive's estimate), ``iq_1``, ``id_1`` (A, measured), ``theta_true``, ``omega_true``, ``torque``
-        (air-gap N·m, with ``torque_noise``), ``iq_true`` (A, what flows from that instant), ``demand`` (A),
-        ``theta_ref``, ``omega_ref``; and ``vq_1``, ``vd_1`` (V, the drive's q- and d-voltage commands,
-        :mod:`pgcomm.rotary.winding`) when ``truth.winding`` is set. Where the drive controls faster than it logs
-        (``control_per_log = K > 1``) the references are interpolated to the control samples by a cubic spline and every
-        column is the snapshot of every ``K``-th control sample; the measurement noises are drawn per logged
-        sample, so they are the same numbers for every ``K``.
+        dict of ``(N,)`` arrays at the logged instants ``j T_s``: ``t`` (s), ``theta`` (the drive's angle: encoder or
+        PLL, rad), ``velocity`` (rad/s, the drive's estimate), ``iq_1`` (A, the drive's report of the current it
+        measures, with noise), ``id_1`` (A, noise), ``theta_true``, ``omega_true``, ``torque`` (air-gap N·m, with
+        ``torque_noise``), ``iq_true`` (A, the current that flows from that instant, in the drive's ``k0`` units:
+        ``torque`` is :meth:`RotaryTruth.air_gap_torque` of it), ``iq_drive`` (A, the current the drive measures and
+        holds, before its report's filter), ``demand`` (A), ``theta_ref``, ``omega_ref``; and ``vq_1``, ``vd_1`` (V,
+        the drive's q- and d-voltage commands, :mod:`pgcomm.rotary.winding`) when ``truth.winding`` is set. Where the
+        drive controls faster than it logs (``control_per_log = K > 1``) the references are interpolated to the
+        control samples by a cubic spline and every column is the snapshot of every ``K``-th control sample; the
+        measurement noises are drawn per logged sample, so they are the same numbers for every ``K``. With ``host``
+        and a host's habits, ``N`` rows at the host's instants (``t_instant``, s): the drive's columns those of its
+        last control cycle before the instant, the rotor's (``theta_true``, ``omega_true``, ``torque``) at the
+        instant (cubic Hermite between control cycles), ``t`` the host's stamp.
     """
     m = truth.motor
     ts = float(m.sample_time)
@@ -389,8 +702,13 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     beta = 1.0 - math.exp(-2 * math.pi * VELOCITY_CUTOFF_HZ * tc)
     q = 2 * math.pi / truth.encoder_counts
     mode_pos = {"position": 1.0, "speed": 0.0}[ref.mode]
-    th0 = float(ref.theta[0]) if theta0 is None else float(theta0)
+    index0 = session_offset(truth, session)
+    th0 = float(ref.theta[0]) - index0 if theta0 is None else float(theta0)
     f = float
+    bw = f(truth.pll_bandwidth)
+    dte = f(truth.deadtime_error)
+    sensors = (*truth.sensor_offset, *truth.sensor_gain, dte, f(truth.deadtime_width) if dte > 0 else 1.0,
+               math.tan(truth.offset_error))
     params = (jnp.asarray(_order_bits(h_p)), *(jnp.asarray(v) for v in (ra, rb, ca, cb, da, db)), f(truth.k0),
               f(truth.coulomb),
               f(truth.viscous), f(truth.inertia), f(truth.friction_velocity), tc, q,
@@ -398,9 +716,9 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
               jnp.asarray(table),
               float(n_table), f(law.ff_a), f(law.ff_b), f(law.ff_d),
               f(gains.kp), f(gains.ki), f(gains.kd), f(gains.kpv), f(gains.kiv), beta, i_lim, mode_pos, th0,
-              f(law.advance))
+              f(law.advance), 1.0 if bw > 0 else 0.0, 2.0 * bw, bw * bw, 1.0 if truth.drive_errors else 0.0,
+              tuple(f(x) for x in sensors), index0, f(m.pole_pairs), f(m.commutation_offset))
     rng = np.random.default_rng(seed)
-    noise = rng.standard_normal((3, n))
     dither = np.zeros(n) if ref.dither is None else np.asarray(ref.dither, float)
     refs = [np.asarray(v, float) for v in (ref.theta, ref.omega, ref.alpha, dither)]
     if k_ctl > 1:
@@ -410,27 +728,60 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         refs = [CubicSpline(ts * np.arange(n), v)(t_f) if n > 1 else np.repeat(v, k_ctl) for v in refs]
         n_sub = max(2, -(-int(n_sub) // k_ctl))
     outs = [np.asarray(o) for o in _run(params, tuple(jnp.asarray(v) for v in refs), n_sub)]
-    th_m, w_f, th_f, om_f, tq, u, iq_f = (o[::k_ctl] for o in outs)
-    iq_act = iq_f
-    iq = iq_act + truth.current_noise * noise[0]
+    if truth.report_filter > 0:
+        # the drive's report: y_k = y_{k-1} + (1 - a)(i_k - y_{k-1}) every control cycle, from zero (no current
+        # before the run)
+        a = math.exp(-tc / truth.report_filter)
+        report = lfilter([1.0 - a], [1.0, -a], outs[6])
+    else:
+        report = outs[6]
+    on_host = host and truth.host_logger and n_f > 1
+    if on_host:
+        # the host's own stream: a twin without one draws the noises it always drew
+        inst, stamps = host_instants(truth, (n_f - 1) * tc, np.random.default_rng([int(seed), 0x4057]))
+        idx = np.minimum(np.floor(inst / tc).astype(np.int64), n_f - 2)
+    else:
+        idx = np.arange(n) * k_ctl
+    rows = idx.size
+    noise = rng.standard_normal((3, rows))
+    th_m, w_f, th_f, om_f, tq, u, iq_act, i_flow = (o[idx] for o in outs)
+    rep = report[idx]
+    if on_host:
+        # the rotor between control cycles: the cubic through the angles and speeds at their ends
+        x = (inst - idx * tc) / tc
+        th0_, th1_ = outs[2][idx], outs[2][idx + 1]
+        om0_, om1_ = outs[3][idx], outs[3][idx + 1]
+        h00, h10, h01, h11 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x, -2 * x**3 + 3 * x**2, x**3 - x**2
+        th_f = h00 * th0_ + h10 * tc * om0_ + h01 * th1_ + h11 * tc * om1_
+        om_f = ((6 * x**2 - 6 * x) * (th0_ - th1_) / tc + (3 * x**2 - 4 * x + 1) * om0_ + (3 * x**2 - 2 * x) * om1_)
+        tq = truth.air_gap_torque(th_f, i_flow)
+        t_log = stamps
+        th_ref, om_ref = refs[0][idx], refs[1][idx]
+    else:
+        t_log = ts * np.arange(n)
+        th_ref, om_ref = np.asarray(ref.theta, float), np.asarray(ref.omega, float)
+    iq = rep + truth.current_noise * noise[0]
     idd = truth.current_noise * noise[1]
-    log = {"t": ts * np.arange(n), "theta": th_m, "velocity": w_f, "iq_1": iq, "id_1": idd, "theta_true": th_f,
-           "omega_true": om_f, "iq_true": iq_act, "torque": tq + truth.torque_noise * noise[2], "demand": u,
-           "theta_ref": np.asarray(ref.theta, float), "omega_ref": np.asarray(ref.omega, float)}
+    log = {"t": t_log, "theta": th_m, "velocity": w_f, "iq_1": iq, "id_1": idd, "theta_true": th_f,
+           "omega_true": om_f, "iq_true": i_flow, "iq_drive": iq_act, "torque": tq + truth.torque_noise * noise[2],
+           "demand": u, "theta_ref": th_ref, "omega_ref": om_ref}
+    if on_host:
+        log["t_instant"] = inst
     if truth.winding is not None:
         w = truth.winding
         # the voltages the loop commands between logged samples follow the current at the control rate (its slope
         # L di/dt); the logged noises are per logged sample, added to the snapshots
-        # only the slope needs the control rate's samples; the rest is read at the logged instants
-        di = np.gradient(outs[6], tc)[::k_ctl] if outs[6].size > 1 else np.zeros(n)
+        # only the slope needs the control rate's samples; the rest is read at the logged instants; the winding
+        # carries the current that flows
+        di = np.gradient(outs[7], tc)[idx] if outs[7].size > 1 else np.zeros(rows)
         # drawn after the currents' noise, so a twin with a winding logs the same currents as one without
-        v_noise = rng.standard_normal(n)
-        log["vq_1"] = (q_voltage(w, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th_f, om_f, iq_act, tc,
-                                 0.0, slope=di) - w.loop_gain * (iq - iq_act) + w.voltage_noise * v_noise)
+        v_noise = rng.standard_normal(rows)
+        log["vq_1"] = (q_voltage(w, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th_f, om_f, i_flow, tc,
+                                 0.0, slope=di) - w.loop_gain * (iq - rep) + w.voltage_noise * v_noise)
         # drawn after the q-voltage's, which is then the same as a twin's that logs no d-voltage
-        v_noise = rng.standard_normal(n)
+        v_noise = rng.standard_normal(rows)
         log["vd_1"] = (d_voltage(w, truth.k_t, truth.offset_error, truth.ripple, m.pole_pairs, m.commutation_offset,
-                                 th_f, om_f, iq_act, 0.0) - w.loop_gain * idd + w.voltage_noise * v_noise)
+                                 th_f, om_f, i_flow, 0.0) - w.loop_gain * idd + w.voltage_noise * v_noise)
         if w.voltage_lag:
             log["vd_1"], log["vq_1"] = logged_dq(log["vd_1"], log["vq_1"], m.pole_pairs, om_f, w.voltage_lag)
     return log

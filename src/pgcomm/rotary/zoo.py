@@ -24,6 +24,13 @@ drawn from a seed and an index (the same pair always gives the same motor):
   stream of its own: real field-oriented drives run their loops many times per logged sample (ODrive 8 kHz,
   industrial servo drives 8-32 kHz), and a drive that controls only at its 1 kHz log rate cannot cancel the
   cogging orders a law must follow at speed.
+
+With ``real_drive=True`` (``pgcomm zoo --kind rotary --real-drive``) every motor also gets a real drive's and host's
+habits (:mod:`pgcomm.rotary.twin`, "A real drive's habits"), drawn from a stream of their own
+(:func:`draw_drive_habits`, ranges in :data:`REAL_DRIVE_RANGES`): current-sensor offsets and gain mismatches of a few
+per cent of the sensor's range, a dead time's current error, a filtered current report (none to 120 ms), ODrive's
+encoder PLL (on two drives in three, 500-3000 rad/s), a host's jittered clock with gaps and stamp noise, and an index
+that moves between recording sessions (by half a revolution or an electrical period, or not at all).
 """
 
 from __future__ import annotations
@@ -41,7 +48,8 @@ from pgcomm.rotary.twin import RotaryTruth
 from pgcomm.rotary.winding import draw_winding
 
 __all__ = ["COMBINATIONS", "CONTROL_RATE_HZ", "draw_control_per_log", "draw_rotary", "default_truth", "truth_from_model",
-           "truth_from_identification", "write_rotary_motor", "read_truth", "MAX_MOTORS"]
+           "truth_from_identification", "write_rotary_motor", "read_truth", "MAX_MOTORS", "draw_drive_habits",
+           "REAL_DRIVE_RANGES"]
 
 #: (slots, pole pairs) of common concentrated-winding motors: 9N6P, 12N8P, 12N10P, 12N14P, 18N16P,
 #: 24N20P, 24N22P, 36N42P.
@@ -51,6 +59,24 @@ MAX_MOTORS = 999
 #: the top of the range (their current is a snapshot of one that moves between logged samples, nearly without lag)
 #: and cost the twin time in proportion to their rate.
 CONTROL_RATE_HZ = (4000.0, 16000.0)
+#: What :func:`draw_drive_habits` draws (log-uniform ranges unless said otherwise). ``sensor_range``: the current
+#: sensors' full scale as a multiple of the current limit; ``sensor_offset`` (std per phase) and ``sensor_gain``
+#: (std per phase, relative) as shares of it: a few per cent (the ODrive map of ``../real``: order ``p`` 0.87 A, 7x
+#: its cogging fundamental); ``deadtime_error`` as a share of the current limit, its width a multiple of the current's
+#: noise; ``report_filter`` (s), none on ``report_filter_none`` of the drives (the ODrive logs: 80-100 ms);
+#: ``pll_bandwidth`` (rad/s, ODrive's default 1000), on ``1 - pll_none`` of the drives, at least 2.5 times the
+#: zoo's 30 Hz speed-loop pole (a drive tunes its velocity loop under its PLL: at 300 rad/s the zoo's speed loop
+#: oscillated) and at most ``pll_max_kp_dt / 2`` over the control period (ODrive's discrete loop stays close to its
+#: continuous one; a drive too slow for both runs none);
+#: ``host_jitter`` (σ of the log-steps), ``host_gaps`` (per row), ``stamp_noise`` (share of the median step);
+#: ``index_moves``: the index moves by half a revolution, an electrical period or not at all with these chances, in
+#: ``sessions`` recording sessions (the first one's zero is the truth's).
+REAL_DRIVE_RANGES = {"sensor_range": 2.0, "sensor_offset": (0.003, 0.03), "sensor_gain": (0.003, 0.03),
+                     "deadtime_error": (0.001, 0.01), "deadtime_width": (2.0, 10.0),
+                     "report_filter": (5e-4, 0.12), "report_filter_none": 0.2,
+                     "pll_bandwidth": (500.0, 3000.0), "pll_none": 1.0 / 3.0, "pll_max_kp_dt": 0.5,
+                     "host_jitter": (0.03, 0.3), "host_gaps": (3e-4, 3e-3), "stamp_noise": (0.005, 0.03),
+                     "index_moves": {"half": 0.5, "electrical": 0.25, "none": 0.25}, "sessions": 4}
 
 
 def _random_fourier(rng, orders, rms: float, weights=None) -> Fourier:
@@ -149,12 +175,52 @@ def draw_control_per_log(rng, sample_time: float) -> int:
     return max(1, round(rate * float(sample_time)))
 
 
-def draw_rotary(seed: int, index: int, control_per_log: int | None = None) -> RotaryTruth:
+def _log_uniform(rng, lo_hi) -> float:
+    lo, hi = lo_hi
+    return float(np.exp(rng.uniform(math.log(lo), math.log(hi))))
+
+
+def draw_drive_habits(rng, truth: RotaryTruth) -> dict:
+    """A real drive's and host's habits for ``truth`` (:data:`REAL_DRIVE_RANGES`; :mod:`pgcomm.rotary.twin`, "A real
+    drive's habits"): ``{field: value}`` for :func:`dataclasses.replace` on the truth. The PLL's bandwidth is bounded
+    by the truth's control period (draw the control rate first).
+
+    Args:
+        rng: :class:`numpy.random.Generator`; truth: the motor and its drive (current limit, noise, control rate).
+    """
+    r = REAL_DRIVE_RANGES
+    i_lim = truth.rated_current()
+    full = r["sensor_range"] * i_lim
+    offsets = rng.normal(0.0, _log_uniform(rng, r["sensor_offset"]) * full, 2)
+    gains = rng.normal(0.0, _log_uniform(rng, r["sensor_gain"]), 2)
+    habits = {"sensor_offset": tuple(float(x) for x in offsets), "sensor_gain": tuple(float(x) for x in gains),
+              "deadtime_error": _log_uniform(rng, r["deadtime_error"]) * i_lim,
+              "deadtime_width": max(truth.current_noise, 1e-6 * i_lim) * float(rng.uniform(*r["deadtime_width"]))}
+    filtered = rng.random() >= r["report_filter_none"]
+    tau = _log_uniform(rng, r["report_filter"])
+    habits["report_filter"] = tau if filtered else 0.0
+    pll = rng.random() >= r["pll_none"]
+    tc = truth.motor.sample_time / truth.control_per_log
+    bw = min(_log_uniform(rng, r["pll_bandwidth"]), 0.5 * r["pll_max_kp_dt"] / tc)
+    habits["pll_bandwidth"] = bw if pll and bw >= r["pll_bandwidth"][0] else 0.0
+    habits["host_jitter"] = _log_uniform(rng, r["host_jitter"])
+    habits["host_gaps"] = _log_uniform(rng, r["host_gaps"])
+    habits["stamp_noise"] = _log_uniform(rng, r["stamp_noise"]) * truth.motor.sample_time
+    kinds = list(r["index_moves"])
+    kind = kinds[int(rng.choice(len(kinds), p=[r["index_moves"][k] for k in kinds]))]
+    steps = {"half": 2, "electrical": truth.motor.pole_pairs, "none": 1}[kind]
+    moves = rng.integers(0, steps, r["sessions"] - 1)
+    habits["session_offsets"] = (0.0, *(2 * math.pi * float(k) / steps for k in moves)) if steps > 1 else ()
+    return habits
+
+
+def draw_rotary(seed: int, index: int, control_per_log: int | None = None, real_drive: bool = False) -> RotaryTruth:
     """Zoo motor ``index`` (0-based) of zoo ``seed``: combination ``COMBINATIONS[index]`` for the first
     eight, a random one after that; everything else drawn (module docstring). The winding and the drive's control
     rate come from streams of their own, so the motor's mechanical and magnetic draws stay those of a zoo without
     them; ``control_per_log`` gives the drive's control cycles per logged sample instead of drawing them (1: a drive
-    that controls at its log rate)."""
+    that controls at its log rate). ``real_drive``: with a real drive's and host's habits
+    (:func:`draw_drive_habits`), from a stream of their own too: the same motor and drive as without them."""
     from dataclasses import replace
 
     rng = np.random.default_rng([int(seed), int(index), 0x70])
@@ -165,7 +231,10 @@ def draw_rotary(seed: int, index: int, control_per_log: int | None = None) -> Ro
     t = _with_winding(draw_truth(rng, q, p), np.random.default_rng([int(seed), int(index), 0x72]))
     k = control_per_log or draw_control_per_log(np.random.default_rng([int(seed), int(index), 0x74]),
                                                 t.motor.sample_time)
-    return replace(t, control_per_log=k)
+    t = replace(t, control_per_log=k)
+    if real_drive:
+        t = replace(t, **draw_drive_habits(np.random.default_rng([int(seed), int(index), 0x76]), t))
+    return t
 
 
 def _with_winding(truth: RotaryTruth, rng) -> RotaryTruth:
@@ -306,10 +375,18 @@ def read_truth(path) -> RotaryTruth:
         raise DataError(f"{path}: not a rotary truth file ({' '.join(str(e).split())})") from None
 
 
-def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
+#: The recording session of the zoo's standstill sweep (:func:`write_sweep_log`): another day than the running logs'
+#: (session 0), so on a truth whose index moves (:attr:`RotaryTruth.session_offsets`) its angle zero may differ.
+SWEEP_SESSION = 1
+
+
+def write_running_logs(truth: RotaryTruth, folder, seed: int = 0, stall: bool = False) -> list:
     """Simulate the running logs of :func:`pgcomm.rotary.experiment.running_references` and write them as
-    CSV (``t, theta, velocity, iq_1, id_1, vq_1, vd_1``: what a drive records) to ``folder/run{k}.csv``."""
-    from pgcomm.rotary.experiment import RotarySettings, running_references
+    CSV (``t, theta, velocity, iq_1, id_1, vq_1, vd_1``: what a drive records, with the host's stamps as they come
+    where the truth has a host's habits) to ``folder/run{k}.csv``, in recording session 0. ``stall``: also
+    ``folder/stall.csv``, a low-speed run in a speed loop too soft for the cogging, which stalls about halfway
+    (:func:`pgcomm.rotary.experiment.stall_log`)."""
+    from pgcomm.rotary.experiment import RotarySettings, running_references, stall_log
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
 
@@ -319,9 +396,14 @@ def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
     refs = running_references(truth.motor, a, RotarySettings(), Orders.for_motor(truth.motor))
     names = []
     for k, ref in enumerate(refs, start=1):
-        log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(a), seed=seed * 1000 + k)
+        log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(a), seed=seed * 1000 + k,
+                       host=True)
         path = folder / f"run{k}.csv"
         _write_drive_log(path, log)
+        names.append(path.name)
+    if stall:
+        path = folder / "stall.csv"
+        _write_drive_log(path, stall_log(truth, seed=seed * 1000 + 998))
         names.append(path.name)
     return names
 
@@ -329,7 +411,9 @@ def write_running_logs(truth: RotaryTruth, folder, seed: int = 0) -> list:
 def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_seconds: float = 60.0) -> Path:
     """Simulate a slow position sweep in both directions (:func:`pgcomm.rotary.standstill.sweep_reference`,
     classical law, the drive's tuned gains) and write it as ``folder/sweep.csv`` (``t, theta, velocity, iq_1,
-    id_1, vq_1, vd_1``): the drives' calibration run, for ``pgcomm identify --sweep``."""
+    id_1, vq_1, vd_1``): the drives' calibration run, for ``pgcomm identify --sweep``. Recorded in session
+    :data:`SWEEP_SESSION`: where the truth's index moves, its angle zero is
+    :func:`pgcomm.rotary.twin.session_offset` of it, not the running logs'."""
     from pgcomm.rotary.standstill import sweep_reference
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
 
@@ -337,7 +421,7 @@ def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_second
     folder.mkdir(parents=True, exist_ok=True)
     ref = sweep_reference(truth.motor.sample_time, revolution_seconds)
     log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(truth.inertia / truth.k0),
-                   seed=seed * 1000 + 999)
+                   seed=seed * 1000 + 999, host=True, session=SWEEP_SESSION)
     path = folder / "sweep.csv"
     _write_drive_log(path, log)
     return path
@@ -345,7 +429,7 @@ def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_second
 
 def _write_drive_log(path: Path, log: dict) -> None:
     """Write what a drive records of a twin's run as CSV: ``t, theta, velocity, iq_1, id_1`` and ``vq_1``, ``vd_1``
-    (V) when the twin has a winding."""
+    (V) when the twin has a winding. The stamps as they are (a host's: non-uniform), to 12 digits."""
     from pgcomm.io.atomic import atomic_open
 
     cols = [c for c in ("t", "theta", "velocity", "iq_1", "id_1", "vq_1", "vd_1") if c in log]
