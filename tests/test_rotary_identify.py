@@ -146,7 +146,8 @@ def test_a_drive_that_controls_faster_than_it_logs_is_read_smooth(motor0_fast):
     assert timing["lag"] == pytest.approx(1 / (2 * k), abs=1 / 64)
     assert f"about {k} control cycles per logged sample" in delay_text(timing)
     _within_the_bars(res.model, t)
-    held = identify(logs, t.motor, current_lag=None)
+    # held and nothing else: a report filter of a fraction of a sample, searched by default, mimics the snapshot's lag
+    held = identify(logs, t.motor, current_lag=None, current_filter=0.0)
     e_held = identification_errors(held.model, t)
     assert held.info["current_delay"]["held"]
     assert e_held["cogging_rel"] > 10 * res.info["standard_error"]["cogging"]["relative"]
@@ -172,7 +173,8 @@ def test_an_odrive_log_pll_angle_and_snapshot_current(motor0_fast):
     assert res.info["angle_pll"]["natural_frequency_rad_s"] == pytest.approx(1000.0, rel=0.3)
     assert not res.info["current_delay"]["held"] and res.info["current_delay"]["samples"] == 0
     _within_the_bars(res.model, t)
-    held = identify(logs, t.motor, current_lag=None)
+    # held and nothing else: a report filter of a fraction of a sample, searched by default, mimics the snapshot's lag
+    held = identify(logs, t.motor, current_lag=None, current_filter=0.0)
     assert held.info["angle_pll"]["natural_frequency_rad_s"] is None
     assert identification_errors(held.model, t)["cogging_rel"] > 10 * res.info["standard_error"]["cogging"]["relative"]
 
