@@ -62,6 +62,10 @@ def configure(p) -> None:
                    help="rotary motors: the logged q-current's white noise (A, standard deviation) that the fit "
                         "corrects for, or 'none' (default: read from the logged d-current id_1 where every log has "
                         "it, else from the q-current's own less what the logged angle predicts of it)")
+    p.add_argument("--current-filter", metavar="S|none",
+                   help="rotary motors: the time constant (s) of the first-order filter through which the drive "
+                        "reports the q-current, or 'none' (default: detected; a real ODrive's report lags by about "
+                        "0.08 s)")
     p.add_argument("--time-lines", metavar="HZ[,HZ...]",
                    help="rotary motors: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a "
                         "current sensor's mains pickup, a fan, a resonance), or 'none' (default: detected as lines at "
@@ -97,7 +101,7 @@ def run(args, out: Path, progress) -> None:
 
         raise ConfigError("--sweep: the drives' standstill sweep is a rotary motor's comparison (--motor with "
                           "kind = \"rotary\"); a linear motor's cogging table comes from pgcomm reproduce")
-    for opt in ("current_delay", "current_lag", "angle_pll", "time_lines", "current_noise"):
+    for opt in ("current_delay", "current_lag", "angle_pll", "time_lines", "current_noise", "current_filter"):
         if getattr(args, opt, None) is not None:
             from pgcomm.errors import ConfigError
 
@@ -272,6 +276,27 @@ def _reading_options(args):
     return delay, pll, lag
 
 
+def _current_filter_option(args):
+    """``--current-filter`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out, ``0.0``
+    for none); one line naming the option on a bad value."""
+    import math
+
+    from pgcomm.errors import ConfigError
+
+    text = getattr(args, "current_filter", None)
+    if text is None:
+        return "detect"
+    if text.strip().lower() == "none":
+        return 0.0
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and 0 <= value <= 10):
+        raise ConfigError(f"--current-filter {text}: the report filter's time constant in s (0 to 10), or none")
+    return value
+
+
 def _current_noise_option(args):
     """``--current-noise`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out); one line
     naming the option on a bad value."""
@@ -349,6 +374,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     current_delay, angle_pll, current_lag = _reading_options(args)
     time_lines = _time_lines_option(args)
     current_noise = _current_noise_option(args)
+    current_filter = _current_filter_option(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         mapping = with_encoder_counts(load_column_mapping(args.columns) if args.columns else None, motor)
         logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED, gaps=True,
@@ -402,7 +428,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
         res = identify(data, motor, orders, torque_sensor=torque_sensor, current_delay=current_delay,
                        angle_pll=angle_pll, time_lines=time_lines, current_lag=current_lag,
-                       current_noise=current_noise)
+                       current_noise=current_noise, current_filter=current_filter)
         timing = res.info.get("current_delay") or {}
         estimate = res.info.get("angle_pll") or {}
         pll = (None if estimate.get("natural_frequency_rad_s") is None
