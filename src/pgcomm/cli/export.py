@@ -31,8 +31,9 @@ instead of a model file: ``moteus`` writes ``NAME.cfg``, the ``conf set motor.co
 ``odrive`` writes ``NAME.json``, the 3600-entry ``cogging_map`` (N·m) of ODrive's open firmware 0.5.x,
 which needs ``--torque-constant`` and which stock firmware cannot load (:mod:`pgcomm.export.odrive`);
 ``c-angle`` writes ``NAME.h``, a safe C99 lookup by mechanical angle (:mod:`pgcomm.export.angle_lut`;
-``--entries`` resamples, ``--current-limit`` is required as for the law). ``--current-limit`` clips the
-moteus/ODrive entries when given. Each prints and stores in ``results.json`` its resampling and
+``--entries`` resamples). Every table format needs a current limit: the table's ``# current_limit`` line,
+``--current-limit A`` or ``--current-limit none``; a table with an entry beyond it (beyond 10 kA with ``none``)
+is refused, since the drive would clip it (:func:`pgcomm.export.angle_table.check_within_limit`). Each prints and stores in ``results.json`` its resampling and
 quantisation error (RMS and max, A) and the assumptions it rests on.
 
 ``--format c-rotary --model MODEL.json`` exports a rotary model file (``pgcomm identify`` on a rotary motor)
@@ -448,7 +449,7 @@ def _c_name(args) -> str:
 
 def _export_table(args, out, progress, t0) -> None:
     """``--format moteus|odrive|c-angle``: a compensation table over one revolution for a rotary drive."""
-    from pgcomm.export.angle_table import read_angle_table
+    from pgcomm.export.angle_table import check_within_limit, read_angle_table
     from pgcomm.io.results import write_results
 
     if args.table is None:
@@ -468,11 +469,12 @@ def _export_table(args, out, progress, t0) -> None:
         limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"
     elif table.current_limit is not None:
         limit, limit_source = table.current_limit, f"{args.table} (# current_limit, the motor description's)"
-    elif args.format == "c-angle":
-        raise ConfigError(f"{args.table}: the table records no current limit; give --current-limit A, the drive's "
-                          "q-current limit, or --current-limit none to export a lookup without a limit")
     else:
-        limit_source = "none given: the drive's own current limit applies"
+        raise ConfigError(f"{args.table}: the table records no current limit; give --current-limit A, the drive's "
+                          f"q-current limit, or --current-limit none to export {args.format} without a limit")
+    # an entry beyond the limit would be clipped: refused, beyond half the drive's step for moteus' int8 entries
+    slack = 0.5 * limit / 127 if (args.format == "moteus" and limit is not None) else 0.0
+    check_within_limit(table, limit, slack, limit_source)
     provenance = [f"input table {args.table} ({table.n} entries)", *table.comments]
     results = {"command": "export", "format": args.format, "table": str(args.table), "table_entries": table.n,
                "name": name, "current_limit": limit, "current_limit_source": limit_source}
@@ -523,30 +525,6 @@ def _odrive(args, table, out, name, limit, provenance):
     return path, om.as_dict(), lines
 
 
-def _load_rotary_model(path):
-    """A rotary model file (``pgcomm identify`` on a rotary motor), or one line saying what is wrong."""
-    import json
-
-    from pgcomm.errors import DataError
-    from pgcomm.rotary.model import RotaryModel
-
-    try:
-        with open(path, encoding="utf-8") as f:
-            doc = json.load(f)
-    except FileNotFoundError:
-        raise DataError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise DataError(f"{path}: not a JSON model file ({' '.join(str(e).split())})") from None
-    if not isinstance(doc, dict) or doc.get("schema") != "pgcomm.rotary_model":
-        what = doc.get("schema") if isinstance(doc, dict) else None
-        raise DataError(f"{path}: not a rotary model (schema {what!r}; --format c-rotary exports the model.json of "
-                        "pgcomm identify on a rotary motor, --format c a linear one)")
-    try:
-        return RotaryModel.from_dict(doc)
-    except (KeyError, TypeError, ValueError, IndexError) as e:
-        raise DataError(f"{path}: rotary model file unreadable ({' '.join(str(e).split())})") from None
-
-
 def _export_rotary_law(args, out, progress, t0) -> None:
     """``--format c-rotary --model MODEL.json``: the whole rotary law as C99 (module docstring)."""
     from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
@@ -559,11 +537,13 @@ def _export_rotary_law(args, out, progress, t0) -> None:
         raise ConfigError("--format c-rotary exports --model, not --table (a table's formats: "
                           f"{', '.join(TABLE_FORMATS)})")
     name, limit, limit_given = _entries_name_limit(args)
-    model = _load_rotary_model(args.model)
+    from pgcomm.io.model import load_rotary_model
+
+    model = load_rotary_model(args.model)
     if limit_given:
         limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"
     else:
-        recorded = model.info.get("current_limit") if isinstance(model.info, dict) else None
+        recorded = model.info.get("current_limit")
         if recorded is None:
             raise ConfigError(f"{args.model}: the model file records no current limit (its motor description had "
                               "no current_limit); give --current-limit A, the drive's q-current limit, or "

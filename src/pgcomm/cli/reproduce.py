@@ -152,10 +152,10 @@ def _truth_from_identified(path: Path, model_dict: dict, motor, seed: int):
     """The twin of a user's motor from ``identify``'s ``model.json`` (``model_dict``, read from ``path``) and the
     ``results.json`` beside it (:func:`pgcomm.rotary.zoo.truth_from_identification`). Returns ``(truth, source)``."""
     from pgcomm.errors import ConfigError
-    from pgcomm.rotary.model import RotaryModel
+    from pgcomm.io.model import rotary_model_from_dict
     from pgcomm.rotary.zoo import truth_from_identification
 
-    model = RotaryModel.from_dict(model_dict)
+    model = rotary_model_from_dict(model_dict, path)
     res_path = path.parent / "results.json"
     try:
         with open(res_path, encoding="utf-8") as f:
