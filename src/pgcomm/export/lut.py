@@ -716,8 +716,11 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut", limit_source: str | None = No
                 "            currents[l][0] *= sc;\n            currents[l][1] *= sc;\n        }\n    }\n"]
     out += ["    return ret;\n}\n\n", f"#endif /* {guard} */\n"]
     text = "".join(out)
-    return text.replace(f"#ifndef {guard}\n#define {guard}\n\n", f"#ifndef {guard}\n#define {guard}\n\n"
+    text = text.replace(f"#ifndef {guard}\n#define {guard}\n\n", f"#ifndef {guard}\n#define {guard}\n\n"
                         "#include <math.h>\n\n", 1)
+    from pgcomm.export.c import ieee_finite
+
+    return ieee_finite(text, name, single=True)
 
 
 # ----------------------------------------------------------------------------------------------
