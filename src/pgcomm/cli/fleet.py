@@ -3,8 +3,8 @@
 ``--out`` is a resumable workspace (DESIGN, "--out"): it is written in place, not staged;
 each motor's folder appears atomically when the motor is finished (:mod:`pgcomm.fleet`). It must be
 a new or empty folder or the workspace of an earlier fleet run, and never the current folder or one
-of its parents. The embedded cluster runs at most one worker process per core of this machine; more
-workers need a running cluster (``--scheduler``). A fleet in which any motor failed exits with code 2
+of its parents. The embedded cluster runs at most one worker process per core of this machine (a larger
+``--workers`` is lowered to the cores, and said); more workers need a running cluster (``--scheduler``). A fleet in which any motor failed exits with code 2
 and one line with the count, after writing the workspace (the finished motors are kept).
 """
 
@@ -91,10 +91,8 @@ def run(args, out, progress) -> None:
     from pgcomm.fleet import WORKER_ENV, find_motors
 
     cores = machine_cores()
-    if args.workers is not None and not 1 <= args.workers <= cores:
-        raise ConfigError(f"--workers {args.workers}: expected 1 to {cores}, the cores of this machine (each worker "
-                          "is a process that identifies one motor at a time); for more, start a Dask cluster and "
-                          "give --scheduler ADDRESS")
+    if args.workers is not None and args.workers < 1:
+        raise ConfigError(f"--workers {args.workers}: need at least one worker")
     if not args.outlier_z > 0:
         raise ConfigError(f"--outlier-z {args.outlier_z:g}: must be a positive z-score")
     out_dir = check_workspace(args.out)
@@ -116,6 +114,11 @@ def run(args, out, progress) -> None:
             raise ConfigError(f"--scheduler {args.scheduler}: cannot connect ({e})") from None
     else:
         n = args.workers or max(1, min(cores, len(motors)))
+        if n > cores:
+            # each worker is a process identifying one motor at a time: more than the cores only adds memory
+            print(f"pgcomm: --workers {n}: this machine has {cores} core(s); running {cores} worker process(es) "
+                  "(for more, start a Dask cluster and give --scheduler ADDRESS)", file=sys.stderr)
+            n = cores
         with dask.config.set({"distributed.nanny.pre-spawn-environ": WORKER_ENV}):
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                    env=WORKER_ENV, silence_logs=40)

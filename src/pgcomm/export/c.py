@@ -162,7 +162,7 @@ def ieee_finite(text: str, name: str, single: bool) -> str:
                 "    return (b & UINT64_C(0x7ff0000000000000)) != UINT64_C(0x7ff0000000000000);\n}\n\n")
     helper = ("#include <stdint.h>\n#include <string.h>\n\n"
               "/* 1 unless x is NaN or inf: a test of the IEEE-754 exponent bits, which -ffast-math cannot fold\n"
-              "   away as it may fold isfinite */\n" + body)
+              "   away, as it may fold the classification macros of math.h */\n" + body)
     anchor = "#include <math.h>\n\n"
     if anchor not in text:
         raise ValueError("generated C without #include <math.h>: cannot place the finite test")
