@@ -255,7 +255,7 @@ def _load_model(path) -> tuple:
             raise DataError(f"{json_path}: invalid training_range ({err!r})") from None
         if len(y_min) != n_l or len(y_max) != n_l:
             raise DataError(f"{json_path}: training_range needs {n_l} values per bound")
-    _check_plausible(json_path, pole_pitch, v_eps, y_min, y_max, document.get("metadata"))
+    _check_plausible(json_path, pole_pitch, v_eps, y_min, y_max)
     model = _model_of(arrays, pole_pitch, activation, gain_widths, cog_widths, y_min, y_max)
     if harmonics or v_eps is not None:
         model = dataclasses.replace(model, H=jnp.asarray(arrays["H"]) if harmonics else None,
@@ -513,10 +513,11 @@ def _check_header(json_path: Path, document: dict, npz_name: str, n_l: int) -> N
 DIRECTION_VELOCITY_RANGE = (0.0, 1.0)
 
 
-def _check_plausible(json_path: Path, pole_pitch: float, v_eps, y_min, y_max, metadata) -> None:
+def _check_plausible(json_path: Path, pole_pitch: float, v_eps, y_min, y_max) -> None:
     """The plausibility checks every linear model file shares, with the motor TOML's ranges
-    (:data:`pgcomm.io.config.PLAUSIBLE`): a pole pitch, current limit or drive commutation in the wrong unit (or
-    absurd) is refused as it would be in a motor description; the training range must be finite and ordered.
+    (:data:`pgcomm.io.config.PLAUSIBLE`): a pole pitch in the wrong unit (or absurd) is refused as it would be in a
+    motor description (the recorded current limit and drive commutation are checked where the exports read them,
+    :func:`current_limit_of`, :func:`drive_of`); the training range must be finite and ordered.
 
     Raises:
         ConfigError: one line naming the file and the key.
@@ -534,10 +535,6 @@ def _check_plausible(json_path: Path, pole_pitch: float, v_eps, y_min, y_max, me
             if not (math.isfinite(a) and math.isfinite(b) and b > a):
                 raise DataError(f"{json_path}: training_range of coil set {l + 1} is [{a!r}, {b!r}] m; expected "
                                 "finite y_min < y_max")
-    meta = metadata if isinstance(metadata, dict) else {}
-    limit = meta.get("current_limit")
-    if isinstance(limit, (int, float)) and not isinstance(limit, bool):
-        _plausible(float(limit), "current_limit", where, "metadata current_limit")
 
 
 def _load_spline(json_path: Path, document: dict):
@@ -614,7 +611,7 @@ def _load_spline(json_path: Path, document: dict):
             raise DataError(f"{json_path}: invalid training_range ({err!r})") from None
         if len(y_min) != n_l or len(y_max) != n_l:
             raise DataError(f"{json_path}: training_range needs {n_l} values per bound")
-    _check_plausible(json_path, pole_pitch, v_eps, y_min, y_max, document.get("metadata"))
+    _check_plausible(json_path, pole_pitch, v_eps, y_min, y_max)
     if mech_hdr is not None:
         from pgcomm.io.config import _plausible
 
