@@ -147,12 +147,13 @@ int main(int argc, char **argv)
 """
 
 
-def compile_c(cc: str, directory: Path, harness: str, *sources: Path) -> Path:
-    """Write ``harness`` as ``directory/harness.c``, compile it with ``sources`` under :data:`CFLAGS`, return the
-    executable (the compiler's messages in the assertion if it fails)."""
+def compile_c(cc: str, directory: Path, harness: str, *sources: Path, flags=()) -> Path:
+    """Write ``harness`` as ``directory/harness.c``, compile it with ``sources`` under :data:`CFLAGS` and ``flags``
+    (e.g. ``-ffast-math``), return the executable (the compiler's messages in the assertion if it fails)."""
     (directory / "harness.c").write_text(harness)
     exe = directory / "harness"
-    proc = subprocess.run([cc, *CFLAGS, "-o", str(exe), str(directory / "harness.c"), *map(str, sources), "-lm"],
+    proc = subprocess.run([cc, *CFLAGS, *flags, "-o", str(exe), str(directory / "harness.c"), *map(str, sources),
+                           "-lm"],
                           capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     return exe
@@ -168,7 +169,7 @@ def run_records(exe: Path, records: np.ndarray, n_out: int) -> np.ndarray:
 
 
 def compile_law(cc: str, directory: Path, name: str = "law", direction: str | None = None,
-                feedforward: bool = False) -> Path:
+                feedforward: bool = False, flags=()) -> Path:
     """Compile the law harness against ``directory/name.c`` (already written by ``write_c``).
 
     ``direction``: the arguments of ``NAME_direction`` before its output (``"y, v"`` for a spline
@@ -179,7 +180,7 @@ def compile_law(cc: str, directory: Path, name: str = "law", direction: str | No
     call = f"@NAME@_direction({direction}, dir);" if direction else ""
     text = (LAW_HARNESS.replace("@FEEDFORWARD@", ff).replace("@DIRECTION@", call)
             .replace("@NAME@", name).replace("@UNAME@", name.upper()))
-    return compile_c(cc, directory, text, directory / f"{name}.c")
+    return compile_c(cc, directory, text, directory / f"{name}.c", flags=flags)
 
 
 def run_law(exe: Path, L: int, y, f, k_hat, zeta_hat, v=None, r=None, a=None) -> dict:
@@ -207,12 +208,12 @@ def run_law(exe: Path, L: int, y, f, k_hat, zeta_hat, v=None, r=None, a=None) ->
     return out
 
 
-def compile_lut(cc: str, directory: Path, name: str = "tab", velocity: bool = False) -> Path:
+def compile_lut(cc: str, directory: Path, name: str = "tab", velocity: bool = False, flags=()) -> Path:
     """Compile the lookup-table harness against ``directory/name.h`` (already written from ``lut_header``);
     ``velocity``: the table has a direction term (``NAME_currents(y, v, f, cur)``)."""
     call = f"{name}_currents(y, v, f, cur)" if velocity else f"{name}_currents(y, f, cur)"
     text = LUT_HARNESS.replace("@CALL@", call).replace("@NAME@", name).replace("@UNAME@", name.upper())
-    return compile_c(cc, directory, text)
+    return compile_c(cc, directory, text, flags=flags)
 
 
 def run_lut(exe: Path, L: int, y, f, v=None) -> tuple[np.ndarray, np.ndarray]:

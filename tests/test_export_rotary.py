@@ -267,13 +267,14 @@ def table_csv(tmp_path):
 
 
 def test_cli_exports(tmp_path, table_csv, capsys):
-    assert main(["export", "--format", "moteus", "--table", str(table_csv), "--out", str(tmp_path / "m")]) == 0
+    assert main(["export", "--format", "moteus", "--table", str(table_csv), "--current-limit", "2", "--out",
+                 str(tmp_path / "m")]) == 0
     scale, q = read_moteus(tmp_path / "m" / "pgcomm_moteus.cfg")
     res = json.loads((tmp_path / "m" / "results.json").read_text())
     assert res["moteus"]["scale_A_per_lsb"] == pytest.approx(scale, rel=1e-7)
     assert res["moteus"]["quantisation_max_A"] <= 0.5 * scale * (1 + 1e-6)
     assert main(["export", "--format", "odrive", "--table", str(table_csv), "--torque-constant", "0.05",
-                 "--out", str(tmp_path / "o"), "--quiet"]) == 0
+                 "--current-limit", "none", "--out", str(tmp_path / "o"), "--quiet"]) == 0
     m, k = read_odrive(tmp_path / "o" / "pgcomm_odrive.json")
     assert k == 0.05 and m.shape == (3600,)
     assert main(["export", "--format", "c-angle", "--table", str(table_csv), "--current-limit", "2",

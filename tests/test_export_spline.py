@@ -318,7 +318,11 @@ def test_cli_inspect_and_export_spline_file(tmp_path, capsys):
     from pgcomm.cli import main
 
     # as identify --family spline writes it: with the motor's current limit, which the exports apply
-    save_model(tmp_path / "m", make_spline(), {"seed": 2, "current_limit": 8.0}, mechanics=make_mechanics())
+    # with the spline fit's record: cross-validated Fy residual 16 N² against 2 N² in training per coil set, a
+    # standard error of Fy of 4.6 N that bounds the table's error (export --format lut)
+    fit = {"spline": {"cost": [{"y": 2.0}] * 3, "cost_validation": [{"y": 16.0}] * 3}}
+    save_model(tmp_path / "m", make_spline(), {"seed": 2, "current_limit": 8.0, "identification": fit},
+               mechanics=make_mechanics())
     assert main(["inspect", "--model", str(tmp_path / "m.json")]) == 0
     text = capsys.readouterr().out
     assert "family:         spline" in text and "gain knots:     9 on" in text and "parameters:     510" in text

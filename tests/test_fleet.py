@@ -49,7 +49,10 @@ def fleet_dir(tmp_path_factory, release_memory):
 
 def test_fleet_on_local_cluster_resumes_and_matches_identify(fleet_dir, capsys, release_memory):
     data, out = fleet_dir / "data", fleet_dir / "out"
-    assert main(["fleet", "--data", str(data), "--out", str(out), "--workers", "2", "--quiet"]) == 0
+    # a fleet with a failed motor exits with code 2 and one line with the count, after writing its workspace
+    assert main(["fleet", "--data", str(data), "--out", str(out), "--workers", "2", "--quiet"]) == 2
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith(f"pgcomm: error: fleet: 1 of 3 motor(s) failed ({BAD[0]}: "), line
     import pyarrow.parquet as pq
 
     table = pq.read_table(out / "fleet.parquet").to_pylist()
@@ -94,7 +97,7 @@ def test_fleet_on_local_cluster_resumes_and_matches_identify(fleet_dir, capsys, 
     # a rerun does no work for the finished motors: only the failed one is submitted again
     release_memory()  # the in-process identify/calibrate runs' programs, before the workers start again
     stamps = {n: (out / n / "fleet_rows.json").stat().st_mtime_ns for n in GOOD}
-    assert main(["fleet", "--data", str(data), "--out", str(out), "--workers", "2", "--quiet"]) == 0
+    assert main(["fleet", "--data", str(data), "--out", str(out), "--workers", "2", "--quiet"]) == 2
     run = json.loads((out / "fleet.json").read_text())
     assert run["submitted"] == [BAD[0]] and sorted(run["skipped"]) == sorted(GOOD)
     assert {n: (out / n / "fleet_rows.json").stat().st_mtime_ns for n in GOOD} == stamps

@@ -132,6 +132,11 @@ def reference_seed(seed: int, reference_name: str) -> int:
     return stream_seed(seed, "evaluation", reference_name)
 
 
+#: The settings :func:`quick_config` overrides (``section.key`` of the experiment TOML).
+QUICK_OVERRIDES = ("reference.velocities", "reference.dwell", "identification.starts", "identification.max_iterations",
+                   "controller.ff_iterations")
+
+
 def quick_config(config: ExperimentConfig) -> ExperimentConfig:
     """A shorter experiment for a first look and for tests: the two fastest of the configured
     velocities, short dwells, fewer random starts and iterations, two feedforward passes."""

@@ -27,7 +27,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
 from pgcomm.cli import calibrate, check, evaluate, export, fleet, identify, inspect, plan, reproduce, simulate, zoo
-from pgcomm.cli._common import staged_output, user_error_line
+from pgcomm.cli._common import input_paths, staged_output, user_error_line
 from pgcomm.errors import PgcommError
 
 #: Every subcommand in the order ``pgcomm --help`` lists them: name -> command module.
@@ -251,7 +251,7 @@ def _main(argv, handlers) -> int:
         if out is None or not getattr(module, "STAGED_OUT", True):
             module.run(args, None, progress)
         else:
-            with staged_output(out, getattr(args, "overwrite", False)) as tmp:
+            with staged_output(out, getattr(args, "overwrite", False), input_paths(args)) as tmp:
                 module.run(args, tmp, progress)
                 _raise_if_interrupted()  # never commit the outputs of an interrupted run
     except PgcommError as e:

@@ -148,19 +148,61 @@ def _protected_dirs() -> set[Path]:
     return {home, cwd, *cwd.parents, Path(cwd.anchor)}
 
 
-def check_out(out: Path, overwrite: bool = False) -> Path:
+def refuse_working_folder(out: Path, option: str = "--out") -> Path:
+    """Refuse an output folder that is the current folder or one of its parents; return it resolved.
+
+    Every command replaces its output folder as a whole (or, ``fleet``, fills it): ``--out ''`` or
+    ``--out .`` would replace the folder the shell stands in, and a parent would take the current folder
+    with it. Symbolic links are followed, so a link to the current folder is refused too.
+
+    Raises:
+        ConfigError: one line naming ``option`` and the folder.
+    """
+    resolved = Path(out).resolve()
+    cwd = Path.cwd().resolve()
+    if resolved == cwd or resolved in cwd.parents:
+        what = "the current folder" if resolved == cwd else f"a parent of the current folder {cwd}"
+        raise ConfigError(f"{option} {str(out)!r}: is {what}; the outputs go into a new or empty folder of their "
+                          f"own, e.g. {option} results")
+    return resolved
+
+
+def input_paths(args) -> list[Path]:
+    """The files and folders a command reads, from its parsed options: every path-valued option but the
+    outputs, and the files that ``--data`` / ``--sweep`` patterns match (resolved)."""
+    import glob
+
+    found = []
+    for dest, value in vars(args).items():
+        if dest in ("out", "report_dir"):
+            continue
+        if isinstance(value, Path):
+            found.append(value)
+        elif dest in ("data", "sweep") and isinstance(value, (list, tuple)):
+            for pattern in value:
+                found += [Path(m) for m in glob.glob(str(pattern))] or [Path(pattern)]
+    return [p.resolve() for p in found]
+
+
+def check_out(out: Path, overwrite: bool = False, inputs=()) -> Path:
     """Check ``--out DIR`` before any work is done; return the nearest existing folder (where staging goes).
 
-    Rules (DESIGN, "--out"): missing parent folders are created (at the end, on success); the
+    Rules (DESIGN, "--out"): ``DIR`` is never the current folder or one of its parents
+    (:func:`refuse_working_folder`); missing parent folders are created (at the end, on success); the
     command fails only where a path component exists as a file or the nearest existing folder is
     not writable. An existing ``DIR`` that holds anything is refused unless ``overwrite``: then the
-    whole folder is replaced by the new outputs (never the current, home or root folder).
+    whole folder is replaced by the new outputs (never the home or root folder, nor a folder holding
+    one of the run's own ``inputs``, which the replacement would delete).
+
+    Args:
+        out: the ``--out`` folder; overwrite: ``--overwrite`` given;
+        inputs: paths the command reads (:func:`input_paths`).
 
     Raises:
         ConfigError: one line naming ``--out`` and what to do.
     """
     out = Path(out)
-    resolved = out.resolve()
+    resolved = refuse_working_folder(out)
     for comp in [resolved, *resolved.parents]:
         if comp.exists() and not comp.is_dir():
             raise ConfigError(f"--out {out}: '{comp}' exists and is a file, not a folder; "
@@ -175,6 +217,10 @@ def check_out(out: Path, overwrite: bool = False) -> Path:
         if resolved in _protected_dirs():
             raise ConfigError(f"--out {out}: refusing to replace the current, home or root folder with "
                               "--overwrite; give a subfolder")
+        for p in inputs:
+            if p == resolved or resolved in p.parents:
+                raise ConfigError(f"--out {out} --overwrite would delete '{p}', which this run reads; "
+                                  "choose another --out")
     base = resolved.parent  # staging goes beside (never inside) DIR, in its nearest existing ancestor
     while not base.exists():
         base = base.parent
@@ -184,10 +230,10 @@ def check_out(out: Path, overwrite: bool = False) -> Path:
 
 
 @contextmanager
-def staged_output(out: Path, overwrite: bool = False):
+def staged_output(out: Path, overwrite: bool = False, inputs=()):
     """Yield an empty staging folder ``.NAME.xxxxxxxx``; on success it becomes ``out``.
 
-    ``out`` is checked first (:func:`check_out`). The staging folder sits in the nearest
+    ``out`` is checked first (:func:`check_out`, with the run's ``inputs``). The staging folder sits in the nearest
     existing folder of ``out`` (same file system, so the final rename is atomic). On success the
     missing parents of ``out`` are created and the staging folder is renamed to ``out``; an
     existing ``out`` (empty, or non-empty with ``overwrite``) is replaced as a whole, so no stale
@@ -196,7 +242,7 @@ def staged_output(out: Path, overwrite: bool = False):
     ``out`` is left as it was.
     """
     out = Path(out)
-    base = check_out(out, overwrite)
+    base = check_out(out, overwrite, inputs)
     resolved = out.resolve()
     try:
         tmp = Path(tempfile.mkdtemp(prefix=f".{resolved.name}.", dir=base))
@@ -220,6 +266,54 @@ def staged_output(out: Path, overwrite: bool = False):
         shutil.rmtree(tmp, ignore_errors=True)
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
+
+
+def options_given(args, *dests: str) -> list[str]:
+    """The options among ``dests`` (argparse destinations) that the user gave, as ``--name`` strings.
+
+    An option counts as given when its value is neither ``None`` nor ``False``: options that a mode may
+    ignore have no other default, so that giving one can be told from leaving it out.
+    """
+    return [f"--{d.replace('_', '-')}" for d in dests if getattr(args, d, None) not in (None, False)]
+
+
+def settings_given(path, keys) -> list[str]:
+    """Which of ``keys`` (``"section.key"`` or ``"key"``) the TOML file ``path`` sets, as ``"FILE [section] key"``."""
+    from pgcomm.io.config import load_toml
+
+    doc = load_toml(path)
+    found = []
+    for key in keys:
+        *sections, name = key.split(".")
+        table = doc
+        for sec in sections:
+            table = table.get(sec) if isinstance(table, dict) else None
+        if isinstance(table, dict) and name in table:
+            found.append(f"{path} " + "".join(f"[{sec}] " for sec in sections) + name)
+    return found
+
+
+def refuse_conflicts(mode: str, given, what: str) -> None:
+    """The one conflict rule: a setting that the chosen ``mode`` overrides or ignores is an error naming both.
+
+    Args:
+        mode: the choice as the user wrote it, e.g. ``"--format c"``, ``"--quick"``, ``"--family spline"``.
+        given: the settings the user gave that ``mode`` overrides or ignores, as written (options from
+            :func:`options_given`, file keys from :func:`settings_given`); empty: nothing to refuse.
+        what: what ``mode`` does with them and why, completing "``mode`` ... it", e.g.
+            ``"ignores (the table spacing of --format lut)"``.
+
+    Raises:
+        ConfigError: ``"SETTING conflicts with MODE: MODE WHAT it; give one or the other"`` for the first
+        setting (the others are counted).
+    """
+    given = list(given)
+    if not given:
+        return
+    more = f" (and {len(given) - 1} more: {', '.join(given[1:])})" if len(given) > 1 else ""
+    verb, _, why = what.partition(" ")
+    raise ConfigError(f"{given[0]} conflicts with {mode}: {mode} {verb} it{(' ' + why) if why else ''}{more}; "
+                      "give one or the other")
 
 
 def user_error_line(e: Exception) -> str:

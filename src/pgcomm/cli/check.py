@@ -12,8 +12,8 @@ import math
 import sys
 import time
 
-from pgcomm.cli._common import add_common_options, add_data_options, add_out_option, check_out, add_motor_option, motor_from_args, \
-    read_data_logs, require_data, staged_output
+from pgcomm.cli._common import add_common_options, add_data_options, add_out_option, check_out, add_motor_option, \
+    input_paths, motor_from_args, read_data_logs, require_data, staged_output
 from pgcomm.errors import ConfigError
 
 HELP = ("Check that logs persistently excite the model (paper's Remark): both signs of Delta, "
@@ -52,7 +52,7 @@ def run(args, out, progress) -> None:
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
             raise ConfigError(f"--range {lo:g} {hi:g}: need YMIN < YMAX (m)")
     if args.report_dir is not None:
-        check_out(args.report_dir, args.overwrite)  # before the work: a bad --out fails at once
+        check_out(args.report_dir, args.overwrite, input_paths(args))  # before the work: a bad --out fails at once
     motor = motor_from_args(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         logs = read_data_logs(args)
@@ -65,7 +65,7 @@ def run(args, out, progress) -> None:
                    "logs": [lg.source for lg in logs], "logs_without_force": without, "check": report.to_dict(),
                    "runtime_s": time.perf_counter() - t0}
         # staged here (not by cli.main) so that the report is kept when the data fail the check
-        with staged_output(args.report_dir, args.overwrite) as tmp:
+        with staged_output(args.report_dir, args.overwrite, input_paths(args)) as tmp:
             plots.save(plots.plot_coverage(report), tmp / "coverage.png")
             write_results(tmp / "results.json", results)
     if not args.quiet:

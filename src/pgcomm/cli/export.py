@@ -31,8 +31,9 @@ instead of a model file: ``moteus`` writes ``NAME.cfg``, the ``conf set motor.co
 ``odrive`` writes ``NAME.json``, the 3600-entry ``cogging_map`` (N·m) of ODrive's open firmware 0.5.x,
 which needs ``--torque-constant`` and which stock firmware cannot load (:mod:`pgcomm.export.odrive`);
 ``c-angle`` writes ``NAME.h``, a safe C99 lookup by mechanical angle (:mod:`pgcomm.export.angle_lut`;
-``--entries`` resamples, ``--current-limit`` is required as for the law). ``--current-limit`` clips the
-moteus/ODrive entries when given. Each prints and stores in ``results.json`` its resampling and
+``--entries`` resamples). Every table format needs a current limit: the table's ``# current_limit`` line,
+``--current-limit A`` or ``--current-limit none``; a table with an entry beyond it (beyond 10 kA with ``none``)
+is refused, since the drive would clip it (:func:`pgcomm.export.angle_table.check_within_limit`). Each prints and stores in ``results.json`` its resampling and
 quantisation error (RMS and max, A) and the assumptions it rests on.
 
 ``--format c-rotary --model MODEL.json`` exports a rotary model file (``pgcomm identify`` on a rotary motor)
@@ -47,7 +48,7 @@ import math
 import time
 from pathlib import Path
 
-from pgcomm.cli._common import add_common_options, add_out_option
+from pgcomm.cli._common import add_common_options, add_out_option, options_given, refuse_conflicts
 from pgcomm.errors import ConfigError
 
 HELP = "Export a model's commutation law as C code or a lookup table, verified against the model."
@@ -57,6 +58,19 @@ DEFAULT_F_MAX = 100.0
 
 #: Formats made from a compensation table over one revolution (``--table``), not a model file.
 TABLE_FORMATS = ("moteus", "odrive", "c-angle")
+
+#: The formats that read each option (argparse destination); an option the chosen format does not read is
+#: refused (:func:`pgcomm.cli._common.refuse_conflicts`). ``--model``/``--table``, ``--name``, ``--current-limit``
+#: and ``--quiet`` serve every format (the first two are checked with the input each format needs).
+FORMAT_OPTIONS = {
+    "torque_constant": ("odrive",),
+    "entries": ("c-angle", "c-rotary"),
+    "precision": ("c", "c-angle", "c-rotary"),
+    "resolution": ("lut",),
+    "drive_k": ("c", "lut"),
+    "drive_zeta": ("c", "lut"),
+    "f_max": ("lut",),
+}
 
 #: Default ``--name`` per format.
 DEFAULT_NAMES = {"c": "pgcomm_law", "lut": "pgcomm_lut", "moteus": "pgcomm_moteus", "odrive": "pgcomm_odrive",
@@ -83,10 +97,12 @@ def configure(p) -> None:
                    help="table size for --format c-angle (default: the input table's) and c-rotary (default: 16 "
                         "per period of the model's highest order)")
     add_out_option(p)
-    p.add_argument("--precision", choices=("double", "single"), default="double",
+    p.add_argument("--precision", choices=("double", "single"),
                    help="C scalar type for --format c, c-angle and c-rotary (default double)")
-    p.add_argument("--resolution", type=float, default=DEFAULT_RESOLUTION, metavar="M",
-                   help=f"table spacing in m for --format lut (default {DEFAULT_RESOLUTION:g} m)")
+    p.add_argument("--resolution", type=float, metavar="M",
+                   help=f"largest table spacing in m for --format lut (default {DEFAULT_RESOLUTION:g} m); a table "
+                        "whose worst-case force error exceeds the model's own standard error is refused, with the "
+                        "coarsest spacing that would do")
     p.add_argument("--name", help="C identifier for file names and symbols "
                                   "(default pgcomm_law for c, pgcomm_lut for lut)")
     p.add_argument("--current-limit", metavar="A|none",
@@ -212,12 +228,28 @@ def drive_commutation(args, model, metadata) -> dict:
             "given": recorded is not None or args.drive_k is not None or args.drive_zeta is not None}
 
 
+def refuse_unused_options(args) -> None:
+    """The one conflict rule for ``export``: an option the chosen ``--format`` does not read (:data:`FORMAT_OPTIONS`)
+    is an error naming both; then the defaults of ``--precision`` and ``--resolution`` are filled in."""
+    from pgcomm.defaults import DEFAULT_RESOLUTION
+
+    for dest, formats in FORMAT_OPTIONS.items():
+        if args.format not in formats:
+            refuse_conflicts(f"--format {args.format}", options_given(args, dest),
+                             f"ignores ({'--' + dest.replace('_', '-')} is for --format {', '.join(formats)})")
+    if args.precision is None:
+        args.precision = "double"
+    if args.resolution is None:
+        args.resolution = DEFAULT_RESOLUTION
+
+
 def run(args, out: Path, progress) -> None:
     """Export ``--model`` as C (``NAME.h/.c``) or lookup tables; write ``results.json``."""
     from pgcomm.io.model import current_limit_of, load_model
     from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
+    refuse_unused_options(args)
     if args.format in TABLE_FORMATS:
         return _export_table(args, out, progress, t0)
     if args.format == "c-rotary":
@@ -318,6 +350,10 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
                           f"{args.model} gives {(hi - lo) / args.resolution:.3g} rows; at most {MAX_ROWS} "
                           f"(the table and its 10x finer error check must fit a drive and this machine); "
                           f"use --resolution {(hi - lo) / (MAX_ROWS - 1):.3g} or more")
+    if args.resolution > hi - lo:
+        raise ConfigError(f"--resolution {args.resolution:g} m: longer than the training range [{lo:.6g}, {hi:.6g}] m "
+                          f"of {args.model} ({hi - lo:.4g} m), so the table would not hold the spacing asked for; "
+                          "give a spacing below the range")
     k_hat, zeta_hat = drive["k_hat"], drive["zeta_hat"]
     drive_text = f"k_hat = {_fmt_values(k_hat)} N/A, zeta_hat = {_fmt_values(zeta_hat)} rad ({drive['source']})"
     with progress.stage(f"tabulate the law every {args.resolution:g} m over {model.training_range} m"):
@@ -332,6 +368,7 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
     with progress.stage(f"worst-case force error on a 10x finer grid at f_max = {f_max:g} N"):
         err = lut_error(lut, model, f_max)
         cog_err = cogging_table_error(cog, model, f_max, k_hat=k_hat, zeta_hat=zeta_hat, current_limit=limit)
+    bound = _check_table_error(args, model, metadata, lut, err, f_max, limit, progress)
     paths = write_lut(lut, out, name, limit_source=limit_source)
     cog_path = write_cogging_table(cog, out, f"{name}_cogging", comments=[
         f"anti-cogging table of {args.model} for a drive with classical commutation {drive_text}",
@@ -344,21 +381,50 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
         entries=lut.entries, bytes=lut.nbytes, f_max=f_max, f_max_source=source,
         error={q: {"abs": float(err.abs[k]), "rel": float(err.rel[k]), "y_worst": float(err.y_worst[k])}
                for k, q in enumerate("yxz")},
-        worst_rel=err.worst_rel,
+        worst_rel=err.worst_rel, error_bound={"fy_N": bound[0], "what": bound[1]},
         cogging_table={"rows": cog.n, "bytes": cog.nbytes, **cog_err.to_dict(),
                        "drive": {"k_hat": k_hat.tolist(), "zeta_hat": zeta_hat.tolist(), "source": drive["source"]}},
     )
     if not args.quiet:
+        # the rows end on the range's ends: the spacing is the largest not above --resolution, said when it is less
+        spacing = (f"spacing {lut.dy:.4g} m" if lut.dy >= 0.99 * args.resolution else
+                   f"spacing {lut.dy:.4g} m (--resolution {args.resolution:g} m rounded down so that the rows end on "
+                   "the training range's ends)")
         print(f"LUT {name}: {lut.n} rows x {lut.entries // lut.n} entries = {lut.nbytes} bytes (float32), "
-              f"spacing {lut.dy:.4g} m; current limit {_limit_text(limit, limit_source)}")
+              f"{spacing}; current limit {_limit_text(limit, limit_source)}")
         print(f"f_max = {f_max:g} N from {source}")
         print("worst-case force error vs the exact law: "
               + ", ".join(f"{q} {err.abs[k]:.3g} {'N m' if q == 'z' else 'N'} ({100 * err.rel[k]:.3g} %)"
                           for k, q in enumerate("yxz")))
+        print(f"within the bound of {bound[1]}")
         ce = cog_err.law_abs
         print(f"anti-cogging table for a drive with {drive_text}: interpolation {cog_err.interpolation:.3g} N; "
               f"classical + table leaves y {ce[0]:.3g} N, x {ce[1]:.3g} N, z {ce[2]:.3g} N m")
         print(f"wrote {args.out}/{paths[0].name}, {paths[1].name}, {cog_path.name}, results.json")
+
+
+def _check_table_error(args, model, document, lut, err, f_max, limit, progress) -> tuple[float, str]:
+    """Refuse a table whose worst-case Fy error exceeds the model's own standard error or the table's float32
+    rounding, whichever is larger (:func:`pgcomm.export.lut.table_error_bound`), naming the coarsest spacing that
+    would do (:func:`pgcomm.export.lut.coarsest_resolution_within`). Returns the bound ``(N, what it is)``."""
+    from pgcomm.export.lut import coarsest_resolution_within, grid_rows, table_error_bound
+
+    bound, what = table_error_bound(model, document, f_max)
+    if err.abs[0] <= bound:
+        return bound, what
+    with progress.stage(f"search the coarsest spacing whose table errs at most {bound:.3g} N"):
+        h = coarsest_resolution_within(model, bound, f_max, current_limit=limit, start=lut.dy,
+                                       start_error=float(err.abs[0]))
+    if h is None:
+        hint = "no table of at most the rows a drive can hold errs that little: export --format c instead"
+    else:
+        e = math.floor(math.log10(h)) - 1
+        shown = math.floor(h / 10.0**e) * 10.0**e  # two digits, rounded down: finer, so it holds too
+        rows = grid_rows(model.training_range, shown)
+        hint = (f"use --resolution {shown:.2g} or finer ({rows} rows, {rows * lut.entries // lut.n * 4} bytes "
+                "of float32)")
+    raise ConfigError(f"--resolution {args.resolution:g} m: the table of {args.model} errs by up to {err.abs[0]:.3g} N "
+                      f"in Fy ({100 * err.rel[0]:.3g} % of f_max = {f_max:g} N), more than {what}; {hint}")
 
 
 def _entries_name_limit(args) -> tuple[str, float | None, bool]:
@@ -383,7 +449,7 @@ def _c_name(args) -> str:
 
 def _export_table(args, out, progress, t0) -> None:
     """``--format moteus|odrive|c-angle``: a compensation table over one revolution for a rotary drive."""
-    from pgcomm.export.angle_table import read_angle_table
+    from pgcomm.export.angle_table import check_within_limit, read_angle_table
     from pgcomm.io.results import write_results
 
     if args.table is None:
@@ -391,10 +457,6 @@ def _export_table(args, out, progress, t0) -> None:
                           "(columns angle in rad, iq in A, one revolution)")
     if args.model is not None:
         raise ConfigError(f"--format {args.format} exports --table, not --model (a model file's law: --format c or lut)")
-    if args.entries is not None and args.format != "c-angle":
-        raise ConfigError(f"--entries is for --format c-angle; {args.format}'s table size is fixed by the drive")
-    if args.torque_constant is not None and args.format != "odrive":
-        raise ConfigError("--torque-constant is for --format odrive (its map is in N m)")
     k = args.torque_constant
     if args.format == "odrive" and k is None:
         raise ConfigError("--format odrive needs --torque-constant NM_PER_A, the ODrive's "
@@ -407,11 +469,12 @@ def _export_table(args, out, progress, t0) -> None:
         limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"
     elif table.current_limit is not None:
         limit, limit_source = table.current_limit, f"{args.table} (# current_limit, the motor description's)"
-    elif args.format == "c-angle":
-        raise ConfigError(f"{args.table}: the table records no current limit; give --current-limit A, the drive's "
-                          "q-current limit, or --current-limit none to export a lookup without a limit")
     else:
-        limit_source = "none given: the drive's own current limit applies"
+        raise ConfigError(f"{args.table}: the table records no current limit; give --current-limit A, the drive's "
+                          f"q-current limit, or --current-limit none to export {args.format} without a limit")
+    # an entry beyond the limit would be clipped: refused, beyond half the drive's step for moteus' int8 entries
+    slack = 0.5 * limit / 127 if (args.format == "moteus" and limit is not None) else 0.0
+    check_within_limit(table, limit, slack, limit_source)
     provenance = [f"input table {args.table} ({table.n} entries)", *table.comments]
     results = {"command": "export", "format": args.format, "table": str(args.table), "table_entries": table.n,
                "name": name, "current_limit": limit, "current_limit_source": limit_source}
@@ -462,30 +525,6 @@ def _odrive(args, table, out, name, limit, provenance):
     return path, om.as_dict(), lines
 
 
-def _load_rotary_model(path):
-    """A rotary model file (``pgcomm identify`` on a rotary motor), or one line saying what is wrong."""
-    import json
-
-    from pgcomm.errors import DataError
-    from pgcomm.rotary.model import RotaryModel
-
-    try:
-        with open(path, encoding="utf-8") as f:
-            doc = json.load(f)
-    except FileNotFoundError:
-        raise DataError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise DataError(f"{path}: not a JSON model file ({' '.join(str(e).split())})") from None
-    if not isinstance(doc, dict) or doc.get("schema") != "pgcomm.rotary_model":
-        what = doc.get("schema") if isinstance(doc, dict) else None
-        raise DataError(f"{path}: not a rotary model (schema {what!r}; --format c-rotary exports the model.json of "
-                        "pgcomm identify on a rotary motor, --format c a linear one)")
-    try:
-        return RotaryModel.from_dict(doc)
-    except (KeyError, TypeError, ValueError, IndexError) as e:
-        raise DataError(f"{path}: rotary model file unreadable ({' '.join(str(e).split())})") from None
-
-
 def _export_rotary_law(args, out, progress, t0) -> None:
     """``--format c-rotary --model MODEL.json``: the whole rotary law as C99 (module docstring)."""
     from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
@@ -498,11 +537,13 @@ def _export_rotary_law(args, out, progress, t0) -> None:
         raise ConfigError("--format c-rotary exports --model, not --table (a table's formats: "
                           f"{', '.join(TABLE_FORMATS)})")
     name, limit, limit_given = _entries_name_limit(args)
-    model = _load_rotary_model(args.model)
+    from pgcomm.io.model import load_rotary_model
+
+    model = load_rotary_model(args.model)
     if limit_given:
         limit_source = "--current-limit" if limit is not None else "turned off with --current-limit none"
     else:
-        recorded = model.info.get("current_limit") if isinstance(model.info, dict) else None
+        recorded = model.info.get("current_limit")
         if recorded is None:
             raise ConfigError(f"{args.model}: the model file records no current limit (its motor description had "
                               "no current_limit); give --current-limit A, the drive's q-current limit, or "

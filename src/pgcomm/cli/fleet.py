@@ -1,7 +1,11 @@
 """``pgcomm fleet``: calibrate, identify, evaluate and export every motor of a fleet directory on Dask.
 
 ``--out`` is a resumable workspace (DESIGN, "--out"): it is written in place, not staged;
-each motor's folder appears atomically when the motor is finished (:mod:`pgcomm.fleet`).
+each motor's folder appears atomically when the motor is finished (:mod:`pgcomm.fleet`). It must be
+a new or empty folder or the workspace of an earlier fleet run, and never the current folder or one
+of its parents. The embedded cluster runs at most one worker process per core of this machine (a larger
+``--workers`` is lowered to the cores, and said); more workers need a running cluster (``--scheduler``). A fleet in which any motor failed exits with code 2
+and one line with the count, after writing the workspace (the finished motors are kept).
 """
 
 from __future__ import annotations
@@ -11,7 +15,8 @@ import sys
 import time
 from pathlib import Path
 
-from pgcomm.errors import ConfigError
+from pgcomm.cli._common import refuse_working_folder, seed_value
+from pgcomm.errors import ConfigError, PgcommError
 
 HELP = ("Run a fleet of motors (one folder each: logs/*.csv, motor.toml, optional config.toml) on Dask: "
         "calibrate, identify, evaluate, export per motor; fleet.parquet/.csv/.html with outliers.")
@@ -29,34 +34,78 @@ def configure(p) -> None:
                    help="output workspace (created; finished motors are kept and skipped on a rerun)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--workers", type=int, metavar="N",
-                   help=f"worker processes of the embedded LocalCluster (default: the machine's cores, {os.cpu_count()})")
+                   help=f"worker processes of the embedded LocalCluster, at most the machine's cores (default: "
+                        f"as many as there are motors, at most {machine_cores()})")
     g.add_argument("--scheduler", metavar="ADDRESS", help="use a running Dask cluster, e.g. tcp://host:8786")
     p.add_argument("--redo", action="store_true", help="run finished motors again")
     p.add_argument("--outlier-z", type=float, default=DEFAULT_OUTLIER_Z, metavar="Z",
                    help=f"robust z-score above which fleet.html flags a value (default {DEFAULT_OUTLIER_Z:g})")
-    p.add_argument("--seed", type=int, default=0, help="seed of the identification's random starts (default 0)")
+    p.add_argument("--seed", type=seed_value, default=0,
+                   help="seed of the identification's random starts, 0 to 2**32-1 (default 0)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
+def machine_cores() -> int:
+    """Cores this process may run on (its CPU affinity, else the machine's count)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover  (not Linux)
+        return os.cpu_count() or 1
+
+
+#: Files and folders that mark an earlier fleet run's workspace (a rerun resumes it).
+_WORKSPACE_MARKS = ("fleet.json", "failed", ".jax_cache")
+
+
+def check_workspace(out: Path) -> Path:
+    """``--out`` of ``fleet``: not the current folder or a parent of it, not a file, and new, empty or the
+    workspace of an earlier fleet run (which a rerun resumes). Returns the folder; nothing is created.
+
+    Raises:
+        ConfigError: one line naming ``--out``.
+    """
+    from pgcomm.fleet.motor import ROWS_FILE
+
+    out_dir = Path(out)
+    refuse_working_folder(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ConfigError(f"--out {out_dir}: exists and is not a directory")
+    if out_dir.is_dir():
+        entries = list(out_dir.iterdir())
+        marked = any((out_dir / m).exists() for m in _WORKSPACE_MARKS) or any(
+            (e / ROWS_FILE).is_file() for e in entries if e.is_dir())
+        if entries and not marked:
+            shown = ", ".join(sorted(e.name for e in entries)[:3]) + (", ..." if len(entries) > 3 else "")
+            raise ConfigError(f"--out {out_dir}: folder exists, is not empty ({len(entries)} entries: {shown}) and "
+                              "is not the workspace of an earlier fleet run (no fleet.json); choose a new --out")
+    return out_dir
+
+
 def run(args, out, progress) -> None:
-    """Run the fleet into ``args.out`` (``out`` is ``None``: not staged)."""
-    import dask
-    from distributed import Client, LocalCluster
+    """Run the fleet into ``args.out`` (``out`` is ``None``: not staged).
 
-    from pgcomm.fleet import WORKER_ENV, find_motors, run_fleet
+    Raises:
+        ConfigError: a bad option or ``--out`` (before anything is written or started).
+        PgcommError: one or more motors failed (after the workspace and the fleet table are written).
+    """
+    from pgcomm.fleet import WORKER_ENV, find_motors
 
+    cores = machine_cores()
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers {args.workers}: need at least one worker")
     if not args.outlier_z > 0:
         raise ConfigError(f"--outlier-z {args.outlier_z:g}: must be a positive z-score")
-    out_dir = Path(args.out)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise ConfigError(f"--out {out_dir}: exists and is not a directory")
+    out_dir = check_workspace(args.out)
+    motors = find_motors(args.data)  # fail in the first second on a bad --data
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise ConfigError(f"--out {out_dir}: cannot create ({e.strerror})") from None
-    find_motors(args.data)  # fail in the first second on a bad --data
+    import dask
+    from distributed import Client, LocalCluster
+
+    from pgcomm.fleet import run_fleet
+
     cluster = None
     if args.scheduler:
         try:
@@ -64,7 +113,12 @@ def run(args, out, progress) -> None:
         except OSError as e:
             raise ConfigError(f"--scheduler {args.scheduler}: cannot connect ({e})") from None
     else:
-        n = args.workers or os.cpu_count() or 1
+        n = args.workers or max(1, min(cores, len(motors)))
+        if n > cores:
+            # each worker is a process identifying one motor at a time: more than the cores only adds memory
+            print(f"pgcomm: --workers {n}: this machine has {cores} core(s); running {cores} worker process(es) "
+                  "(for more, start a Dask cluster and give --scheduler ADDRESS)", file=sys.stderr)
+            n = cores
         with dask.config.set({"distributed.nanny.pre-spawn-environ": WORKER_ENV}):
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                    env=WORKER_ENV, silence_logs=40)
@@ -84,6 +138,12 @@ def run(args, out, progress) -> None:
         for name in fleet.failed:
             print(f"  {name}: {fleet.records[name]['error']}")
         print(f"wrote {args.out}/fleet.parquet, fleet.csv, fleet.html, fleet.json and one folder per finished motor")
+    if fleet.failed:
+        first = fleet.failed[0]
+        raise PgcommError(f"fleet: {len(fleet.failed)} of {len(fleet.submitted)} motor(s) failed ({first}: "
+                          f"{fleet.records[first]['error']}" + (", ..." if len(fleet.failed) > 1 else "")
+                          + f"); each motor's error is in {args.out}/failed/ and fleet.csv, the finished motors are "
+                          "kept and a rerun runs only the failed ones")
 
 
 class _Display:

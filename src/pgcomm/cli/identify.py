@@ -24,11 +24,17 @@ import time
 from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, add_data_options, motor_is_rotary, read_data_logs, \
-    setup_from_args
+    refuse_conflicts, settings_given, setup_from_args
 from pgcomm.errors import DataError
 
 HELP = ("Algorithm 2: identify the PGNN (and the physics-only model) of every coil set; "
         "writes model.json/.npz, results.json and figures.")
+
+
+#: ``[identification]`` settings only the PGNN family reads (``--family spline`` refuses them).
+PGNN_ONLY = tuple(f"identification.{k}" for k in (
+    "gain_widths", "cog_widths", "gain_width_candidates", "activation", "regularisation", "starts", "max_iterations",
+    "validation_fraction", "ridge_output", "tol", "direction_harmonics"))
 
 
 def configure(p) -> None:
@@ -107,6 +113,10 @@ def run(args, out: Path, progress) -> None:
 
             raise ConfigError(f"--{opt.replace('_', '-')}: how a rotary drive's log is read (--motor with kind = "
                               "\"rotary\")")
+    if args.family == "spline" and args.config:
+        refuse_conflicts("--family spline", settings_given(args.config, PGNN_ONLY),
+                         "ignores (a setting of the PGNN's Algorithm 2; the spline model reads [identification] "
+                         "direction_velocity only)")
     setup = _setup(args)
     sensorless = bool(args.no_force_sensor)
     _refuse_spline_without_force(args, sensorless)

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, add_reference_options, motor_is_rotary, print_calibration, \
-    print_mse, reference_from_args, setup_from_args
+    print_mse, reference_from_args, refuse_conflicts, settings_given, setup_from_args
 
 HELP = ("The paper's experiment on the twin (or a force-map plant): calibration, PGNN "
         "identification, all commutation laws in closed loop; report.html, results.json, figures.")
@@ -48,8 +48,18 @@ def run(args, out: Path, progress) -> None:
             from pgcomm.errors import ConfigError
             raise ConfigError(f"{flag}: only for a rotary motor (a --motor TOML with kind = \"rotary\"); a linear "
                               "motor's data sets are sized by its config")
+    if args.quick and args.config:
+        refuse_conflicts("--quick", settings_given(args.config, reproduce.QUICK_OVERRIDES),
+                         "overrides (a quick run keeps the two fastest velocities, dwell at most 0.2 s, 2 starts of 25 "
+                         "iterations, 2 feedforward passes)")
     setup = setup_from_args(args)
     if args.quick:
+        beside = Path(args.plant).parent / "config.toml" if (args.plant and not args.config) else None
+        if beside is not None and beside.is_file() and not args.quiet:
+            shortened = settings_given(beside, reproduce.QUICK_OVERRIDES)
+            if shortened:  # settings the user did not name: said, not refused
+                print(f"pgcomm: --quick shortens {', '.join(k.split(' ', 1)[1] for k in shortened)} of {beside}",
+                      file=sys.stderr)
         setup = replace(setup, config=reproduce.quick_config(setup.config))
     extra = reference_from_args(args, setup) if args.reference else None
     o = reproduce.run(setup, seed=args.seed, extra_reference=extra, progress=progress)
@@ -152,10 +162,10 @@ def _truth_from_identified(path: Path, model_dict: dict, motor, seed: int):
     """The twin of a user's motor from ``identify``'s ``model.json`` (``model_dict``, read from ``path``) and the
     ``results.json`` beside it (:func:`pgcomm.rotary.zoo.truth_from_identification`). Returns ``(truth, source)``."""
     from pgcomm.errors import ConfigError
-    from pgcomm.rotary.model import RotaryModel
+    from pgcomm.io.model import rotary_model_from_dict
     from pgcomm.rotary.zoo import truth_from_identification
 
-    model = RotaryModel.from_dict(model_dict)
+    model = rotary_model_from_dict(model_dict, path)
     res_path = path.parent / "results.json"
     try:
         with open(res_path, encoding="utf-8") as f:

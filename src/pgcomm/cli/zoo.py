@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pgcomm.cli._common import add_common_options
+from pgcomm.cli._common import add_common_options, seed_value
 from pgcomm.errors import ConfigError
 
 HELP = ("Write N random zoo motors (force map, motor.toml, config.toml, truth.json per folder); "
@@ -16,7 +16,8 @@ def configure(p) -> None:
     from pgcomm.defaults import MAX_MOTORS
 
     p.add_argument("--motors", type=int, required=True, metavar="N", help=f"number of motors (1 to {MAX_MOTORS})")
-    p.add_argument("--seed", type=int, default=0, help="zoo seed, also the noise seed of --logs (default 0)")
+    p.add_argument("--seed", type=seed_value, default=0,
+                   help="zoo seed, also the noise seed of --logs, 0 to 2**32-1 (default 0)")
     p.add_argument("--logs", action="store_true",
                    help="also write logs/Z{i}_coilset{l}.csv per motor (as pgcomm calibrate --save-data)")
     p.add_argument("--kind", choices=("linear", "rotary"), default="linear",

@@ -13,7 +13,8 @@ a q-current command): ``NAME.h`` holds the table as ``static const`` entries at 
 
 Return codes: ``0`` = done; ``1`` = the command was limited to the current limit (``NAME_iq``);
 ``2`` = a non-finite input (NaN or ±inf in ``theta`` or ``iq_star``) or a result that would overflow:
-the output is **zero current**. No dynamic memory, no global state, only ``<math.h>``.
+the output is **zero current**. No dynamic memory, no global state, only ``<math.h>``,
+``<stdint.h>`` and ``<string.h>`` (the non-finite tests read the IEEE-754 bits: they survive ``-ffast-math``).
 
 The angle's resolution is that of ``theta``: in single precision a multi-turn angle of ``R``
 revolutions is resolved to about ``R·4e-7`` rad, so pass the angle within a few turns there.
@@ -228,7 +229,9 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
             "        *iq = 0;\n        return 2;\n    }\n",
             "    *iq = iq_star + c;\n",
             *c_current_tail(U, "iq", lut.current_limit is not None, guard)]
-    return "".join(out)
+    from pgcomm.export.c import ieee_finite
+
+    return ieee_finite("".join(out), name, lut.precision == "single")
 
 
 def write_angle_lut(lut: AngleLut, path, name: str = "pgcomm_angle_lut", limit_source: str | None = None,

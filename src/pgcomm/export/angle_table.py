@@ -37,8 +37,11 @@ from pgcomm.errors import DataError
 __all__ = [
     "AngleTable", "TableError", "read_angle_table", "write_angle_table", "resample_periodic",
     "periodic_interpolant", "bin_means", "linear_on_grid", "make_table", "reconstruction_error", "fine_grid_size", "ANGLE_TOLERANCE", "MIN_ENTRIES",
-    "MAX_ENTRIES",
+    "MAX_ENTRIES", "check_within_limit", "MAX_CURRENT",
 ]
+
+#: The largest plausible current (A): a motor description's ``current_limit`` is at most this.
+MAX_CURRENT = 1e4
 
 #: Largest deviation (rad) of a table's angle from ``2π j / n`` (a table written with 7 significant
 #: digits passes; an encoder count of a 16-bit encoder is 1e-4 rad).
@@ -234,6 +237,33 @@ def _check_angles(src, lines, ang) -> None:
         raise DataError(f"{src} line {lines[i]}: angle {ang[i]:.9g} rad, expected 2*pi*{i}/{n} = {expect[i]:.9g} rad: "
                         f"the table is {what}; a table holds n equally spaced mechanical angles over one revolution "
                         f"(tolerance {ANGLE_TOLERANCE:g} rad)")
+
+
+def check_within_limit(table: AngleTable, limit: float | None, slack: float = 0.0, limit_source: str = "") -> None:
+    """Refuse a table with an entry beyond the current limit: a drive would clip it, and the compensation it
+    applies would not be the table's.
+
+    Args:
+        table: the compensation table (A).
+        limit: the q-current limit (A) the export applies, or ``None`` (turned off): then the largest plausible
+            current :data:`MAX_CURRENT`.
+        slack: how far (A) an entry may pass the limit unnoticed: half the drive's quantisation step at the limit
+            (the step of its stored entries), 0 for a float table.
+        limit_source: where the limit comes from (said in the message).
+
+    Raises:
+        DataError: one line naming the file, the entry and its angle, the value and the limit.
+    """
+    bound = MAX_CURRENT if limit is None else float(limit)
+    j = int(np.argmax(np.abs(table.iq)))
+    v = float(table.iq[j])
+    if abs(v) > bound + slack:
+        what = (f"the current limit {bound:g} A" + (f" ({limit_source})" if limit_source else "") if limit is not None
+                else f"{bound:g} A, the largest plausible current (the limit is turned off)")
+        n_over = int(np.count_nonzero(np.abs(table.iq) > bound + slack))
+        raise DataError(f"{table.source}: entry {j} (theta = 2*pi*{j}/{table.n} rad) is iq = {v:.6g} A, beyond {what}; "
+                        f"{n_over} of {table.n} entries are, and a drive would clip them: give a table within the "
+                        "limit (in A), or the motor's own --current-limit")
 
 
 def write_angle_table(path, table: AngleTable, comments=()) -> Path:

@@ -2,7 +2,8 @@
 
 :func:`write_c` turns a :class:`~pgcomm.models.CombinedModel` (or a
 :class:`~pgcomm.spline_model.SplineModel`, below) into two files, ``NAME.h``
-and ``NAME.c``, that a real-time controller compiles as they are: C99, only ``<math.h>``,
+and ``NAME.c``, that a real-time controller compiles as they are: C99, only ``<math.h>``, ``<stdint.h>``, ``<string.h>``
+(``memcpy`` for the non-finite tests that survive ``-ffast-math``, :func:`ieee_finite`),
 no dynamic allocation, no global mutable state (the weights are ``static const``
 arrays, every function is reentrant). The generated functions are:
 
@@ -140,6 +141,36 @@ def check_c_name(name: str) -> str:
     return name
 
 
+def ieee_finite(text: str, name: str, single: bool) -> str:
+    """Generated C ``text`` with every ``isfinite(x)`` replaced by ``NAME_finite(x)``, a test on the IEEE-754 bits.
+
+    ``-ffast-math`` (and ``-Ofast``, ``-ffinite-math-only``) lets a compiler assume that no value is NaN or inf, and
+    GCC and Clang then fold ``isfinite`` to 1: the guards vanish, a NaN angle becomes a wild table index
+    (a segfault) and a NaN demand NaN currents. An integer test of the exponent bits (all ones: NaN or inf),
+    read through ``memcpy``, is not a floating-point operation and survives those flags. The test function
+    (``static inline``, for ``float`` when ``single``, else ``double``) is inserted after ``#include <math.h>``
+    with ``<stdint.h>`` and ``<string.h>``; ``text`` must include ``<math.h>`` when it uses ``isfinite``.
+    """
+    if "isfinite(" not in text:
+        return text
+    fn = f"{name}_finite"
+    if single:
+        body = (f"static inline int {fn}(float x)\n{{\n    uint32_t b;\n    memcpy(&b, &x, sizeof b);\n"
+                "    return (b & UINT32_C(0x7f800000)) != UINT32_C(0x7f800000);\n}\n\n")
+    else:
+        body = (f"static inline int {fn}(double x)\n{{\n    uint64_t b;\n    memcpy(&b, &x, sizeof b);\n"
+                "    return (b & UINT64_C(0x7ff0000000000000)) != UINT64_C(0x7ff0000000000000);\n}\n\n")
+    helper = ("#include <stdint.h>\n#include <string.h>\n\n"
+              "/* 1 unless x is NaN or inf: a test of the IEEE-754 exponent bits, which -ffast-math cannot fold\n"
+              "   away, as it may fold the classification macros of math.h */\n" + body)
+    anchor = "#include <math.h>\n\n"
+    if anchor not in text:
+        raise ValueError("generated C without #include <math.h>: cannot place the finite test")
+    text = text.replace(anchor, anchor + helper, 1)
+    head, _, tail = text.partition(helper)
+    return head + helper + tail.replace("isfinite(", f"{fn}(")
+
+
 def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,
              drive=None, current_limit: float | None = None, det_min: float = DEFAULT_DET_MIN,
              damping: float = DEFAULT_DAMPING, mechanics=None, limit_source: str | None = None,
@@ -188,7 +219,8 @@ def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadat
     g = gen(model, name, _SINGLE if precision == "single" else _DOUBLE, metadata or {}, drive,
             current_limit, float(det_min), float(damping), _feedforward_of(mechanics))
     g.limit_source, g.drive_source = limit_source, drive_source
-    return g.header(), g.source()
+    single = precision == "single"
+    return ieee_finite(g.header(), name, single), ieee_finite(g.source(), name, single)
 
 
 def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,

@@ -96,7 +96,8 @@ __all__ = [
     "DEFAULT_RESOLUTION", "MAX_ROWS", "grid_rows", "Lut", "LutError", "CoggingTable", "CoggingTableError",
     "build_lut", "lut_currents", "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns",
     "build_cogging_table", "cogging_table_error", "write_cogging_table",
-    "classical_parameters", "drive_gain", "MIN_DRIVE_GAIN", "f_star_set",
+    "classical_parameters", "drive_gain", "MIN_DRIVE_GAIN", "f_star_set", "model_standard_error",
+    "table_error_bound", "coarsest_resolution_within",
 ]
 
 from pgcomm.defaults import DEFAULT_RESOLUTION  # noqa: E402  (re-exported)
@@ -359,11 +360,135 @@ def lut_error(lut: Lut, model, f_max: float, factor: int = 10, det_min: float = 
     fs = f_star_set(f_max)
     law = ModelLaw(model, metric="phase", current_limit=lut.current_limit, det_min=det_min)
     diffs = []
-    for chunk in np.array_split(np.arange(y.size), max(1, y.size // 20000)):  # bound memory
-        yc = jnp.asarray(y[chunk])
+    # chunks of one size (the last padded with the last position) bound memory and compile the model's force
+    # once, whatever the table's size: a search over spacings then compiles nothing new
+    chunk = min(_ERROR_CHUNK, y.size)
+    padded = np.concatenate([y, np.full(-y.size % chunk, y[-1])])
+    for start in range(0, padded.size, chunk):
+        yc = jnp.asarray(padded[start:start + chunk])
         i_lut = lut_currents(lut, yc[:, None], jnp.asarray(fs)[None])
         diffs.append(np.asarray(_law_force_diff(model, law, yc, jnp.asarray(fs), i_lut)))
-    return _worst(np.concatenate(diffs), y, f_max)
+    return _worst(np.concatenate(diffs)[: y.size], y, f_max)
+
+
+#: Positions per chunk of :func:`lut_error` (18 test forces each: about 20 MB of float64 per chunk for L = 3).
+_ERROR_CHUNK = 16384
+
+
+# ----------------------------------------------------------------------------------------------
+# what a table may cost: the model's own standard error
+# ----------------------------------------------------------------------------------------------
+
+#: Relative rounding of the table's float32 entries (half an ulp); the force passes through a few of them.
+FLOAT32_ROUNDING = 2.0 ** -24
+
+
+def _parameters_per_coil_set(model) -> float:
+    """Fitted parameters per coil set of a PGNN (its arrays less the fixed input scaling ``y_center, y_scale``)."""
+    leaves = jax.tree_util.tree_leaves(model)
+    total = sum(int(np.size(x)) for x in leaves if hasattr(x, "shape") or isinstance(x, (int, float)))
+    return max(total / model.n_coil_sets - 2.0, 1.0)
+
+
+def model_standard_error(model, document) -> tuple[float | None, str]:
+    """The standard error (N) of the model's driving force ``F̂y``, from what its file records, or ``None``.
+
+    Per coil set, from the identification that ``pgcomm identify`` / ``reproduce`` record in the model
+    file's metadata (``identification``):
+
+    * PGNN: ``σ_y² p / (3 n)`` with ``σ_y² = cost_y`` (N², the mean squared Fy residual on the training
+      data), ``p`` the coil set's parameters and ``3 n`` the force samples fitted (``n = n_train``): the
+      mean variance of a least-squares fit's fitted values is ``σ² trace(H) / N = σ² p / N``;
+    * spline model: ``(cv_y - cost_y) / 2`` from its cross-validated and training Fy residuals (N²): the
+      cross-validation's excess over the training residual is twice the fitted values' variance for a
+      linear smoother.
+
+    The coil sets are fitted independently, so their variances add.
+
+    Args:
+        model: the loaded model; document: its file's document (:func:`pgcomm.io.model.load_model`).
+
+    Returns:
+        ``(standard error in N or None, how it was found)``.
+    """
+    meta = document.get("metadata") if isinstance(document, dict) else None
+    ident = meta.get("identification") if isinstance(meta, dict) else None
+    if not isinstance(ident, dict):
+        return None, "the model file records no identification"
+    var = []
+    try:
+        if isinstance(ident.get("spline"), dict):
+            sp = ident["spline"]
+            for c, cv in zip(sp["cost"], sp["cost_validation"]):
+                var.append(max(float(cv["y"]) - float(c["y"]), 0.0) / 2.0)
+            how = "the spline fit's cross-validated minus training Fy residual, halved"
+        else:
+            p = _parameters_per_coil_set(model)
+            for cs in ident["coil_sets"]:
+                var.append(float(cs["cost_y"]) * p / (3.0 * float(cs["n_train"])))
+            how = "the training Fy residual (cost_y) x parameters / (3 x samples)"
+    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+        return None, "the model file's identification record has no Fy residual"
+    if len(var) != model.n_coil_sets or not all(math.isfinite(v) and v >= 0 for v in var):
+        return None, "the model file's identification record has no usable Fy residual"
+    return float(math.sqrt(sum(var))), how
+
+
+def table_error_bound(model, document, f_max: float) -> tuple[float, str]:
+    """The largest worst-case Fy error (N) a table law may add: the model's own standard error
+    (:func:`model_standard_error`) or the float32 rounding of the table's entries at ``f_max``, whichever is larger.
+
+    Returns:
+        ``(bound in N, what it is)``.
+    """
+    quant = 4.0 * FLOAT32_ROUNDING * f_max
+    se, how = model_standard_error(model, document)
+    if se is not None and se >= quant:
+        return se, f"the model's own standard error of Fy, {se:.3g} N ({how})"
+    return quant, (f"the float32 rounding of the table at f_max, {quant:.3g} N"
+                   + (f" (above the model's standard error {se:.3g} N)" if se is not None else f" ({how})"))
+
+
+def coarsest_resolution_within(model, bound: float, f_max: float, current_limit=None, y_range=None,
+                               start: float = DEFAULT_RESOLUTION, start_error: float | None = None,
+                               evaluations: int = 6) -> float | None:
+    """The largest table spacing (m, within about 10 %) whose worst-case Fy error (:func:`lut_error`) is at most
+    ``bound`` (N), searched below ``start`` (a spacing whose error, ``start_error`` N if known, is above it);
+    ``None`` if even a table of :data:`MAX_ROWS` rows errs more (or no spacing was found in ``evaluations``
+    tables).
+
+    Linear interpolation errs as the spacing squared: each next spacing is the closest failing one scaled by
+    ``0.95 sqrt(bound / error)``, and the search stops once that law puts the limit within 10 % above the
+    largest passing spacing.
+    """
+    rng = model.training_range if y_range is None else y_range
+    span = float(rng[1]) - float(rng[0])
+    finest = span / (MAX_ROWS - 1)
+
+    def err(h):
+        lut = build_lut(model, h, y_range=y_range, current_limit=current_limit)
+        return float(lut_error(lut, model, f_max).abs[0])
+
+    bad = (float(start), err(float(start)) if start_error is None else float(start_error))
+    if bad[1] <= bound:
+        return bad[0]
+    good = None
+    for _ in range(evaluations):
+        if good is None:
+            h = max(bad[0] * min(0.9, 0.95 * math.sqrt(bound / bad[1])), finest)
+        else:
+            limit = good[0] * math.sqrt(bound / max(good[1], 1e-300))
+            if limit < 1.1 * good[0]:
+                break
+            h = min(0.97 * limit, math.sqrt(good[0] * bad[0]))
+        e = err(h)
+        if e <= bound:
+            good = (h, e)
+        elif h <= finest:
+            return None
+        else:
+            bad = (h, e)
+    return None if good is None else good[0]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -591,8 +716,11 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut", limit_source: str | None = No
                 "            currents[l][0] *= sc;\n            currents[l][1] *= sc;\n        }\n    }\n"]
     out += ["    return ret;\n}\n\n", f"#endif /* {guard} */\n"]
     text = "".join(out)
-    return text.replace(f"#ifndef {guard}\n#define {guard}\n\n", f"#ifndef {guard}\n#define {guard}\n\n"
+    text = text.replace(f"#ifndef {guard}\n#define {guard}\n\n", f"#ifndef {guard}\n#define {guard}\n\n"
                         "#include <math.h>\n\n", 1)
+    from pgcomm.export.c import ieee_finite
+
+    return ieee_finite(text, name, single=True)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -16,7 +16,8 @@ clamped at :data:`pgcomm.rotary.law.MIN_GAIN` at every entry, so the interpolate
 ``int NAME_iq(T theta, T demand, T s, T *iq)`` (``T`` = ``double`` or ``float``; ``demand`` is ``u``) returns ``0`` = done, ``1`` = the
 command was limited to ``± NAME_CURRENT_LIMIT``, ``2`` = a non-finite input (NaN or ±inf in ``theta``,
 ``demand`` or ``s``) or an overflowing result: the output is **zero current**, as the Python law gives. No dynamic
-memory, no global state, only ``<math.h>``. :func:`rotary_law_values` is the same lookup in Python (the tests
+memory, no global state, only ``<math.h>``, ``<stdint.h>`` and ``<string.h>`` (non-finite tests on the IEEE-754 bits,
+which survive ``-ffast-math``). :func:`rotary_law_values` is the same lookup in Python (the tests
 compile the header and compare); the comment block and ``results.json`` state each map's interpolation error
 and the law's, against the model's Fourier maps.
 """
@@ -215,7 +216,9 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
             "    sg = (s > 0) ? 1 : ((s < 0) ? -1 : 0);\n",
             "    *iq = (demand - c + d * sg) / g;\n",
             *c_current_tail(U, "iq", tables.current_limit is not None, guard)]
-    return "".join(out)
+    from pgcomm.export.c import ieee_finite
+
+    return ieee_finite("".join(out), name, tables.precision == "single")
 
 
 def write_rotary_law(tables: RotaryLawTables, path, name: str = "pgcomm_rotary_law", limit_source: str | None = None,
