@@ -50,11 +50,12 @@ def _without_fences(text: str) -> str:
 
 
 def _command_lines():
-    """Every ``pgcomm`` invocation in the shell blocks, split at ``&&``, ``;`` and ``|``, comments dropped."""
+    """Every ``pgcomm`` invocation in the shell blocks, split at ``&&``, ``;`` and ``|``, comments dropped; a line
+    ending in a backslash continues on the next, as in the shell."""
     out = []
     for param in _blocks(_SHELL):
         code, = param.values
-        for line in code.splitlines():
+        for line in re.sub(r"\\\n[ \t]*", " ", code).splitlines():
             for part in re.split(r"&&|;|\|", line.split(" #", 1)[0]):
                 argv = shlex.split(part, comments=True)
                 if argv[:3] == ["python", "-m", "pgcomm"]:
