@@ -1,4 +1,4 @@
-"""Benchmark of issue 10's extensions: the y identification cost with and without the direction term
+"""Benchmark of the extensions beyond the paper: the y identification cost with and without the direction term
 (against the paper's 3.52 / 1.20 N²) and the exported C law's cost per call with the new terms.
 
 1. Identification: the paper's data sets ``Z_{1,2}^1`` of coil set 1 on the default twin
@@ -14,7 +14,7 @@
 3. Without a force sensor: ``pgcomm reproduce`` (``--quick`` settings unless ``--full``) on the
    default twin; printed: the filtered y commutation MSE of classical, pgnn, pgnn_sensorless, the
    two anti-cogging tables and the oracle, the sensorless/force-sensor improvement ratio
-   ``(classical - pgnn_sensorless) / (classical - pgnn)`` (issue 10's target >= 0.8), each row's MSE
+   ``(classical - pgnn_sensorless) / (classical - pgnn)`` (target >= 0.8), each row's MSE
    with the plant's direction-dependent force taken out of the error (known on the twin only: no
    sensorless law can tell it from friction), and the identification times (s) with and without a
    force sensor.

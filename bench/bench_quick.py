@@ -12,22 +12,11 @@ instead of ~18 000 samples per coil set; 2 random starts instead of 8 and at mos
 iterations instead of 100; 2 feedforward passes instead of 3. The full ``reproduce`` is
 unchanged.
 
-What it costs (measured on this machine, seed 0, quick vs full, filtered commutation MSE; the
-rows are evaluated on the run's own references, and quick has no slow 0.025 m/s reference, so
-the numbers compare what a first look tells, not the same experiment): classical y 35.85 vs
-35.62 N^2; PGNN y 2.32 vs 2.78 N^2, x 0.0355 vs 0.0362 N^2, z 0.133 vs 0.144 N^2 m^2; oracle y
-0.106 vs 0.103 N^2; calibrated k +0.30 %, +0.25 %, -0.05 % off the full run's. Improvement
-classical -> PGNN in y 15.4x (quick) vs 12.8x (full). The compilation cache changes no number:
-the compiled code is the same.
-
-Measured 2026-11-22 on 2 cores: cold cache ~107 s; warm cache 17-19 s on an idle machine (30 s
-with other jobs running). What is left is JAX tracing/lowering (not cached), imports (~5 s)
-and matplotlib (~4 s). The full run: 166 s.
-
-Re-measured 2026-11-23 with the sensorless rows (issue 10 part 3: a sensorless calibration, three
-more identifications, the effort table and two more rows to evaluate): warm cache 28.9-31.5 s on an
-idle machine (the sensorless stage ~4 s of it), i.e. at the 30 s target, not under it; the full
-run 115 s warm, 189 s with an empty cache.
+What it costs: ``--full`` prints the quick run's figures beside the full run's. The rows are evaluated on
+each run's own references, and quick has no slow 0.025 m/s reference, so the numbers compare what a
+first look tells, not the same experiment. The compilation cache changes no number: the compiled code
+is the same. With a warm cache, what is left is JAX tracing/lowering (not cached), imports and
+matplotlib. The figures: docs/validation.md.
 
 Usage::
 

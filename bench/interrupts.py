@@ -1,6 +1,6 @@
 """Interrupt ``pgcomm reproduce --quick`` at random moments: every run must exit 130 (SIGINT) or 143 (SIGTERM)
-with one line, no traceback, and no ``--out`` or staging folder left (issue 17: a crash in XLA's teardown once
-turned 130 into -11).
+with one line, no traceback, and no ``--out`` or staging folder left (a crash in XLA's teardown can
+turn 130 into -11).
 
     python bench/interrupts.py [--runs 20] [--seed 0] [--max-delay 20]
 

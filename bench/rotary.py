@@ -1,4 +1,4 @@
-"""Rotary zoo figures (issue 18): identification error vs truth, tracking ratio law/standstill, time.
+"""Rotary zoo figures: identification error vs truth, tracking ratio law/standstill, time.
 
 Usage: ``python bench/rotary.py [--motors 8] [--seed 0] [--quick] [--control-per-log K]``. Per motor it runs
 :func:`pgcomm.rotary.experiment.run` (running logs -> identification without a torque sensor,

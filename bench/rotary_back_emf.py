@@ -1,4 +1,4 @@
-"""The logged q-voltage on the rotary zoo (issue 18): what the back-EMF measures, against the currents' identification.
+"""The logged q-voltage on the rotary zoo: what the back-EMF measures, against the currents' identification.
 
 Usage: ``python bench/rotary_back_emf.py [--seed 0] [--motors 0,1,...,7] [--fast 3,6] [--revolutions 10]``.
 Per zoo motor, on one round of ``reproduce``'s running logs (the twin's winding, :mod:`pgcomm.rotary.winding`):

@@ -1,4 +1,4 @@
-"""Rotary identification on the log mix a drive user already has (issue 18's real logs): figures per zoo motor.
+"""Rotary identification on the log mix a drive user already has: figures per zoo motor.
 
 Usage: ``python bench/rotary_drive_logs.py [--seed 0] [--motors 0,1,2,3]``.
 

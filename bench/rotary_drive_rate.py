@@ -1,4 +1,4 @@
-"""A drive that controls faster than it logs (issue 18): identification from snapshots of a moving current.
+"""A drive that controls faster than it logs: identification from snapshots of a moving current.
 
 Usage: ``python bench/rotary_drive_rate.py [--seed 0] [--motors 0,1,...,7] [--rates 1,2,8,20] [--logs running|drive]
 [--pll]``.

@@ -10,8 +10,8 @@ closed loop: only the identification and its error against the twin's truth.
 Per motor it prints the truth's ripple RMS (share of the mean torque constant ``k0``), the log time the first round's
 standard error asked for, the time recorded, the cogging's and the ripple's errors against the truth (share of the
 truth's RMS) with their standard errors, and the wall time. The default motors are the zoo's ripple misses at the
-experiment's default budget of half the standstill sweep's time (stop 34's note, seeds 0-3); their figures are in
-docs/rotary.md, "Logging until the ripple is resolved". Tens of minutes per
+experiment's default budget of half the standstill sweep's time (seeds 0-3); their figures are in
+docs/validation.md, "Logged until resolved". Tens of minutes per
 motor: the twin's time is about the logs' own.
 """
 

@@ -23,7 +23,7 @@ relative to the map's RMS) beside the standard error the fit reports for it. The
 fundamental cogging order ``LCM(Q, 2p)``: on motors where the ripple's ``12p`` falls on it (36N42P, 24N20P, 12N10P)
 the ripple's coefficient there shares its column's angle dependence with the largest cogging order, and the fit
 tells them apart only by the q-current's variation at each angle. The figures (motors 3:7, 1:7, 2:7, 1:5, 3:5, 0:4)
-are in docs/rotary.md, "The ripple at the fundamental cogging order". A few minutes per motor: the twin runs 650 s
+are in docs/validation.md, "The ripple at the fundamental cogging order". A few minutes per motor: the twin runs 650 s
 of a 36N42P's logs in about 35 s, and each of the eighteen identifications takes 10-20 s.
 """
 

@@ -1,4 +1,4 @@
-"""Wall time and peak memory of the README's test command (issue 17's targets: under 3 GB and under 8 min on a
+"""Wall time and peak memory of the README's test command (targets: under 3 GB and under 8 min on a
 2-core machine, idle).
 
     python bench/suite.py [--interval 0.2] [-- COMMAND ...]
@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-LIMIT_BYTES = 3e9  # the issue's 3 GB
+LIMIT_BYTES = 3e9  # the suite's memory target, 3 GB
 PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
 
 

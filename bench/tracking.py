@@ -1,4 +1,4 @@
-"""Issue 15's targets over the zoo: the spline row's tracking against the drives' anti-cogging table and the oracle.
+"""Targets over the zoo: the spline row's tracking against the drives' anti-cogging table and the oracle.
 
 For each zoo motor (:mod:`pgcomm.zoo`; force maps, or with ``--twin-type`` the same motors with their
 direction-dependent force) this runs the steps of :func:`pgcomm.reproduce.run` that the comparison

@@ -10,13 +10,13 @@ motor TOML, machine settings and truth) runs the paper's whole experiment
 * ``motors[i].identification.seconds`` and the identification costs;
 * ``motors[i].model_error`` (RMS of the identified gain and cogging against the map's truth);
 
-plus ``summary`` (median and worst over the zoo of each figure, and the targets of the issue
-"Results that hold on motors we did not design": calibration within 0.5 % / 5 mrad, PGNN ≥ 90 % of
+plus ``summary`` (median and worst over the zoo of each figure, and the targets
+for results that hold on motors we did not design: calibration within 0.5 % / 5 mrad, PGNN ≥ 90 % of
 the reducible y error and ≥ 60 % of x and z where reported, no row below the oracle beyond noise)
 and ``zoo.png``.
 
 With ``--twin-type`` the plant of each motor is its twin-type plant (the force map plus its
-direction-dependent force, :meth:`pgcomm.zoo.ZooMotor.plant`), and the summary adds issue 10's
+direction-dependent force, :meth:`pgcomm.zoo.ZooMotor.plant`), and the summary adds the
 sensorless targets: ``pgnn_sensorless`` removes >= 80 % of what the force-sensor ``pgnn`` removes of
 the y error (classical -> row), and beats ``cogging_table_sensorless``.
 

@@ -43,7 +43,7 @@ source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 exclude_patterns = ["_build"]
 templates_path = ["_templates"]
 html_theme = "alabaster"
-html_theme_options = {"description": "Physics-guided commutation for linear motors", "fixed_sidebar": True}
+html_theme_options = {"description": "Physics-guided commutation for linear and rotary motors", "fixed_sidebar": True}
 html_static_path: list[str] = []
 
 # Markdown pages (the user guide, readable on GitHub too): headings down to ### are link targets (page.md#section)

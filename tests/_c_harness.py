@@ -11,7 +11,7 @@ little-endian doubles and read back the same way:
 * :func:`compile_lut` / :func:`run_lut`: the lookup-table C of :func:`pgcomm.export.lut.lut_header`
   (float). Per sample: the return code and the currents.
 
-The C compiler comes from the session fixture ``cc`` of ``tests/conftest.py``.
+The C compiler comes from the fixture ``cc`` of ``tests/conftest.py`` (one per test run).
 """
 
 from __future__ import annotations

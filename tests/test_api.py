@@ -1,4 +1,4 @@
-"""Issue 17, the front door: the public names of ``pgcomm``, no process-wide settings at import, and the three
+"""The front door: the public names of ``pgcomm``, no process-wide settings at import, and the three
 protocols (one argument order: ``force(y, currents, v)``) satisfied by every plant, model and law."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Every bad input of issue 8, one table per class: exit code 2, one line ``pgcomm: error: ...`` naming
+"""Every bad input, one table per class: exit code 2, one line ``pgcomm: error: ...`` naming
 the file / key / value, no traceback, ``--out`` untouched and no staging folder left.
 
 The cases fail in validation, before any simulation or identification, so the whole table runs
@@ -59,7 +59,7 @@ def files(tmp_path_factory):
     f["motor"], f["motor2"] = d / "motor.toml", d / "motor2.toml"
     f["motor_nomass"] = d / "motor_nomass.toml"
 
-    # model files: a good one, and each damage of the issue
+    # model files: a good one, and each kind of damage
     save_model(d / "model", _model(), {"seed": 0})
     good = json.loads((d / "model.json").read_text())
     f["model"] = d / "model.json"
@@ -107,7 +107,7 @@ def files(tmp_path_factory):
     (d / "ref_not.csv").write_text("r\n" + "\n".join(repr(float(v)) for v in yy) + "\n")
     (d / "ref_mm.csv").write_text("t,r\n" + "\n".join(f"{float(a)!r},{1000 * float(v)!r}" for a, v in zip(t, yy)) + "\n")
     f["ref_not"], f["ref_mm"] = d / "ref_not.csv", d / "ref_mm.csv"
-    # identification without a force sensor (issue 10 part 3): a one-coil-set rig, its logs without force
+    # identification without a force sensor: a one-coil-set rig, its logs without force
     from pgcomm.motor import Motor
 
     rig = Motor(pole_pitch=0.03, lever_arms=(0.0,), k=67.0, zeta=-0.52, current_limit=10.0, mass=30.0)
@@ -238,7 +238,7 @@ SENSORLESS_CASES = [
 ]
 
 
-# issue 16, point 4: a run that simulates its plant knows the translator's mass; every other input is checked
+# a run that simulates its plant knows the translator's mass; every other input is checked
 # before the first computation (here: the first data generation is replaced by a stop)
 
 

@@ -29,7 +29,7 @@ def calibrated(tmp_path_factory):
 
 
 def test_calibrate_recovers_true_fundamental(calibrated):
-    """Issue bar: every coil set's k within 0.5 % and zeta within 5 mrad of the twin's true fundamental."""
+    """Calibration bar: every coil set's k within 0.5 % and zeta within 5 mrad of the twin's true fundamental."""
     res, out = calibrated
     cal = res["calibration"]
     k_true, z_true = true_fundamental(DEFAULT_TWIN)

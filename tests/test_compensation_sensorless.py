@@ -1,4 +1,4 @@
-"""The drives' anti-cogging table without a force sensor (issue 10, row ``cogging_table_sensorless``).
+"""The drives' anti-cogging table without a force sensor (row ``cogging_table_sensorless``).
 
 Closed form: effort data built from a known force error ``e(y)``, symmetric friction and a
 direction force give back ``e(y)`` (:func:`pgcomm.compensation.fit_effort_table`). On the twin:

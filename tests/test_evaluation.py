@@ -129,7 +129,7 @@ def test_log_without_currents_needs_a_motor_for_the_model():
         evaluate_log(log, model=truth_model())
 
 
-# ------------------------------------------------------------------ names of logs and logs without F* (issue 16.6)
+# ------------------------------------------------------------------ names of logs and logs without F*
 
 
 @pytest.mark.parametrize("files, names", [

@@ -1,4 +1,4 @@
-"""Issue 10's model-class extensions: the direction term ``C s(ẏ)`` and the 5th/7th harmonic columns.
+"""The model-class extensions beyond the paper: the direction term ``C s(ẏ)`` and the 5th/7th harmonic columns.
 
 Checked against truth: Proposition 1 with the extra columns against ``numpy.linalg.lstsq``;
 the projected Jacobian against finite differences; a noise-free plant whose truth lies in the

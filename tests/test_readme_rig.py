@@ -1,4 +1,4 @@
-"""Issue 16, definition of done: the README's "On your rig" walk-through, run as it is on the twin's simulated
+"""The README's "On your rig" walk-through, run as it is on the twin's simulated
 rig (plan -> run -> calibrate rounds -> identify -> evaluate -> export)."""
 
 from __future__ import annotations

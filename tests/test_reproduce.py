@@ -85,7 +85,7 @@ def _text(html: str) -> str:
 
 
 def test_report_speaks_plain_words_with_units(quick):
-    """Issue 16, point 8: no LaTeX label of the paper (Table Commutation_Performance, eq. Identification_CostFunction,
+    """No LaTeX label of the paper (Table Commutation_Performance, eq. Identification_CostFunction,
     Fig. Data_Generation, ...), a unit in every numeric column's header, one caption per figure and none twice."""
     _, out = quick
     html = _text((out / "report.html").read_text())
@@ -157,7 +157,7 @@ def test_filtered_noise_mse_matches_filtered_white_noise():
 
 
 def test_sensorless_rows(quick):
-    """Issue 10 part 3 on the twin: calibration without force within the issue-8 bars; pgnn_sensorless removes
+    """Without a force sensor on the twin: calibration within the calibration bars (0.5 %, 5 mrad); pgnn_sensorless removes
     >= 80 % of what the force-sensor PGNN removes in y; with the plant's direction-dependent force (which no
     sensorless law can tell from friction) taken out, it beats the drives' sensorless anti-cogging table."""
     res, _ = quick
@@ -177,7 +177,7 @@ def test_sensorless_rows(quick):
 
 
 def test_spline_row_tracks_and_merges_the_mechanics(quick):
-    """Issue 15 on the twin (quick run): the spline row's own identification recovers the simulated translator
+    """The spline row on the twin (quick run): its own identification recovers the simulated translator
     (mass 1 %, viscous 2 %, Coulomb table mean 2 %: the data are noise-light windows of ~5000 moving samples);
     it removes >= 97 % of the reducible y error and tracks at most half as badly as the drives' anti-cogging
     table on every reference; the recommended row is the realisable row with the least long-reference tracking."""

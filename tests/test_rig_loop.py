@@ -1,4 +1,4 @@
-"""Issue 16, the rig loop: ``pgcomm plan`` → (the rig: ``pgcomm simulate --plan`` on the twin) →
+"""The rig loop: ``pgcomm plan`` → (the rig: ``pgcomm simulate --plan`` on the twin) →
 ``pgcomm calibrate --data`` → the next round's motor TOML, round after round; and the noise figures
 (standard errors) the convergence rule rests on."""
 

@@ -2,7 +2,7 @@
 
 The logs are the rotary zoo's running logs (``pgcomm zoo --kind rotary --logs``: what a drive records,
 ``t, theta, velocity, iq_1, id_1``). Zoo motor 1 (9N6P) has the lowest cogging orders, so its logs are
-short (5 s). Tolerances: the cogging within the issue's 5 % of the truth's RMS; the real drive's
+short (5 s). Tolerances: the cogging within the target of 5 % of the truth's RMS; the real drive's
 log shape (its own column names, the angle in revolutions and wrapped, velocity in rpm, vq and vbus
 beside) gives the same model as the canonical columns to within what the unit conversions round
 (the CSV's 12 significant digits, relative 1e-9 of the table's scale).
@@ -381,7 +381,7 @@ def test_without_a_datasheet_k_t_the_back_emf_gives_the_table_in_newton_metres(t
     se_nm = table["rms_A"] * 1.5 * v["back_emf_constant_se"]
     assert abs(table["rms_Nm"] - table["rms_A"] * k0) < 4 * se_nm
     # the mechanics in SI with it: J = (J/k0) k0, the moment of inertia a loop is tuned with, from drive logs alone;
-    # within 2 %: J/k0's error from these logs (0.5 % on zoo seed 0, docs/rotary.md) and k0's (4 standard errors)
+    # within 2 %: J/k0's error from these logs (docs/validation.md) and k0's (4 standard errors)
     si, truth = res["in_SI"], read_truth(zoo / "truth.json")
     model = RotaryModel.from_dict(json.loads((out / "model.json").read_text()))
     assert abs(si["inertia_kg_m2"] - model.inertia_ratio * si["torque_constant_Nm_per_A"]) < 1e-12 * truth.inertia

@@ -1,6 +1,6 @@
 """Rotary twin -> identification / standstill sweep against the twin's truth, and the CLI.
 
-Tolerances: the issue's target (5 % RMS of the truth over the revolution) for the cogging; the
+Tolerances: the target (5 % RMS of the truth over the revolution) for the cogging; the
 ripple of a short (quick-sized) run is held to 10 %, the direction map to 15 %. The zoo motor 0
 (9N6P) has the lowest cogging orders (up to 54 per revolution), so its running logs are short. Its drive,
 as the zoo draws it, controls 8 times per logged sample (``motor0_fast``); most tests here run it at its log rate
@@ -705,12 +705,12 @@ def test_reproduce_fills_the_log_budget_unless_told_to_stop_when_resolved():
 
 
 def test_the_log_mix_a_drive_user_has_gives_the_cogging_and_an_honest_ripple_verdict():
-    """Issue 18's real logs: constant speeds, accelerations, a slow sweep, no dither
+    """The logs a drive user has: constant speeds, accelerations, a slow sweep, no dither
     (:func:`pgcomm.rotary.experiment.drive_log_mix`, zoo motor 0). From the constant-speed runs alone the cogging
-    is within the issue's 5 % and resolved, and the ripple, which only q-current varying at a given angle shows,
+    is within the target's 5 % and resolved, and the ripple, which only q-current varying at a given angle shows,
     is called not resolved while its error is above 5 %, with the hint that a dither or accelerations would help.
     (Not on every motor: with a coarse encoder, constant speeds bias the maps beyond their standard error, see
-    docs/rotary.md, "Constant speeds with a coarse encoder are a trap".)
+    docs/validation.md, "Logs without a dither".)
     The accelerating runs carry that current: adding them (half as long again) cuts the ripple's standard error
     by more than the factor sqrt(1.5) that the extra time alone would give, here at least twofold. The slow sweep
     passed with them in ``--data`` keeps the cogging within 5 % and adds no order outside the basis that the

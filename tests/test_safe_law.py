@@ -1,4 +1,4 @@
-"""Issue 16, safe laws: ModelLaw never asks for more than the current limit, never returns NaN or inf, and holds
+"""Safe laws: ModelLaw never asks for more than the current limit, never returns NaN or inf, and holds
 the position at the end of the model's training range (fuzzed over ±10x the range, demands up to 10x the motor's
 capacity, NaN/inf inputs); the exported C laws (PGNN and spline model, double and single precision, and the
 lookup-table C) compiled with the system compiler and fuzzed alike: every current finite and within the limit on

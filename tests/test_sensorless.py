@@ -1,4 +1,4 @@
-"""Identification without a force sensor (issue 10, part 3): the filter, Proposition 1 and the
+"""Identification without a force sensor: the filter, Proposition 1 and the
 projected Jacobian on filtered rows, and recovery of a twin's y row, friction and calibration."""
 
 from __future__ import annotations

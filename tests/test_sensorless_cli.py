@@ -1,4 +1,4 @@
-"""Identification without a force sensor through the command line (issue 10, part 3).
+"""Identification without a force sensor through the command line.
 
 Logs of the twin's data sets (``pgcomm calibrate --save-data``) with their force columns dropped
 are what a rig without a force sensor records. ``identify`` on them (automatically without a
@@ -170,7 +170,7 @@ def test_evaluate_reconstructs_the_force(logs, identified, capsys, tmp_path):
 
 
 def test_calibrate_without_force_sensor(tmp_path, capsys):
-    """Algorithm 1 from the motion on the default twin: the issue-8 calibration bar (0.5 %, 5 mrad) holds
+    """Algorithm 1 from the motion on the default twin: the calibration bar (0.5 %, 5 mrad) holds
     without force data too; results.json says how it was calibrated."""
     out = tmp_path / "out"
     code, _, err = run(["calibrate", "--out", str(out), "--quiet", "--no-force-sensor"], capsys)

@@ -1,4 +1,4 @@
-"""The physics-guided spline model and its identification (issue 15): regressor against the model's own force,
+"""The physics-guided spline model and its identification: regressor against the model's own force,
 the regularised solve and its cross-validation against numpy.linalg.lstsq, recovery of a known model, the
 merged mechanics on the twin, and the feedforward's Coulomb table in closed form."""
 

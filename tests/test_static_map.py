@@ -1,4 +1,4 @@
-"""A drive's static map as data: the reader's refusals, and the index offset between sessions found on a rolled map
+"""A drive's static map as data: the reader's refusals, and the index offset between power-ups found on a rolled map
 (the truth: the roll) and removed."""
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ def a_map(n=512):
 def test_index_offset_of_a_rolled_map_is_the_roll(shift):
     _, m = a_map()
     rng = np.random.default_rng(shift)
-    other = np.roll(m, -shift) + 0.02 * rng.standard_normal(m.size) + 0.3  # another session: moved, noisy, offset
+    other = np.roll(m, -shift) + 0.02 * rng.standard_normal(m.size) + 0.3  # another power-up: moved, noisy, offset
     found = index_offset(m, other, independent=2 * 84)
     assert found["taken"] == (shift != 0)
     assert found["shift"] == shift

@@ -77,7 +77,7 @@ def test_report_states_this_plants_facts(run):
 
 
 def test_sensorless_pgnn_holds_on_motors_we_did_not_design(run):
-    """Issue 10 part 3 on force maps (no direction-dependent force, so the motion tells everything the
+    """Without a force sensor on force maps (no direction-dependent force, so the motion tells everything the
     y row needs): calibration from the motion within the same bars, and pgnn_sensorless removes >= 80 %
     of what the force-sensor PGNN removes of the y error."""
     res, _, folder = run

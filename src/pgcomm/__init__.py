@@ -1,4 +1,5 @@
-"""pgcomm: physics-guided commutation for multi-coil-set linear motors.
+"""pgcomm: physics-guided commutation for multi-coil-set linear motors and rotary motors on field-oriented drives
+(:mod:`pgcomm.rotary`).
 
 Data flow (one module per stage)::
 

@@ -352,8 +352,8 @@ class ModelLaw:
     commutation can beat except by noise; see :func:`oracle_law`).
 
     ``velocity_source``: which velocity the controller gives the law (:mod:`pgcomm.simulate`):
-    ``"reference"`` (default: the reference velocity ``ṙ``, exact and without lag; measured
-    better on the twin, see docs/extensions.md) or ``"encoder"`` (the encoder difference through a
+    ``"reference"`` (default: the reference velocity ``ṙ``, exact and without lag, where the
+    encoder's difference lags behind its filter or carries its noise; docs/extensions.md) or ``"encoder"`` (the encoder difference through a
     first-order low-pass at ``velocity_cutoff_hz``, Hz).
     """
 

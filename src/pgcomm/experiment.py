@@ -201,7 +201,7 @@ def _lm_progress(progress):
 
 
 def identify_spline_models(setup: Setup, data: list[CoilSetData], progress=None):
-    """The physics-guided spline model of all coil sets and the mechanics from the same data (issue 15).
+    """The physics-guided spline model of all coil sets and the mechanics from the same data.
 
     Returns:
         ``(SplineFit, MechanicsFit)``: :func:`pgcomm.identify.spline.identify_spline` with the direction

@@ -8,7 +8,7 @@
       F̂_cog(y) = f_φ(s)                                              (3,   N, N, N·m)
       F̂(y, i) = K̂(y) i + F̂_cog(y)
 
-  with ``s = (y - y_center) / y_scale``. Two optional extensions beyond the paper (issue 10),
+  with ``s = (y - y_center) / y_scale``. Two optional extensions beyond the paper,
   each off by default (``None``) so that the default model is exactly the paper's::
 
       K̂(y) += Σ_{n ∈ {5, 7}} H_n,c cos(2πn y/d_m) + H_n,s sin(2πn y/d_m)   (higher harmonics)

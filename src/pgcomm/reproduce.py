@@ -12,7 +12,7 @@ Steps (each a stage of the progress display):
 5. rows: original (uncalibrated), classical (calibrated), pgnn, physics, cogging_table and
    harmonic_cogging (classical plus a drive-style force offset learned from the classical
    residual), oracle (the plant's exact inverse with its true state, direction force included);
-   beyond the paper (issue 10): pgnn_direction (the PGNN with the direction term ``C^l s(ẏ)``,
+   beyond the paper: pgnn_direction (the PGNN with the direction term ``C^l s(ẏ)``,
    fed the controller's velocity); without a force sensor (the same data sets, force columns
    unused): pgnn_sensorless (calibration and the PGNN's y rows from the motion,
    :mod:`pgcomm.sensorless`; x, z rows classical) and cogging_table_sensorless (classical calibrated
@@ -156,7 +156,7 @@ def paper_improvement(row: str) -> dict:
 
 @dataclass(frozen=True)
 class SensorlessResult:
-    """The chain without a force sensor (issue 10, part 3) of one run.
+    """The chain without a force sensor of one run.
 
     Attributes:
         calibration: Algorithm 1 on the motion (method ``"sensorless"``).
@@ -434,7 +434,7 @@ class ReproduceResult:
             sl = self.sensorless.to_dict(self.setup)
             cm = self.commutation_mse
             c, p, s_ = (cm[r]["y"]["filtered"] for r in ("classical", "pgnn", "pgnn_sensorless"))
-            # issue 10's target: the sensorless PGNN removes >= 80 % of what the force-sensor PGNN removes
+            # the sensorless PGNN's share of what the force-sensor PGNN removes (its target: >= 80 %)
             sl["share_of_pgnn_reduction_y"] = (c - s_) / (c - p) if c - p > 0 else None
             sl["model_error"] = diag.sensorless_model_error
             sl["y_mse_without_direction_force"] = diag.y_mse_without_direction_force

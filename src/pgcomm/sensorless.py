@@ -1,4 +1,4 @@
-"""Identification without a force sensor (issue 10, part 3): the driving force from the motion.
+"""Identification without a force sensor: the driving force from the motion.
 
 A coil set driving the translator alone obeys (DESIGN.md, "Without a force sensor")::
 

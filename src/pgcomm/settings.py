@@ -113,7 +113,7 @@ class IdentificationConfig:
     validation_fraction: float = field(default=0.2, metadata={"range": (0.0, 0.5), "hint": "0 trains on everything"})
     ridge_output: float = field(default=0.0, metadata={"range": (0.0, 1e6)})
     tol: float = field(default=1e-9, metadata={"range": (0.0, 1.0)})
-    #: issue 10: ``v_ε`` (m/s) of the direction term's smooth sign; whether the ``pgnn_direction`` row
+    #: the direction term (extensions beyond the paper): ``v_ε`` (m/s) of the direction term's smooth sign; whether the ``pgnn_direction`` row
     #: also gets the 5th/7th harmonic columns; which velocity the direction law is given
     #: (``"reference"`` or ``"encoder"``, see :class:`pgcomm.commutation.ModelLaw`).
     direction_velocity: float = 1e-3

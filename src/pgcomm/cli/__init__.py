@@ -274,7 +274,7 @@ def entry() -> None:
     After SIGINT/SIGTERM (exit 130/143) :func:`main` has already removed the staging folder and
     printed its line; the process then ends with :func:`os._exit`, without the interpreter's
     teardown. That teardown runs into XLA's threads and crashed with SIGSEGV (exit −11 instead of
-    130) about once in two full test runs on a loaded 2-core machine (issue 17); nothing is left
+    130) about once in two full test runs on a loaded 2-core machine; nothing is left
     to flush or close that ``os._exit`` would skip.
     """
     code = main()

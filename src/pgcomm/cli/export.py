@@ -24,7 +24,7 @@ table's comment lines, printed and stored in ``results.json`` (``cogging_table.d
 ``--format c`` the same values (when given or recorded) are embedded as ``NAME_drive_k_hat``,
 ``NAME_drive_zeta_hat`` for ``NAME_drive_inputs``.
 
-Rotary drives (issue 18): ``--format moteus|odrive|c-angle --table TABLE.csv`` export a compensation
+Rotary drives: ``--format moteus|odrive|c-angle --table TABLE.csv`` export a compensation
 table over one mechanical revolution (columns ``angle`` rad, ``iq`` A; :mod:`pgcomm.export.angle_table`)
 instead of a model file: ``moteus`` writes ``NAME.cfg``, the ``conf set motor.cogging_dq_scale`` /
 ``motor.cogging_dq_comp.<i>`` lines for ``moteus_tool --write-config`` (:mod:`pgcomm.export.moteus`);

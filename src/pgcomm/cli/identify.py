@@ -51,7 +51,7 @@ def configure(p) -> None:
                         "drives' own calibration: its table is computed, compared with the identified model's "
                         "against both noises, and written as standstill_table.csv; or the drive's own static map "
                         "(columns angle in rad or count in encoder counts, and the holding current): compared with the "
-                        "identified table, an index offset between the sessions found and removed")
+                        "identified table, an index offset between the two power-ups found and removed")
     p.add_argument("--current-delay", metavar="N",
                    help="rotary motors: samples by which the logged q-current lags the current that acted over each "
                         "sample (an integer; default: detected, the fit repeated with the current shifted by -2..2)")

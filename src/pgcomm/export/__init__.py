@@ -10,7 +10,7 @@
   anti-cogging table for drives that only take a position -> force-offset table
   (:func:`build_cogging_table`, :func:`cogging_table_error`).
 
-Rotary drives (issue 18), from a compensation table over one mechanical revolution
+Rotary drives, from a compensation table over one mechanical revolution
 (:mod:`pgcomm.export.angle_table`: reading, periodic resampling, reconstruction error):
 
 * :mod:`pgcomm.export.moteus` — ``conf set`` lines of moteus' ``motor.cogging_dq_comp`` (1024 int8)

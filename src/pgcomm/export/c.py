@@ -35,7 +35,7 @@ arrays, every function is reentrant). The generated functions are:
 * ``void NAME_model(T y, T gain[L][3][2], T cogging[3])`` — the model itself
   (``K̂^l(y)`` in N/A, N·m/A and the mean ``F̂_cog(y)`` in N, N, N·m), for verification.
 
-Extensions (issue 10), present only when the model has them:
+Extensions beyond the paper, present only when the model has them:
 
 * the 5th/7th harmonic gain columns ``H^l`` add ``H0 cos 5θ + H1 sin 5θ + H2 cos 7θ + H3 sin 7θ``
   to ``K̂^l`` inside ``NAME_model`` (same order of operations as :func:`pgcomm.models.harmonic_gain`);

@@ -48,7 +48,7 @@ cogging compensation) are not written: no public manual section pins down their 
 sign and point count well enough to write one that a drive would read correctly. The table here is a
 plain CSV on a uniform grid, to be converted with the drive's own tool.
 
-Direction term (issue 10). A model with ``C^l s(ẏ)`` gives the table law an offset pair:
+Direction term. A model with ``C^l s(ẏ)`` gives the table law an offset pair:
 ``i = P̃(y) (F* - F̂̃_cog(y) - C̄ s(v))`` with ``C̄ = mean_l C^l`` and ``s(v) = tanh(v/v_ε)``, i.e.
 ``F̂_cog ± C̄`` when moving forwards/backwards (smoothly blended through standstill). It is
 stored as ``NAME_direction.csv`` (rows ``direction = +1, -1`` with the offsets ``±C̄`` and

@@ -17,7 +17,7 @@ executes code): ``A``, ``B`` ``(L, 3, 2)``; ``y_center``, ``y_scale`` ``(L,)``; 
 ``i = 1..I`` of the gain networks ``gain_W{i}`` ``(L, 2, n_{i-1}, n_i)``, ``gain_b{i}``
 ``(L, 2, n_i)``, and ``gain_W_out`` ``(L, 2, n_I, 3)``, ``gain_b_out`` ``(L, 2, 3)``; likewise
 ``cog_W{i}`` ``(L, n_{i-1}, n_i)``, ``cog_b{i}``, ``cog_W_out`` ``(L, n_I, 3)``, ``cog_b_out``
-``(L, 3)``; with the extensions of issue 10 also ``H`` ``(L, 4, 3, 2)`` (5th/7th harmonic gain
+``(L, 3)``; with the extensions beyond the paper also ``H`` ``(L, 4, 3, 2)`` (5th/7th harmonic gain
 coefficients) and ``C`` ``(L, 3)`` (direction term, N, N, N·m). Schema ``"pgcomm-model/1"``
 files (before the extensions) still load: they are the paper's model, identified with a
 force sensor. Floats in the JSON are written with Python's shortest round-trip ``repr``, so a

@@ -1,4 +1,4 @@
-"""Rotary motors on field-oriented drives (issue 18): twin, zoo, identification, law, experiment.
+"""Rotary motors on field-oriented drives: twin, zoo, identification, law, experiment.
 
 Most motors engineers tune are rotary PMSM/BLDC on a field-oriented (FOC) drive. The drive logs
 ``t``, the rotor's mechanical angle ``θ`` (rad, multi-turn), its velocity and the q-axis (and

@@ -20,12 +20,11 @@ resolved far better than its ripple: the delta method's covariance). The covaria
 **Why it matters.** The current's regression sees the ripple only through q-current that varies at a given angle
 (``r(θ) i_q``): a dither or accelerations, which a free light rotor carries only briefly. The back-EMF shows the
 ripple at every sample of a constant-speed run, and the faster the run, the larger it is; it needs no acceleration
-and no alias guard (the relation holds at each sample instant). On the zoo (``bench/rotary_back_emf.py``, the twin's
-winding and current loop) it is a check at the running logs' speeds, which the currents' alias guard bounds: one round
-of seeds 0 and 1 gave the ripple's standard error at 10-840 % of its RMS (the currents': 2.6-23 %). Ten revolutions
-each way at 3 and 6 times that speed (3-25 s) gave 1.6-34 % on 15 of the 16 motors, but at such speeds the estimate
-can miss by more than its noise (seed 1's 24N20P: 9.5 % off with a standard error of 1.6 %: the speed between two
-samples is no longer the speed at the sample), which is one more reason the model does not take it.
+and no alias guard (the relation holds at each sample instant). At the running logs' speeds, which the currents'
+alias guard bounds, it is the weaker measurement and serves as a check; at a few times those speeds it is resolved
+better, but it can then miss by more than its noise (the speed between two samples is no longer the speed at the
+sample), which is one more reason the model does not take it (figures: ``bench/rotary_back_emf.py``, the validation
+page of the documentation).
 
 **What it is used for** (:func:`agreement`). ``identify`` reports the voltage's ripple beside the currents' and
 whether the two agree within their errors (the RMS of the difference over the revolution within
@@ -33,27 +32,23 @@ whether the two agree within their errors (the RMS of the difference over the re
 drive's Park convention, without a torque sensor or a datasheet) and the resistance. They disagree where the
 voltage's model does not hold: an interior-magnet motor (reluctance torque ``(L_d − L_q) i_d i_q`` and an inductance
 that varies with the angle), a logged voltage that is not the one applied (before a limiter, or averaged over
-another interval than the angle's), a dead time that depends on more than the current. The model stays the currents': a Kalman update of
-the currents' fit with the voltage's ripple was tried and made the standard errors overconfident. Both
-estimates read the same logged current (the voltage through ``R i_q + L di_q/dt`` and the loop's ``−K_p n``, the
-mechanics through the torque), so their errors are not independent: with ten times the zoo's current noise (zoo
-motor 0, four noise seeds, even with the voltage's noise drawn independently of the current's) the update cut the
-cogging's standard error from 0.07 to 0.025 A while its actual error stayed 0.07-0.10 A. A joint fit that models
-that shared noise is the way to use both.
+another interval than the angle's), a dead time that depends on more than the current. The model stays the currents':
+both estimates read the same logged current (the voltage through ``R i_q + L di_q/dt`` and the loop's ``−K_p n``, the
+mechanics through the torque), so their errors are not independent, and a Kalman update of the currents' fit with the
+voltage's ripple, which treats them as independent, makes the standard errors overconfident (it shrinks them without
+shrinking the actual error). A joint fit that models that shared noise is the way to use both.
 
 **The d-voltage** (:func:`_offset_error`). The magnets' q axis is ``δ`` (electrical) ahead of the drive's, so the
 back-EMF has ``cos δ`` of itself on the drive's q axis (``κ = (2/3) k_t cos δ``) and ``−sin δ`` on its d axis; where
 the logs have the d-voltage ``vd_1``, its ratio to the q-voltage's back-EMF gives ``δ``, the offset that aligns the
-drive with the magnets and the torque constant along them. On one round of running logs of zoo seeds 0-3 (32 motors,
-``|δ|`` up to 17°, ``bench/rotary_back_emf.py --fast none``) ``δ`` came out within 0.42° (within 0.05° on 25), its
-errors over its standard errors with a mean square of 1.5.
+drive with the magnets and the torque constant along them (its figures on the zoo: ``bench/rotary_back_emf.py --fast
+none``).
 
 **Assumptions the user's logs must meet.** ``vq_1`` is the drive's q-voltage command in its own frame (V), written in
 the same record as the current: it takes the current's timing against the angle (:mod:`pgcomm.rotary.readings`).
-A search of its own over shifts was tried and misled: the command carries ``−K_p`` times the logged current's noise,
-so a shift that lets the neighbouring currents explain that noise fits better (zoo seeds 0 and 3: shifts of −1 and
-−2 chosen, ``k0`` 0.9-4.6 % off; at the current's timing 0.1-0.2 %). ``i_d`` is held at zero; a surface-magnet
-motor. ``vd_1`` is the d-voltage command of the same record.
+A search of its own over shifts would mislead: the command carries ``−K_p`` times the logged current's noise, so a
+shift that lets the neighbouring currents explain that noise fits better than the true timing and puts ``k0`` off.
+``i_d`` is held at zero; a surface-magnet motor. ``vd_1`` is the d-voltage command of the same record.
 """
 
 from __future__ import annotations
@@ -84,8 +79,8 @@ MODULATION_LIMIT = 0.95
 #: The voltage's ripple agrees with the currents' when their RMS difference over the revolution is at most this many
 #: times what their errors give together (as a sweep's table and the model's, :mod:`pgcomm.rotary.experiment`). An RMS
 #: test, not a χ² of the coefficients: the currents' covariance is overconfident in some directions of the
-#: coefficients while its RMS holds (zoo seed 0 drive-log mixes: χ² of the currents' ripple against the truth 34-171
-#: on 14 coefficients, the voltage's 2-55), and the verdicts are RMS too.
+#: coefficients (on logs without a dither, far beyond the χ² quantile against the truth) while its RMS holds, and the
+#: verdicts are RMS too.
 AGREEMENT_FACTOR = 1.5
 #: The back-EMF constant must exceed this many of its standard errors for the voltage's ripple to be read: a ripple
 #: of a few per cent is not read off a constant known to 10 %.
@@ -169,19 +164,17 @@ def _log_rows(logs, orders, pole_pairs: int, offset: float, sample_time: float, 
         X = np.column_stack([emf, iqc, di, np.ones_like(w), dt_q])
         # instruments for the current's columns, from samples whose noise neither the voltage nor the regressor carries.
         # The logged voltage carries -K_p times the logged current's own noise (the loop acts on the measured current),
-        # so least squares on the current of the same sample pulls R, and k0 with it, by about K_p σ²/var(i_q) (zoo
-        # seed 3: R -1.5 -> -0.9 % on 12N14P, -0.7 -> +0.1 % on 24N22P); the current's central difference carries the
-        # noise of samples j ± 1, which attenuates L where the current hardly changes (constant speeds: L 44 % low,
-        # and the cogging current's L ω c'(θ) then reads as back-EMF ripple at the cogging orders), so its instrument
-        # is the difference of samples j ± 2
+        # so least squares on the current of the same sample pulls R, and k0 with it, by about K_p σ²/var(i_q); the
+        # current's central difference carries the noise of samples j ± 1, which attenuates L where the current hardly
+        # changes (constant speeds: the cogging current's L ω c'(θ) then reads as back-EMF ripple at the cogging
+        # orders), so its instrument is the difference of samples j ± 2
         nb = 0.5 * (iq[3:-1] + iq[1:-3])
         di2 = (iq[4:] - iq[:-4]) / (4 * ts)
         zt_d, zt_q = phase_saturation_dq(nb, th_e, widths)
         Z = np.column_stack([emf, nb, di2, np.ones_like(w), zt_q])
         # rows whose current is within a few of its noise of zero are left out: there the dead time turns with the
-        # noise, tanh(i/c) of the neighbours' mean no longer follows the sample's (a weak instrument: with a slow sweep's
-        # small currents in the logs the fit's residual went 0.019 -> 0.30 V on zoo seed 0 12N10P), and the back-EMF
-        # they carry is what the other rows carry
+        # noise, tanh(i/c) of the neighbours' mean no longer follows the sample's (a weak instrument, which a slow
+        # sweep's small currents would make of the whole fit), and the back-EMF they carry is what the other rows carry
         noise = current_noise(iq)
         keep = (np.abs(iqc) > ZERO_CROSSING_NOISES * noise) & (np.abs(nb) > ZERO_CROSSING_NOISES * noise)
         if any(a in log for a in SUPPLY_COLUMNS):
@@ -271,8 +264,8 @@ def fit_voltage(logs, orders, pole_pairs: int, sample_time: float, current_delay
     beta, cov, cost = _solve(X, Z, y, block)
     kappa = beta[0]
     if not abs(kappa) > MIN_BACK_EMF_EVIDENCE * math.sqrt(max(cov[0, 0], 0.0)):
-        # the constant is not determined: a column that is not the voltage, or logs that hardly turn (at the zoo's
-        # constant speeds alone it is determined to 0.1-0.4 %: bench/rotary_drive_logs.py)
+        # the constant is not determined: a column that is not the voltage, or logs that hardly turn (logs of a
+        # turning motor, even at constant speeds alone, determine it far better than to a tenth)
         return {"orders": orders, "ripple": None, "cov": None, "back_emf_constant": float(kappa),
                 "back_emf_constant_se": float(math.sqrt(max(cov[0, 0], 0.0))), "voltage_delay": int(current_delay),
                 "rows": int(rows), "rows_at_voltage_limit": over, "offset_error": None}
@@ -310,9 +303,8 @@ def _offset_error(v_q, X_q, emf_fit, Z_q, vq_fit, w_e, X_d, Z_d, y_d, block, kap
 
     Regressed on the logged q-voltage, which carries the speed of the sample instant as the d-voltage does, the ratio
     holds however the speed varies between samples: against a central difference of the angle (or a q-voltage less
-    terms fitted against one), the speed's dither and cogging ripple, which the difference attenuates, put ``κ_d``
-    1.1 % high on zoo seed 1's 24N20P (a fifth-order difference: 0.5 %; both 5-16 of its standard errors). The q
-    terms' coefficients are free (the q fit's ``L`` takes up part of that speed error), so are the frame's
+    terms fitted against one), the speed's dither and cogging ripple, which the difference attenuates, would bias
+    ``κ_d`` by many of its standard errors, even with a higher-order difference. The q terms' coefficients are free (the q fit's ``L`` takes up part of that speed error), so are the frame's
     cross-coupling, an offset, the dead time's d part and the logged d-current (its noise, which the loop's gain puts
     into the command). The last term is a drive that applies its command ``τ`` after the sample instant in the frame of
     the sample's angle (:func:`pgcomm.rotary.winding.logged_dq`): the logged voltages are turned by ``p ω τ``, and

@@ -92,8 +92,8 @@ class RotarySettings:
         stop_when_resolved: stop logging as soon as both maps are resolved (``True``), or record the whole
             budget (``False``, the default): a map resolved to 5 % RMS can still miss an order outside the
             basis that the screening would find in a longer log, and a low one costs the speed loop more than
-            its share of the RMS (zoo seed 2, 12N14P: resolved after 18 s with its outside cogging order 43
-            unseen, speed-loop ratio to the standstill table 0.68 where the oracle's is 0.17).
+            its share of the RMS (a low outside order left unseen can cost the law most of its gain over the
+            standstill table in the speed loop).
     """
 
     revolutions: float = 2.0
@@ -212,7 +212,7 @@ def stall_log(truth: RotaryTruth, seed: int = 0, seconds: float = 10.0, directio
 
 
 def drive_log_mix(truth: RotaryTruth, seed: int = 0) -> dict:
-    """The logs a drive user already has, without a dither (issue 18's real logs), in the drive's speed loop with
+    """The logs a drive user already has, without a dither (constant speeds, accelerations, a slow sweep), in the drive's speed loop with
     the classical law and its tuned feedforward:
 
     * ``const``: four runs of 8 s at 0.3 and 0.6 of the alias guard's speed limit, both directions;

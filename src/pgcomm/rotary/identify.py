@@ -309,9 +309,8 @@ def _noise_info(logs, ts: float) -> dict:
     """The logged current's white noise (A), what a twin of this motor logs (``pgcomm reproduce --truth model.json``):
     from the logged d-current where every log has one (held at zero, it is the noise alone: the median absolute
     deviation), else from the q-current's sixth difference less the current the speed loop commands from the encoder's
-    noise, which the logged angle predicts (:func:`pgcomm.rotary.readings.current_noise_beside_angle`: 0.97-1.11 times
-    the twin's noise on zoo seeds 0 and 1, where the difference alone read up to 3.3 times it on seed 1's 16-bit
-    encoders)."""
+    noise, which the logged angle predicts (:func:`pgcomm.rotary.readings.current_noise_beside_angle`: with a coarse
+    encoder the difference alone would read that commanded current as noise, several times the real one)."""
     if logs and all("id_1" in log for log in logs):
         d = [np.asarray(log["id_1"], float) for log in logs]
         noise = float(np.median([np.median(np.abs(x - np.median(x))) / 0.6745 for x in d if x.size]))
@@ -409,8 +408,8 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
     median over the candidate orders, :func:`_significant_extra_orders`), relative too: the part of a real map
     the logs could still hide. It falls with the noise, as the square root of the log time. A map is resolved
     when ``sqrt(relative_at_confidence² + outside_order_limit² + ridge_bias² + quantisation_bias²)`` is within
-    :data:`RESOLVED_SHARE`: without the limit, a map whose noise part was within 5 % came out at 5-5.4 % on
-    three zoo motors, with the zoo's outside order (3 % of the map's RMS) unseen.
+    :data:`RESOLVED_SHARE`: without the limit, an order outside the basis of a few per cent of the map's RMS, below
+    what the logs could see, would leave a map called resolved beyond 5 %.
 
     ``quantisation_bias`` (``shift``: the fit's shift were the encoder-noise correction
     :data:`QUANTISATION_UNCERTAINTY` smaller, :func:`_fit`) is the RMS of that shift over the revolution, relative:
@@ -454,8 +453,8 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
                      "resolved": bool(math.hypot(noise, fixed) <= RESOLVED_SHARE),
                      "log_time_factor_to_resolve": _time_factor(noise, fixed)}
     # the ripple is seen only through q-current that varies at a given angle: its need falls with the square of that
-    # variation, which constant-speed logs hardly carry (zoo 9N6P: 34 s of constant speeds left its standard error at
-    # 22 %, 17 s of accelerations added brought it to 4.4 %)
+    # variation, which constant-speed logs hardly carry (a short stretch of accelerations resolves more of it than a
+    # long one of constant speeds)
     out["ripple"]["excitation_hint"] = ("more q-current variation at each angle (a dither that keeps the speed's sign, "
                                         "or accelerations) resolves it sooner than longer logs of the same kind")
     return out
@@ -581,8 +580,8 @@ def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
     shifted by ``current_delay`` samples and read held (``current_lag`` ``None``) or smooth with that lag between
     samples after the report filter ``current_filter`` (s) is taken out, the angle read through ``angle_pll`` and the time-periodic disturbances ``time_lines`` (Hz) fitted beside
     (the ones :func:`identify` reports: ``info["current_delay"]``'s ``samples``, and ``lag`` where not ``held``,
-    ``info["angle_pll"]``'s natural frequency and damping, ``info["time_lines"]["hz"]``; a 50 Hz pickup of 1 % of
-    the current limit moved the Coulomb term by up to 27 % and turned the viscous term's sign on zoo seed 0).
+    ``info["angle_pll"]``'s natural frequency and damping, ``info["time_lines"]["hz"]``; a mains pickup left unfitted
+    moves the Coulomb term by tens of per cent and can turn the viscous term's sign).
 
     Returns:
         ``{"inertia_ratio": A·s²/rad, "viscous": A·s/rad, "coulomb": A}``.

@@ -13,19 +13,17 @@ variance::
 This noise sits in a *regressor*: least squares then pulls ``J/k0`` towards zero by the share of the
 acceleration's variance it makes up (errors in variables), and the maps absorb what ``J/k0`` misses. At a
 constant speed the true acceleration is the small, angle-periodic speed ripple, so a 16–17-bit encoder's
-noise is of its size: ``J/k0`` came out 13–56 % low and the cogging 8.5 % off on zoo seed 1 (it is 0 % and
-2.8 % with the true angle). The identification subtracts ``n W`` from the acceleration's diagonal of the
+noise is of its size, and ``J/k0`` comes out tens of per cent low, the maps beyond their standard errors. The
+identification subtracts ``n W`` from the acceleration's diagonal of the
 normal equations (the corrected least squares of the errors-in-variables literature, with the noise variance
 known from the encoder) where the logged angle sits on an encoder's lattice.
 
 What the model leaves out: the drive reacts to ``e`` (its speed loop reads the encoder), so the true motion is
-correlated with the noise. On the zoo this leaves ``J/k0`` within −4 to −11 % where it was −13 to −56 %. A drive
-that runs its loops faster than it logs moves that balance the other way: zoo 9N6P with a 15-bit encoder at constant
-speeds gave ``J/k0`` −9.8 % plain and −0.7 % corrected with its drive at its log rate, −2.9 % and +10.8 % at 8 control
-cycles per logged sample (the twin's loops reading the true angle instead: −9.0 % and +4.4 %). The noise's variance
-``W`` held within 15 % of the rounding errors' own in every one of those logs, so the rest is the noise's
-correlation with the motion and the regression's other columns (its correlation with the true acceleration was
-+0.07 to +0.10 at the log rate, within ±0.03 at 8 cycles). The verdict counts half the correction as uncertain
+correlated with the noise, and the correction leaves part of ``J/k0``'s error (figures on the zoo's constant-speed
+logs: ``bench/rotary_drive_logs.py``). A drive that runs its loops faster than it logs moves that balance the other
+way, so the correction can overshoot there. The noise's variance ``W`` itself holds (the rounding errors' own
+variance is what the model says); the rest is the noise's correlation with the motion and the regression's other
+columns. The verdict therefore counts half the correction as uncertain
 (:data:`pgcomm.rotary.regression.QUANTISATION_UNCERTAINTY`).
 """
 

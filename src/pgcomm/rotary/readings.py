@@ -4,16 +4,15 @@ whether the logged angle is a PLL's estimate; each read off the fit of the slot/
 
 **The current's timing.** The kernel takes ``i_q[j]`` as the current held over ``[t_j, t_{j+1}]``. A drive that
 samples its current at another point of its cycle than the encoder, or a logger that writes the column a cycle
-late, shifts it by whole samples, and one sample turns each harmonic by ``h ω T_s``: on the zoo, cogging 21-29 %
-and ripple 66-294 % off, and one such fit still called its cogging resolved. The fit of the slot/pole basis is
+late, shifts it by whole samples, and one sample turns each harmonic by ``h ω T_s``: enough to put the cogging tens
+of per cent off and the ripple more, with a standard error that may still call the map resolved. The fit of the slot/pole basis is
 repeated with the current shifted by :data:`CURRENT_DELAYS` samples and the delay whose residual is smallest is
 taken when it fits clearly better than the log as written (:func:`_current_delay`); the results report it.
 
 **Between logged samples.** A drive that controls at its log rate holds each logged current over the next sample.
 Most drives control faster than they log (ODrive at 8 kHz, moteus at 15-40 kHz, their logs at about 1 kHz): the log
 then holds snapshots of a current that moves between them, and the current that acted over a sample is not the one
-logged at its start. Read as held, such logs gave the cogging 15-58 % off with 4-8 control cycles per logged sample on
-zoo 9N6P. Read as the smooth curve through the snapshots (the cubic through the four around each interval, as the
+logged at its start: read as held, such logs put the maps tens of per cent off. Read as the smooth curve through the snapshots (the cubic through the four around each interval, as the
 angle's path), ``1/(2K)`` of a sample late at ``K`` control cycles per logged sample (the cycles' currents are held),
 they fit as well as a drive's that controls at its log rate. The fit is repeated with the current smooth at each of
 :data:`CONTROL_LAGS`, refined by a parabola, and taken by the same likelihood ratio (results: ``held``, ``lag``).
@@ -29,8 +28,8 @@ refined by a parabola, and ``τ`` taken by the same likelihood ratio (:func:`_re
 **The angle's estimate.** Open drives log the angle their PLL estimates from the encoder (ODrive's ``pos_estimate``,
 a type-2 loop of 1000 rad/s by default), not the encoder's count: its acceleration is the rotor's through
 ``(k_p s + k_i)/(s² + k_p s + k_i)``, which at 1000 rad/s halves a cogging harmonic at 3 samples per period. Read
-as the rotor's, such a log gave the cogging 8-12 % off, still called resolved, and the ripple 34-124 % (zoo 9N6P
-and 12N14P). A raw encoder angle sits on the encoder's lattice; where no logged angle does, the basis fit is
+as the rotor's, such a log puts the cogging beyond 5 % while its standard error still calls it resolved, and the
+ripple far off. A raw encoder angle sits on the encoder's lattice; where no logged angle does, the basis fit is
 repeated with the angle corrected for a PLL (:func:`pll_corrected`) of each natural frequency in
 :data:`PLL_FREQUENCIES` and dampings :data:`PLL_DAMPINGS`, and the best is taken when it fits clearly better
 than the angle as logged by a likelihood ratio (:func:`_angle_pll`); the results report it, and
@@ -70,19 +69,19 @@ READING_EVIDENCE = 10.83
 PLL_FREQUENCIES = tuple(float(x) for x in np.geomspace(50.0, 5000.0, 13))
 #: Dampings tried at the best natural frequency (1: ODrive's ``k_i = k_p² / 4``).
 PLL_DAMPINGS = (1.0, 0.707)
-#: The share of a PLL reading's move of the maps (from the angle as logged) taken as uncertain in the verdict: on the
-#: sixteen motors of zoo seeds 0 and 1 through ODrive's discrete PLL, the reading left 10-40 % of the as-logged
-#: cogging error (ODrive's loop differs from the continuous model by about ``k_p dt``).
+#: The share of a PLL reading's move of the maps (from the angle as logged) taken as uncertain in the verdict: a drive's
+#: discrete PLL differs from the continuous model the reading inverts by about ``k_p dt`` (ODrive's), so the reading
+#: leaves a part of the as-logged error, a few tenths of it.
 PLL_UNCERTAINTY = 0.4
 
 
 def current_noise(iq, order: int = 4) -> float:
     """The logged current's white noise (A, standard deviation; ``iq`` ``(N,)`` A), from the median absolute
     ``order``-th difference (its variance is ``C(2k, k) σ²`` for white noise: 70 σ² at the fourth; it passes a
-    sinusoid at f with gain ``(2 sin(π f T_s))^k``, 0.19 at the fourth and a 107 Hz dither sampled at 1 kHz). On the
-    zoo's dithered running logs the fourth difference reads 1.2-1.5 times the twin's current noise (the dither's
-    remainder, on the safe side for a threshold), the sixth 1.0-1.2 times on zoo seed 0; both also count the current the
-    speed loop commands from a coarse encoder's noise (the sixth up to 3 times on seed 1's 16-bit encoders)."""
+    sinusoid at f with gain ``(2 sin(π f T_s))^k``, 0.19 at the fourth and a 107 Hz dither sampled at 1 kHz). On
+    dithered running logs the fourth difference reads somewhat above the noise (the dither's remainder, on the safe
+    side for a threshold), the sixth closer to it; both also count the current the speed loop commands from a coarse
+    encoder's noise, which can be several times the noise (:func:`current_noise_beside_angle` leaves it out)."""
     iq = np.asarray(iq, float)
     k = int(order)
     dk = np.abs(np.diff(iq, k)) if iq.size > k else np.zeros(0)
@@ -99,8 +98,8 @@ def current_noise_beside_angle(iq, theta, order: int = 6, lags: int = ANGLE_LAGS
     ``order``-th difference of the q-current less what the same difference of the logged angle predicts through a
     two-sided filter of ``2 lags + 1`` taps (least squares), scaled as :func:`current_noise` scales it. The speed loop
     turns the encoder's noise into real current, a linear filter of the logged angle, which the difference alone counts
-    as noise (up to 3.3 times the twin's noise on zoo seed 1's 16-bit encoders); the measurement's noise is not in the
-    angle. On the sixteen motors of zoo seeds 0 and 1, 0.97-1.11 times the twin's noise. Falls back to
+    as noise (several times the real noise with a 16-bit encoder); the measurement's noise is not in the angle. Falls
+    back to
     :func:`current_noise` where the log is too short for the filter."""
     iq, theta = np.asarray(iq, float), np.asarray(theta, float)
     k, m = int(order), int(lags)
@@ -321,11 +320,10 @@ def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()
 
     With ``smooth_delays``, each reading of the angle is scored with the current read smooth at the best of those
     delays and its best lag (:func:`_lag_search`): a PLL's lag on the angle and a smooth current's lag both turn the
-    current against the acceleration, and along the valley they trade one for the other (zoo 9N6P at 8 control cycles
-    per logged sample through ODrive's PLL: reading the two in turn stopped at 1581 rad/s and 0.18 sample, 10 % above
-    the fit at 1200 rad/s and 1/16). The valley crosses whole samples of delay: the same logs with the current written
-    a sample late read 500 rad/s, 2 samples and 1/2 at the delay of the held reading, where 1000 rad/s, 1 sample and
-    1/16 is the drive's; so the delay before is tried too.
+    current against the acceleration, and along the valley they trade one for the other, so reading the two in turn
+    stops on the valley's side, away from its floor. The valley crosses whole samples of delay (a current written a
+    sample late, read at the held reading's delay, finds a slow PLL, two samples and a half-sample lag instead of the
+    drive's PLL, one sample and its lag), so the delay before is tried too.
 
     Returns:
         ``{"natural_frequency_rad_s": float | None, "damping": float | None, "cost_as_logged": A², "cost": A²,
@@ -362,10 +360,9 @@ def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()
             if c < best_cost:
                 best, best_cost = (float(w), float(z)), c
     evidence = _evidence(plain, best_cost, rows, taps)
-    # no gate on the residual's drop: ODrive's PLL lowered it only 1.16x on zoo 12N10P and 1.31x on seed 1's
-    # 36N42P, as much as an angle with noise of its own lowers it by a fast PLL (1.16-1.26x, 1.6-2.3 kHz: a 15-bit
-    # angle with 0.2-0.5 counts of noise); a gate at 1.5 left those two cogging maps 6-8 % off and called resolved,
-    # where a false reading's move is counted in the verdict (pll_bias)
+    # no gate on the residual's drop: a drive's true PLL can lower it as little as a fast PLL that is not there lowers
+    # it on an angle with noise of its own (off any lattice), so a gate would refuse true readings and leave their maps
+    # off while called resolved; a false reading's move is counted in the verdict instead (pll_bias)
     taken = evidence > READING_EVIDENCE
     return {"natural_frequency_rad_s": best[0] if taken else None, "damping": best[1] if taken else None,
             "cost_as_logged": plain, "cost": best_cost if taken else plain, "evidence": float(evidence),

@@ -23,9 +23,8 @@ around ``t_j``. A current held over a sample (ZOH) gives weights ``½, ½`` on `
 torque that is a function of the angle (cogging, the ripple's ``r(θ) i_q``, the drag) is integrated
 along the rotor's path: per interval, four-point Gauss–Legendre on the cubic through the four encoder
 samples around it (:func:`_interval_weights`). This stays exact when a harmonic turns by a large
-phase within a sample: at 3 samples per period of the highest cogging order, with the noise off, the
-cogging comes out within 0.15 % of the truth on the zoo. (The earlier kernel took the torque as a
-quadratic in time, ``[1/12, 5/6, 1/12]`` on the samples, which needs about 8 samples per period; the
+phase within a sample, down to 3 samples per period of the highest cogging order. (Taking the torque as a
+quadratic in time, ``[1/12, 5/6, 1/12]`` on the samples, would need about 8 samples per period; the
 speed of the running logs, and so the dither current they can carry, is bounded by this number.)
 
 **Alias guard.** A window is used only where the highest modelled harmonic has at least
@@ -35,8 +34,8 @@ windows were refused and the speed limit. Windows near standstill (stiction, rev
 windows whose direction changes are left out too.
 
 **Encoder quantisation.** The logged angle's rounding to the encoder's step is noise in the acceleration
-*regressor*, which pulls ``J/k0`` towards zero and the maps with it (errors in variables; 13–56 % low at
-constant speed with 16–17-bit encoders on the zoo). Where the logged angle sits on an encoder's lattice, the
+*regressor*, which pulls ``J/k0`` towards zero and the maps with it (errors in variables; tens of per cent at
+constant speed with 16–17-bit encoders). Where the logged angle sits on an encoder's lattice, the
 step is read from it and the noise's known variance taken out of the normal equations
 (:mod:`pgcomm.rotary.quantisation`, :func:`_quantisation_correction`).
 
@@ -44,14 +43,12 @@ step is read from it and the noise's known variance taken out of the normal equa
 noise is the same in both, and their product does not average out where the rotor's angle is not sampled evenly over
 the revolution. A speed loop that answers the cogging makes the rotor slower at some angles of the largest cogging
 order than at others, so the rows hold more of those angles, and the ripple at that order (where it is one of the
-ripple's orders: ``LCM(Q, 2p) = 12p`` on 36N42P and 24N20P motors) was pulled towards zero as the noise's variance:
-on zoo seed 3's 36N42P, 0.97 of its truth without noise, 0.89 with the twin's noise and 0.35 with twice it (the mean
-of four draws, ``bench/rotary_ripple_bias.py``; the noise in the target alone or in the columns alone moved
-nothing). The expectation of that product is known given the noise's variance: the sum over rows and logged samples
-of ``a_j a_jᵀ``, ``a_j`` the part of a row that sample ``j`` sets, built by running the rows on probe currents, each
+ripple's orders: ``LCM(Q, 2p) = 12p`` on 36N42P and 24N20P motors) is pulled towards zero as the noise's variance
+grows, most where the dither is small against the noise (``bench/rotary_ripple_bias.py``; the noise in the target
+alone or in the columns alone moves nothing). The expectation of that product is known given the noise's variance:
+the sum over rows and logged samples of ``a_j a_jᵀ``, ``a_j`` the part of a row that sample ``j`` sets, built by running the rows on probe currents, each
 1 on every ``P``-th sample (no row reads two of them). :func:`_current_noise_equations` builds it and
-:func:`_current_noise_correction` subtracts it times the variance (1.04 and 0.93 of the truth at the twin's noise and
-twice it). The noise is read from the logged d-current
+:func:`_current_noise_correction` subtracts it times the variance. The noise is read from the logged d-current
 (:mod:`pgcomm.rotary.identify`); where the logs have none, from the q-current's sixth difference less the current the
 loop commands from the encoder's noise (real current, which the logged angle predicts:
 :func:`pgcomm.rotary.readings.current_noise_beside_angle`).
@@ -87,7 +84,7 @@ from pgcomm.rotary.motor import RotaryMotor
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used. The kernel is
 #: exact along the path (module docstring); below ~3 the cubic between encoder samples no longer follows a
-#: cogging-driven speed ripple and the interpolation's error grows (0.3 % at 2.2 on the zoo, noise off).
+#: cogging-driven speed ripple and the interpolation's error grows.
 MIN_SAMPLES_PER_PERIOD = 3.0
 #: Hann window length (samples) of the acceleration filter; stride half of it.
 FILTER_TAPS = 6
@@ -113,9 +110,9 @@ MAX_NOISE_SHARE = 0.75
 #: The current-noise correction (:func:`_current_noise_correction`) removes at most this share of the ripple
 #: columns' part that the other columns do not explain, as :data:`MAX_NOISE_SHARE` does for the acceleration.
 MAX_CURRENT_NOISE_SHARE = 0.75
-#: The share of the encoder-noise correction taken as uncertain in the verdict: on the twin, the noise the
-#: acceleration actually carries (with the drive's loop reacting to it) was 0.83-1.44 times the white model's
-#: (zoo seed 1, 12N14P and 18N16P, per constant-speed log).
+#: The share of the encoder-noise correction taken as uncertain in the verdict: the noise the acceleration actually
+#: carries, with the drive's loop reacting to it, differs from the white model's by up to about half of it from one
+#: constant-speed log to another.
 QUANTISATION_UNCERTAINTY = 0.5
 
 
@@ -132,8 +129,8 @@ class Orders:
         """The orders the slot/pole combination sets (:mod:`pgcomm.rotary.model`), the drive's own
         (:func:`~pgcomm.rotary.model.drive_orders`: its current sensors' offsets and mismatch, dead time) in the
         cogging map, and order 0 there: a constant torque (a load, the current sensor's offset) that the law compensates with the cogging.
-        Without it, an offset of 1 % of the current limit went into the ripple (153 % of its RMS off, zoo
-        9N6P) and the cogging (0.7 → 6.2 %, still called resolved)."""
+        Without it, a constant offset of the current (1 % of the limit is plausible) goes into the ripple, which is
+        far smaller, and into the cogging, beyond what its standard error says."""
         return cls(np.union1d(np.union1d([0], cogging_orders(motor.slots, motor.pole_pairs)),
                               drive_orders(motor.pole_pairs)),
                    ripple_orders(motor.slots, motor.pole_pairs), direction_orders(motor.pole_pairs))

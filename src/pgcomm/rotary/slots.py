@@ -13,8 +13,8 @@ speed, at most
 ``α`` = :data:`pgcomm.rotary.regression.EXTRA_ORDER_ALPHA` over the ``H`` orders) says whether the logs show it.
 The physics is in the fit: a dither or an acceleration is the inertia's, not an order of the angle, so a
 constant-speed log's time-periodic content does not pose as cogging (an FFT of the logged current over the
-angle, tried first, reads a current at ``f`` Hz at a constant speed ``ω`` as order ``2πf/ω``: on the quick
-logs of zoo 12N10P its strongest orders were 192 and 193, and it took 90 for the fundamental, which is 60).
+angle reads a current at ``f`` Hz at a constant speed ``ω`` as order ``2πf/ω``, so a dither's lines would be
+taken for the strongest orders and the fundamental read wrong).
 
 **The choice.** Each three-phase slot count ``Q`` (a multiple of 3 up to :data:`MAX_SLOTS`) whose
 fundamental ``L`` the logs show is scored by what its basis explains: ``Σ (T²/threshold − 1)`` over the
@@ -23,8 +23,8 @@ order predicted and not seen costs about one. The best score sets ``L``. The slo
 differ only in their slot sidebands (multiples of ``Q``, from magnet tolerances): the one that explains the
 most sidebands the logs show wins, then the score (9 slots beside 18 on a 16-pole motor, ``L`` = 144 both:
 18 explains the sidebands at multiples of 18 with half the orders). ``L`` is what the logs determine; the
-slot count is ambiguous when the sidebands are too weak to be seen (zoo seed 1, 18N16P: only 144, 288 seen,
-so 144 slots fit as well as 18), and then the identification's screening adds the sidebands the data do
+slot count is ambiguous when the sidebands are too weak to be seen (an 18N16P that shows only 144 and 288:
+9 slots fit as well as 18), and then the identification's screening adds the sidebands the data do
 resolve, whichever ``Q`` was taken.
 """
 
@@ -45,8 +45,7 @@ MAX_SLOTS = 600
 MAX_ORDER = 1024
 #: Time blocks of the detection's sandwich covariance (s). The identification's one-second blocks give a
 #: log of a few seconds so few blocks that the significance threshold (Hotelling's F quantile) is 10^5-10^7
-#: times the noise; the rows' residuals are nearly white (lag-1 correlation 0.06-0.08 on zoo 18N16P's logs),
-#: so blocks a tenth as long still hold the correlation of overlapping filter windows (8 samples).
+#: times the noise; the rows' residuals are nearly white (a small lag-1 correlation), so blocks a tenth as long still hold the correlation of overlapping filter windows (8 samples).
 DETECTION_BLOCK_SECONDS = 0.1
 
 
@@ -80,11 +79,10 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
         sample_time: the drive's period (s), where a log has no ``t``.
         time_lines: frequencies (Hz) of time-periodic disturbances fitted beside the orders
             (:func:`pgcomm.rotary.time_lines.detect_time_lines`): a 50 Hz pickup at two speeds spreads over orders
-            (zoo 24N20P: 120 slots counted for 24 without it).
+            and, unfitted, can make the count a multiple of the true one.
         current_lag: the logged current read held between samples (``None``) or as the smooth curve through them, this
             many samples late (:func:`pgcomm.rotary.readings.lag_of` of the logs' reading): a drive that controls
-            faster than it logs, read held, shows orders its motor does not have (zoo 9N6P at 8 control cycles per
-            logged sample: 18 slots counted for 9).
+            faster than it logs, read held, shows orders its motor does not have (a count of twice the slots).
 
     Returns:
         ``(slots, info)``: ``info`` has ``slots``, ``cogging_fundamental`` (``L``), ``slots_with_that_fundamental``
@@ -155,8 +153,8 @@ def count_slots(logs, motor, *, current_delay="detect", angle_pll="detect", curr
     basis, the logs read as :func:`~pgcomm.rotary.identify.identify` would read them (the angle's PLL, the current's
     delay and form, :func:`pgcomm.rotary.readings.detect_reading`) and counted again on the logs so read; then with the
     time-periodic disturbances fitted (:mod:`pgcomm.rotary.time_lines`). Each of these hides the cogging's orders
-    when it is not read: a late current or a PLL's angle (zoo 9N6P: 18 slots counted for 9), a snapshot current read
-    as held (9N6P at 8 control cycles per logged sample: 18 for 9), a 50 Hz pickup at two speeds (24N20P: 120 for 24).
+    when it is not read, and the count comes out a multiple of the true one: a late current or a PLL's angle, a
+    snapshot current read as held, a 50 Hz pickup at two speeds.
 
     Args:
         logs: as for :func:`detect_slots`.

@@ -1,4 +1,4 @@
-"""A drive's own static cogging map as data: read it, find the index offset between its session and the logs', and
+"""A drive's own static cogging map as data: read it, find the index offset between its power-up and the logs', and
 compare it with the table identified from running logs.
 
 **What a static map measures.** A drive calibrates its anti-cogging table by holding the rotor at each angle in
@@ -14,8 +14,8 @@ one column (one direction, any name such as ``iq`` or ``Iq_A``), or ``forward`` 
 one revolution, strictly increasing, evenly spaced: a hole (a step over 1.5 times the spacing) is refused with the
 row.
 
-**The index between sessions.** An incremental encoder's zero is where it found its index on that power-up; on a
-real ODrive it moved by half a revolution between sessions. Comparing misaligned maps reads as disagreement, so the
+**The index between power-ups.** An incremental encoder's zero is where it found its index on that power-up; on a
+real ODrive it moved by half a revolution between power-ups. Comparing misaligned maps reads as disagreement, so the
 offset is found by circular cross-correlation and removed where it fits clearly better than none: the Fisher
 ``z = atanh(r)`` of the best shift exceeds that of no shift by three standard errors ``1/√(n − 3)``, ``n`` the map's
 independent values (:func:`index_offset`).

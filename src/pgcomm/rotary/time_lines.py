@@ -4,17 +4,16 @@
 **Time-periodic disturbances.** A rig adds torque at fixed frequencies whatever the rotor's speed: a current
 sensor's mains pickup (the current loop turns it into torque), a fan or a pump on the frame, a resonance the drive
 keeps exciting. At one speed such a line is an order of the revolution; in logs at several speeds it spreads over
-orders the basis does not have. A 50 Hz pickup of 1 % of the current limit put the cogging 10-21 % off and the ripple
-119-240 % (zoo 9N6P and 12N14P). The residuals of the basis fit are searched for lines at one frequency in the logs of
+orders the basis does not have, and a pickup of 1 % of the current limit puts the maps far beyond their standard
+errors (figures: ``bench/rotary_time_lines.py``). The residuals of the basis fit are searched for lines at one frequency in the logs of
 two different speeds (:func:`_time_lines`); a line the logged current carries twice as strongly is its own (a
 dither's), and one an order of the revolution explains as well is that order. Each line found is fitted beside
 the maps, a cosine and a sine per log (a log's phase is its own), and the results report it.
 
 **What it cannot tell apart.** A disturbance ``d`` is ``d`` in the fit and ``T d`` in the current (``T`` the speed
 loop's complementary sensitivity); a dither's misfit is a small share of the dither. So a line the drive's loop
-amplifies more than ``1 /`` :data:`LINE_CURRENT_SHARE`-fold (the twin's speed loop peaks near 150-180 Hz: zoo 12N10P's
-lines there had shares of 0.41-0.42, the ones found elsewhere 0.50 and up), or one within about a natural bin of a
-dither (zoo 9N6P: a 60 Hz pickup beside the 61 Hz dither in 1 s logs, where the current's line there cannot be
+amplifies more than ``1 /`` :data:`LINE_CURRENT_SHARE`-fold (near the speed loop's peak), or one within about a
+natural bin of a dither (a 60 Hz pickup beside a 61 Hz dither in 1 s logs, where the current's line there cannot be
 separated from the dither's), is taken for the current's own: give it with ``time_lines=`` (``--time-lines``). Logs
 at one speed only cannot tell a line from an order.
 """
@@ -47,12 +46,10 @@ LINE_LOG_SUPPORT = 6.0
 #: ... a line is a disturbance only where its amplitude fitted beside the maps is at least this share of the logged
 #: current's own line at that frequency (median over the logs that show it). A torque disturbance ``d`` (or a current
 #: sensor's pickup, which the current loop turns into one) is ``d`` in the fit and ``T d`` in the current (``T`` the
-#: speed loop's complementary sensitivity), a share of ``1/|T|``: at least 0.5 for up to 6 dB of peaking (0.6-0.8
-#: measured for a 50 Hz pickup on zoo 9N6P, 0.98 where the pickup is only in the log). Where the current carries a
-#: line twice the fitted one it is its cause (the user's dither) and the residual the model's misfit of it (zoo
-#: seeds 0 and 1, ``bench/rotary_time_lines.py --several``: 0.00-0.03 at the running logs' dither frequencies with
-#: the angle read as :func:`~pgcomm.rotary.identify.identify` reads it, up to 0.37 with a PLL's angle misread as the
-#: rotor's, and 0.50 at one intermodulation of two dithers; the lines found 0.50-3.4)
+#: speed loop's complementary sensitivity), a share of ``1/|T|``: at least 0.5 for up to 6 dB of peaking (about 1
+#: where the pickup is only in the log). Where the current carries a line twice the fitted one it is its cause (the
+#: user's dither) and the residual the model's misfit of it, a small share where the logs are read right
+#: (``bench/rotary_time_lines.py --several`` prints the shares)
 LINE_CURRENT_SHARE = 0.5
 #: ... the logged current's line at a candidate's frequency is fitted jointly with at most this many of the current's
 #: other strong lines nearby (:func:`_current_lines`), none closer than this many natural bins to another
@@ -87,10 +84,9 @@ def _current_lines(prepared, hz: float, taps: int) -> np.ndarray:
     lines so far leave of the current (:func:`_line_spectrum`), while it exceeds the ``1 − α/M`` quantile of noise
     alone; at most :data:`MAX_CURRENT_NEIGHBOURS`, none within :data:`CURRENT_NEIGHBOUR_BINS` natural bins (of the
     shortest log) of a line already taken. Fitted alone, the cosine and sine at ``hz`` take in part of a dither line
-    a few bins off: on zoo 9N6P (seeds 0 and 1, ``bench/rotary_time_lines.py --several``) that refused the line at
-    100 Hz (a pickup's harmonic, 7 Hz from the running logs' 107 Hz dither) and left the cogging 8.5-10 % off;
-    jointly, its share was 0.69-0.74 and the cogging 3.7-4.4 % (clean 4.0 %).
-    A dither one natural bin off is not separated (9N6P's 60 Hz beside 61 Hz in 1 s logs, module docstring).
+    a few bins off (a pickup's 100 Hz harmonic 7 Hz from the running logs' 107 Hz dither would be refused and left in
+    the maps); fitted jointly with the dither's line, its share is the pickup's own.
+    A dither one natural bin off is not separated (a 60 Hz line beside a 61 Hz dither in 1 s logs, module docstring).
     """
     from scipy.stats import gamma
 
@@ -216,8 +212,7 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
             out["threshold"] = float(gamma.isf(EXTRA_ORDER_ALPHA / (2.0 * max(independent, 1)), logs))
             refit = False
         # the noise floor is a running median: within half its window of the windows' Nyquist frequency it is not (a
-        # sweep's long log beside 34 s of constant speeds: 166.3 Hz of 166.7 taken as a line, read as two orders, and
-        # identify 2.2x slower)
+        # peak just below that frequency would be taken as a line, read as two orders, and slow identify down)
         band = (f >= LINE_MIN_HZ) & (f <= edge)
         for hz0 in locked:  # peaks already set aside: two natural bins either side
             band &= np.abs(f - hz0) > 2.0 * LINE_PADDING * (f[1] - f[0])

@@ -23,10 +23,10 @@ limit and held over the sample (ideal current loop). The law is evaluated at the
 has in the middle of that hold, ``θ_enc + advance · ω̂ · T_s`` (:attr:`LawParams.advance`, default
 ½, :func:`pgcomm.rotary.law.hold_angle`): evaluated at the sample's start, a compensation held for a
 sample lags half a sample, which at 16 samples per cogging period leaves ``2 sin(π/32) ≈ 20 %`` of
-that harmonic uncompensated (it was the floor of every row, the oracle's included); the mechanics are integrated in
+that harmonic uncompensated (the floor of every row, the oracle's included); the mechanics are integrated in
 ``n_sub`` sub-steps, each exact for a constant torque, with the torques taken at the sub-step's middle (second order:
-taken at its start, each harmonic lagged half a sub-step, a torque odd in the direction that the identification put
-into the ripple at the largest cogging order, 10 % of it on a 36N42P). The log holds what the drive records: ``t``,
+taken at its start, each harmonic would lag half a sub-step, a torque odd in the direction that the identification
+puts into the ripple at the largest cogging order, a sizeable share of a small ripple there). The log holds what the drive records: ``t``,
 ``theta`` (multi-turn, encoder), ``velocity``, ``iq_1``, ``id_1`` (measured, with noise), plus the truth
 (``theta_true``, ``omega_true``, ``torque`` = air-gap torque, e.g. for a torque sensor).
 
@@ -625,13 +625,14 @@ def _run(params, xs, n_sub: int):
         def sub(_, st):
             th, om, acc = st
             # exact for a torque constant over the sub-step (the held current's part is): semi-implicit
-            # Euler's dt²/2 error per sub-step biased the identified friction by 30 % under a 100 Hz dither.
+            # Euler's dt²/2 error per sub-step would bias the identified friction by tens of per cent under a 100 Hz
+            # dither.
             # The torques are taken at the sub-step's middle, the angle and speed predicted from the last sub-step's
             # acceleration (second order, at one evaluation per sub-step): taken at its start, the angle's lag half a
             # sub-step, a turn of h ω dt / 2 of each harmonic that is odd in the direction, and the fit can hold an
             # odd torque at the largest cogging order only in the ripple's column there (through the friction's
-            # current): on zoo seed 1's 36N42P it put 10 % of the ripple's order 252 there
-            # (bench/rotary_ripple_bias.py)
+            # current), where the cogging is thousands of times the ripple's torque, so a small turn is a large share
+            # of the ripple there (bench/rotary_ripple_bias.py)
             _, t_net = plant_torque(th + 0.5 * dt * om + 0.125 * dt * dt * acc, om + 0.5 * dt * acc, i_flow)
             acc = t_net / inertia
             return th + dt * om + 0.5 * dt * dt * acc, om + dt * acc, acc
