@@ -1,6 +1,6 @@
 """The rotary twin's real-drive habits (:mod:`pgcomm.rotary.twin`, "A real drive's habits"), each on the twin's own
 output against a closed form or a second formulation: the current report's filter, the current sensors' torque at the
-electrical orders, ODrive's PLL, the host's stamps, the index's move between sessions, a stall; the zoo's switch."""
+electrical orders, ODrive's PLL, the host's stamps, the index's move between power-ups, a stall; the zoo's switch."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from pgcomm.rotary.model import Fourier
-from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, breakaway_current, session_offset, simulate
+from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, breakaway_current, power_up_offset, simulate
 from pgcomm.rotary.zoo import draw_rotary
 
 
@@ -268,12 +268,12 @@ def test_a_host_log_written_as_csv_keeps_its_stamps(tmp_path):
     assert steps.max() / steps.min() > 2
 
 
-def test_the_index_moves_the_drives_angle_between_sessions():
-    """``session_offsets``: the same speed-loop run recorded in two sessions turns the rotor the same way (the
+def test_the_index_moves_the_drives_angle_between_power_ups():
+    """``power_up_offsets``: the same speed-loop run recorded in two power-ups turns the rotor the same way (the
     commutation is calibrated again, so the current sensors' errors stay on the rotor), and its logged angle is the
-    other session's rolled by the session's offset in whole counts; an offset of an electrical period is rounded to a
-    count, and sessions wrap."""
-    t = replace(_quiet(draw_rotary(0, 3)), session_offsets=(0.0, math.pi, 2 * math.pi / 7), sensor_offset=(0.3, 0.1),
+    other power_up's rolled by the power-up's offset in whole counts; an offset of an electrical period is rounded to a
+    count, and power_ups wrap."""
+    t = replace(_quiet(draw_rotary(0, 3)), power_up_offsets=(0.0, math.pi, 2 * math.pi / 7), sensor_offset=(0.3, 0.1),
                 encoder_counts=2**16)
     a = t.inertia / t.k0
     from pgcomm.rotary.twin import default_gains
@@ -283,16 +283,16 @@ def test_the_index_moves_the_drives_angle_between_sessions():
     om = np.minimum(1.0, np.arange(n) / 300.0) * 15.0
     ref = Reference(1.0 + ts * np.cumsum(om), om, np.gradient(om, ts), "speed")
     law = LawParams.classical(t.motor.pole_pairs)
-    one, two = (simulate(t, ref, law, default_gains(a), session=s, theta0=1.0) for s in (0, 1))
+    one, two = (simulate(t, ref, law, default_gains(a), power_up=s, theta0=1.0) for s in (0, 1))
     q = 2 * np.pi / t.encoder_counts
-    assert session_offset(t, 1) == pytest.approx(math.pi, abs=1e-12)
+    assert power_up_offset(t, 1) == pytest.approx(math.pi, abs=1e-12)
     scale = float(np.max(np.abs(one["theta_true"])))
     np.testing.assert_allclose(two["theta_true"], one["theta_true"], rtol=0, atol=1e-12 * scale)
     np.testing.assert_allclose(two["torque"], one["torque"], rtol=0, atol=1e-12 * float(np.max(np.abs(one["torque"]))))
     np.testing.assert_allclose(two["theta"] - one["theta"], math.pi, rtol=0, atol=1e-12 * scale)
-    third = session_offset(t, 2)
+    third = power_up_offset(t, 2)
     assert third == pytest.approx(round((2 * np.pi / 7) / q) * q, abs=1e-12) and third != 2 * np.pi / 7
-    assert session_offset(t, 4) == session_offset(t, 1) and session_offset(replace(t, session_offsets=()), 1) == 0.0
+    assert power_up_offset(t, 4) == power_up_offset(t, 1) and power_up_offset(replace(t, power_up_offsets=()), 1) == 0.0
 
 
 def test_breakaway_current_of_a_single_cogging_harmonic():
@@ -355,8 +355,8 @@ def test_the_zoo_draws_the_habits_behind_one_switch():
             assert real.report_filter == 0 or R["report_filter"][0] <= real.report_filter <= R["report_filter"][1]
             tc = plain.motor.sample_time / plain.control_per_log
             assert real.pll_bandwidth == 0 or R["pll_bandwidth"][0] <= real.pll_bandwidth <= 0.25 / tc + 1e-9
-            assert real.host_logger and (not real.session_offsets or real.session_offsets[0] == 0.0)
-            halves += any(abs(x - math.pi) < 1e-12 for x in real.session_offsets)
+            assert real.host_logger and (not real.power_up_offsets or real.power_up_offsets[0] == 0.0)
+            halves += any(abs(x - math.pi) < 1e-12 for x in real.power_up_offsets)
             taus.append(real.report_filter)
             bws.append(real.pll_bandwidth)
             assert json.dumps(RotaryTruth.from_dict(json.loads(json.dumps(real.to_dict()))).to_dict()) == \
@@ -373,7 +373,7 @@ def test_habits_are_checked():
     for change, match in (({"sensor_offset": (1.0,)}, "sensor_offset"), ({"report_filter": -1.0}, "report_filter"),
                           ({"sensor_gain": (-1.0, 0.0)}, "sensor_gain"), ({"host_gaps": 2.0}, "host_gaps"),
                           ({"deadtime_error": 0.1}, "deadtime_width"),
-                          ({"session_offsets": (0.0, float("nan"))}, "session_offsets")):
+                          ({"power_up_offsets": (0.0, float("nan"))}, "power_up_offsets")):
         with pytest.raises(ValueError, match=match):
             replace(t, **change)
 

@@ -30,7 +30,7 @@ def configure(p) -> None:
     p.add_argument("--real-drive", action="store_true",
                    help="rotary: give every drive a real drive's and host's habits (current-sensor offsets and gain "
                         "mismatch, a filtered current report, a PLL angle, a host's jittered stamps, an index that "
-                        "moves between sessions), drawn per motor")
+                        "moves between power-ups), drawn per motor")
     p.add_argument("--stall", action="store_true",
                    help="rotary, with --logs: also write logs/stall.csv, a low-speed run in a speed loop too soft for "
                         "the cogging that stalls about halfway")

@@ -164,7 +164,7 @@ def running_log(truth: RotaryTruth, ref: Reference, law: LawParams, gains, seed:
     took that repeated error for a dozen orders outside the basis).
 
     The log is the host's where the truth has a host's habits (``simulate(..., host=True)``: jittered rows), in
-    recording session 0.
+    power-up 0.
 
     Args:
         truth: the twin; ref: a speed-loop :class:`Reference`; law, gains: as for ``simulate``;
@@ -176,7 +176,7 @@ def running_log(truth: RotaryTruth, ref: Reference, law: LawParams, gains, seed:
 
 
 def stall_log(truth: RotaryTruth, seed: int = 0, seconds: float = 10.0, direction: float = 1.0,
-              session: int = 0) -> dict:
+              power_up: int = 0) -> dict:
     """A low-speed run in a speed loop too soft for the cogging, which stalls about halfway: what two of three runs
     at 0.1 rev/s did on the ODrive of ``../real``.
 
@@ -190,7 +190,7 @@ def stall_log(truth: RotaryTruth, seed: int = 0, seconds: float = 10.0, directio
 
     Args:
         truth: the twin; seed: noise seed (also the start angle); seconds: the run's length (s);
-        direction: ``+1`` or ``-1``; session: the recording session.
+        direction: ``+1`` or ``-1``; power_up: the power-up.
 
     Returns:
         the log (:func:`pgcomm.rotary.twin.simulate`), with ``stall_speed`` (rad/s, the speed at which the loop's
@@ -206,7 +206,7 @@ def stall_log(truth: RotaryTruth, seed: int = 0, seconds: float = 10.0, directio
     start = float(np.random.default_rng([int(seed), 0x57A7]).uniform(0.0, 2 * math.pi))
     ref = Reference(start + ts * np.cumsum(om), om, np.gradient(om, ts), "speed")
     log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), Gains(0.0, 0.0, 0.0, kpv, 0.0),
-                   seed=seed, host=True, session=session)
+                   seed=seed, host=True, power_up=power_up)
     log["stall_speed"] = s * w_b
     return log
 
@@ -220,7 +220,7 @@ def drive_log_mix(truth: RotaryTruth, seed: int = 0) -> dict:
       the current limit's acceleration (each ramp at least 50 ms);
     * ``sweep``: the drives' slow sweep, a revolution each way in 60 s (position loop).
 
-    All as the host logs them where the truth has a host's habits, in one recording session.
+    All as the host logs them where the truth has a host's habits, in one power-up.
 
     Args:
         truth: the twin; seed: noise seed (streams ``"drive log mix", k``; each run starts at its own angle).

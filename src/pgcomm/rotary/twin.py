@@ -52,9 +52,9 @@ dither interpolated by a cubic spline, and logs a snapshot of every ``K``-th cyc
 * *the host's clock* (``host_jitter``, ``host_gaps``, ``stamp_noise``): a PC polls the drive at jittered instants
   (:func:`host_instants`), and each row is the drive's state at its last control cycle before the instant, stamped
   with the instant plus a little noise (``simulate(..., host=True)``);
-* *an index that moves between sessions* (``session_offsets``, rad): recorded in session ``s``, the drive's angle is
-  the encoder's plus ``session_offsets[s]`` (rounded to whole counts): its position loop, its law and its log work in
-  that frame, its commutation is calibrated again (``simulate(..., session=s)``);
+* *an index that moves between power-ups* (``power_up_offsets``, rad): recorded in power_up ``s``, the drive's angle is
+  the encoder's plus ``power_up_offsets[s]`` (rounded to whole counts): its position loop, its law and its log work in
+  that frame, its commutation is calibrated again (``simulate(..., power_up=s)``);
 * *stalls*: the plant's cogging, drive errors and friction hold a rotor a soft speed loop cannot move
   (:func:`breakaway_current`; :func:`pgcomm.rotary.experiment.stall_log`).
 """
@@ -78,7 +78,7 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.winding import Winding, d_voltage, logged_dq, q_voltage
 
 __all__ = ["RotaryTruth", "Gains", "LawParams", "Reference", "simulate", "default_gains", "VELOCITY_CUTOFF_HZ",
-           "SUBSTEPS", "HOLD_ADVANCE", "drive_current_error", "breakaway_current", "host_instants", "session_offset",
+           "SUBSTEPS", "HOLD_ADVANCE", "drive_current_error", "breakaway_current", "host_instants", "power_up_offset",
            "HOST_STEP_RANGE", "HOST_GAP_STEPS", "STAMP_NOISE_CLIP"]
 
 #: Cut-off of the drive's velocity estimate (Hz): first-order low-pass on the encoder difference.
@@ -131,7 +131,7 @@ class RotaryTruth:
             to :data:`HOST_STEP_RANGE`); 0 with ``host_gaps`` and ``stamp_noise``: rows at ``j T_s``.
         host_gaps: the chance per row that the host misses :data:`HOST_GAP_STEPS` median steps after it.
         stamp_noise: std (s) of a stamp about its row's instant (clipped at :data:`STAMP_NOISE_CLIP` of the step).
-        session_offsets: the drive's angle zero in recording sessions ``0, 1, ...`` (rad, ``session s`` uses entry
+        power_up_offsets: the drive's angle zero in power-ups ``0, 1, ...`` (rad, ``power_up s`` uses entry
             ``s mod len``); empty: the index never moves.
     """
 
@@ -159,7 +159,7 @@ class RotaryTruth:
     host_jitter: float = 0.0
     host_gaps: float = 0.0
     stamp_noise: float = 0.0
-    session_offsets: tuple = ()
+    power_up_offsets: tuple = ()
 
     def __post_init__(self):
         k = self.control_per_log
@@ -182,10 +182,10 @@ class RotaryTruth:
             raise ValueError(f"host_gaps = {self.host_gaps!r} is a chance per row, at most 1")
         if self.deadtime_error > 0 and self.deadtime_width <= 0:
             raise ValueError(f"deadtime_width = {self.deadtime_width!r} must be positive with a deadtime_error")
-        offs = tuple(float(x) for x in self.session_offsets)
+        offs = tuple(float(x) for x in self.power_up_offsets)
         if not all(math.isfinite(x) for x in offs):
-            raise ValueError(f"session_offsets = {self.session_offsets!r} must be finite angles (rad)")
-        object.__setattr__(self, "session_offsets", offs)
+            raise ValueError(f"power_up_offsets = {self.power_up_offsets!r} must be finite angles (rad)")
+        object.__setattr__(self, "power_up_offsets", offs)
 
     @property
     def drive_errors(self) -> bool:
@@ -281,7 +281,7 @@ class RotaryTruth:
 #: The habits' fields and their defaults (off): truth files without them are twins without them.
 _HABIT_DEFAULTS = {"sensor_offset": (0.0, 0.0), "sensor_gain": (0.0, 0.0), "deadtime_error": 0.0,
                    "deadtime_width": 0.0, "report_filter": 0.0, "pll_bandwidth": 0.0, "host_jitter": 0.0,
-                   "host_gaps": 0.0, "stamp_noise": 0.0, "session_offsets": ()}
+                   "host_gaps": 0.0, "stamp_noise": 0.0, "power_up_offsets": ()}
 _HABITS_NONNEGATIVE = ("deadtime_error", "deadtime_width", "report_filter", "pll_bandwidth", "host_jitter",
                        "host_gaps", "stamp_noise")
 _SQRT3 = math.sqrt(3.0)
@@ -363,13 +363,13 @@ def _product(f: Fourier, g: Fourier) -> Fourier:
     return _sum(*parts)
 
 
-def session_offset(truth: "RotaryTruth", session: int) -> float:
-    """The drive's angle zero in recording session ``session`` (rad): ``truth.session_offsets[session mod len]``
+def power_up_offset(truth: "RotaryTruth", power_up: int) -> float:
+    """The drive's angle zero in power-up ``power_up`` (rad): ``truth.power_up_offsets[power_up mod len]``
     rounded to whole encoder counts (0 without offsets)."""
-    if not truth.session_offsets:
+    if not truth.power_up_offsets:
         return 0.0
     q = 2 * math.pi / truth.encoder_counts
-    return float(np.round(truth.session_offsets[int(session) % len(truth.session_offsets)] / q) * q)
+    return float(np.round(truth.power_up_offsets[int(power_up) % len(truth.power_up_offsets)] / q) * q)
 
 
 def host_instants(truth: "RotaryTruth", duration: float, rng) -> tuple[np.ndarray, np.ndarray]:
@@ -585,8 +585,8 @@ def _run(params, xs, n_sub: int):
     def step(carry, x):
         theta, omega, th_prev, w_f, integ, acc, pe, ve = carry
         th_r, w_r, a_r, dith = x
-        # the encoder's count; the estimates are made from it as in session 0 (they are translation-invariant), and
-        # the session's offset (index0, whole counts) is added where the drive uses its angle as such
+        # the encoder's count; the estimates are made from it as in power_up 0 (they are translation-invariant), and
+        # the power-up's offset (index0, whole counts) is added where the drive uses its angle as such
         th_m = jnp.round(theta / q) * q
         w_f = w_f + beta * ((th_m - th_prev) / ts - w_f)
         # ODrive's encoder PLL: predict, then correct with the count
@@ -617,7 +617,7 @@ def _run(params, xs, n_sub: int):
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
         iq = jnp.clip(iq, -i_lim, i_lim)
         # what flows: the measured current held at the command, less the sensors' and the dead time's errors, at the
-        # electrical angle the drive commutates with (calibrated again in every session: the true frame's)
+        # electrical angle the drive commutates with (calibrated again at every power-up: the true frame's)
         i_flow = jnp.where(errors_on > 0, iq + _current_error(jnp, pole_pairs * th_0 + comm_offset, iq, *sensors), iq)
         t_em0, _ = plant_torque(theta, omega, i_flow)
         out = (th_d, w_d, theta, omega, t_em0, u, iq, i_flow)
@@ -650,7 +650,7 @@ def _run(params, xs, n_sub: int):
 
 def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, seed: int = 0,
              n_sub: int = SUBSTEPS, theta0: float | None = None, host: bool = False,
-             session: int = 0) -> dict[str, np.ndarray]:
+             power_up: int = 0) -> dict[str, np.ndarray]:
     """Closed-loop run of the twin on a drive with ``law``.
 
     Args:
@@ -661,12 +661,12 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         seed: current-noise seed (same seed, same numbers).
         n_sub: plant sub-steps per logged sample (per control sample ``ceil(n_sub / K)``, at least 2, where the drive
             controls at ``K = truth.control_per_log`` times the log rate).
-        theta0: initial true angle (rad; default the reference's first angle, less the session's offset); starts at
+        theta0: initial true angle (rad; default the reference's first angle, less the power-up's offset); starts at
             rest.
         host: the log as the truth's host records it (:attr:`RotaryTruth.host_logger`: rows at jittered instants,
             :func:`host_instants`); the same as ``False`` for a truth without a host's habits. ``False``: the drive's
             own samples ``j T_s`` (for evaluations against the reference).
-        session: the recording session (the drive's angle zero, :func:`session_offset`).
+        power_up: the power-up (the drive's angle zero, :func:`power_up_offset`).
 
     Returns:
         dict of ``(N,)`` arrays at the logged instants ``j T_s``: ``t`` (s), ``theta`` (the drive's angle: encoder or
@@ -703,7 +703,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     beta = 1.0 - math.exp(-2 * math.pi * VELOCITY_CUTOFF_HZ * tc)
     q = 2 * math.pi / truth.encoder_counts
     mode_pos = {"position": 1.0, "speed": 0.0}[ref.mode]
-    index0 = session_offset(truth, session)
+    index0 = power_up_offset(truth, power_up)
     th0 = float(ref.theta[0]) - index0 if theta0 is None else float(theta0)
     f = float
     bw = f(truth.pll_bandwidth)

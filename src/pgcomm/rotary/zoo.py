@@ -30,7 +30,7 @@ habits (:mod:`pgcomm.rotary.twin`, "A real drive's habits"), drawn from a stream
 (:func:`draw_drive_habits`, ranges in :data:`REAL_DRIVE_RANGES`): current-sensor offsets and gain mismatches of a few
 per cent of the sensor's range, a dead time's current error, a filtered current report (none to 120 ms), ODrive's
 encoder PLL (on two drives in three, 500-3000 rad/s), a host's jittered clock with gaps and stamp noise, and an index
-that moves between recording sessions (by half a revolution or an electrical period, or not at all).
+that moves between power-ups (by half a revolution or an electrical period, or not at all).
 """
 
 from __future__ import annotations
@@ -70,13 +70,13 @@ CONTROL_RATE_HZ = (4000.0, 16000.0)
 #: continuous one; a drive too slow for both runs none);
 #: ``host_jitter`` (σ of the log-steps), ``host_gaps`` (per row), ``stamp_noise`` (share of the median step);
 #: ``index_moves``: the index moves by half a revolution, an electrical period or not at all with these chances, in
-#: ``sessions`` recording sessions (the first one's zero is the truth's).
+#: ``power_ups`` power-ups (the first one's zero is the truth's).
 REAL_DRIVE_RANGES = {"sensor_range": 2.0, "sensor_offset": (0.003, 0.03), "sensor_gain": (0.003, 0.03),
                      "deadtime_error": (0.001, 0.01), "deadtime_width": (2.0, 10.0),
                      "report_filter": (5e-4, 0.12), "report_filter_none": 0.2,
                      "pll_bandwidth": (500.0, 3000.0), "pll_none": 1.0 / 3.0, "pll_max_kp_dt": 0.5,
                      "host_jitter": (0.03, 0.3), "host_gaps": (3e-4, 3e-3), "stamp_noise": (0.005, 0.03),
-                     "index_moves": {"half": 0.5, "electrical": 0.25, "none": 0.25}, "sessions": 4}
+                     "index_moves": {"half": 0.5, "electrical": 0.25, "none": 0.25}, "power_ups": 4}
 
 
 def _random_fourier(rng, orders, rms: float, weights=None) -> Fourier:
@@ -209,8 +209,8 @@ def draw_drive_habits(rng, truth: RotaryTruth) -> dict:
     kinds = list(r["index_moves"])
     kind = kinds[int(rng.choice(len(kinds), p=[r["index_moves"][k] for k in kinds]))]
     steps = {"half": 2, "electrical": truth.motor.pole_pairs, "none": 1}[kind]
-    moves = rng.integers(0, steps, r["sessions"] - 1)
-    habits["session_offsets"] = (0.0, *(2 * math.pi * float(k) / steps for k in moves)) if steps > 1 else ()
+    moves = rng.integers(0, steps, r["power_ups"] - 1)
+    habits["power_up_offsets"] = (0.0, *(2 * math.pi * float(k) / steps for k in moves)) if steps > 1 else ()
     return habits
 
 
@@ -375,15 +375,15 @@ def read_truth(path) -> RotaryTruth:
         raise DataError(f"{path}: not a rotary truth file ({' '.join(str(e).split())})") from None
 
 
-#: The recording session of the zoo's standstill sweep (:func:`write_sweep_log`): another day than the running logs'
-#: (session 0), so on a truth whose index moves (:attr:`RotaryTruth.session_offsets`) its angle zero may differ.
-SWEEP_SESSION = 1
+#: The power-up of the zoo's standstill sweep (:func:`write_sweep_log`): another day than the running logs'
+#: (power_up 0), so on a truth whose index moves (:attr:`RotaryTruth.power_up_offsets`) its angle zero may differ.
+SWEEP_POWER_UP = 1
 
 
 def write_running_logs(truth: RotaryTruth, folder, seed: int = 0, stall: bool = False) -> list:
     """Simulate the running logs of :func:`pgcomm.rotary.experiment.running_references` and write them as
     CSV (``t, theta, velocity, iq_1, id_1, vq_1, vd_1``: what a drive records, with the host's stamps as they come
-    where the truth has a host's habits) to ``folder/run{k}.csv``, in recording session 0. ``stall``: also
+    where the truth has a host's habits) to ``folder/run{k}.csv``, in power-up 0. ``stall``: also
     ``folder/stall.csv``, a low-speed run in a speed loop too soft for the cogging, which stalls about halfway
     (:func:`pgcomm.rotary.experiment.stall_log`)."""
     from pgcomm.rotary.experiment import RotarySettings, running_references, stall_log
@@ -411,9 +411,9 @@ def write_running_logs(truth: RotaryTruth, folder, seed: int = 0, stall: bool = 
 def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_seconds: float = 60.0) -> Path:
     """Simulate a slow position sweep in both directions (:func:`pgcomm.rotary.standstill.sweep_reference`,
     classical law, the drive's tuned gains) and write it as ``folder/sweep.csv`` (``t, theta, velocity, iq_1,
-    id_1, vq_1, vd_1``): the drives' calibration run, for ``pgcomm identify --sweep``. Recorded in session
-    :data:`SWEEP_SESSION`: where the truth's index moves, its angle zero is
-    :func:`pgcomm.rotary.twin.session_offset` of it, not the running logs'."""
+    id_1, vq_1, vd_1``): the drives' calibration run, for ``pgcomm identify --sweep``. Recorded in power_up
+    :data:`SWEEP_POWER_UP`: where the truth's index moves, its angle zero is
+    :func:`pgcomm.rotary.twin.power_up_offset` of it, not the running logs'."""
     from pgcomm.rotary.standstill import sweep_reference
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
 
@@ -421,7 +421,7 @@ def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_second
     folder.mkdir(parents=True, exist_ok=True)
     ref = sweep_reference(truth.motor.sample_time, revolution_seconds)
     log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(truth.inertia / truth.k0),
-                   seed=seed * 1000 + 999, host=True, session=SWEEP_SESSION)
+                   seed=seed * 1000 + 999, host=True, power_up=SWEEP_POWER_UP)
     path = folder / "sweep.csv"
     _write_drive_log(path, log)
     return path
