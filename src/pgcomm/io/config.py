@@ -56,7 +56,6 @@ from pathlib import Path
 
 from pgcomm.errors import ConfigError
 from pgcomm.io.atomic import atomic_write_text
-from pgcomm.motor import Motor
 
 __all__ = [
     "closest_match",
@@ -511,6 +510,8 @@ def load_motor(path) -> Motor:
     zeta = _per_coil_set(nominal, "zeta", w, n)
     mu = _number(nominal, "mu", w, required=False)
     kwargs = {} if mu is None else {"mu": mu}
+    from pgcomm.motor import Motor  # here: reading a log or a setting needs no JAX
+
     return Motor(
         pole_pitch=pole_pitch,
         lever_arms=tuple(lever_arms),
