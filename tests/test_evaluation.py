@@ -202,9 +202,45 @@ def test_inputs_a_model_needs_are_checked_before_any_log_is_evaluated(monkeypatc
     import pgcomm.evaluation as evaluation
 
     calls = []
-    monkeypatch.setattr(evaluation, "commutation_mse", lambda *a, **k: calls.append(1))
+    monkeypatch.setattr(evaluation, "RunningMse", lambda *a, **k: calls.append(1))
     good = synthetic_log(0, -np.pi / 4)
     no_currents = synthetic_log(1, np.pi / 4, drive_inputs=True)
     with pytest.raises(DataError, match=r"^Zp_coilset2.csv: no currents ia_l, ib_l; converting drive inputs needs"):
         evaluate_logs([good, no_currents], model=truth_model())
     assert calls == []
+
+
+def test_a_long_log_is_evaluated_block_by_block_as_whole(monkeypatch):
+    """Blocks of 1024 rows (six, the last one short) against the whole-log formulas: the commutation error and its
+    MSEs (the low-pass's state carried across blocks), and a PGNN with a direction term evaluated on the whole log
+    at once (its velocity from the whole log), currents logged and converted from drive inputs."""
+    import jax
+
+    import pgcomm.evaluation as evaluation
+    from pgcomm.data import log_currents, velocity_from_positions
+    from pgcomm.metrics import commutation_mse
+    from pgcomm.models import CoilSetModel, CombinedModel, physics_from_ideal
+
+    rng = np.random.default_rng(5)
+    sets = []
+    for l in range(MOTOR.n_coil_sets):
+        a, b = physics_from_ideal(MOTOR.pole_pitch, 61.0 + l, -0.54, 0.05, MOTOR.lever_arms[l])
+        m = CoilSetModel.init(jax.random.PRNGKey(l), a, b, MOTOR.pole_pitch, 0.0, 0.1, (2,), (16,), "tanh", -0.1, 0.1,
+                              direction=True)
+        leaves, tree = jax.tree_util.tree_flatten(m)
+        sets.append(jax.tree_util.tree_unflatten(tree, [np.asarray(x) + rng.normal(size=np.shape(x)) for x in leaves]))
+    model = CombinedModel.from_coil_sets(sets)
+    assert model.has_direction
+    monkeypatch.setattr(evaluation, "BLOCK_ROWS", 1024)
+    for log in (synthetic_log(1, np.pi / 4, force_offset=OFFSET), synthetic_log(2, -np.pi / 4, drive_inputs=True)):
+        ev = evaluate_log(log, lowpass_hz=20.0, model=model, motor=MOTOR)
+        f, f_star = log.force(), log.desired_force()
+        f_hat = np.asarray(model.force(log["y"], log_currents(log, MOTOR), velocity_from_positions(log["y"], TS)))
+        scale = np.abs(f).max(axis=0)
+        np.testing.assert_allclose(ev.commutation_error, f - f_star, rtol=0, atol=1e-14 * scale.max())
+        np.testing.assert_allclose(ev.model_error / scale, (f - f_hat) / scale, rtol=0, atol=1e-12)
+        for got, want in ((ev.commutation_mse, commutation_mse(f, f_star, TS, 20.0)),
+                          (ev.model_mse, commutation_mse(f, f_hat, TS, 20.0))):
+            for d in "yxz":
+                for k in ("filtered", "unfiltered"):
+                    assert got[d][k] == pytest.approx(want[d][k], rel=1e-10), (d, k)

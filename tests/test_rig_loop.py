@@ -177,3 +177,86 @@ def test_plan_for_a_rig_needs_the_travel_or_a_stroke(tmp_path, capsys):
     code, _, err = _cli(["plan", "--motor", str(motor), "--config", str(cfg), "--no-force-sensor",
                          "--out", str(tmp_path / "q")], capsys)
     assert code == 2 and "mass" in err and not (tmp_path / "q").exists()
+
+
+def test_logs_carry_their_round_and_another_rounds_motor_is_refused(rounds, capsys, tmp_path):
+    """Each log of ``simulate --plan`` carries its plan (id, k̂, ζ̂, pole pitch, sample time). Round 1's logs with
+    round 2's motor TOML: refused naming the log and the k̂ it was recorded at (calibrated against the wrong drive
+    values it gave k = 55.5 N/A where 61 is right); with their own plan's TOML they calibrated above."""
+    import re
+
+    from pgcomm.io.plan import plan_id
+
+    plan1, logs1 = rounds[0][0], rounds[0][1]
+    plan2 = rounds[1][0]
+    side = json.loads((logs1 / "Z1_coilset1.csv.plan.json").read_text())
+    assert side["plan_id"] == json.loads((plan1 / "plan.json").read_text())["id"] == plan_id(read_plan(plan1))
+    assert side["plan_id"] != plan_id(read_plan(plan2))
+    m1 = load_motor(plan1 / "motor.toml")
+    assert (side["k_hat_N_per_A"], side["zeta_hat_rad"]) == (list(m1.k), list(m1.zeta))
+    assert (side["experiment"], side["coil_set"]) == ("Z1_coilset1", 1)
+    k2 = load_motor(plan2 / "motor.toml").k[0]
+    assert abs(k2 - m1.k[0]) > 0.05 * m1.k[0]
+    out = tmp_path / "cal"
+    code, _, err = _cli(["calibrate", "--data", str(logs1 / "*.csv"), "--motor", str(plan2 / "motor.toml"),
+                         "--out", str(out), "--quiet"], capsys)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, err
+    assert re.search(rf"Z1_coilset1\.csv: recorded under plan {side['plan_id']} \(Z1_coilset1\.csv\.plan\.json\) with "
+                     rf"k̂1 = {m1.k[0]:.6g} N/A, but --motor \S+plan2/motor\.toml has k̂1 = {k2:.6g} N/A: logs of "
+                     "another round", lines[0]), lines[0]
+    assert not out.exists()
+
+
+def _sidecar_log(folder, name, motor, plan="aaaaaaaaaaaa", **changes):
+    """A log (its columns do not matter here) with a plan sidecar of ``motor``'s drive values, edited by ``changes``."""
+    from pgcomm.io.logs import Log
+    from pgcomm.io.plan import write_log_identity
+
+    path = folder / name
+    ident = {"schema": "pgcomm-log-plan/1", "plan_id": plan, "experiment": "Z1_coilset1", "coil_set": 1,
+             "delta_rad": -math.pi / 4, "k_hat_N_per_A": list(motor.k), "zeta_hat_rad": list(motor.zeta),
+             "pole_pitch_m": motor.pole_pitch, "sample_time_s": motor.sample_time} | changes
+    write_log_identity(path, ident)
+    return Log({"t": np.arange(3) * motor.sample_time}, motor.sample_time, source=str(path))
+
+
+@pytest.mark.parametrize("changes, needle", [
+    ({"pole_pitch_m": 0.024}, r"with pole pitch 0\.024 m, but M has 0\.03 m: logs of another motor"),
+    ({"sample_time_s": 2e-3}, r"with sample time 0\.002 s, but M has 0\.001 s: logs of another motor"),
+    ({"k_hat_N_per_A": [67.0, 61.0, 67.0]}, r"with k̂2 = 61 N/A, but M has k̂2 = 67 N/A: logs of another round"),
+    ({"zeta_hat_rad": [-0.52, -0.52, -0.5]}, r"with ζ̂3 = -0\.5 rad, but M has ζ̂3 = -0\.52 rad"),
+    ({"k_hat_N_per_A": [67.0] * 2, "zeta_hat_rad": [-0.52] * 2}, r"with 2 coil set\(s\), but M has 3"),
+])
+def test_a_log_recorded_at_other_drive_values_is_refused_naming_the_value(tmp_path, changes, needle):
+    from pgcomm.errors import DataError
+    from pgcomm.io.plan import check_log_plans
+    from pgcomm.twin import TwinParams
+
+    motor = TwinParams().motor()
+    good = _sidecar_log(tmp_path, "a.csv", motor)
+    bad = _sidecar_log(tmp_path, "b.csv", motor, **changes)
+    assert check_log_plans([good], motor, "M") == []
+    with pytest.raises(DataError, match=rf"^{tmp_path}/b\.csv: recorded under plan aaaaaaaaaaaa \(b\.csv\.plan\.json\) "
+                                        + needle):
+        check_log_plans([good, bad], motor, "M")
+
+
+def test_logs_of_two_plans_are_refused_and_logs_without_a_plan_get_a_note(tmp_path):
+    from pgcomm.errors import DataError
+    from pgcomm.io.logs import Log
+    from pgcomm.io.plan import check_log_plans
+    from pgcomm.twin import TwinParams
+
+    motor = TwinParams().motor()
+    one, two = _sidecar_log(tmp_path, "a.csv", motor), _sidecar_log(tmp_path, "b.csv", motor, plan="bbbbbbbbbbbb")
+    with pytest.raises(DataError, match=r"b\.csv: recorded under plan bbbbbbbbbbbb .*, but \S+a\.csv under plan "
+                                        r"aaaaaaaaaaaa: give the logs of one round at a time"):
+        check_log_plans([one, two], motor, "M")
+    own = [Log({"t": np.arange(3) * ts}, ts, source=str(tmp_path / f"own{i}.csv")) for i, ts in enumerate((1e-3, 5e-4))]
+    notes = check_log_plans([one, *own], motor, "M")
+    assert notes[0].startswith("2 log(s) without a plan sidecar") and "taken as recorded at the drive values of M" in notes[0]
+    assert len(notes) == 2 and "own1.csv: sample time 0.0005 s, M has 0.001 s" in notes[1]
+    (tmp_path / "bad.csv.plan.json").write_text("{not json")
+    with pytest.raises(DataError, match=r"bad\.csv\.plan\.json: not a readable plan sidecar"):
+        check_log_plans([Log({"t": np.arange(3) * 1e-3}, 1e-3, source=str(tmp_path / "bad.csv"))], motor, "M")

@@ -252,6 +252,7 @@ def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, z
     ("lines", "--time-lines 50,x: frequencies in Hz, positive"),
     ("noise", "--current-noise -0.1: the logged current's noise in A"),
     ("filter", "--current-filter -1: the report filter's time constant in s"),
+    ("no current", r"zero\.csv: column 'iq_1' is 0 A in every row: the current carries no excitation"),
 ])
 def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
     log = sorted((zoo / "logs").glob("*.csv"))[0]
@@ -290,6 +291,13 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
         args += ["--data", str(log), "--current-noise", "-0.1"]
     elif case == "filter":
         args += ["--data", str(log), "--current-filter", "-1"]
+    elif case == "no current":  # a drive that logged a disabled channel: the fit's matrices were not positive definite
+        head = text[0].split(",")
+        j = head.index("iq_1")
+        p = tmp_path / "zero.csv"
+        p.write_text("\n".join([text[0]] + [",".join(c if i != j else "0" for i, c in enumerate(r.split(",")))
+                                             for r in text[1:]]) + "\n")
+        args += ["--data", str(p)]
     capsys.readouterr()
     assert main(args) == 2
     err = capsys.readouterr().err.strip()

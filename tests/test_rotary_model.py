@@ -144,11 +144,19 @@ def test_rotary_motor_toml(tmp_path):
         'kind = "rotary"\npole_pairs = 7\nslots = 12\nsample_time = 1\n': "did you give ms",
         'kind = "rotary"\npole_pairs = 7\nslots = 12\nsample_time = 0.001\nk_t = -1\n': "k_t = -1",
         'kind = "rotary"\npole_pairs = 7\nslots = 12\nsample_time = 0.001\ninertai = 1\n': "closest valid key: 'inertia'",
+        # each value in its range, the combination beyond what identification screens in reasonable time
+        'kind = "rotary"\npole_pairs = 200\nslots = 600\nsample_time = 0.001\n':
+            r"slots = 600 with pole_pairs = 200 put the cogging fundamental at LCM\(Q, 2p\) = 1200 per revolution and "
+            r"the model's orders up to 3600, beyond the 2048 pgcomm identifies",
+        'kind = "rotary"\npole_pairs = 180\nsample_time = 0.001\n':
+            r"pole_pairs = 180 puts the torque ripple at order 12p = 2160 .* \(at most pole_pairs = 170\)",
     }
     for text, msg in cases.items():
         with pytest.raises(ConfigError, match=msg) as e:
             load_rotary_motor(_write(tmp_path, text))
         assert "\n" not in str(e.value)
+    # the largest combination a torque motor may have within the bound: accepted (3 LCM(54, 48) = 1296)
+    assert load_rotary_motor(_write(tmp_path, 'kind = "rotary"\npole_pairs = 24\nslots = 54\nsample_time = 0.001\n'))
 
 
 def test_hold_angle_is_the_middle_of_the_hold(rng):

@@ -33,8 +33,10 @@ def release_compiled_programs() -> None:
     Call between independent steps of a run, never inside a loop that reuses a program (it would be
     compiled again on every pass).
     """
-    import jax
+    import sys
 
-    jax.clear_caches()
+    jax = sys.modules.get("jax")  # not loaded: no programs to drop (and no reason to load it)
+    if jax is not None:
+        jax.clear_caches()
     gc.collect()
     trim_heap()

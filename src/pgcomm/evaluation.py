@@ -24,6 +24,11 @@ error is then ``F_y,f − F_y,f*`` on those filtered windows (``commutation_mse.
 ``F_y,f − F̂_y,f``, and the evaluation says so (``force_reconstructed``, a note). Windows in
 which the translator is slower than the identification's speed bound are left out, as there.
 
+A long log is evaluated in blocks of :data:`BLOCK_ROWS` rows: the stacked force, the currents and the
+model's intermediate arrays exist for one block at a time (the model in float64, the filter's state
+carried from block to block), so the memory is that of the log's columns and the error columns kept
+for the figures (a 5 M-row log with a model: about 1 GB, where evaluating it whole took 7.6 GB).
+
 Every log is named by the shortest end of its path that no other log shares (:func:`log_names`:
 ``a/log.csv`` and ``b/log.csv`` become ``a/log`` and ``b/log``); figures, the text table and
 results.json use that name. Figures (:func:`pgcomm.plots.plot_logs`, :func:`pgcomm.plots.plot_model_error`) overlay all
@@ -40,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from pgcomm.errors import DataError
-from pgcomm.metrics import DIRECTIONS, commutation_mse, tracking_mse
+from pgcomm.metrics import DIRECTIONS, RunningMse, tracking_mse
 
 __all__ = ["LogEvaluation", "evaluate_log", "evaluate_logs", "evaluation_results", 
            "format_table", "require_desired_force", "missing_desired_force", "reconstruct_force", "ReconstructedForce",
@@ -48,6 +53,56 @@ __all__ = ["LogEvaluation", "evaluate_log", "evaluate_logs", "evaluation_results
 
 #: Desired-force columns a log needs to be evaluated (a log without a force sensor: ``Fy_star`` only).
 STAR_COLUMNS = ("Fy_star", "Fx_star", "Tz_star")
+
+#: Rows per block of :func:`evaluate_log`: a PGNN's hidden units for a block of 65 536 rows and three coil
+#: sets take about 25 MB, and blocks this long keep JAX's per-call overhead negligible.
+BLOCK_ROWS = 2**16
+
+
+def _blocks(n: int):
+    """``(start, stop)`` of consecutive blocks of at most :data:`BLOCK_ROWS` rows covering ``range(n)``."""
+    return [(a, min(n, a + BLOCK_ROWS)) for a in range(0, n, BLOCK_ROWS)]
+
+
+def _rows(log, start: int, stop: int):
+    """The rows ``start:stop`` of ``log`` as a :class:`pgcomm.io.logs.Log` of views (no copy)."""
+    return type(log)({k: v[start:stop] for k, v in log.columns.items()}, log.sample_time, log.source)
+
+
+def _model_force(model, y, currents, v=None) -> np.ndarray:
+    """``model.force(y, currents, v)`` ``(n, 3)`` of one block, compiled once per block length.
+
+    The block is padded (positions and velocities with their last value, currents with zeros) to
+    :data:`BLOCK_ROWS` or, for a shorter log, to a power of two of at least 1024 rows, so that logs of
+    any length share a few compiled programs; the padding's rows are dropped.
+    """
+    n = y.shape[0]
+    size = BLOCK_ROWS if n > BLOCK_ROWS // 2 else max(1024, 1 << (n - 1).bit_length())
+    pad = size - n
+    y = np.pad(y, (0, pad), mode="edge")
+    v = None if v is None else np.pad(v, (0, pad), mode="edge")  # None: no direction term, as model.force
+    currents = np.pad(currents, ((0, pad), (0, 0), (0, 0)))
+    return np.asarray(_force_program()(model, y, currents, v))[:n]
+
+
+_FORCE = []
+
+
+def _force_program():
+    """The compiled ``(model, y, currents, v) -> model.force(y, currents, v)`` (made on first use: loading JAX
+    is left to the logs that are evaluated with a model)."""
+    if not _FORCE:
+        import jax
+
+        _FORCE.append(jax.jit(lambda model, y, currents, v: model.force(y, currents, v)))
+    return _FORCE[0]
+
+
+def _has_pairs(log, a: str, b: str) -> bool:
+    """Whether every coil set ``l`` of ``log`` has the columns ``{a}_{l}`` and ``{b}_{l}`` (without stacking them:
+    :meth:`pgcomm.io.logs.Log.currents` would copy every current of a long log)."""
+    n = log.n_coil_sets
+    return n > 0 and all(f"{a}_{l}" in log and f"{b}_{l}" in log for l in range(1, n + 1))
 
 
 @dataclass(frozen=True)
@@ -291,7 +346,6 @@ def evaluate_log(log, lowpass_hz: float = 50.0, model=None, motor=None, mechanic
     _check_inputs(log, model, motor, mechanics)
     if not log.has_force:
         return _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch)
-    f = log.force()
     ts = log.sample_time
     notes = []
     r = log["r"] if "r" in log else None
@@ -303,8 +357,12 @@ def evaluate_log(log, lowpass_hz: float = 50.0, model=None, motor=None, mechanic
         notes.append(_skipped_note(missing))
         err, mse = None, _mse_unknown()
     else:
-        f_star = log.desired_force()
-        err, mse = f - f_star, commutation_mse(f, f_star, ts, lowpass_hz)
+        err, acc = np.empty((log.n_samples, 3)), RunningMse(ts, lowpass_hz)
+        for a, b in _blocks(log.n_samples):
+            part = _rows(log, a, b)
+            err[a:b] = part.force() - part.desired_force()
+            acc.add(err[a:b])
+        mse = acc.result()
     ev = dict(file=log.source, label=Path(log.source).stem, t=log.t, y=log["y"], r=r, e=e,
               commutation_error=err, sample_time=ts, lowpass_hz=float(lowpass_hz), commutation_mse=mse,
               tracking_mse=None if e is None else tracking_mse(e), notes=tuple(notes))
@@ -357,8 +415,8 @@ def _check_inputs(log, model, motor, mechanics) -> None:
     if model is None:
         return
     n = log.n_coil_sets
-    if log.currents() is None:
-        if log.drive_inputs() is None:
+    if not _has_pairs(log, "ia", "ib"):
+        if not _has_pairs(log, "Fy_ref", "delta"):
             raise DataError(f"{log.source}: no currents ia_l, ib_l (or drive inputs Fy_ref_l, delta_l) for every coil "
                             "set: the model error F - F^(y, i) needs the currents")
         if motor is None:
@@ -396,49 +454,54 @@ def _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch
               commutation_mse=_mse_y_only(None if rc.error is None else float(np.mean(rc.error ** 2))),
               tracking_mse=None if e is None else tracking_mse(e), notes=tuple(notes), reconstructed=rc)
     if model is not None:
-        import jax.numpy as jnp
-
         from pgcomm.models import warn_outside_training_range
 
-        cur, source = _currents(log, model, motor)
-        fy_hat = rc.filtered(np.asarray(model.force(jnp.asarray(log["y"]), jnp.asarray(cur)))[:, 0])
-        err = rc.force - fy_hat
+        source = _currents_source(log, model, motor)
+        fy_hat = np.empty(log.n_samples)
+        for a, b in _blocks(log.n_samples):
+            part = _rows(log, a, b)
+            fy_hat[a:b] = _model_force(model, part["y"], _currents(part, motor))[:, 0]
+        err = rc.force - rc.filtered(fy_hat)
         ev.update(model_mse=_mse_y_only(float(np.mean(err ** 2))), window_model_error=err, currents=source,
                   range_warning=warn_outside_training_range(model, log["y"]))
     return LogEvaluation(**ev)
 
 
-def _currents(log, model, motor):
-    """``(currents (N, L, 2) A, "logged" | "from drive inputs")`` of a log, checked against the model."""
+def _currents_source(log, model, motor) -> str:
+    """``"logged"`` or ``"from drive inputs"``: where :func:`_currents` takes a log's currents from, checked
+    against the model's coil sets."""
+    cur = _has_pairs(log, "ia", "ib")
+    if not cur and motor is None:
+        raise DataError(f"{log.source}: no currents ia_l, ib_l; converting drive inputs needs the drive's motor")
+    if log.n_coil_sets != model.n_coil_sets:
+        raise DataError(f"{log.source}: {log.n_coil_sets} coil sets in the log, the model has {model.n_coil_sets}")
+    return "logged" if cur else "from drive inputs"
+
+
+def _currents(log, motor) -> np.ndarray:
+    """Star currents ``(N, L, 2)`` (A) of a log (or of a block of its rows): logged, or from the drive inputs."""
     from pgcomm.data import log_currents
 
-    cur = log.currents()
-    source = "logged"
-    if cur is None:
-        if motor is None:
-            raise DataError(f"{log.source}: no currents ia_l, ib_l; converting drive inputs needs the drive's motor")
-        cur, source = log_currents(log, motor), "from drive inputs"
-    if cur.shape[1] != model.n_coil_sets:
-        raise DataError(f"{log.source}: {cur.shape[1]} coil sets in the log, the model has {model.n_coil_sets}")
-    return cur, source
+    return np.asarray(log_currents(log, motor))
 
 
 def _model_fit(log, model, motor, lowpass_hz) -> dict:
-    """``model_error``, ``model_mse``, ``currents``, ``range_warning`` of one log."""
-    import jax.numpy as jnp
-
+    """``model_error``, ``model_mse``, ``currents``, ``range_warning`` of one log, block by block."""
+    from pgcomm.data import velocity_from_positions
     from pgcomm.models import warn_outside_training_range
 
-    from pgcomm.data import velocity_from_positions
-
-    cur, source = _currents(log, model, motor)
+    source = _currents_source(log, model, motor)
     y = log["y"]
-    # a model with a direction term predicts C(y) s(ẏ) too: give it the velocity, as identification did
-    v = velocity_from_positions(y, log.sample_time)
-    f_hat = np.asarray(model.force(jnp.asarray(y), jnp.asarray(cur), jnp.asarray(v)))
-    f = log.force()
-    return {"model_error": f - f_hat, "model_mse": commutation_mse(f, f_hat, log.sample_time, lowpass_hz),
-            "currents": source, "range_warning": warn_outside_training_range(model, y)}
+    # a model with a direction term predicts C(y) s(ẏ) too: give it the velocity, as identification did (the
+    # whole log's: the velocity filter's window must not stop at a block's edge)
+    v = velocity_from_positions(y, log.sample_time) if model.has_direction else None
+    err, acc = np.empty((log.n_samples, 3)), RunningMse(log.sample_time, lowpass_hz)
+    for a, b in _blocks(log.n_samples):
+        part = _rows(log, a, b)
+        err[a:b] = part.force() - _model_force(model, part["y"], _currents(part, motor), None if v is None else v[a:b])
+        acc.add(err[a:b])
+    return {"model_error": err, "model_mse": acc.result(), "currents": source,
+            "range_warning": warn_outside_training_range(model, y)}
 
 
 def evaluate_logs(logs, lowpass_hz: float = 50.0, model=None, motor=None, mechanics: dict | None = None,

@@ -27,10 +27,44 @@ def commutation_mse(f_meas, f_star, sample_time: float, cutoff_hz: float = 50.0)
     Returns:
         ``{"y": {"filtered": .., "unfiltered": ..}, "x": .., "z": ..}`` in N² (N²m² for z).
     """
-    err = np.asarray(f_meas, float) - np.asarray(f_star, float)
-    filt = lowpass(err, sample_time, cutoff_hz)
-    return {d: {"filtered": float(np.mean(filt[:, q] ** 2)), "unfiltered": float(np.mean(err[:, q] ** 2))}
-            for q, d in enumerate(DIRECTIONS)}
+    acc = RunningMse(sample_time, cutoff_hz)
+    acc.add(np.asarray(f_meas, float) - np.asarray(f_star, float))
+    return acc.result()
+
+
+class RunningMse:
+    """The MSEs of :func:`commutation_mse` of an error ``(N, 3)`` given block by block.
+
+    ``add(err[a:b])`` for consecutive blocks filters with ``H(z)``'s state carried from block to block,
+    so the filtered signal is the one of filtering ``err`` whole; only the order of the sums differs
+    (rounding). A long log is thus evaluated without its ``(N, 3)`` copies.
+
+    Args:
+        sample_time: s; cutoff_hz: ``H(z)``'s cut-off (Hz).
+    """
+
+    def __init__(self, sample_time: float, cutoff_hz: float = 50.0):
+        a = float(np.exp(-2 * np.pi * cutoff_hz * sample_time))
+        self._b, self._a = [0.0, 1.0 - a], [1.0, -a]
+        self._zi = None
+        self._sum = np.zeros(len(DIRECTIONS))
+        self._sum_filtered = np.zeros(len(DIRECTIONS))
+        self.n = 0
+
+    def add(self, err) -> None:
+        """Add the next block ``err`` ``(n, 3)`` (N, N, N·m)."""
+        err = np.asarray(err, float)
+        zi = np.zeros((1, err.shape[1])) if self._zi is None else self._zi
+        filt, self._zi = lfilter(self._b, self._a, err, axis=0, zi=zi)
+        # column by column: NumPy sums a contiguous column pairwise (a column of an (n, 3) array row by row)
+        self._sum += [np.sum(err[:, q] ** 2) for q in range(err.shape[1])]
+        self._sum_filtered += [np.sum(filt[:, q] ** 2) for q in range(err.shape[1])]
+        self.n += err.shape[0]
+
+    def result(self) -> dict:
+        """``{"y": {"filtered", "unfiltered"}, "x": .., "z": ..}`` over every row added (N², N²m² for z)."""
+        return {d: {"filtered": float(self._sum_filtered[q] / self.n), "unfiltered": float(self._sum[q] / self.n)}
+                for q, d in enumerate(DIRECTIONS)}
 
 
 def tracking_mse(e) -> float:

@@ -63,7 +63,7 @@ def plot_comparison(runs: dict, lowpass_hz: float = 50.0, title: str = ""):
     y, x, z and tracking error, every row of ``runs`` (name -> SimResult) overlaid."""
     first = next(iter(runs.values()))
     # filter at full rate, draw at most ~5000 points per line (the figure cannot show more)
-    k = max(1, first.t.shape[0] // 5000)
+    k = _stride(first.t.shape[0])
     t = first.t[::k]
     fig, ax = plt.subplots(5, 1, figsize=(10, 10), sharex=True)
     ax[0].plot(t, first.r[::k] * 1e3, color="k")
@@ -74,6 +74,16 @@ def plot_comparison(runs: dict, lowpass_hz: float = 50.0, title: str = ""):
     ax[1].legend(loc="upper right", ncol=min(4, len(runs)), fontsize=8)
     finish_error_axes(fig, ax, title)
     return fig
+
+
+def _stride(n: int) -> int:
+    """Every how many samples a line of ``n`` samples is drawn: about 5000 points (a figure cannot show more)."""
+    return max(1, n // 5000)
+
+
+def _filtered_every(x, sample_time: float, lowpass_hz: float, k: int) -> np.ndarray:
+    """``lowpass(x)[::k]`` of ``x`` ``(N, m)``, filtered column by column (one filtered column in memory at a time)."""
+    return np.stack([lowpass(x[:, q], sample_time, lowpass_hz)[::k] for q in range(x.shape[1])], axis=-1)
 
 
 def draw_error_lines(ax, t, err_filtered, e, color, label) -> None:
@@ -222,23 +232,26 @@ def plot_logs(evaluations, title: str = ""):
     """
     fig, ax = plt.subplots(5, 1, figsize=(10, 10), sharex=True)
     for ev, c in zip(evaluations, _colors(len(evaluations))):
+        k = _stride(ev.t.shape[0])  # filtered at full rate, drawn at ~5000 points per line (as plot_comparison)
+        t = ev.t[::k]
+        e = None if ev.e is None else ev.e[::k]
         if ev.r is not None:
-            ax[0].plot(ev.t, ev.r * 1e3, lw=0.9, color=c, label=ev.label)
+            ax[0].plot(t, ev.r[::k] * 1e3, lw=0.9, color=c, label=ev.label)
         else:
-            ax[0].plot(ev.t, ev.y * 1e3, "--", lw=0.9, color=c, label=f"{ev.label} (y)")
+            ax[0].plot(t, ev.y[::k] * 1e3, "--", lw=0.9, color=c, label=f"{ev.label} (y)")
         if ev.reconstructed is not None:  # y only, on the reconstruction's windows
             rc = ev.reconstructed
             if rc.error is not None:
                 ax[1].plot(rc.t, rc.error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
-            if ev.e is not None:
-                ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
+            if e is not None:
+                ax[4].plot(t, e * 1e6, lw=0.8, color=c, label=ev.label)
             continue
         if ev.commutation_error is None:  # no desired force logged: tracking only
-            if ev.e is not None:
-                ax[4].plot(ev.t, ev.e * 1e6, lw=0.8, color=c, label=ev.label)
+            if e is not None:
+                ax[4].plot(t, e * 1e6, lw=0.8, color=c, label=ev.label)
             continue
-        err = lowpass(ev.commutation_error, ev.sample_time, ev.lowpass_hz)
-        draw_error_lines(ax, ev.t, err, ev.e, c, ev.label)
+        draw_error_lines(ax, t, _filtered_every(ev.commutation_error, ev.sample_time, ev.lowpass_hz, k), e, c,
+                         ev.label)
     if any(ev.force_reconstructed for ev in evaluations):
         for q in (2, 3):
             ax[q].text(0.5, 0.9, "force reconstructed from the motion: x, z not observable (n/a)",
@@ -269,9 +282,10 @@ def plot_model_error(evaluations, title: str = "model error F - F̂(y, i)"):
         if ev.window_model_error is not None:  # reconstructed force: y on its windows only
             ax[0].plot(ev.reconstructed.t, ev.window_model_error, lw=0.7, color=c, label=f"{ev.label} (reconstructed)")
             continue
-        err = lowpass(ev.model_error, ev.sample_time, ev.lowpass_hz)
+        k = _stride(ev.t.shape[0])
+        err = _filtered_every(ev.model_error, ev.sample_time, ev.lowpass_hz, k)
         for q in range(3):
-            ax[q].plot(ev.t, err[:, q], lw=0.7, color=c, label=ev.label)
+            ax[q].plot(ev.t[::k], err[:, q], lw=0.7, color=c, label=ev.label)
     for q in range(3):
         ax[q].set_ylabel(_MODEL_LABEL[q])
         ax[q].grid(alpha=0.3)

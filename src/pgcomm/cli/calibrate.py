@@ -30,6 +30,7 @@ def _run_logs(args, out: Path, progress) -> None:
     from pgcomm.errors import ConfigError
     from pgcomm.settings import ExperimentConfig, load_experiment
     from pgcomm.io.config import write_motor
+    from pgcomm.io.plan import check_log_plans
     from pgcomm.io.results import write_results
 
     for opt, given in (("--plant", args.plant), ("--truth", args.truth), ("--save-data", args.save_data)):
@@ -44,6 +45,11 @@ def _run_logs(args, out: Path, progress) -> None:
         raise ConfigError(f"--motor {args.motor}: key 'mass' missing: calibration without a force sensor needs the "
                           "moving mass of the translator (kg); add e.g. mass = 30.0 at the top of the motor TOML")
     logs = read_data_logs(args)
+    # the drive values the logs were recorded at must be --motor's: another round's would give a wrong k
+    notes = check_log_plans(logs, motor, f"--motor {args.motor}" if args.motor else "the twin's nominal motor")
+    if not args.quiet:
+        for note in notes:
+            print(f"pgcomm: note: {note}", file=sys.stderr)
     with progress.stage(f"one round of Algorithm 1 from {len(logs)} logs ({method})"):
         cal = calibrate_from_logs(logs, motor, method=method, n_bins=cc.n_bins)
     conv = convergence(cal, cc.tol)
@@ -51,7 +57,7 @@ def _run_logs(args, out: Path, progress) -> None:
     write_motor(out / "motor.toml", nxt)
     calibration = cal.to_dict() | {"true": {"k": None, "zeta": None}, "method": method, "convergence": conv}
     results = {"command": "calibrate", "logs": [str(lg.source) for lg in logs], "motor": str(args.motor or "twin"),
-               "calibration": calibration, "force_sensor": not args.no_force_sensor,
+               "calibration": calibration, "force_sensor": not args.no_force_sensor, "notes": notes,
                "runtime_s": time.perf_counter() - t0}
     plots.save(plots.plot_calibration(cal.k_initial, cal.zeta_initial, cal.k, cal.zeta), out / "calibration.png")
     write_results(out / "results.json", results)

@@ -37,9 +37,7 @@ def configure(p) -> None:
 
 def run(args, out: Path, progress) -> None:
     """Evaluate ``--data``; write ``results.json``, ``evaluation.png`` (and ``model_error.png`` with ``--model``)."""
-    from pgcomm import __version__, evaluation, plots
-    from pgcomm.io.model import load_model
-    from pgcomm.io.results import write_results
+    from pgcomm import __version__
 
     t0 = time.perf_counter()
     require_data(args)
@@ -47,10 +45,16 @@ def run(args, out: Path, progress) -> None:
         raise ConfigError(f"--lowpass-hz {args.lowpass_hz:g}: must be a positive frequency (Hz)")
     model = motor = document = None
     if args.model:  # before the logs: a bad model file or motor is named before any log is read
+        from pgcomm.io.model import load_model
+
         model, document = load_model(args.model)
         motor = motor_from_args(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         logs = read_data_logs(args)
+        # the computing modules (SciPy's filters, Matplotlib) load after the logs: a damaged log is refused at once
+        from pgcomm import evaluation, plots
+        from pgcomm.io.results import write_results
+
         for log in logs:
             if not args.model:  # with a model, a log without F* still has a model error
                 evaluation.require_desired_force(log)
@@ -69,6 +73,7 @@ def run(args, out: Path, progress) -> None:
                   file=sys.stderr)
     with progress.stage("evaluate logs"):
         evals = evaluation.evaluate_logs(logs, args.lowpass_hz, model=model, motor=motor, mechanics=mechanics)
+    del logs, log  # the figures need only what the evaluations keep (t, y, r, the errors): the other columns go
     for ev in evals:
         if ev.range_warning:
             print(f"pgcomm: warning: {ev.file}: {ev.range_warning}", file=sys.stderr)

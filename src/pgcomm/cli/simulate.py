@@ -35,7 +35,7 @@ def _run_plan(args, out: Path, progress) -> None:
     from pgcomm.data import generate_datasets
     from pgcomm.errors import ConfigError
     from pgcomm.io.logs import Log, write_log
-    from pgcomm.io.plan import read_plan
+    from pgcomm.io.plan import log_identity, plan_id, read_plan, write_log_identity
     from pgcomm.io.results import write_results
 
     for opt, given in (("--model", args.model), ("--reference", args.reference),
@@ -63,14 +63,16 @@ def _run_plan(args, out: Path, progress) -> None:
     for e in plan.experiments:
         res = by_key[(e.coil_set, e.delta > 0)]
         cols = {k: v for k, v in res.columns().items() if k not in force_cols}
-        write_log(out / f"{e.name}.{args.format}", Log(cols, res.sample_time, source=e.name))
+        path = out / f"{e.name}.{args.format}"
+        write_log(path, Log(cols, res.sample_time, source=e.name))
+        write_log_identity(path, log_identity(plan, e))  # the log carries its round: calibrate checks it
         summary[e.name] = {"tracking_rms_m": float((res.e ** 2).mean() ** 0.5), "samples": int(res.t.shape[0])}
     write_results(out / "results.json", {"command": "simulate", "plant": setup.plant_name, "plan": str(args.plan),
-                                         "force_sensor": plan.force_sensor, "experiments": summary,
+                                         "plan_id": plan_id(plan), "force_sensor": plan.force_sensor, "experiments": summary,
                                          "runtime_s": time.perf_counter() - t0})
     if not args.quiet:
-        print(f"wrote {n} logs ({', '.join(f'{e.name}.{args.format}' for e in plan.experiments)}) "
-              f"and results.json to {args.out}")
+        print(f"wrote {n} logs ({', '.join(f'{e.name}.{args.format}' for e in plan.experiments)}), each with "
+              f"its plan sidecar (.plan.json), and results.json to {args.out}")
 
 
 def run(args, out: Path, progress) -> None:

@@ -56,7 +56,6 @@ from pathlib import Path
 
 from pgcomm.errors import ConfigError
 from pgcomm.io.atomic import atomic_write_text
-from pgcomm.motor import Motor
 
 __all__ = [
     "closest_match",
@@ -511,6 +510,8 @@ def load_motor(path) -> Motor:
     zeta = _per_coil_set(nominal, "zeta", w, n)
     mu = _number(nominal, "mu", w, required=False)
     kwargs = {} if mu is None else {"mu": mu}
+    from pgcomm.motor import Motor  # here: reading a log or a setting needs no JAX
+
     return Motor(
         pole_pitch=pole_pitch,
         lever_arms=tuple(lever_arms),
@@ -605,6 +606,13 @@ ROTARY_PLAUSIBLE = {
     "control_rate": (100.0, 1e6, "Hz"),
 }
 _ROTARY_INT = ("pole_pairs", "slots", "encoder_counts")
+
+#: Highest harmonic order per revolution a rotary motor's model may reach (``3 LCM(Q, 2p)`` for the cogging,
+#: ``12 p`` and ``Q`` for the ripple). Identification screens every order up to the highest, on running logs whose
+#: length grows with it too (the alias guard slows the rotor), so its time grows with about its 2.5th power: one
+#: round of the twin's running logs took 4.7 s of CPU at 252 (12N14P), 37 s at 756 (36N42P), 125 s at 1296
+#: (54N48P); at 3600 (600N400P) it had not finished after 1.5 CPU-minutes of screening with 5.5 GB.
+MAX_ROTARY_ORDER = 2048
 _ROTARY_REQUIRED = ("kind", "pole_pairs", "sample_time")
 
 
@@ -673,10 +681,29 @@ def load_rotary_motor(path):
         vals[key] = int(v) if key in _ROTARY_INT else x
     if "slots" in vals and vals["slots"] % 3:
         raise ConfigError(f"{file}: slots = {vals['slots']} is not a multiple of 3 (a three-phase winding)")
+    _check_rotary_orders(vals, file)
     try:
         return RotaryMotor(**vals)
     except ValueError as e:
         raise ConfigError(f"{file}: {' '.join(str(e).split())}") from None
+
+
+def _check_rotary_orders(vals: dict, file: str) -> None:
+    """Refuse a slot/pole combination whose model reaches beyond :data:`MAX_ROTARY_ORDER` (each value may be in its
+    range, their least common multiple not)."""
+    from pgcomm.rotary.model import cogging_orders, fundamental_cogging_order, ripple_orders
+
+    p, q = vals["pole_pairs"], vals.get("slots")
+    if q is not None and int(cogging_orders(q, p).max()) > MAX_ROTARY_ORDER:
+        lcm = fundamental_cogging_order(q, p)
+        raise ConfigError(f"{file}: slots = {q} with pole_pairs = {p} put the cogging fundamental at LCM(Q, 2p) = {lcm} "
+                          f"per revolution and the model's orders up to {int(cogging_orders(q, p).max())}, beyond the "
+                          f"{MAX_ROTARY_ORDER} pgcomm identifies: identification screens every order up to the highest, "
+                          "on logs slow enough to resolve it (its time grows with about the 2.5th power of that order)")
+    if int(ripple_orders(q, p).max()) > MAX_ROTARY_ORDER:
+        raise ConfigError(f"{file}: pole_pairs = {p} puts the torque ripple at order 12p = {12 * p} per revolution, "
+                          f"beyond the {MAX_ROTARY_ORDER} pgcomm identifies (at most pole_pairs = "
+                          f"{MAX_ROTARY_ORDER // 12})")
 
 
 def rotary_motor_to_toml(motor) -> str:

@@ -12,11 +12,22 @@ Layout (written by :func:`write_plan`, read by :func:`read_plan`)::
 
 Drive-input convention (the log format's): ``Fy_ref_l`` is signed (it follows ``Fy*``) and
 ``delta_l`` stays at the plan's ``±Δ0`` for the whole experiment.
+
+**Logs carry their round.** A plan has an id (:func:`plan_id`: a digest of plan.json's content, so
+each round's plan has its own). A log recorded under a plan (``pgcomm simulate --plan`` writes them)
+has a sidecar ``<log file name>.plan.json`` (schema ``pgcomm-log-plan/1``, :func:`log_identity`): the
+plan id, the experiment, and the drive values it ran at: ``k̂``, ``ζ̂`` per coil set, the pole pitch and
+the sample time. :func:`check_log_plans` compares them with the motor TOML a command is given, so a
+round's logs calibrated against another round's (or another motor's) drive values are refused instead
+of giving a wrong ``k``; a log without a sidecar (a rig's own) is taken as recorded at that TOML's
+values, with a note.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -27,10 +38,18 @@ from pgcomm.io.config import load_motor, write_motor
 from pgcomm.io.logs import Log, write_log
 from pgcomm.plan import Experiment, Plan, log_columns
 
-__all__ = ["SCHEMA", "write_plan", "read_plan", "plan_to_dict", "plan_markdown"]
+__all__ = ["SCHEMA", "LOG_SCHEMA", "write_plan", "read_plan", "plan_to_dict", "plan_markdown", "plan_id",
+           "log_identity", "identity_path", "write_log_identity", "read_log_identity", "check_log_plans"]
 
 #: ``schema`` of plan.json.
 SCHEMA = "pgcomm-plan/1"
+
+#: ``schema`` of a log's plan sidecar ``<log>.plan.json``.
+LOG_SCHEMA = "pgcomm-log-plan/1"
+
+#: Relative difference below which a drive value of a log's plan and of a motor TOML are the same value
+#: (both files store floats that read back bit-identically; this only absorbs a hand-edited last digit).
+SAME_VALUE = 1e-9
 
 
 def plan_to_dict(plan: Plan) -> dict:
@@ -77,7 +96,7 @@ def write_plan(folder, plan: Plan, commands: dict[str, str]) -> list[Path]:
         write_log(p, Log(cols, ref.sample_time, source=str(p)))
         paths.append(p)
     write_motor(folder / "motor.toml", plan.motor)
-    doc = plan_to_dict(plan) | {"commands": dict(commands)}
+    doc = plan_to_dict(plan) | {"id": plan_id(plan), "commands": dict(commands)}
     atomic_write_text(folder / "plan.json", json.dumps(doc, indent=2) + "\n")
     atomic_write_text(folder / "plan.md", plan_markdown(plan, commands))
     return paths + [folder / "motor.toml", folder / "plan.json", folder / "plan.md"]
@@ -194,3 +213,130 @@ def read_plan(path) -> Plan:
         ref = r
     return Plan(motor, ref, settings, exps, force_sensor)
 
+
+
+# --------------------------------------------------------------------------- logs carry their round
+
+
+def plan_id(plan: Plan) -> str:
+    """The plan's id: the first 12 hex digits of the SHA-256 of its canonical JSON (:func:`plan_to_dict`).
+
+    Two plans share an id only if they share every drive value, reference setting and experiment.
+    """
+    text = json.dumps(plan_to_dict(plan), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def log_identity(plan: Plan, experiment) -> dict:
+    """The sidecar document of a log recorded under ``plan`` in ``experiment`` (:class:`pgcomm.plan.Experiment`).
+
+    Returns:
+        ``{"schema", "plan_id", "experiment", "coil_set"`` (1-based), ``"delta_rad", "k_hat_N_per_A"`` (L,),
+        ``"zeta_hat_rad"`` (L,), ``"pole_pitch_m", "sample_time_s"}``.
+    """
+    m = plan.motor
+    return {"schema": LOG_SCHEMA, "plan_id": plan_id(plan), "experiment": experiment.name,
+            "coil_set": experiment.coil_set + 1, "delta_rad": experiment.delta,
+            "k_hat_N_per_A": [float(x) for x in m.k], "zeta_hat_rad": [float(x) for x in m.zeta],
+            "pole_pitch_m": float(m.pole_pitch), "sample_time_s": float(m.sample_time)}
+
+
+def identity_path(log_path) -> Path:
+    """The sidecar of a log file: ``Z1_coilset1.csv`` -> ``Z1_coilset1.csv.plan.json`` (same folder)."""
+    p = Path(log_path)
+    return p.with_name(p.name + ".plan.json")
+
+
+def write_log_identity(log_path, identity: dict) -> Path:
+    """Write ``identity`` (:func:`log_identity`) as the sidecar of ``log_path`` (atomically); returns its path."""
+    path = identity_path(log_path)
+    atomic_write_text(path, json.dumps(identity, indent=2) + "\n")
+    return path
+
+
+def read_log_identity(log_path) -> dict | None:
+    """The plan a log was recorded under (its sidecar, :func:`identity_path`), or ``None`` when it has none.
+
+    Raises:
+        DataError: a sidecar that is not a readable ``pgcomm-log-plan/1`` document, naming it.
+    """
+    path = identity_path(log_path)
+    if not path.is_file():
+        return None
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise DataError(f"{path}: not a readable plan sidecar ({' '.join(str(e).split())})") from None
+    if not isinstance(doc, dict) or doc.get("schema") != LOG_SCHEMA:
+        raise DataError(f"{path}: schema {doc.get('schema') if isinstance(doc, dict) else None!r}, expected "
+                        f"{LOG_SCHEMA!r}")
+    try:
+        ident = {"plan_id": str(doc["plan_id"]), "k": [float(x) for x in doc["k_hat_N_per_A"]],
+                 "zeta": [float(x) for x in doc["zeta_hat_rad"]], "pole_pitch": float(doc["pole_pitch_m"]),
+                 "sample_time": float(doc["sample_time_s"]), "experiment": str(doc.get("experiment", "?"))}
+    except (KeyError, TypeError, ValueError) as e:
+        raise DataError(f"{path}: malformed plan sidecar ({type(e).__name__}: {e})") from None
+    if len(ident["k"]) != len(ident["zeta"]) or not all(map(math.isfinite, ident["k"] + ident["zeta"])):
+        raise DataError(f"{path}: k_hat_N_per_A and zeta_hat_rad must be finite and of one length per coil set")
+    return ident
+
+
+def _differs(a: float, b: float) -> bool:
+    return abs(a - b) > SAME_VALUE * max(abs(a), abs(b))
+
+
+def check_log_plans(logs, motor, motor_name: str) -> list[str]:
+    """Check that ``logs`` were recorded at ``motor``'s drive values, as their plan sidecars say.
+
+    Every log with a sidecar (:func:`read_log_identity`) must agree with ``motor`` in the number of
+    coil sets, ``k̂``, ``ζ̂`` of each, the pole pitch and the sample time, and all of them must come from
+    one plan. Logs without a sidecar are taken as recorded at ``motor``'s values (a rig's own logs).
+
+    Args:
+        logs: :class:`pgcomm.io.logs.Log` list (``source`` is the file).
+        motor: :class:`pgcomm.motor.Motor` the command calibrates or identifies against.
+        motor_name: how the user gave it, for messages (``"--motor round2/motor.toml"``).
+
+    Returns:
+        notes for the user (logs without a sidecar; their sample time where it differs from ``motor``'s).
+
+    Raises:
+        DataError: one line naming the log and the value that differs, or two logs of different plans.
+    """
+    notes, first = [], None
+    without = []
+    for log in logs:
+        ident = read_log_identity(log.source)
+        if ident is None:
+            without.append(log)
+            continue
+        src, pid = log.source, ident["plan_id"]
+        where = f"{src}: recorded under plan {pid} ({identity_path(src).name})"
+        if len(ident["k"]) != motor.n_coil_sets:
+            raise DataError(f"{where} with {len(ident['k'])} coil set(s), but {motor_name} has {motor.n_coil_sets}: "
+                            "logs of another motor")
+        for what, ours, theirs, unit, fmt in (("pole pitch", ident["pole_pitch"], motor.pole_pitch, "m", ".6g"),
+                                              ("sample time", ident["sample_time"], motor.sample_time, "s", ".6g")):
+            if _differs(ours, theirs):
+                raise DataError(f"{where} with {what} {ours:{fmt}} {unit}, but {motor_name} has {theirs:{fmt}} {unit}: "
+                                "logs of another motor")
+        for l in range(motor.n_coil_sets):
+            for sym, ours, theirs, unit in (("k̂", ident["k"][l], motor.k[l], "N/A"),
+                                            ("ζ̂", ident["zeta"][l], motor.zeta[l], "rad")):
+                if _differs(ours, theirs):
+                    raise DataError(f"{where} with {sym}{l + 1} = {ours:.6g} {unit}, but {motor_name} has "
+                                    f"{sym}{l + 1} = {theirs:.6g} {unit}: logs of another round; give the motor.toml "
+                                    f"of the plan they were recorded under")
+        if first is None:
+            first = (src, pid)
+        elif pid != first[1]:
+            raise DataError(f"{where}, but {first[0]} under plan {first[1]}: give the logs of one round at a time")
+    if without:
+        shown = ", ".join(lg.source for lg in without[:2]) + (", ..." if len(without) > 2 else "")
+        notes.append(f"{len(without)} log(s) without a plan sidecar ({shown}): taken as recorded at the drive values "
+                     f"of {motor_name}")
+        for log in without:
+            if _differs(log.sample_time, motor.sample_time):
+                notes.append(f"{log.source}: sample time {log.sample_time:.6g} s, {motor_name} has "
+                             f"{motor.sample_time:.6g} s: check that the log is of this motor")
+    return notes

@@ -600,6 +600,9 @@ def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
 
 
 def _identify_torque(logs, motor, orders, t0) -> RotaryIdentification:
+    from pgcomm.rotary.regression import _require_current
+
+    _require_current(logs, motor.sample_time)
     ys, xs = [], []
     for i, log in enumerate(logs):
         name, th, iq, torque, _ = _log_arrays(log, i, motor.sample_time)

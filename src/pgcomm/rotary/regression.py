@@ -258,6 +258,31 @@ def _rise_fall(a: np.ndarray, b: np.ndarray, steps: "_Steps | None"):
     return a * steps.rise[:, None], b * steps.fall[:, None]
 
 
+def _require_current(logs, sample_time) -> None:
+    """Refuse logs whose q-current carries no excitation: the same value in every row of every log.
+
+    The fit weighs the current against the motion (``J/k0 θ̈`` and the maps in current units): a current that
+    never changes (a column of zeros: a drive that logged a disabled channel, a wrong column map) determines
+    neither, and its normal equations, once corrected for the current's noise, are not positive definite.
+    One log with a varying current is enough (a coasting log beside running ones still shows the cogging).
+
+    Raises:
+        ExcitationError: naming the first log, the column and its value.
+    """
+    flat = []
+    for i, log in enumerate(logs):
+        name, _, iq, _, _ = _log_arrays(log, i, sample_time)
+        if iq.size and np.ptp(iq) > 0:
+            return
+        flat.append((name, float(iq[0]) if iq.size else 0.0))
+    if flat:
+        name, value = flat[0]
+        more = f" (and in the {len(flat) - 1} other log(s))" if len(flat) > 1 else ""
+        raise ExcitationError(f"{name}: column 'iq_1' is {value:g} A in every row{more}: the current carries no "
+                              "excitation; identification needs the q-current the drive commanded while the rotor "
+                              "ran (check the column and its --columns mapping)")
+
+
 def _filt(x, starts, taps):
     """``Σ_m taps_m x[s_j + m]`` for ``x`` ``(N,)`` or ``(N, k)``, one tap at a time (no ``(J, m, k)`` gather)."""
     st = np.asarray(starts)
@@ -301,6 +326,7 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
         ``(prepared, counts, v_limit, ts)``: a :class:`_Prepared` per log with windows, the window counts
         (``windows``, ``alias``, ``slow``), the alias guard's speed limit (rad/s), the median sample time (s).
     """
+    _require_current(logs, motor.sample_time)
     span = taps + 2  # samples of θ one output needs: s .. s+T+1
     stride = max(1, taps // 2)
     counts = {"windows": 0, "alias": 0, "slow": 0}
