@@ -88,7 +88,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
              ridge: float | None = None, extra_orders: bool = True, encoder_step="detect",
              current_delay="detect", angle_pll="detect", time_lines="detect",
              back_emf: bool = True, current_lag="detect", current_noise="detect",
-             current_filter="detect") -> RotaryIdentification:
+             current_filter="detect", pin: tuple = ()) -> RotaryIdentification:
     """Identify cogging, torque-constant ripple, the direction-dependent torque and friction.
 
     Args:
@@ -129,6 +129,8 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         current_filter: the time constant (s) of a first-order filter through which the drive reports the current
             (``0`` for none), or ``"detect"`` (:mod:`pgcomm.rotary.readings`, "A filtered report"; results
             ``info["current_filter"]``).
+        pin: maps to pin whatever the logs' information on them (``"ripple"``, ``"direction"``); a fit whose ripple is
+            not a motor's (:func:`check_plausible`) is repeated with the ripple pinned, and says so.
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -139,7 +141,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         ExcitationError: no usable window (all too fast for the alias guard or at standstill).
     """
     t0 = time.perf_counter()
-    orders = orders or Orders.for_motor(motor)
+    orders = orders0 = orders or Orders.for_motor(motor)
     if torque_sensor:
         return check_plausible(_identify_torque(logs, motor, orders, t0))
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
@@ -147,7 +149,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     # a map the logs do not determine is pinned (the ripple at zero, a one-direction log's direction map folded into
     # the cogging) before anything is read off the basis fit: its columns would take the cogging's part
     shares = information_shares(prepared, orders, taps)
-    pinned = {name: share for name, share in shares.items() if share < DETERMINED_SHARE}
+    pinned = {name: share for name, share in shares.items() if share < DETERMINED_SHARE or name in pin}
     orders = replace(orders, **{name: np.zeros(0, int) for name in pinned})
     report = {"tau_s": float(current_filter or 0.0) if not isinstance(current_filter, str) else 0.0,
               "evidence": None, "cost_by_tau": None}
@@ -266,7 +268,20 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "
                         f"{v_limit:.3g} rad/s, where order {orders.highest} has fewer than "
                         f"{min_samples_per_period:g} samples per period")
-    return check_plausible(RotaryIdentification(model, info))
+    try:
+        return check_plausible(RotaryIdentification(model, info))
+    except ExcitationError as e:
+        if "ripple" in pinned:
+            raise
+        # the logs carry some information on the ripple, but not enough for a motor's: the cogging is what they
+        # determine, the ripple is pinned as where they carry none
+        again = identify(logs, motor, orders0, torque_sensor=False, min_samples_per_period=min_samples_per_period,
+                         taps=taps, ridge=ridge, extra_orders=extra_orders, encoder_step=encoder_step,
+                         current_delay=current_delay, angle_pll=angle_pll, time_lines=time_lines, back_emf=back_emf,
+                         current_lag=current_lag, current_noise=current_noise, current_filter=current_filter,
+                         pin=(*pin, "ripple"))
+        again.info["standard_error"]["ripple"]["implausible_fit"] = str(e)
+        return again
 
 
 def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Orders, layout: _Layout, ts: float,
@@ -523,8 +538,10 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
     if entry["resolved"]:
         return "resolved"
     if entry.get("determined") is False:
-        return (f"not determined by these logs ({100 * entry['information_share']:.2g} % of its information beyond "
-                f"the angle's): {entry['pinned']}; to determine it, record {entry['experiment']}")
+        why = ("its fit was not a motor's" if entry.get("implausible_fit") else
+               f"{100 * entry['information_share']:.2g} % of its information beyond the angle's")
+        return (f"not determined by these logs ({why}): {entry['pinned']}; to determine it, record "
+                f"{entry['experiment']}")
     ridge, quant = entry.get("ridge_bias", 0.0), entry.get("quantisation_bias", 0.0)
     if math.hypot(ridge, quant) >= RESOLVED_SHARE and ridge >= quant:
         return (f"not resolved: the ridge sets {100 * entry['ridge_bias']:.0f} % of it (the logs do not excite it; "
