@@ -27,7 +27,7 @@ def configure(p) -> None:
                         "odrive 0.5.x) or reference CSVs only (generic)")
     p.add_argument("--swing", type=float,
                    help="rotary motors: the dither's largest speed swing as a share of each run's speed, 0 < swing < 1 "
-                        "(default 0.5): larger carries more current for the ripple, closer to stopping the rotor")
+                        "(default 0.8): larger carries more current for the ripple, closer to stopping the rotor")
 
 
 def _commands(args, out: Path, force_sensor: bool) -> dict[str, str]:

@@ -153,16 +153,27 @@ def rotary_plan_markdown(plan: RotaryPlan, drive: str, commands: dict) -> str:
         lines += ["## Then", "", "Identify from the logs so far: `" + commands["identify"] + "`", ""]
         return "\n".join(lines)
     lines += [f"{len(plan.runs)} runs in the drive's speed loop, {_seconds(plan.duration)} of motion in all (plus a few "
-              "seconds between runs): each speed in both directions, each with a q-current dither while it cruises. "
+              "seconds between runs): each speed in both directions, each with a q-current dither while it cruises"
+              + ("" if plan.inertia_ratio is not None else " (none this round: see the dither below)") + ". "
               "Record them in one session: the drive must not search its encoder's index again in between (the "
-              "maps are read in the encoder's frame).", "",
-              "## Before you start", ""]
+              "maps are read in the encoder's frame).", ""]
+    if plan.first_round is not None:
+        lines += ["These runs are identified together with the first round's logs: record them before the drive "
+                  "searches its index again (an absolute encoder, or the same power-on). An incremental encoder's index "
+                  "can land elsewhere after a restart (half a revolution on the shared ODrive logs); then the rounds' "
+                  "angles disagree, and this round's logs go on their own (plan again from them).", ""]
+    lines += ["## Before you start", ""]
     lines += [f"* {s}" for s in _SETUP[drive]]
     lines += [f"* Log every {1e3 * plan.sample_time:.3g} ms. The speeds assume that period: the fastest run keeps the "
               f"model's highest order ({plan.highest_order} per revolution) at 3 or more samples per period, within "
               f"{plan.speed_limit:.4g} rad/s with the dither's swing. A slower host loses the fastest runs' windows; "
               "`pgcomm plan --data` plans again at the period the logs show."]
-    if m.current_limit is not None:
+    if plan.inertia_ratio is not None:
+        f = plan.runs[0].dither_hz
+        lines.append(f"* Keep the speed loop's bandwidth well below the dither's {min(f):g}-{max(f):g} Hz: a loop that "
+                     "answers the dither cancels the current variation the ripple needs (the ripple's standard error "
+                     "after the round shows it).")
+    if m.current_limit is not None and plan.inertia_ratio is not None:
         lines.append(f"* The q-current limit stays at {m.current_limit:g} A or above (the dither uses up to "
                      f"{100 * plan.settings.dither_share:.0f} % of it).")
     lines += ["* At the slowest speed the rotor may stall on its cogging (the logged speed drops to zero for a while): "
@@ -217,10 +228,10 @@ def _first_round_section(plan: RotaryPlan) -> list:
     lines = ["## How long", ""]
     if plan.first_round is None:
         st = plan.settings
-        return lines + [f"A first round: each speed for {st.first_round_revolutions:g} revolution(s) and at least "
-                        f"{st.first_round_seconds:g} s of cruise. That is a default, not a standard error: the first "
-                        "round's logs give each map's standard error, and `pgcomm plan --data` sizes the next round "
-                        "from them.", ""]
+        return lines + [f"A first round: every speed cruises {_seconds(plan.runs[0].cruise)} ({st.first_round_seconds:g} s, "
+                        f"or longer where the fastest would not pass {st.first_round_revolutions:g} revolution(s)). "
+                        "That is a default, not a standard error: the first round's logs give each map's standard "
+                        "error, and `pgcomm plan --data` sizes the next round from them.", ""]
     fr, need = plan.first_round, plan.need
     lines += [f"From the first round's logs ({fr.seconds:.0f} s, logged every {1e3 * fr.sample_time:.3g} ms):", "",
               "| map | standard error (of its RMS) | log time to resolve | verdict |", "|---|---|---|---|"]

@@ -34,8 +34,12 @@ The frequencies (:func:`dither_frequencies`) sit in an octave below ``1/(8 T_s)`
 :data:`DITHER_MAX_HZ`) and at least ``mains_margin_hz`` from every harmonic of 50 and 60 Hz: a mains pickup within a
 natural bin of a dither cannot be told from it (:mod:`pgcomm.rotary.time_lines`).
 
-**Durations.** A first round (no logs yet) runs each speed for :attr:`RotaryPlanSettings.first_round_revolutions`
-and at least :attr:`RotaryPlanSettings.first_round_seconds` of cruise: a documented default, not a standard error.
+**Durations.** A first round (no logs yet) runs every speed for the same cruise time (:func:`first_round_cruise`):
+:attr:`RotaryPlanSettings.first_round_seconds`, longer where the fastest run would not pass
+:attr:`RotaryPlanSettings.first_round_revolutions` in it: a documented default, not a standard error. Equal times,
+not equal revolutions: the slow runs are there for the friction and the readings that grow with speed, and a
+revolution at each would spend most of the round where the dither, bounded by the speed's swing, is smallest (the
+ripple's information grows as the dither's power, the square of the speed).
 Its logs give each map's standard error and the log time that would resolve it
 (``identification.standard_error[map].log_time_factor_to_resolve``, which assumes the noise part falls as the square
 root of the log time at the same excitation); :func:`refined_plan` plans the rest: ``(F − 1)`` times the first
@@ -61,7 +65,7 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import MIN_SAMPLES_PER_PERIOD, Orders, max_speed
 
 __all__ = ["RotaryPlanSettings", "Run", "RotaryPlan", "FirstRound", "DRIVES", "DRIVE_COLUMNS", "DITHER_MAX_HZ",
-           "highest_order", "segment_speeds", "dither_frequencies", "dither_amplitudes", "swing_bound",
+           "highest_order", "segment_speeds", "first_round_cruise", "dither_frequencies", "dither_amplitudes", "swing_bound",
            "first_plan", "refined_plan", "read_first_round", "logs_as_data", "MAPS"]
 
 #: Drives a plan can be written for: a script using the drive's own Python package, or CSV references only.
@@ -97,18 +101,21 @@ class RotaryPlanSettings:
 
     Attributes:
         speeds: cruise speeds per direction [4], geometric from ``lowest_share`` of the fastest to the fastest.
-        lowest_share: slowest speed as a share of the fastest [0.125]; 0 < share ≤ 1.
+        lowest_share: slowest speed as a share of the fastest [0.25]; 0 < share ≤ 1.
         guard_margin: the fastest run's speed with the dither's swing, as a share of the alias guard's limit [0.9]: the
             rest is room for the cogging's own speed ripple.
-        swing: the dither's largest speed swing as a share of the run's speed [0.5]; 0 < swing < 1 keeps the sign.
+        swing: the dither's largest speed swing as a share of the run's speed [0.8, as ``pgcomm reproduce``'s running
+            logs]; 0 < swing < 1 keeps the sign. The dither's current at the fastest run grows as
+            ``swing / (1 + swing)``, the ripple's information as its square (``python bench/rotary_plan.py`` compares
+            swings on the twin).
         dither_share: the dither's amplitudes summed, as a share of the motor's ``current_limit`` at most [0.5].
         dither_count: frequencies in the dither [3].
         mains_margin_hz: least distance of a dither frequency from every harmonic of 50 and 60 Hz [3 Hz].
         ramp_seconds: the speed's raised-cosine ramp at each end of a run, at least [0.5 s]; longer where the ramp's
             current ``(J/k0) α`` would exceed a quarter of the current limit.
-        first_round_revolutions: a first round's cruise per run, in revolutions [1].
-        first_round_seconds: ... and in seconds at least [4 s] (the identification's sandwich covariance takes
-            one-second time blocks).
+        first_round_revolutions: a first round's fastest run passes at least this many revolutions [1].
+        first_round_seconds: a first round's cruise per run, at least [4 s] (the identification's sandwich covariance
+            takes one-second time blocks).
         min_cruise_seconds: a refined run's cruise at least [2 s].
         max_revolutions: revolutions per run at most [200]; a longer cruise is split into repeats that alternate the
             direction, so that the multi-turn position stays small (an ODrive's ``pos_estimate`` is float32: at 200
@@ -118,9 +125,9 @@ class RotaryPlanSettings:
     """
 
     speeds: int = 4
-    lowest_share: float = 0.125
+    lowest_share: float = 0.25
     guard_margin: float = 0.9
-    swing: float = 0.5
+    swing: float = 0.8
     dither_share: float = 0.5
     dither_count: int = 3
     mains_margin_hz: float = 3.0
@@ -301,6 +308,20 @@ def segment_speeds(speed_limit: float, settings: RotaryPlanSettings) -> np.ndarr
     return top * settings.lowest_share ** (1.0 - np.arange(settings.speeds) / (settings.speeds - 1))
 
 
+def first_round_cruise(speeds, settings: RotaryPlanSettings) -> np.ndarray:
+    """A first round's cruise per speed (s): the same for every speed, ``first_round_seconds`` or the time the fastest
+    takes for ``first_round_revolutions``, whichever is longer (module docstring, "Durations").
+
+    Args:
+        speeds: ``(n,)`` cruise speeds (rad/s, positive); settings: :class:`RotaryPlanSettings`.
+
+    Returns:
+        ``(n,)`` seconds.
+    """
+    w = np.asarray(speeds, float)
+    return np.full(w.shape, max(settings.first_round_seconds, settings.first_round_revolutions * 2.0 * math.pi / w.max()))
+
+
 def dither_frequencies(sample_time: float, settings: RotaryPlanSettings) -> tuple:
     """The dither's frequencies (Hz): whole hertz in the octave ``[0.55 f_hi, f_hi]``, ``f_hi = min(DITHER_MAX_HZ,
     1/(DITHER_MIN_SAMPLES T_s))``, at least ``mains_margin_hz`` from every harmonic of 50 and 60 Hz, spread evenly
@@ -392,8 +413,8 @@ def _inertia(motor: RotaryMotor) -> tuple:
 
 
 def first_plan(motor: RotaryMotor, settings: RotaryPlanSettings = RotaryPlanSettings()) -> RotaryPlan:
-    """A first round: :func:`segment_speeds` in both directions, each for ``first_round_revolutions`` and at least
-    ``first_round_seconds`` of cruise (a documented default: no standard error yet), with the dither sized from the
+    """A first round: :func:`segment_speeds` in both directions, each for :func:`first_round_cruise` (a documented
+    default: no standard error yet), with the dither sized from the
     motor TOML's ``inertia / k_t`` (none without them: the first round's logs then give ``J/k0``).
 
     Args:
@@ -407,7 +428,7 @@ def first_plan(motor: RotaryMotor, settings: RotaryPlanSettings = RotaryPlanSett
     v_lim = max_speed(_orders_up_to(h), motor.sample_time)
     speeds = segment_speeds(v_lim, settings)
     ratio, source = _inertia(motor)
-    cruises = [max(settings.first_round_seconds, settings.first_round_revolutions * 2.0 * math.pi / w) for w in speeds]
+    cruises = first_round_cruise(speeds, settings)
     return RotaryPlan(motor, settings, h, v_lim, ratio, source, _runs(motor, speeds, cruises, ratio, settings),
                       notes=tuple(_motor_notes(motor, ratio)))
 
@@ -445,8 +466,7 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
     rest = max(0.0, min(total, settings.max_seconds) - first.seconds)
     notes = []
     runs = ()
-    base = np.array([max(settings.first_round_seconds, settings.first_round_revolutions * 2.0 * math.pi / w)
-                     for w in speeds])
+    base = first_round_cruise(speeds, settings)
     # a first round planned without J/k0 had no dither: its ripple was not excited, and a round of the same size with
     # the dither sized from the identified J/k0 is what comes next (then plan again from all the logs)
     undithered = "ripple" in not_by_time and _inertia(motor)[0] is None

@@ -31,12 +31,14 @@ The moteus calls, checked against mjbots/moteus (commit db1a7623d6a7d5568e7632b9
   query_resolution=qr)``, ``await c.set_position(position=math.nan, velocity=..., query=True)``,
   ``result.values[moteus.Register.POSITION]``, ``qr = moteus.QueryResolution(); qr.q_current = moteus.F32``
   (``lib/python/moteus/moteus.py``: ``QueryResolution.q_current`` and ``d_current`` default to ``IGNORE``);
-* ``docs/guides/control-modes.md`` ("Velocity Control"; https://github.com/mjbots/moteus/blob/main/docs/guides/
-  control-modes.md): position NaN and a velocity in revolutions/s is the velocity loop; ``feedforward_torque`` is
-  extra torque (N·m) beyond the loop's; ``set_stop()`` leaves position mode;
+* ``lib/python/README.md`` ("Theory"): ``await Controller.set_stop()``, ``set_position()`` and ``query()`` for one
+  controller;
+* ``docs/guides/control-modes.md`` ("Understanding Position Mode", "Velocity Control";
+  https://github.com/mjbots/moteus/blob/main/docs/guides/control-modes.md): position NaN and a velocity in
+  revolutions/s is the velocity loop; ``feedforward_torque`` is extra torque (N·m) beyond the loop's;
 * ``docs/protocol/registers.md`` (https://github.com/mjbots/moteus/blob/main/docs/protocol/registers.md): 0x001
   position in rotations of the output shaft, 0x002 velocity in Hz at the output shaft, 0x004/0x005 the measured
-  Q/D phase currents in A, 0x000 mode (1 fault, 11 position timeout), 0x00f fault code.
+  Q/D phase currents in A, 0x000 mode (0 stopped, clears faults; 1 fault; 11 timeout), 0x00f fault code.
 
 Assumed, not fixed by those documents: the feed-forward torque per ampere is the plan's ``k_t`` (``--torque-per-amp``
 overrides it; the logged ``q_current`` is what identification reads, so an error here only scales the dither); a
