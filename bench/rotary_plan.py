@@ -58,8 +58,8 @@ def _row(name, label, data, motor, truth, t0):
     se, err = res.info["standard_error"], identification_errors(res.model, truth)
     cells = " ".join(f"{se[m]['relative'] * math.sqrt(seconds):7.3f}" for m in ("cogging", "ripple", "direction"))
     need = " ".join(f"{se[m]['log_time_factor_to_resolve'] * seconds:8.0f}" for m in ("cogging", "ripple"))
-    print(f"{name:11s} {label:14s} {seconds:7.1f} {cells} {100 * err['cogging_rel']:7.2f} {100 * err['ripple_rel']:7.2f} "
-          f"{need} {time.perf_counter() - t0:6.0f}", flush=True)
+    print(f"{name:11s} {label:14s} {seconds:7.1f} {cells} {100 * err['cogging_rel']:7.2f} "
+          f"{100 * err['ripple_rel']:7.2f} {need} {time.perf_counter() - t0:6.0f}", flush=True)
     return res
 
 

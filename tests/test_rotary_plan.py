@@ -72,7 +72,8 @@ def test_speeds_respect_the_alias_guard_in_both_directions(name):
     for r in plan.runs:
         ref = r.reference(plan.sample_time)
         assert np.max(np.abs(ref["speed"])) <= abs(r.speed) * (1 + 1e-12)
-        assert np.max(np.abs(ref["speed"])) + swing_bound(r, plan.inertia_ratio) <= st.guard_margin * v_lim * (1 + 1e-12)
+        top = np.max(np.abs(ref["speed"])) + swing_bound(r, plan.inertia_ratio)
+        assert top <= st.guard_margin * v_lim * (1 + 1e-12)
 
 
 @pytest.mark.parametrize("name", ["9N6P", "12N14P", "36N42P", "heavy"])
@@ -292,7 +293,8 @@ def _fake_moteus(rotor):
                       Register.D_CURRENT: 0.0, Register.FAULT: 0}
             return types.SimpleNamespace(values=values) if query else None
 
-    mod.Register, mod.Mode, mod.QueryResolution, mod.Controller, mod.F32 = Register, Mode, QueryResolution, Controller, 3
+    mod.Register, mod.Mode, mod.QueryResolution, mod.Controller = Register, Mode, QueryResolution, Controller
+    mod.F32 = 3
     return {"moteus": mod}
 
 
@@ -350,7 +352,8 @@ def test_the_script_runs_on_a_stand_in_package_and_logs_the_mapped_columns(tmp_p
     monkeypatch.setitem(namespace, "SETTLE_S", 0.0)
     run = doc["runs"][-1]  # the fastest, in reverse: the dither is on from its ramp's end
     seconds = run["ramp_s"] + 0.05
-    assert namespace["main"](["--runs", run["name"], "--max-seconds", str(seconds), "--out", str(tmp_path / "logs")]) == 0
+    argv = ["--runs", run["name"], "--max-seconds", str(seconds), "--out", str(tmp_path / "logs")]
+    assert namespace["main"](argv) == 0
     log_path = tmp_path / "logs" / f"{run['name']}.csv"
     with open(log_path, newline="") as f:
         rows = list(csv.reader(f))

@@ -133,8 +133,8 @@ _SETUP = {
                "calibrate the axis first, and set `controller.config.vel_limit` above 1.2 times the fastest run.",
                "Turn the anti-cogging off (`controller.config.anticogging.anticogging_enabled = False`): the logs must "
                "show the cogging, not what the compensation leaves (the script refuses otherwise).",
-               "`pos_estimate` is float32: start near zero turns (a reboot resets it). The runs alternate the direction "
-               "so that the position stays within a run's revolutions of where it started."],
+               "`pos_estimate` is float32: start near zero turns (a reboot resets it). The runs alternate the "
+               "direction so that the position stays within a run's revolutions of where it started."],
     "generic": ["Play each reference file back in your drive's speed loop: `speed` (rad/s) is the setpoint, `dither` "
                 "(A) is added to the q-current the loop commands (a feed-forward current or torque).",
                 "Turn the drive's own cogging compensation off: the logs must show the cogging."],
@@ -152,16 +152,16 @@ def rotary_plan_markdown(plan: RotaryPlan, drive: str, commands: dict) -> str:
         lines += _first_round_section(plan) + _notes(plan)
         lines += ["## Then", "", "Identify from the logs so far: `" + commands["identify"] + "`", ""]
         return "\n".join(lines)
-    lines += [f"{len(plan.runs)} runs in the drive's speed loop, {_seconds(plan.duration)} of motion in all (plus a few "
-              "seconds between runs): each speed in both directions, each with a q-current dither while it cruises"
+    lines += [f"{len(plan.runs)} runs in the drive's speed loop, {_seconds(plan.duration)} of motion in all (plus a "
+              "few seconds between runs): each speed in both directions, each with a q-current dither while it cruises"
               + ("" if plan.inertia_ratio is not None else " (none this round: see the dither below)") + ". "
               "Record them in one session: the drive must not search its encoder's index again in between (the "
               "maps are read in the encoder's frame).", ""]
     if plan.first_round is not None:
         lines += ["These runs are identified together with the first round's logs: record them before the drive "
-                  "searches its index again (an absolute encoder, or the same power-on). An incremental encoder's index "
-                  "can land elsewhere after a restart (half a revolution on the shared ODrive logs); then the rounds' "
-                  "angles disagree, and this round's logs go on their own (plan again from them).", ""]
+                  "searches its index again (an absolute encoder, or the same power-on). An incremental encoder's "
+                  "index can land elsewhere after a restart (half a revolution on the shared ODrive logs); then the "
+                  "rounds' angles disagree, and this round's logs go on their own (plan again from them).", ""]
     lines += ["## Before you start", ""]
     lines += [f"* {s}" for s in _SETUP[drive]]
     lines += [f"* Log every {1e3 * plan.sample_time:.3g} ms. The speeds assume that period: the fastest run keeps the "
@@ -184,7 +184,8 @@ def rotary_plan_markdown(plan: RotaryPlan, drive: str, commands: dict) -> str:
     for j, r in enumerate(plan.runs, start=1):
         dither = ", ".join(f"{a:.3g} at {f:g}" for a, f in zip(r.dither_amplitude, r.dither_hz)) \
             if any(r.dither_amplitude) else "none"
-        lines.append(f"| {j} | {r.name} | `references/{r.name}.csv` | {r.speed:+.4g} | {r.speed / (2 * math.pi):+.4g} | "
+        lines.append(f"| {j} | {r.name} | `references/{r.name}.csv` | {r.speed:+.4g} | "
+                     f"{r.speed / (2 * math.pi):+.4g} | "
                      f"{_seconds(r.cruise)} | {dither} | {swing_bound(r, plan.inertia_ratio):.3g} |")
     lines += ["", "Each run ramps from rest to its speed and back (raised cosine, "
               f"{_seconds(plan.runs[0].ramp)} each way). The reference files have one row per log period: `t` (s), "
@@ -193,10 +194,11 @@ def rotary_plan_markdown(plan: RotaryPlan, drive: str, commands: dict) -> str:
         lines.append(f"None this round: J/k0 is {plan.inertia_source}.")
     else:
         lines.append(f"A sum of cosines added to the q-current while each run cruises, sized from J/k0 = "
-                     f"{plan.inertia_ratio:.4g} A·s²/rad ({plan.inertia_source}). On a free rotor it swings the speed by "
-                     "at most Σ a/((J/k0) 2π f), the table's last column: at most "
-                     f"{100 * plan.settings.swing:.0f} % of the run's speed, so the rotor never reverses. The frequencies "
-                     f"keep {plan.settings.mains_margin_hz:g} Hz or more from every harmonic of 50 and 60 Hz.")
+                     f"{plan.inertia_ratio:.4g} A·s²/rad ({plan.inertia_source}). On a free rotor it swings the speed "
+                     "by at most Σ a/((J/k0) 2π f), the table's last column: at most "
+                     f"{100 * plan.settings.swing:.0f} % of the run's speed, so the rotor never reverses. The "
+                     f"frequencies keep {plan.settings.mains_margin_hz:g} Hz or more from every harmonic of 50 and "
+                     "60 Hz.")
     lines += ["", "## Run it", ""]
     if drive == "generic":
         lines.append("Play the references back with your drive's tools and log the columns below.")
@@ -208,8 +210,8 @@ def rotary_plan_markdown(plan: RotaryPlan, drive: str, commands: dict) -> str:
     lines += ["", "## What to log", "", "| pgcomm reads | column | unit | what |", "|---|---|---|---|"]
     for name, (col, unit) in DRIVE_COLUMNS[drive].items():
         lines.append(f"| `{name}` | `{col}` | {unit or 'SI'} | {_MEANING[name]} |")
-    lines += ["", "`columns.toml` maps these names and units for pgcomm. Time stamps as the host took them are what the "
-              "identification integrates over; do not resample them.", ""]
+    lines += ["", "`columns.toml` maps these names and units for pgcomm. Time stamps as the host took them are what "
+              "the identification integrates over; do not resample them.", ""]
     lines += _first_round_section(plan) + _notes(plan)
     lines += ["## Then", "",
               "1. Identify from the logs: `" + commands["identify"] + "`",
@@ -228,8 +230,9 @@ def _first_round_section(plan: RotaryPlan) -> list:
     lines = ["## How long", ""]
     if plan.first_round is None:
         st = plan.settings
-        return lines + [f"A first round: every speed cruises {_seconds(plan.runs[0].cruise)} ({st.first_round_seconds:g} s, "
-                        f"or longer where the fastest would not pass {st.first_round_revolutions:g} revolution(s)). "
+        return lines + [f"A first round: every speed cruises {_seconds(plan.runs[0].cruise)} "
+                        f"({st.first_round_seconds:g} s, or longer where the fastest would not pass "
+                        f"{st.first_round_revolutions:g} revolution(s)). "
                         "That is a default, not a standard error: the first round's logs give each map's standard "
                         "error, and `pgcomm plan --data` sizes the next round from them.", ""]
     fr, need = plan.first_round, plan.need

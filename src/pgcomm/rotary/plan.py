@@ -65,7 +65,8 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import MIN_SAMPLES_PER_PERIOD, Orders, max_speed
 
 __all__ = ["RotaryPlanSettings", "Run", "RotaryPlan", "FirstRound", "DRIVES", "DRIVE_COLUMNS", "DITHER_MAX_HZ",
-           "highest_order", "segment_speeds", "first_round_cruise", "dither_frequencies", "dither_amplitudes", "swing_bound",
+           "highest_order", "segment_speeds", "first_round_cruise", "dither_frequencies", "dither_amplitudes",
+           "swing_bound",
            "first_plan", "refined_plan", "read_first_round", "logs_as_data", "MAPS"]
 
 #: Drives a plan can be written for: a script using the drive's own Python package, or CSV references only.
@@ -319,7 +320,8 @@ def first_round_cruise(speeds, settings: RotaryPlanSettings) -> np.ndarray:
         ``(n,)`` seconds.
     """
     w = np.asarray(speeds, float)
-    return np.full(w.shape, max(settings.first_round_seconds, settings.first_round_revolutions * 2.0 * math.pi / w.max()))
+    cruise = max(settings.first_round_seconds, settings.first_round_revolutions * 2.0 * math.pi / w.max())
+    return np.full(w.shape, cruise)
 
 
 def dither_frequencies(sample_time: float, settings: RotaryPlanSettings) -> tuple:
@@ -482,9 +484,9 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
     if capped:
         worst = first.standard_error[driver]
         at_cap = worst["relative"] * math.sqrt(first.seconds / settings.max_seconds)
-        notes.append(f"The {driver} asks for {total:.0f} s of logs in all; the plan stops at {settings.max_seconds:.0f} "
-                     f"s, where its noise part is expected near {100 * at_cap:.1f} % of its RMS (it falls as the square "
-                     "root of the log time).")
+        notes.append(f"The {driver} asks for {total:.0f} s of logs in all; the plan stops at "
+                     f"{settings.max_seconds:.0f} s, where its noise part is expected near {100 * at_cap:.1f} % of its "
+                     "RMS (it falls as the square root of the log time).")
     if not_by_time:
         notes.append("Not resolved by more of the same logs: " + "; ".join(f"the {m}: {v}" for m, v in
                                                                            not_by_time.items()) + ".")

@@ -175,8 +175,8 @@ def run_plan(args, plan: dict, folder: Path) -> None:
         fail(f"axis{args.axis}.controller.config.vel_limit = {ctrl.config.vel_limit:g} turn/s is below 1.2 x the "
              f"plan's fastest run ({top:.3g} turn/s); raise it")
     if ctrl.config.anticogging.anticogging_enabled:
-        fail(f"axis{args.axis}.controller.config.anticogging.anticogging_enabled is True: turn the drive's anti-cogging "
-             "off, or the logs show only what it leaves")
+        fail(f"axis{args.axis}.controller.config.anticogging.anticogging_enabled is True: turn the drive's "
+             "anti-cogging off, or the logs show only what it leaves")
     torque_per_amp = float(axis.motor.config.torque_constant)
     sample_time = float(plan["sample_time_s"])
     summary = {"plan_id": plan["plan_id"], "drive": "odrive", "package_version": getattr(odrive, "__version__", None),
