@@ -393,6 +393,16 @@ def test_the_script_without_the_drives_package_says_so_in_one_line(tmp_path, dri
     assert err.count("\n") == 0 and f"the {drive} package" in err and f"pip install {drive}" in err
 
 
+def test_a_script_refuses_another_drives_plan(tmp_path, capsys):
+    out = _plan(tmp_path, "odrive")
+    (out / "run_moteus.py").write_text(script_text("moteus"))
+    namespace = {"__name__": "plan_script", "__file__": str(out / "run_moteus.py")}
+    exec(compile((out / "run_moteus.py").read_text(), str(out / "run_moteus.py"), "exec"), namespace)
+    with pytest.raises(SystemExit) as e:
+        namespace["main"]([])
+    assert e.value.code == 2 and "a plan for odrive, not moteus" in capsys.readouterr().err
+
+
 # --------------------------------------------------------------------------- plan --data on the rotary twin's logs
 
 

@@ -83,6 +83,8 @@ def load_plan(folder: Path) -> dict:
         fail(f"{path}: not a readable plan ({e})")
     if plan.get("schema") != "pgcomm-rotary-plan/1":
         fail(f"{path}: not a pgcomm rotary plan (schema {plan.get('schema')!r})")
+    if plan.get("drive") != "moteus":
+        fail(f"{path}: a plan for {plan.get('drive')}, not moteus (pgcomm plan --drive moteus)")
     return plan
 
 

@@ -74,7 +74,7 @@ def fail(message: str):
 
 
 def load_plan(folder: Path) -> dict:
-    """``plan.json`` of the plan folder, checked to be a rotary plan."""
+    """``plan.json`` of the plan folder, checked to be a rotary plan for this drive."""
     path = folder / "plan.json"
     try:
         plan = json.loads(path.read_text())
@@ -82,6 +82,8 @@ def load_plan(folder: Path) -> dict:
         fail(f"{path}: not a readable plan ({e})")
     if plan.get("schema") != "pgcomm-rotary-plan/1":
         fail(f"{path}: not a pgcomm rotary plan (schema {plan.get('schema')!r})")
+    if plan.get("drive") != "odrive":
+        fail(f"{path}: a plan for {plan.get('drive')}, not odrive (pgcomm plan --drive odrive)")
     return plan
 
 
