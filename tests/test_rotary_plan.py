@@ -52,7 +52,7 @@ def _highest(motor: RotaryMotor) -> int:
     if motor.slots is None:
         return 1024
     q, p = motor.slots, motor.pole_pairs
-    return max(3 * math.lcm(q, 2 * p), 12 * p, q)
+    return max(3 * math.lcm(q, 2 * p), 12 * p, 6 * p, q)
 
 
 @pytest.mark.parametrize("name", MOTORS)
@@ -189,6 +189,26 @@ def test_a_first_round_without_dither_is_followed_by_one_with(tmp_path):
     base = first_plan(replace(motor, slots=12))
     assert all(r.cruise >= b.cruise * (1 - 1e-12) for r, b in zip(plan.runs, base.runs))
     assert any("had no dither" in n for n in plan.notes)
+
+
+def test_a_map_the_first_round_did_not_determine_gets_the_experiment_that_does(tmp_path):
+    """The identification pins a map the logs do not determine (no factor); the next round has what determines it."""
+    from pgcomm.io.rotary_plan import write_rotary_plan
+
+    motor = MOTORS["9N6P"]
+    first = _first(factors=(1.0, 1.0, 1.0))
+    pinned = {"resolved": False, "determined": False, "relative": None, "log_time_factor_to_resolve": None}
+    first = replace(first, standard_error={**first.standard_error, "ripple": pinned},
+                    verdicts={**first.verdicts, "ripple": "not determined by these logs"})
+    plan = refined_plan(motor, first)
+    assert plan.need["undetermined"] == ["ripple"] and plan.need["seconds"] == 0.0
+    base = first_plan(motor)
+    assert [r.cruise for r in plan.runs] == pytest.approx([r.cruise for r in base.runs], rel=1e-12)
+    assert all(a > 0 for r in plan.runs for a in r.dither_amplitude)
+    assert {np.sign(r.speed) for r in plan.runs} == {-1.0, 1.0}
+    write_rotary_plan(tmp_path, plan, "generic", {"identify": "pgcomm identify", "plan": "pgcomm plan"})
+    text = (tmp_path / "plan.md").read_text()
+    assert "| ripple | not determined |" in text and "Not determined by the first round's logs: the ripple" in text
 
 
 # --------------------------------------------------------------------------- the drives' scripts against the reader
@@ -361,6 +381,12 @@ def test_the_script_runs_on_a_stand_in_package_and_logs_the_mapped_columns(tmp_p
     data = np.array(rows[1:], float)
     t = data[:, 0]
     assert np.all(np.diff(t) > 0)
+    # the log as written, host stamps and all, through the reader with the plan's column map
+    mapping = load_column_mapping(out / "columns.toml")
+    log = read_log(log_path, required=ROTARY_REQUIRED, columns=mapping, gaps=True, stamps=True)
+    np.testing.assert_array_equal(log["t"], t)
+    np.testing.assert_allclose(log["theta"], 2 * math.pi * data[:, 1], rtol=1e-15, atol=0)
+    assert log.is_rotary and "iq_1" in log and "id_1" in log
     ref = np.loadtxt(out / run["reference"], delimiter=",", skiprows=1)
     speeds = set(ref[:, 1] / (2 * math.pi))
     sent = np.array(rotor.sent)
@@ -372,7 +398,6 @@ def test_the_script_runs_on_a_stand_in_package_and_logs_the_mapped_columns(tmp_p
     gap = np.minimum(np.abs(near - sent[:, 1] / k_t), np.abs(below - sent[:, 1] / k_t))
     assert np.all(gap <= 1e-12 * np.max(np.abs(levels)))
     assert np.any(sent[:, 1] != 0)  # the dither ran
-    mapping = load_column_mapping(out / "columns.toml")
     iq = data[:, namespace["COLUMNS"].index(mapping.columns["iq_1"])]
     dither = data[:, namespace["COLUMNS"].index("dither_A")]
     np.testing.assert_allclose(iq, dither, rtol=1e-12, atol=0)  # the stand-in's current is the dither's

@@ -102,13 +102,13 @@ def _run_rotary(args, out: Path, progress) -> None:
     settings = _rotary_settings(args)
     motor = load_rotary_motor(args.motor)
     if args.data:
-        from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs
+        from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs, with_encoder_counts
         from pgcomm.rotary.plan import logs_as_data, read_first_round
 
         with progress.stage(f"read {len(args.data)} log pattern(s) of the first round"):
-            mapping = load_column_mapping(args.columns) if args.columns else None
+            mapping = with_encoder_counts(load_column_mapping(args.columns) if args.columns else None, motor)
             logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED,
-                             gaps=True)
+                             gaps=True, stamps=True)
             data = logs_as_data(logs)
         with progress.stage("identification of the first round: the maps' standard errors"):
             first = read_first_round(data, motor)

@@ -74,8 +74,8 @@ def rotary_plan_to_dict(plan: RotaryPlan, drive: str, commands: dict) -> dict:
         fr = plan.first_round
         first = {"seconds": fr.seconds, "sample_time_s": fr.sample_time, "inertia_ratio_A_s2_per_rad": fr.inertia_ratio,
                  "slots_detected": fr.slots, "verdicts": fr.verdicts,
-                 "standard_error": {m: {k: fr.standard_error[m][k] for k in ("relative", "resolved",
-                                                                             "log_time_factor_to_resolve")}
+                 "standard_error": {m: {k: fr.standard_error[m].get(k) for k in ("relative", "resolved", "determined",
+                                                                                 "log_time_factor_to_resolve")}
                                     for m in MAPS if m in fr.standard_error}}
     return {"schema": SCHEMA, "plan_id": plan.plan_id, "drive": drive, "motor": plan.motor.to_dict(),
             "sample_time_s": plan.sample_time, "highest_order": plan.highest_order,
@@ -242,10 +242,16 @@ def _first_round_section(plan: RotaryPlan) -> list:
         if name in fr.standard_error:
             se = fr.standard_error[name]
             f = se["log_time_factor_to_resolve"]
-            lines.append(f"| {name} | {100 * se['relative']:.1f} % | "
-                         f"{'not by time' if not math.isfinite(f) else f'{f:.2f}x'} | {fr.verdicts.get(name, '')} |")
+            if se.get("determined") is False:
+                cells = "not determined | a different experiment"
+            else:
+                cells = f"{100 * se['relative']:.1f} % | " + ("not by time" if not math.isfinite(f) else f"{f:.2f}x")
+            lines.append(f"| {name} | {cells} | {fr.verdicts.get(name, '')} |")
     lines.append("")
-    if plan.runs:
+    if plan.runs and need["seconds"] <= 0.0:
+        lines += [f"These runs ({plan.duration:.0f} s, a first round's size) are for what the first round did not "
+                  "determine or excite (the notes below). Identify from all the logs together.", ""]
+    elif plan.runs:
         lines.append(f"The standard errors ask for {need['seconds']:.0f} s more"
                      + (f" ({need['factor']:.2f}x the first round's log time in all, for the {need['driver']})"
                         if need["driver"] and need["factor"] > 1.0 else "")

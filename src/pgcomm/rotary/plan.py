@@ -245,8 +245,9 @@ class RotaryPlan:
         runs: the runs, in the order to record them (empty when a first round resolved every map).
         first_round: :class:`FirstRound` for a refined plan, ``None`` for a first round.
         need: for a refined plan: ``factor`` (the largest finite log-time factor), ``driver`` (its map),
-            ``seconds`` (the rest to log, s), ``capped`` (bool), ``not_by_time`` (maps more of the same logs do not
-            resolve).
+            ``seconds`` (the rest to log, s), ``capped`` (bool), ``factors`` (per map), ``not_by_time`` (maps more of
+            the same logs do not resolve), ``undetermined`` (maps the first round's logs did not determine: pinned by
+            the identification).
         notes: sentences for plan.md (what was assumed, what is missing).
     """
 
@@ -443,7 +444,9 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
     count it read; the dither follows its identified ``J/k0``. The rest to log is ``(F − 1) · first.seconds``
     (capped at ``max_seconds`` in all), ``F`` the largest finite ``log_time_factor_to_resolve`` over :data:`MAPS`,
     shared by the runs in a first round's proportions (each cruise at least ``min_cruise_seconds``). ``F ≤ 1``: no
-    runs (every map resolved).
+    runs (every map resolved). A map the first round did not determine (pinned by the identification: no dither, one
+    direction) or a ripple a first round without a dither could not excite gets a round of at least a first round's
+    size, with the plan's dither and both directions.
 
     Args:
         motor: the motor description; first: :class:`FirstRound`; settings: :class:`RotaryPlanSettings`.
@@ -457,8 +460,11 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
     v_lim = max_speed(_orders_up_to(h), motor.sample_time)
     speeds = segment_speeds(v_lim, settings)
     ratio = float(first.inertia_ratio)
-    factors = {m: float(first.standard_error[m]["log_time_factor_to_resolve"]) for m in MAPS
-               if m in first.standard_error}
+    entries = {m: first.standard_error[m] for m in MAPS if m in first.standard_error}
+    # a map the logs did not determine was pinned by the identification (no time factor): its experiment is the
+    # plan's own (both directions, a dither), so a round of a first round's size comes next
+    undetermined = {m: first.verdicts.get(m, "") for m, e in entries.items() if e.get("determined") is False}
+    factors = {m: float(e["log_time_factor_to_resolve"]) for m, e in entries.items() if m not in undetermined}
     finite = {m: f for m, f in factors.items() if math.isfinite(f)}
     not_by_time = {m: first.verdicts.get(m, "") for m, f in factors.items() if not math.isfinite(f)}
     driver = max(finite, key=finite.get) if finite else None
@@ -472,11 +478,17 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
     # a first round planned without J/k0 had no dither: its ripple was not excited, and a round of the same size with
     # the dither sized from the identified J/k0 is what comes next (then plan again from all the logs)
     undithered = "ripple" in not_by_time and _inertia(motor)[0] is None
-    if (factor > 1.0 and rest > 0.0) or undithered:
+    fresh = undithered or bool(undetermined)
+    if (factor > 1.0 and rest > 0.0) or fresh:
         ramps = np.array([_ramp(w, ratio, motor.current_limit, settings) for w in speeds])
         scale = max(0.0, rest / 2.0 - float(np.sum(2.0 * ramps))) / float(np.sum(base))
-        cruises = np.maximum(base * scale, base if undithered else settings.min_cruise_seconds)
+        cruises = np.maximum(base * scale, base if fresh else settings.min_cruise_seconds)
         runs = _runs(motor, speeds, cruises, ratio, settings)
+    if undetermined:
+        notes.append("Not determined by the first round's logs: " + "; ".join(f"the {m}: {v}" for m, v in
+                                                                             undetermined.items())
+                     + ". These runs have what determines it (each speed in both directions, a dither sized from the "
+                     "identified J/k0): run them, then plan again from all the logs so far.")
     if undithered:
         notes.append("The first round had no dither (J/k0 was not known), so its logs could not determine the ripple. "
                      "This round carries a dither sized from the identified J/k0: run it, then plan again from all the "
@@ -492,7 +504,7 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
                                                                            not_by_time.items()) + ".")
     notes += _motor_notes(motor, ratio)
     need = {"factor": factor, "driver": driver, "seconds": rest, "capped": bool(capped),
-            "factors": factors, "not_by_time": sorted(not_by_time)}
+            "factors": factors, "not_by_time": sorted(not_by_time), "undetermined": sorted(undetermined)}
     return RotaryPlan(motor, settings, h, v_lim, ratio, "the first round's identification", runs, first, need,
                       tuple(notes))
 
@@ -519,8 +531,8 @@ def _motor_notes(motor: RotaryMotor, inertia_ratio) -> list:
 
 
 def logs_as_data(logs) -> list:
-    """Logs read by :func:`pgcomm.io.logs.read_logs` as the rotary identification takes them: one dict per stretch
-    between dropped samples, with ``name``, ``t``, ``theta``, ``iq_1`` and, where every log has it, ``id_1``.
+    """Logs read by :func:`pgcomm.io.logs.read_logs` (``stamps=True``: a host's time stamps as recorded) as the rotary
+    identification takes them: one dict per stretch between gaps, with ``name``, ``t``, ``theta``, ``iq_1`` and, where every log has it, ``id_1``.
 
     Raises:
         DataError: a log without ``iq_1``.
