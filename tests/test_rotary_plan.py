@@ -157,7 +157,12 @@ def test_the_next_round_is_what_the_standard_errors_ask_for():
     assert plan.need["factor"] == 4.0 and plan.need["driver"] == "ripple"
     assert plan.need["seconds"] == pytest.approx(3.0 * first.seconds, rel=1e-12)
     assert plan.duration == pytest.approx(plan.need["seconds"], rel=1e-9)
-    assert plan.inertia_ratio == first.inertia_ratio
+    # the dither from the TOML's inertia / k_t where it has them (a note where the logs disagree), else the identified
+    assert plan.inertia_ratio == motor.inertia / motor.k_t and not any("J/k0 =" in n for n in plan.notes)
+    far = refined_plan(motor, replace(first, inertia_ratio=0.25 * motor.inertia / motor.k_t))
+    assert far.inertia_ratio == motor.inertia / motor.k_t and any("the dither is sized from the TOML's" in n
+                                                                  for n in far.notes)
+    assert refined_plan(replace(motor, inertia=None), first).inertia_ratio == first.inertia_ratio
     base = first_plan(motor)
     ratios = [r.cruise / b.cruise for r, b in zip(plan.runs, base.runs)]  # a first round's proportions
     np.testing.assert_allclose(ratios, ratios[0], rtol=1e-12)
@@ -440,7 +445,7 @@ def test_plan_data_sizes_the_next_round_from_the_identification(tmp_path):
     write_rotary_motor(truth, tmp_path / "m")
     write_running_logs(truth, tmp_path / "m" / "logs")
     logs = sorted(str(p) for p in (tmp_path / "m" / "logs").glob("*.csv"))
-    assert main(["plan", "--motor", str(tmp_path / "m" / "motor.toml"), "--drive", "moteus", "--data", *logs,
+    assert main(["plan", "--motor", str(tmp_path / "m" / "motor.toml"), "--drive", "generic", "--data", *logs,
                  "--out", str(tmp_path / "p"), "--quiet"]) == 0
     assert main(["identify", "--motor", str(tmp_path / "m" / "motor.toml"), "--data", *logs, "--out",
                  str(tmp_path / "id"), "--quiet"]) == 0
@@ -459,6 +464,26 @@ def test_plan_data_sizes_the_next_round_from_the_identification(tmp_path):
     assert doc["inertia_ratio_A_s2_per_rad"] == pytest.approx(truth.inertia / truth.k0, rel=0.1)
     text = (tmp_path / "p" / "plan.md").read_text()
     assert f"{factor:.2f}x" in text and all(p in doc["commands"]["identify"] for p in logs)
+
+
+def test_the_next_rounds_commands_take_the_first_rounds_logs_where_they_share_the_column_map(tmp_path):
+    """``pgcomm identify`` reads one column map per call: the first round's logs join this round's only under the same
+    map (the same drive's, or none for logs in the log format's own names and SI units)."""
+    from types import SimpleNamespace
+
+    from pgcomm.cli.plan import _rotary_commands
+    from pgcomm.io.rotary_plan import columns_toml
+
+    (tmp_path / "moteus.toml").write_text(columns_toml("moteus"))
+    args = SimpleNamespace(out=tmp_path / "p", data=["first/*.csv"], columns=tmp_path / "moteus.toml")
+    same = _rotary_commands(args, "moteus", runs=True)
+    assert "'first/*.csv'" in same["identify"] and "p/logs/*.csv" in same["identify"] and "note" not in same
+    other = _rotary_commands(args, "odrive", runs=True)
+    assert "first/*.csv" not in other["identify"] and "another column map" in other["note"]
+    plain = _rotary_commands(SimpleNamespace(out=tmp_path / "p", data=["first/*.csv"], columns=None), "generic", True)
+    assert "'first/*.csv'" in plain["identify"] and "note" not in plain
+    done = _rotary_commands(args, "moteus", runs=False)  # nothing to run: the first round's logs, with their map
+    assert "p/logs" not in done["identify"] and f"--columns {tmp_path / 'moteus.toml'}" in done["identify"]
 
 
 # --------------------------------------------------------------------------- bad input

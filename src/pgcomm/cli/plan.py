@@ -71,15 +71,41 @@ def plan_from_args(args):
     return make_plan(motor, settings, delta=config.calibration.delta, force_sensor=force_sensor)
 
 
-def _rotary_commands(args, drive: str) -> dict[str, str]:
-    """The commands that take a rotary plan's logs back (paths as the user gave them)."""
+def _rotary_commands(args, drive: str, runs: bool) -> dict[str, str]:
+    """The commands that take a rotary plan's logs back (paths as the user gave them); without ``runs``, the first
+    round's logs alone."""
     plan_dir = shlex.quote(str(args.out))
     cols = f" --columns {plan_dir}/columns.toml"
     data = f"'{plan_dir}/logs/*.csv'" if drive != "generic" else "'<logs>/*.csv'"
-    # a next round is identified together with the logs before it
-    data = " ".join([*(shlex.quote(d) for d in args.data or ()), data])
+    note = {}
+    if args.data and not runs:
+        data = " ".join(shlex.quote(d) for d in args.data)
+        cols = f" --columns {shlex.quote(str(args.columns))}" if args.columns else ""
+    elif args.data and _same_map(args, drive):
+        # a next round is identified together with the logs before it (one column map per identify)
+        data = " ".join([*(shlex.quote(d) for d in args.data), data])
+    elif args.data:
+        note = {"note": f"The first round's logs were read with another column map ({args.columns or 'none'}) than "
+                        "this plan's columns.toml; `pgcomm identify` takes one map per call, so these commands read this "
+                        "round's logs. To identify both rounds together, give their files the same column names."}
     return {"identify": f"pgcomm identify --motor {plan_dir}/motor.toml --data {data}{cols} --out <model>",
-            "plan": f"pgcomm plan --motor {plan_dir}/motor.toml --drive {drive} --data {data}{cols} --out <next plan>"}
+            "plan": f"pgcomm plan --motor {plan_dir}/motor.toml --drive {drive} --data {data}{cols} --out <next plan>",
+            **note}
+
+
+def _same_map(args, drive: str) -> bool:
+    """Whether ``--columns`` (none: the log format's own names in SI) reads the first round's logs as the plan's
+    ``columns.toml`` reads its script's."""
+    import tomllib
+
+    from pgcomm.io.logs import column_mapping, load_column_mapping
+    from pgcomm.io.rotary_plan import columns_toml
+
+    ours = column_mapping(tomllib.loads(columns_toml(drive)))
+    if args.columns is None:
+        return all(name == col and ours.factor(name) == 1.0 for name, col in ours.columns.items())
+    given = load_column_mapping(args.columns)
+    return given.columns == ours.columns and given.units == ours.units
 
 
 def _run_rotary(args, out: Path, progress) -> None:
@@ -115,7 +141,7 @@ def _run_rotary(args, out: Path, progress) -> None:
         plan = refined_plan(motor, first, settings)
     else:
         plan = first_plan(motor, settings)
-    write_rotary_plan(out, plan, args.drive, _rotary_commands(args, args.drive))
+    write_rotary_plan(out, plan, args.drive, _rotary_commands(args, args.drive, bool(plan.runs)))
     if not args.quiet:
         if plan.runs:
             print(f"{len(plan.runs)} runs, {plan.duration / 60:.1f} min of motion, speeds up to "

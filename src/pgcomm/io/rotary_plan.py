@@ -217,6 +217,8 @@ def rotary_plan_markdown(plan: RotaryPlan, drive: str, commands: dict) -> str:
               "1. Identify from the logs: `" + commands["identify"] + "`",
               "2. Its standard errors say whether each map is resolved. If not, plan the next round from the logs "
               "so far: `" + commands["plan"] + "`", ""]
+    if commands.get("note"):
+        lines += [commands["note"], ""]
     return "\n".join(lines)
 
 

@@ -441,7 +441,8 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
     """The runs a first round's standard errors ask for (module docstring, "Durations").
 
     The speeds and frequencies follow the log period the first round reached (``first.sample_time``) and the slot
-    count it read; the dither follows its identified ``J/k0``. The rest to log is ``(F − 1) · first.seconds``
+    count it read; the dither follows the motor TOML's ``inertia / k_t``, or the first round's identified ``J/k0``
+    where the TOML has none (a note where the two differ by more than 1.5 times). The rest to log is ``(F − 1) · first.seconds``
     (capped at ``max_seconds`` in all), ``F`` the largest finite ``log_time_factor_to_resolve`` over :data:`MAPS`,
     shared by the runs in a first round's proportions (each cruise at least ``min_cruise_seconds``). ``F ≤ 1``: no
     runs (every map resolved). A map the first round did not determine (pinned by the identification: no dither, one
@@ -459,7 +460,12 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
     h = highest_order(motor)
     v_lim = max_speed(_orders_up_to(h), motor.sample_time)
     speeds = segment_speeds(v_lim, settings)
-    ratio = float(first.inertia_ratio)
+    # the motor TOML's J/k0 where it gives one (the user's statement; a first round's slow, steady runs may carry too
+    # little acceleration to pin it), else the identified
+    ratio, source = _inertia(motor)
+    identified = float(first.inertia_ratio)
+    if ratio is None:
+        ratio, source = identified, "the first round's identification"
     entries = {m: first.standard_error[m] for m in MAPS if m in first.standard_error}
     # a map the logs did not determine was pinned by the identification (no time factor): its experiment is the
     # plan's own (both directions, a dither), so a round of a first round's size comes next
@@ -487,8 +493,8 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
     if undetermined:
         notes.append("Not determined by the first round's logs: " + "; ".join(f"the {m}: {v}" for m, v in
                                                                              undetermined.items())
-                     + ". These runs have what determines it (each speed in both directions, a dither sized from the "
-                     "identified J/k0): run them, then plan again from all the logs so far.")
+                     + ". These runs have what determines it (each speed in both directions, each with a dither): run "
+                     "them, then plan again from all the logs so far.")
     if undithered:
         notes.append("The first round had no dither (J/k0 was not known), so its logs could not determine the ripple. "
                      "This round carries a dither sized from the identified J/k0: run it, then plan again from all the "
@@ -505,7 +511,11 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
     notes += _motor_notes(motor, ratio)
     need = {"factor": factor, "driver": driver, "seconds": rest, "capped": bool(capped),
             "factors": factors, "not_by_time": sorted(not_by_time), "undetermined": sorted(undetermined)}
-    return RotaryPlan(motor, settings, h, v_lim, ratio, "the first round's identification", runs, first, need,
+    if ratio != identified and not 1 / 1.5 <= identified / ratio <= 1.5:
+        notes.append(f"The first round's logs give J/k0 = {identified:.4g} A·s²/rad, the motor TOML's inertia / k_t "
+                     f"{ratio:.4g}: the dither is sized from the TOML's. Check inertia and k_t; if the logged speed "
+                     "swings more than the runs' table says, lower --swing.")
+    return RotaryPlan(motor, settings, h, v_lim, ratio, source, runs, first, need,
                       tuple(notes))
 
 
