@@ -86,8 +86,8 @@ def _rotary_commands(args, drive: str, runs: bool) -> dict[str, str]:
         data = " ".join([*(shlex.quote(d) for d in args.data), data])
     elif args.data:
         note = {"note": f"The first round's logs were read with another column map ({args.columns or 'none'}) than "
-                        "this plan's columns.toml; `pgcomm identify` takes one map per call, so these commands read this "
-                        "round's logs. To identify both rounds together, give their files the same column names."}
+                        "this plan's columns.toml; `pgcomm identify` takes one map per call, so these commands read "
+                        "this round's logs. To identify both rounds together, give their files the same column names."}
     return {"identify": f"pgcomm identify --motor {plan_dir}/motor.toml --data {data}{cols} --out <model>",
             "plan": f"pgcomm plan --motor {plan_dir}/motor.toml --drive {drive} --data {data}{cols} --out <next plan>",
             **note}

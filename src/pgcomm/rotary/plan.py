@@ -442,7 +442,8 @@ def refined_plan(motor: RotaryMotor, first: FirstRound,
 
     The speeds and frequencies follow the log period the first round reached (``first.sample_time``) and the slot
     count it read; the dither follows the motor TOML's ``inertia / k_t``, or the first round's identified ``J/k0``
-    where the TOML has none (a note where the two differ by more than 1.5 times). The rest to log is ``(F − 1) · first.seconds``
+    where the TOML has none (a note where the two differ by more than 1.5 times). The rest to log is
+    ``(F − 1) · first.seconds``
     (capped at ``max_seconds`` in all), ``F`` the largest finite ``log_time_factor_to_resolve`` over :data:`MAPS`,
     shared by the runs in a first round's proportions (each cruise at least ``min_cruise_seconds``). ``F ≤ 1``: no
     runs (every map resolved). A map the first round did not determine (pinned by the identification: no dither, one
@@ -542,7 +543,8 @@ def _motor_notes(motor: RotaryMotor, inertia_ratio) -> list:
 
 def logs_as_data(logs) -> list:
     """Logs read by :func:`pgcomm.io.logs.read_logs` (``stamps=True``: a host's time stamps as recorded) as the rotary
-    identification takes them: one dict per stretch between gaps, with ``name``, ``t``, ``theta``, ``iq_1`` and, where every log has it, ``id_1``.
+    identification takes them: one dict per stretch between gaps, with ``name``, ``t``, ``theta``, ``iq_1`` and, where
+    every log has it, ``id_1``.
 
     Raises:
         DataError: a log without ``iq_1``.
