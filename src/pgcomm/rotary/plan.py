@@ -28,8 +28,8 @@ changes the speed by::
 
 zero at the start (the cosine's integral is a sine: no mean offset). Each ``a_k`` is at most
 ``swing · |ω| · (J/k0) · 2π f_k / n``, so the speed stays within ``(1 ± swing) ω``: it keeps its sign. Each is also at
-most ``dither_share · current_limit / n``. ``J/k0`` (A·s²/rad) is the motor TOML's ``inertia / k_t`` or, with a first
-round's logs, the identified one; without either the first round runs without a dither and its logs give ``J/k0``.
+most ``dither_share · current_limit / n``. ``J/k0`` (A·s²/rad) is the motor TOML's ``inertia / k_t`` or, where it has
+none, a first round's identified one; without either the first round runs without a dither and its logs give ``J/k0``.
 The frequencies (:func:`dither_frequencies`) sit in an octave below ``1/(8 T_s)`` (at most
 :data:`DITHER_MAX_HZ`) and at least ``mains_margin_hz`` from every harmonic of 50 and 60 Hz: a mains pickup within a
 natural bin of a dither cannot be told from it (:mod:`pgcomm.rotary.time_lines`).
