@@ -1,7 +1,8 @@
 """The rotary plan on the twin: do a first round's runs determine the maps, and what does the dither's swing buy?
 
-Usage: ``python bench/rotary_plan.py [--motors 0:0,0:4] [--swings 0.5,0.8] [--refine]``. Each motor is zoo motor
-``seed:index`` (:func:`pgcomm.rotary.zoo.draw_rotary`), described to the plan as its user knows it (the zoo's motor
+Usage: ``python bench/rotary_plan.py [--motors 0:0,0:4] [--swings 0.5,0.8] [--refine] [--real-drive]``. Each motor is zoo motor
+``seed:index`` (:func:`pgcomm.rotary.zoo.draw_rotary`; ``--real-drive``: with a real drive's and host's habits, the
+host's jittered time stamps among them), described to the plan as its user knows it (the zoo's motor
 TOML plus the true ``inertia`` and ``k_t``, so the first round carries a dither). Per swing, the first round of
 :func:`pgcomm.rotary.plan.first_plan` runs on the twin in the drive's speed loop (the classical law and the gains of
 ``pgcomm reproduce``), and the identification's standard errors, as ``SE · sqrt(T)`` (the share of the map's RMS
@@ -53,7 +54,9 @@ def _row(name, label, data, motor, truth, t0):
     from pgcomm.rotary.experiment import identification_errors
     from pgcomm.rotary.identify import identify
 
-    seconds = sum(d["t"].size for d in data) * motor.sample_time
+    import numpy as np
+
+    seconds = sum(float(d["t"][-1] - d["t"][0] + np.median(np.diff(d["t"]))) for d in data)
     res = identify(data, motor)
     se, err = res.info["standard_error"], identification_errors(res.model, truth)
     cells = " ".join(f"{se[m]['relative'] * math.sqrt(seconds):7.3f}" for m in ("cogging", "ripple", "direction"))
@@ -68,6 +71,8 @@ def main(argv=None) -> int:
     ap.add_argument("--motors", default="0:0,0:4", help="zoo motors as seed:index, comma-separated")
     ap.add_argument("--swings", default="0.5,0.8", help="the dither's swings to compare, comma-separated")
     ap.add_argument("--refine", action="store_true", help="record the plan's next round too (at the last swing)")
+    ap.add_argument("--real-drive", action="store_true",
+                    help="the zoo motors with a real drive's and host's habits (pgcomm zoo --kind rotary --real-drive)")
     args = ap.parse_args(argv)
     from dataclasses import replace
 
@@ -79,7 +84,7 @@ def main(argv=None) -> int:
           f"{'rip %':>7s} {'asks: cog s':>8s} {'rip s':>8s} {'wall s':>6s}")
     for spec in args.motors.split(","):
         seed, index = (int(x) for x in spec.split(":"))
-        truth = draw_rotary(seed, index)
+        truth = draw_rotary(seed, index, real_drive=args.real_drive)
         motor = replace(truth.motor, inertia=truth.inertia, k_t=round(truth.k_t, 4))
         name = f"{seed}:{index} {motor.name}"
         orders, a_nom, gains, law = _tuned_drive(truth)
