@@ -26,15 +26,23 @@ os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
 
 def _record(truth, refs, law, gains, seed, tag):
-    """The twin's logs of ``refs`` (speed-loop :class:`Reference` s), as the identification takes them."""
+    """The twin's logs of ``refs`` (speed-loop :class:`Reference` s), written as CSV and read back as ``pgcomm plan
+    --data`` reads them (the host's stamps as recorded, split at gaps)."""
+    import tempfile
+    from pathlib import Path
+
+    from pgcomm.io.logs import ROTARY_REQUIRED, Log, read_logs, write_log
     from pgcomm.rotary.experiment import running_log
+    from pgcomm.rotary.plan import logs_as_data
     from pgcomm.seeds import stream_seed
 
-    out = []
-    for i, ref in enumerate(refs):
-        lg = running_log(truth, ref, law, gains, stream_seed(seed, "rotary plan bench", tag, i))
-        out.append({k: lg[k] for k in ("t", "theta", "iq_1", "id_1")})
-    return out
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = []
+        for i, ref in enumerate(refs):
+            lg = running_log(truth, ref, law, gains, stream_seed(seed, "rotary plan bench", tag, i))
+            paths.append(str(Path(tmp) / f"run{i}.csv"))
+            write_log(paths[-1], Log({k: lg[k] for k in ("t", "theta", "iq_1", "id_1")}, truth.motor.sample_time))
+        return logs_as_data(read_logs(paths, required=ROTARY_REQUIRED, gaps=True, stamps=True))
 
 
 def _references(plan):
