@@ -406,8 +406,9 @@ def test_the_script_runs_on_a_stand_in_package_and_logs_the_mapped_columns(tmp_p
     iq = data[:, namespace["COLUMNS"].index(mapping.columns["iq_1"])]
     dither = data[:, namespace["COLUMNS"].index("dither_A")]
     np.testing.assert_allclose(iq, dither, rtol=1e-12, atol=0)  # the stand-in's current is the dither's
-    summary = json.loads((tmp_path / "logs" / "run.json").read_text())
-    assert summary["plan_id"] == doc["plan_id"] and summary["runs"][run["name"]]["rows"] == len(rows) - 1
+    sidecar = json.loads((tmp_path / "logs" / f"{run['name']}.csv.plan.json").read_text())
+    assert sidecar["plan_id"] == doc["plan_id"] and sidecar["run"] == run["name"] and sidecar["rows"] == len(rows) - 1
+    assert sidecar["median_step_s"] == pytest.approx(float(np.median(np.diff(t))), rel=1e-9)
 
 
 @pytest.mark.parametrize("drive", ["moteus", "odrive"])

@@ -21,8 +21,8 @@ velocity setpoint, the dither as a feed-forward torque) and logs one row per com
 =================  ==================================================================================
 
 ``columns.toml`` beside it maps them for pgcomm (``t``, ``theta`` in rev, ``velocity`` in rev/s, ``iq_1``,
-``id_1``). ``logs/run.json`` records the plan's id, the package's version and, per run, the rows and the time steps
-the host reached.
+``id_1``). Beside each log, ``<run>.csv.plan.json`` records the plan's id, the run, the package's version and the
+rows and time steps the host reached (the logs carry their round).
 
 The moteus calls, checked against mjbots/moteus (commit db1a7623d6a7d5568e7632b974a9ab521a4d2bab, June 2026):
 
@@ -99,11 +99,16 @@ def read_reference(path: Path) -> tuple:
     return t, speed, dither
 
 
-def step_summary(stamps: list) -> dict:
-    """Rows and the median and largest step of the host's time stamps (s)."""
+def write_sidecar(log_path: Path, plan: dict, run: str, stamps: list, **extra) -> dict:
+    """The log's plan sidecar ``<log>.plan.json`` (schema ``pgcomm-rotary-log-plan/1``): the plan's id, the run, the
+    drive, the planned log period and the rows and time steps the host reached (s). Returns the document."""
     steps = [b - a for a, b in zip(stamps[:-1], stamps[1:])]
-    return {"rows": len(stamps), "median_step_s": statistics.median(steps) if steps else None,
-            "max_step_s": max(steps) if steps else None}
+    doc = {"schema": "pgcomm-rotary-log-plan/1", "plan_id": plan["plan_id"], "run": run, "drive": plan["drive"],
+           "sample_time_s": float(plan["sample_time_s"]), "columns": list(COLUMNS), "rows": len(stamps),
+           "median_step_s": statistics.median(steps) if steps else None, "max_step_s": max(steps) if steps else None,
+           **extra}
+    log_path.with_name(log_path.name + ".plan.json").write_text(json.dumps(doc, indent=2) + "\n")
+    return doc
 
 
 async def run_one(moteus, c, ref: tuple, sample_time: float, torque_per_amp: float, seconds: float, writer,
@@ -176,8 +181,8 @@ async def run_plan(args, plan: dict, folder: Path) -> None:
     qr.d_current = moteus.F32
     c = moteus.Controller(id=args.id, query_resolution=qr)
     sample_time = float(plan["sample_time_s"])
-    summary = {"plan_id": plan["plan_id"], "drive": "moteus", "package_version": getattr(moteus, "__version__", None),
-               "planned_sample_time_s": sample_time, "columns": list(COLUMNS), "runs": {}}
+    extra = {"package_version": getattr(moteus, "__version__", None), "controller_id": args.id,
+             "torque_per_amp_N_m_per_A": torque_per_amp}
     t0 = clock()
     await c.set_stop()
     try:
@@ -197,14 +202,12 @@ async def run_plan(args, plan: dict, folder: Path) -> None:
             finally:
                 await settle(c)
             part.replace(out / f"{r['name']}.csv")
-            summary["runs"][r["name"]] = step_summary(stamps)
-            med = summary["runs"][r["name"]]["median_step_s"]
+            med = write_sidecar(out / f"{r['name']}.csv", plan, r["name"], stamps, **extra)["median_step_s"]
             if med is not None and med > 1.2 * sample_time:
                 print(f"  the host logged every {1e3 * med:.2f} ms, the plan assumed {1e3 * sample_time:.2f} ms: the "
                       "fastest runs may exceed the alias guard; plan again with pgcomm plan --data", flush=True)
     finally:
         await c.set_stop()
-        (out / "run.json").write_text(json.dumps(summary, indent=2) + "\n")
 
 
 def main(argv=None) -> int:

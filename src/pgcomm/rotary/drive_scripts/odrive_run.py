@@ -20,8 +20,9 @@ feed-forward torque) and logs one row per loop:
 
 Every attribute is a round trip over USB: the script reads three per row (a few ms on a PC; the shared ODrive logs of
 this motor class were stamped every 1.4-6 ms) and writes ``input_vel`` only while it changes. ``columns.toml`` beside
-it maps the columns for pgcomm (``t``, ``theta`` in rev, ``iq_1``, ``id_1``). ``logs/run.json`` records the plan's
-id, the package's version and, per run, the rows and the time steps the host reached.
+it maps the columns for pgcomm (``t``, ``theta`` in rev, ``iq_1``, ``id_1``). Beside each log, ``<run>.csv.plan.json``
+records the plan's id, the run, the package's version and the rows and time steps the host reached (the logs carry
+their round).
 
 The ODrive calls, checked against odriverobotics/ODrive at tag fw-v0.5.6 (commit
 a308314ed2ca613164b81e7bbdfacc53cd1859ff):
@@ -98,11 +99,16 @@ def read_reference(path: Path) -> tuple:
     return t, speed, dither
 
 
-def step_summary(stamps: list) -> dict:
-    """Rows and the median and largest step of the host's time stamps (s)."""
+def write_sidecar(log_path: Path, plan: dict, run: str, stamps: list, **extra) -> dict:
+    """The log's plan sidecar ``<log>.plan.json`` (schema ``pgcomm-rotary-log-plan/1``): the plan's id, the run, the
+    drive, the planned log period and the rows and time steps the host reached (s). Returns the document."""
     steps = [b - a for a, b in zip(stamps[:-1], stamps[1:])]
-    return {"rows": len(stamps), "median_step_s": statistics.median(steps) if steps else None,
-            "max_step_s": max(steps) if steps else None}
+    doc = {"schema": "pgcomm-rotary-log-plan/1", "plan_id": plan["plan_id"], "run": run, "drive": plan["drive"],
+           "sample_time_s": float(plan["sample_time_s"]), "columns": list(COLUMNS), "rows": len(stamps),
+           "median_step_s": statistics.median(steps) if steps else None, "max_step_s": max(steps) if steps else None,
+           **extra}
+    log_path.with_name(log_path.name + ".plan.json").write_text(json.dumps(doc, indent=2) + "\n")
+    return doc
 
 
 def run_one(axis, ref: tuple, sample_time: float, torque_per_amp: float, seconds: float, writer, t0: float) -> list:
@@ -181,9 +187,8 @@ def run_plan(args, plan: dict, folder: Path) -> None:
              "anti-cogging off, or the logs show only what it leaves")
     torque_per_amp = float(axis.motor.config.torque_constant)
     sample_time = float(plan["sample_time_s"])
-    summary = {"plan_id": plan["plan_id"], "drive": "odrive", "package_version": getattr(odrive, "__version__", None),
-               "axis": args.axis, "torque_constant_N_m_per_A": torque_per_amp, "planned_sample_time_s": sample_time,
-               "columns": list(COLUMNS), "runs": {}}
+    extra = {"package_version": getattr(odrive, "__version__", None), "axis": args.axis,
+             "torque_per_amp_N_m_per_A": torque_per_amp}
     ctrl.input_vel = 0.0
     ctrl.input_torque = 0.0
     ctrl.config.control_mode = CONTROL_MODE_VELOCITY_CONTROL
@@ -207,8 +212,7 @@ def run_plan(args, plan: dict, folder: Path) -> None:
             finally:
                 settle(axis)
             part.replace(out / f"{r['name']}.csv")
-            summary["runs"][r["name"]] = step_summary(stamps)
-            med = summary["runs"][r["name"]]["median_step_s"]
+            med = write_sidecar(out / f"{r['name']}.csv", plan, r["name"], stamps, **extra)["median_step_s"]
             if med is not None and med > 1.2 * sample_time:
                 print(f"  the host logged every {1e3 * med:.2f} ms, the plan assumed {1e3 * sample_time:.2f} ms: the "
                       "fastest runs may exceed the alias guard; plan again with pgcomm plan --data", flush=True)
@@ -216,7 +220,6 @@ def run_plan(args, plan: dict, folder: Path) -> None:
         ctrl.input_torque = 0.0
         ctrl.input_vel = 0.0
         axis.requested_state = AXIS_STATE_IDLE
-        (out / "run.json").write_text(json.dumps(summary, indent=2) + "\n")
 
 
 def main(argv=None) -> int:
