@@ -1,8 +1,8 @@
 """The rotary plan on the twin: do a first round's runs determine the maps, and what does the dither's swing buy?
 
-Usage: ``python bench/rotary_plan.py [--motors 0:0,0:4] [--swings 0.5,0.8] [--refine] [--real-drive]``. Each motor is zoo motor
-``seed:index`` (:func:`pgcomm.rotary.zoo.draw_rotary`; ``--real-drive``: with a real drive's and host's habits, the
-host's jittered time stamps among them), described to the plan as its user knows it (the zoo's motor
+Usage: ``python bench/rotary_plan.py [--motors 0:0,0:4] [--swings 0.5,0.8] [--refine] [--real-drive]``. Each motor
+is zoo motor ``seed:index`` (:func:`pgcomm.rotary.zoo.draw_rotary`; ``--real-drive``: with a real drive's and host's
+habits, the host's jittered time stamps among them), described to the plan as its user knows it (the zoo's motor
 TOML plus the true ``inertia`` and ``k_t``, so the first round carries a dither). Per swing, the first round of
 :func:`pgcomm.rotary.plan.first_plan` runs on the twin in the drive's speed loop (the classical law and the gains of
 ``pgcomm reproduce``), and the identification's standard errors, as ``SE · sqrt(T)`` (the share of the map's RMS

@@ -245,6 +245,8 @@ def test_the_logging_columns_match_the_reader(tmp_path, drive):
     else:
         script = out / f"run_{drive}.py"
         assert script.read_text() == script_text(drive)
+        text = (out / "plan.md").read_text()
+        assert f"python run_{drive}.py" in text and f"pip install {drive}" in text and "{" not in text
         ast.parse(script.read_text())
         py_compile.compile(str(script), cfile=str(tmp_path / "x.pyc"), doraise=True)
         written = _script_columns(script)

@@ -204,9 +204,9 @@ def rotary_plan_markdown(plan: RotaryPlan, drive: str, commands: dict) -> str:
         lines.append("Play the references back with your drive's tools and log the columns below.")
     else:
         lines += [f"`python run_{drive}.py` runs every run and writes `logs/<run>.csv`, each with a sidecar "
-                  f"`<run>.csv.plan.json` (the plan id, the time steps the host reached). `python run_{drive}.py --max-seconds 2` checks the wiring "
-                  f"first; `--runs NAME ...` runs some only. It needs the `{drive}` Python package "
-                  f"(`pip install {drive}`)."]
+                  f"`<run>.csv.plan.json` (the plan id, the time steps the host reached). `python run_{drive}.py "
+                  "--max-seconds 2` checks the wiring first; `--runs NAME ...` runs some only. It needs the "
+                  f"`{drive}` Python package (`pip install {drive}`)."]
     lines += ["", "## What to log", "", "| pgcomm reads | column | unit | what |", "|---|---|---|---|"]
     for name, (col, unit) in DRIVE_COLUMNS[drive].items():
         lines.append(f"| `{name}` | `{col}` | {unit or 'SI'} | {_MEANING[name]} |")
