@@ -155,7 +155,7 @@ def rotary_plan_markdown(plan: RotaryPlan, drive: str, commands: dict) -> str:
     lines += [f"{len(plan.runs)} runs in the drive's speed loop, {_seconds(plan.duration)} of motion in all (plus a "
               "few seconds between runs): each speed in both directions, each with a q-current dither while it cruises"
               + ("" if plan.inertia_ratio is not None else " (none this round: see the dither below)") + ". "
-              "Record them in one power-up: the drive must not search its encoder's index again in between (the "
+              "Record them within one power-up: the drive must not search its encoder's index again in between (the "
               "maps are read in the encoder's frame).", ""]
     if plan.first_round is not None:
         lines += ["These runs are identified together with the first round's logs: record them before the drive "
