@@ -131,8 +131,8 @@ def index_offset(reference: np.ndarray, other: np.ndarray, independent: int) -> 
         independent: the maps' independent values (e.g. twice the highest order the model resolves).
 
     Returns:
-        ``{"shift": entries (other rolled by it), "rad": the offset, "correlation_at_zero", "correlation",
-        "taken": bool}``.
+        a dict: ``shift`` (entries ``other`` is rolled by), ``rad`` (the offset), ``correlation_at_zero``,
+        ``correlation`` (at the shift taken) and ``taken`` (bool).
     """
     a, b = _centred(np.asarray(reference, float)), _centred(np.asarray(other, float))
     n = a.size
