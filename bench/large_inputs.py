@@ -14,7 +14,7 @@ Builds the inputs in a temporary folder (or ``--keep DIR``), runs each command a
 * ``header``: a CSV whose header names 300 000 columns: refused (exit 2) in ≤ 5 s.
 
 Each line prints the figure, its target and whether it is met. The machine may be shared: the
-times are wall-clock times of one run.
+times are wall-clock times of one run, printed beside the CPU seconds the command used.
 """
 
 from __future__ import annotations
@@ -32,23 +32,25 @@ ROOT = Path(__file__).resolve().parents[1]
 GB = 1e9
 
 
-def run_child(argv: list[str]) -> tuple[int, float, float, str]:
-    """Run ``python -m pgcomm argv`` in a fresh process: ``(exit code, seconds, peak RSS in bytes, stderr)``.
+def run_child(argv: list[str]) -> tuple[int, float, float, float, str]:
+    """Run ``python -m pgcomm argv`` in a fresh process: ``(exit code, seconds, CPU seconds, peak RSS in bytes,
+    stderr)``.
 
     The peak is the child's ``ru_maxrss``, read by a small wrapper process so that each case has its own
-    (``RUSAGE_CHILDREN`` of one process holds the largest child it ever waited for).
+    (``RUSAGE_CHILDREN`` of one process holds the largest child it ever waited for). The CPU seconds (user and
+    system) tell a slow machine from a slow command where the machine is shared.
     """
     wrapper = ("import resource, subprocess, sys, time\n"
                "t = time.perf_counter()\n"
                "p = subprocess.run([sys.executable, '-m', 'pgcomm'] + sys.argv[1:], capture_output=True, text=True)\n"
                "dt = time.perf_counter() - t\n"
-               "peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024\n"
+               "r = resource.getrusage(resource.RUSAGE_CHILDREN)\n"
                "sys.stderr.write(p.stderr)\n"
-               "print(p.returncode, dt, peak)\n")
+               "print(p.returncode, dt, r.ru_utime + r.ru_stime, r.ru_maxrss * 1024)\n")
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", ""))
     p = subprocess.run([sys.executable, "-c", wrapper, *argv], capture_output=True, text=True, env=env)
-    code, dt, peak = p.stdout.split()[-3:]
-    return int(code), float(dt), float(peak), p.stderr
+    code, dt, cpu, peak = p.stdout.split()[-4:]
+    return int(code), float(dt), float(cpu), float(peak), p.stderr
 
 
 def build_log(path: Path, rows: int, model) -> None:
@@ -122,13 +124,13 @@ def build_wide_header(path: Path, columns: int = 300_000) -> None:
             f.write(",".join([repr(i * 1e-3)] + ["0.5"] * (columns - 1)) + "\n")
 
 
-def report(name: str, code: int, seconds: float, peak: float, err: str, max_s=None, max_gb=None,
+def report(name: str, code: int, seconds: float, cpu: float, peak: float, err: str, max_s=None, max_gb=None,
            expect_code: int = 0) -> None:
     ok = code == expect_code and (max_s is None or seconds <= max_s) and (max_gb is None or peak <= max_gb * GB)
     target = ", ".join(x for x in (f"≤ {max_s:g} s" if max_s else "", f"≤ {max_gb:g} GB" if max_gb else "",
                                    f"exit {expect_code}") if x)
-    print(f"{name:44s} exit {code}  {seconds:7.2f} s  peak {peak / GB:6.3f} GB   target {target}: "
-          f"{'met' if ok else 'MISSED'}")
+    print(f"{name:44s} exit {code}  {seconds:7.2f} s ({cpu:6.2f} s CPU)  peak {peak / GB:6.3f} GB   target "
+          f"{target}: {'met' if ok else 'MISSED'}")
     if code != expect_code:
         print("    " + (err.strip().splitlines() or [""])[-1])
     elif code == 2:

@@ -295,33 +295,49 @@ def read_csv_columns(path, source: str | None = None, strict=None) -> dict[str, 
                                                                    **nulls))
 
     strict_types = {h: pa.float64() for h in header if strict(h)}
-    try:
+
+    def read():
         # the first block tells which extra columns are numbers; a streaming reader keeps the types it infers
         # there, so every kept column is then read as float64 (an extra column of "1" then "1.5" stays numeric)
         with reader(strict_types) as probe:
             schema = probe.schema
         kept = [f.name for f in schema if f.name in strict_types or pa.types.is_floating(f.type)
                 or pa.types.is_integer(f.type) or pa.types.is_null(f.type)]
-        rows = _count_lines(path)  # an upper bound on the data rows: arrays are allocated once
-        out = {name: np.empty(rows) for name in kept}
-        dropped: set[str] = set()
-        n = 0
         with reader({h: pa.float64() for h in kept}, kept) as stream:
-            for batch in stream:
-                m = batch.num_rows
-                for name, col in zip(batch.schema.names, batch.columns):
-                    if name in dropped:
-                        continue
-                    if col.null_count:
-                        if name not in strict_types:
-                            dropped.add(name)  # an extra column with empty cells: ignored
-                            continue
-                        row = n + int(np.flatnonzero(col.is_null().to_numpy(zero_copy_only=False))[0]) + 1
-                        raise DataError(f"{src} row {row} column '{name}' is empty, expected a number")
-                    out[name][n:n + m] = col.to_numpy()
-                n += m
+            return _stream_columns(stream, kept, set(strict_types), _count_lines(path), src)
+
+    try:
+        out = read()
     except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
         return _read_csv_python(path, src, header, strict)
+    finally:
+        pa.default_memory_pool().release_unused()  # the parser's buffers (~60 MB): its allocator keeps them otherwise
+    return out
+
+
+def _stream_columns(stream, kept: list[str], strict: set, rows: int, src: str) -> dict[str, np.ndarray]:
+    """The batches of a pyarrow CSV stream written into one float64 array per kept column.
+
+    Args:
+        rows: an upper bound on the rows (:func:`_count_lines`): each array is allocated once.
+        strict: columns whose empty cells are an error; an extra column with one is dropped.
+    """
+    out = {name: np.empty(rows) for name in kept}
+    dropped: set[str] = set()
+    n = 0
+    for batch in stream:
+        m = batch.num_rows
+        for name, col in zip(batch.schema.names, batch.columns):
+            if name in dropped:
+                continue
+            if col.null_count:
+                if name not in strict:
+                    dropped.add(name)  # an extra column with empty cells: ignored
+                    continue
+                row = n + int(np.flatnonzero(col.is_null().to_numpy(zero_copy_only=False))[0]) + 1
+                raise DataError(f"{src} row {row} column '{name}' is empty, expected a number")
+            out[name][n:n + m] = col.to_numpy()
+        n += m
     return {name: a[:n] if n < a.shape[0] else a for name, a in out.items() if name not in dropped}
 
 
