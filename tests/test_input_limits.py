@@ -151,7 +151,8 @@ def test_csv_read_block_by_block_equals_the_exact_parser(tmp_path, monkeypatch):
     count[-1] = 2.5
     lines = ["t,a,b,count,label,gappy"]
     for i in range(n):
-        lines.append(f"{i * TS!r},{float(a[i])!r},{float(b[i])!r},{count[i]:g},{'x' if i % 7 else 'y'},{'' if i == n - 5 else 1}")
+        label, gap = "x" if i % 7 else "y", "" if i == n - 5 else 1
+        lines.append(f"{i * TS!r},{float(a[i])!r},{float(b[i])!r},{count[i]:g},{label},{gap}")
     p = tmp_path / "long.csv"
     p.write_text("\n".join(lines))  # no newline after the last row
     strict = {"t", "a", "b"}.__contains__

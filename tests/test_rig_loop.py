@@ -255,7 +255,8 @@ def test_logs_of_two_plans_are_refused_and_logs_without_a_plan_get_a_note(tmp_pa
         check_log_plans([one, two], motor, "M")
     own = [Log({"t": np.arange(3) * ts}, ts, source=str(tmp_path / f"own{i}.csv")) for i, ts in enumerate((1e-3, 5e-4))]
     notes = check_log_plans([one, *own], motor, "M")
-    assert notes[0].startswith("2 log(s) without a plan sidecar") and "taken as recorded at the drive values of M" in notes[0]
+    assert notes[0].startswith("2 log(s) without a plan sidecar")
+    assert "taken as recorded at the drive values of M" in notes[0]
     assert len(notes) == 2 and "own1.csv: sample time 0.0005 s, M has 0.001 s" in notes[1]
     (tmp_path / "bad.csv.plan.json").write_text("{not json")
     with pytest.raises(DataError, match=r"bad\.csv\.plan\.json: not a readable plan sidecar"):

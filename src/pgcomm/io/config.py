@@ -696,10 +696,11 @@ def _check_rotary_orders(vals: dict, file: str) -> None:
     p, q = vals["pole_pairs"], vals.get("slots")
     if q is not None and int(cogging_orders(q, p).max()) > MAX_ROTARY_ORDER:
         lcm = fundamental_cogging_order(q, p)
-        raise ConfigError(f"{file}: slots = {q} with pole_pairs = {p} put the cogging fundamental at LCM(Q, 2p) = {lcm} "
-                          f"per revolution and the model's orders up to {int(cogging_orders(q, p).max())}, beyond the "
-                          f"{MAX_ROTARY_ORDER} pgcomm identifies: identification screens every order up to the highest, "
-                          "on logs slow enough to resolve it (its time grows with about the 2.5th power of that order)")
+        raise ConfigError(f"{file}: slots = {q} with pole_pairs = {p} put the cogging fundamental at LCM(Q, 2p) = "
+                          f"{lcm} per revolution and the model's orders up to {int(cogging_orders(q, p).max())}, "
+                          f"beyond the {MAX_ROTARY_ORDER} pgcomm identifies: identification screens every order up to "
+                          "the highest, on logs slow enough to resolve it (its time grows with about the 2.5th power "
+                          "of that order)")
     if int(ripple_orders(q, p).max()) > MAX_ROTARY_ORDER:
         raise ConfigError(f"{file}: pole_pairs = {p} puts the torque ripple at order 12p = {12 * p} per revolution, "
                           f"beyond the {MAX_ROTARY_ORDER} pgcomm identifies (at most pole_pairs = "
