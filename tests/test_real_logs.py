@@ -181,3 +181,13 @@ def test_a_log_that_never_moves_is_refused_by_the_cli(tmp_path):
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "no usable window" in run.stderr and "Traceback" not in run.stderr
     assert not out.exists()
+
+
+def test_a_pinned_ripple_leaves_the_cogging_of_logs_that_determine_it(uniform_logs):
+    """``pin``: the ripple pinned on logs that would determine it (the path a fit whose ripple is not a motor's takes)
+    leaves the cogging as the full fit has it, this rotor having no ripple."""
+    full = identify(uniform_logs, MOTOR, current_filter=0.0, **FIXED)
+    pinned = identify(uniform_logs, MOTOR, current_filter=0.0, pin=("ripple",), **FIXED)
+    assert pinned.info["pinned"] == ["ripple"] and pinned.model.ripple.orders.size == 0
+    assert "not determined by these logs" in resolution_verdict(pinned.info["standard_error"]["ripple"])
+    assert cogging_error(pinned.model) < max(2 * cogging_error(full.model), 2e-3)
