@@ -62,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand of :data:`COMMANDS`."""
     from pgcomm import __version__
 
-    parser = _Parser(prog="pgcomm", description="Physics-guided commutation for linear motors.")
+    parser = _Parser(prog="pgcomm", description="Physics-guided commutation for linear and rotary permanent-magnet motors.")
     parser.add_argument("--version", action="version", version=f"pgcomm {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
                                 help=", ".join(COMMANDS))
