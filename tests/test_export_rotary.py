@@ -287,7 +287,7 @@ def test_cli_exports(tmp_path, table_csv, capsys):
 
 @pytest.mark.parametrize("args, match", [
     (["--format", "moteus"], "give --table TABLE.csv"),
-    (["--format", "moteus", "--table", "{t}", "--model", "m.json"], "exports --table, not --model"),
+    (["--format", "moteus", "--table", "{t}", "--model", "m.json"], "give --table TABLE.csv or --model MODEL.json, not both"),
     (["--format", "c", "--table", "{t}"], "give --model MODEL.json"),
     (["--format", "odrive", "--table", "{t}"], "needs --torque-constant"),
     (["--format", "odrive", "--table", "{t}", "--torque-constant", "-1"], "--torque-constant -1"),

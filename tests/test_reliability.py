@@ -330,13 +330,16 @@ def test_a_model_without_a_standard_error_is_held_to_the_float_rounding(tmp_path
 
 #: every export option a format does not read, with a value: refused naming both
 EXPORT_VALUES = {"torque_constant": "0.1", "entries": "64", "precision": "single", "resolution": "1e-3",
-                 "drive_k": "60", "drive_zeta": "0.1", "f_max": "50"}
+                 "drive_k": "60", "drive_zeta": "0.1", "f_max": "50", "force_constant": "100", "pole_pairs": "7",
+                 "directions": "2", "hysteresis": "1", "period": "1", "harmonics": "5", "scale": "0.01",
+                 "fade_out": "100,200"}
 
 
 def _export_conflicts():
     from pgcomm.cli.export import FORMAT_OPTIONS
 
-    fmts = ("c", "lut", "moteus", "odrive", "c-angle", "c-rotary")
+    fmts = ("c", "lut", "moteus", "odrive", "c-angle", "c-rotary", "sinamics", "akd", "moog", "beckhoff", "summit",
+            "ioni")
     return [(fmt, dest) for dest, used in FORMAT_OPTIONS.items() for fmt in fmts if fmt not in used]
 
 

@@ -10,7 +10,10 @@ One ``jax.lax.scan`` step per controller sample ``k``:
    them and holds them over ``[t_k, t_k+1)`` (zero-order hold). ``v_c`` is the reference
    velocity ``v_r[k]`` unless the law has ``velocity_source = "encoder"``: then it is the
    encoder difference ``(y_m[k] - y_m[k-1]) / T_s`` through a causal first-order low-pass
-   with cut-off ``law.velocity_cutoff_hz`` (ZOH-discretised, the filter a drive would run);
+   with cut-off ``law.velocity_cutoff_hz`` (ZOH-discretised, the filter a drive would run).
+   A law with memory (a drive that keeps one of two direction tables until its speed leaves a
+   hysteresis band) has ``direction_state(d, v)`` and ``currents_with_state(y, F*, v, d)``: its
+   state ``d`` (+1/-1, starting at +1) is carried from sample to sample;
 4. the plant produces ``F[k] = F(y(t_k), v(t_k), i[k])``; the mechanics integrate
    ``F_y[k]`` over the sample in RK4 sub-steps.
 
@@ -95,8 +98,10 @@ def _run(plant, law, r, v_ref, u_ff, y0, *, pid: PID, mech: Mechanics, sample_ti
     # first-order low-pass of the encoder difference (ZOH): v_f <- v_f + a (Δy_m / T_s - v_f)
     a_v = 1.0 - np.exp(-2 * np.pi * getattr(law, "velocity_cutoff_hz", 100.0) * ts) if encoder_velocity else 0.0
 
+    stateful = hasattr(law, "direction_state")
+
     def body(carry, x):
-        y, v, integ, e_prev, u_fb, ym_prev, v_f = carry
+        y, v, integ, e_prev, u_fb, ym_prev, v_f, d = carry
         r_k, vr_k, uff_k = x
         ym = quantise(y, resolution)
         v_f = v_f + a_v * ((ym - ym_prev) / ts - v_f)
@@ -106,15 +111,19 @@ def _run(plant, law, r, v_ref, u_ff, y0, *, pid: PID, mech: Mechanics, sample_ti
         u_pid = pid.kp * e + pid.ki * integ + pid.kd * (e - e_prev) / ts
         u_fb = u_fb + alpha * (u_pid - u_fb)
         f_star = jnp.stack([uff_k + u_fb, 0.0, 0.0])
-        i = limit_currents(law.currents(y, f_star, v) if true_state else law.currents(ym, f_star, v_law),
-                           current_limit)
+        if stateful:
+            d = law.direction_state(d, v_law)
+            i = law.currents_with_state(ym, f_star, v_law, d)
+        else:
+            i = law.currents(y, f_star, v) if true_state else law.currents(ym, f_star, v_law)
+        i = limit_currents(i, current_limit)
         f = plant_force(plant, y, i, v)
         y_next, v_next = mech_mod.step(mech, y, v, f[0], ts)
-        return (y_next, v_next, integ, e, u_fb, ym, v_f), (y, ym, f_star, f, i)
+        return (y_next, v_next, integ, e, u_fb, ym, v_f, d), (y, ym, f_star, f, i)
 
     e0 = r[0] - quantise(y0, resolution)
     carry0 = (y0, jnp.zeros_like(y0), jnp.zeros_like(y0), e0, jnp.zeros_like(y0), quantise(y0, resolution),
-              jnp.zeros_like(y0))
+              jnp.zeros_like(y0), jnp.ones_like(y0))
     _, out = jax.lax.scan(body, carry0, (r, v_ref, u_ff))
     return out
 

@@ -43,10 +43,10 @@ classical commutation (eq. Commutation_Solution_Ideal_SingleCoilset, ``Δ = 0``,
 ``k̂, ζ̂`` are arguments (``pgcomm export --drive-k/--drive-zeta``, or the model file's ``drive``), or
 fitted to the Fy rows of the model's fundamental (:func:`classical_parameters`).
 
-Drive families' own table formats (e.g. SINAMICS S120 cogging torque compensation, Kollmorgen AKD
-cogging compensation) are not written: no public manual section pins down their file layout, units,
-sign and point count well enough to write one that a drive would read correctly. The table here is a
-plain CSV on a uniform grid, to be converted with the drive's own tool.
+Drives' own table formats (SINAMICS S120, Kollmorgen AKD, Moog MSD, Beckhoff AX8000) are written by
+``pgcomm export --format sinamics|akd|moog|beckhoff --model`` from the same offset (negated: those drives
+add their table to the demand) with the direction force per direction where the drive holds two tables
+(:mod:`pgcomm.export.compensation`, :mod:`pgcomm.export.drive_export`).
 
 Direction term. A model with ``C^l s(ẏ)`` gives the table law an offset pair:
 ``i = P̃(y) (F* - F̂̃_cog(y) - C̄ s(v))`` with ``C̄ = mean_l C^l`` and ``s(v) = tanh(v/v_ε)``, i.e.

@@ -22,18 +22,27 @@ commit a308314ed2ca613164b81e7bbdfacc53cd1859ff = fw-v0.5.6, and master f9b5419c
   ``pos_estimate`` (its zero is the encoder's: index pulse or absolute encoder; the docs require
   one for ``pre_calibrated``), and its sign is the torque to add.
 
-**Not loadable by stock firmware.** ``Firmware/odrive-interface.yaml`` (0.5.x) exposes
+**Stock firmware cannot load it.** ``Firmware/odrive-interface.yaml`` (0.5.x) exposes
 ``controller.config.anticogging`` with ``index``, ``pre_calibrated``, ``calib_anticogging``,
 ``calib_pos_threshold``, ``calib_vel_threshold``, ``cogging_ratio``, ``anticogging_enabled`` and
 the functions ``start_anticogging_calibration``, ``remove_anticogging_bias`` and (0.5.6)
 ``get_anticogging_value(index)`` — reading only: ``cogging_map`` itself has no protocol entry, so
 no ``odrivetool``/fibre command writes it (the 0.4.x firmware's map, ``float*`` of encoder ``cpr``
 entries in A, was not exposed either). The JSON therefore states ``"loadable_by_stock_firmware":
-false``. It is useful (a) to compare with a map read back entry by entry with
-``get_anticogging_value(k)`` after the drive's own calibration, and (b) for a firmware build that
-exposes ``cogging_map`` (one entry in odrive-interface.yaml) or compiles it in. The closed
-firmware 0.6.x (ODrive Pro/S1) documents only its calibration procedure
-(docs.odriverobotics.com, "Anticogging" guide), not a map format: not supported.
+false``, and every export prints it. The ways around it (:data:`WORKAROUNDS`):
+
+* **ODrive Pro / S1, firmware 0.6.x**: the drive's own anticogging calibration
+  (docs.odriverobotics.com, guides, "Anticogging") measures and applies its map; pgcomm's table then
+  serves to judge that map, not to replace it;
+* **a 0.5.x firmware built with a setter**: a function beside ``get_anticogging_value`` in
+  ``odrive-interface.yaml`` (and ``Controller``) that writes ``cogging_map[index]``; load the 3600
+  entries with it, set ``anticogging.pre_calibrated = True`` and ``save_configuration()``: at the next
+  start the map is used once the encoder's index is found (``Encoder::enc_index_cb``) or, with an
+  absolute encoder, at once (``Encoder`` set-up) — ``anticogging_valid_`` is set only there or by the
+  drive's own calibration.
+
+The JSON is also what to compare with a map read back entry by entry with ``get_anticogging_value(k)``
+after the drive's own calibration.
 
 Assumptions stated, not guessed (repeated in the JSON and ``results.json``):
 
@@ -60,12 +69,11 @@ from pgcomm.export.angle_table import (
     TableError,
     bin_means,
     fine_grid_size,
-    periodic_interpolant,
     reconstruction_error,
 )
 
 __all__ = ["ENTRIES", "OdriveMap", "build_odrive", "odrive_document", "write_odrive", "read_odrive",
-           "odrive_current", "CITATION", "FORMAT"]
+           "odrive_current", "odrive_apply", "CITATION", "FORMAT", "WORKAROUNDS"]
 
 #: ``float cogging_map[3600]`` (Firmware/MotorControl/controller.hpp).
 ENTRIES = 3600
@@ -77,6 +85,15 @@ CITATION = ("odriverobotics/ODrive Firmware/MotorControl/controller.hpp (Anticog
             "controller.cpp (Controller::update: torque += cogging_map[mod((int)(pos_estimate*3600), 3600)]), "
             "encoder.hpp (getCoggingRatio = 1/3600), motor.cpp (iq = torque / torque_constant), "
             "odrive-interface.yaml (cogging_map not exposed); tags fw-v0.5.1..fw-v0.5.6")
+
+#: The documented ways to get a map into an ODrive (module docstring), printed by every export.
+WORKAROUNDS = (
+    "ODrive Pro/S1 firmware 0.6.x: run the drive's own anticogging calibration "
+    "(https://docs.odriverobotics.com/v/latest/guides/anticogging.html) and compare its map with this one",
+    "ODrive v3 firmware 0.5.x built with a setter beside get_anticogging_value (odrive-interface.yaml, Controller) "
+    "that writes cogging_map[index]: write the 3600 entries, set anticogging.pre_calibrated = True, "
+    "save_configuration(); the map is used after the index search (or at once with an absolute encoder)",
+)
 
 ASSUMPTIONS = (
     "theta = 0 and the positive direction are the ODrive's pos_estimate (turns x 2 pi): entry k holds for "
@@ -120,7 +137,8 @@ class OdriveMap:
         return {"entries": ENTRIES, "torque_constant_Nm_per_A": self.torque_constant,
                 "positive_positions": self.positive.as_dict(), "negative_positions": self.negative.as_dict(),
                 "clipped_entries": self.clipped, "current_limit_A": self.current_limit,
-                "loadable_by_stock_firmware": False, "citation": CITATION, "assumptions": list(ASSUMPTIONS)}
+                "loadable_by_stock_firmware": False, "ways_around": list(WORKAROUNDS), "citation": CITATION,
+                "assumptions": list(ASSUMPTIONS)}
 
 
 def odrive_current(current, points: int, negative: bool = False) -> np.ndarray:
@@ -139,31 +157,55 @@ def odrive_current(current, points: int, negative: bool = False) -> np.ndarray:
     return c[k]
 
 
-def build_odrive(table: AngleTable, torque_constant: float, current_limit: float | None = None) -> OdriveMap:
-    """Resample ``table`` to the 3600 bins (bin means), clip to the limit, convert to N·m; measure the errors.
+def build_odrive(table, torque_constant: float, current_limit: float | None = None) -> OdriveMap:
+    """Resample to the 3600 bins (bin means), clip to the limit, convert to N·m; measure the errors.
 
     Args:
-        table: the compensation table (A over one revolution).
+        table: the compensation over one revolution (A): an :class:`AngleTable` or a rotary
+            :class:`pgcomm.export.compensation.Compensation` (its limit applies when ``current_limit`` is ``None``).
         torque_constant: ``k_t`` (N·m/A) the ODrive is configured with (``motor.config.torque_constant``), > 0.
         current_limit: bound (A) on every entry, or ``None``.
 
     Raises:
         ValueError: a torque constant that is not a positive finite number.
     """
+    from dataclasses import replace
+
+    from pgcomm.export.compensation import Compensation, from_angle_table
+
     if not (isinstance(torque_constant, (int, float)) and math.isfinite(torque_constant) and torque_constant > 0):
         raise ValueError(f"torque constant {torque_constant!r} must be a positive number of N m/A")
-    g = bin_means(table.iq, ENTRIES)
+    comp = table if isinstance(table, Compensation) else from_angle_table(table)
+    if current_limit is None:
+        current_limit = comp.limit
+    comp = replace(comp, limit=None)
+    if comp.table is not None:
+        g = bin_means(comp.table, ENTRIES)
+    else:
+        # the midpoint rule over 16 points per bin: the bin mean of every order below 16 x 3600 / 2
+        g = comp.values(2.0 * math.pi * (np.arange(ENTRIES)[:, None] + (np.arange(16) + 0.5) / 16) / ENTRIES).mean(1)
     clipped = 0
     if current_limit is not None:
         clipped = int(np.count_nonzero(np.abs(g) > current_limit))
         g = np.clip(g, -current_limit, current_limit)
     torque = (g * torque_constant).astype(np.float32)
-    points = fine_grid_size(table.n, ENTRIES)
-    ref = periodic_interpolant(table.iq, points)
+    points = fine_grid_size(comp.table.size if comp.table is not None else ENTRIES, ENTRIES)
+    ref = comp.grid(points)
+    if current_limit is not None:
+        ref = np.clip(ref, -current_limit, current_limit)
     cur = torque.astype(np.float64) / torque_constant
     pos = reconstruction_error(odrive_current(cur, points), ref)
     neg = reconstruction_error(odrive_current(cur, points, negative=True), ref)
     return OdriveMap(torque, float(torque_constant), pos, neg, clipped, current_limit)
+
+
+def odrive_apply(om: OdriveMap, theta) -> np.ndarray:
+    """What ``Controller::update`` adds (A of q current) at ``pos_estimate = theta / 2π`` turns (any sign):
+    entry ``mod((int)(pos · 3600), 3600)``, truncation toward zero; zero at a non-finite angle."""
+    th = np.asarray(theta, dtype=float)
+    ok = np.isfinite(th)
+    idx = np.mod(np.trunc(np.where(ok, th, 0.0) / (2.0 * math.pi) * ENTRIES), ENTRIES).astype(np.int64)
+    return np.where(ok, om.current[idx], 0.0)
 
 
 def odrive_document(om: OdriveMap, provenance=()) -> dict:
@@ -173,6 +215,7 @@ def odrive_document(om: OdriveMap, provenance=()) -> dict:
         "firmware": "ODrive open firmware 0.5.1 to 0.5.6 (ODrive v3.x)",
         "attribute": "axis.controller.config.anticogging.cogging_map",
         "loadable_by_stock_firmware": False,
+        "ways_around": list(WORKAROUNDS),
         "units": "N m, added to the torque setpoint (iq = torque / torque_constant)",
         "index": "entry k for pos_estimate in [k/3600, (k+1)/3600) turns (mod 1 turn); zero-order hold",
         "torque_constant_Nm_per_A": om.torque_constant,

@@ -477,6 +477,11 @@ class LawParams:
     drives' standstill table. The maps and the table are read at ``θ = θ_enc + advance · ω̂ T_s``
     (``advance`` in samples, ω̂ the drive's velocity estimate): ½ is the middle of the sample over
     which the current is held (module docstring), 0 the encoder angle as sampled.
+
+    A drive with a table per direction (``table_reverse``, same size) uses ``table`` until its speed
+    estimate ω̂ falls below ``−hysteresis/2`` and ``table_reverse`` until it rises above ``+hysteresis/2``
+    (rad/s; inside the band the table in use stays); a drive that fades its table out with speed
+    (``fade = (start, end)``, rad/s) scales it by 1 up to ``|ω̂| = start``, linearly to 0 at ``end``.
     """
 
     model: RotaryModel
@@ -485,6 +490,9 @@ class LawParams:
     ff_b: float = 0.0
     ff_d: float = 0.0
     advance: float = HOLD_ADVANCE
+    table_reverse: np.ndarray | None = None
+    hysteresis: float = 0.0
+    fade: tuple | None = None
 
     @classmethod
     def classical(cls, pole_pairs: int, ff_a=0.0, ff_b=0.0, ff_d=0.0) -> "LawParams":
@@ -569,7 +577,8 @@ def _run(params, xs, n_sub: int):
     (h_p, rho_a, rho_b, cog_a, cog_b, drag_a, drag_b, k0, coul, visc, inertia, w_eps, ts, q,
      h_l, lc_a, lc_b, lr_a, lr_b, ld_a, ld_b, table, n_table, ff_a, ff_b, ff_d,
      kp, ki, kd, kpv, kiv, beta, i_lim, mode_pos, theta0, advance,
-     use_pll, pll_kp, pll_ki, errors_on, sensors, index0, pole_pairs, comm_offset) = params
+     use_pll, pll_kp, pll_ki, errors_on, sensors, index0, pole_pairs, comm_offset, table_rev, band, fade_s,
+     fade_e) = params
     dt = ts / n_sub
 
     def plant_torque(theta, omega, iq):
@@ -583,7 +592,7 @@ def _run(params, xs, n_sub: int):
         return t_em, t_em - (coul + drag) * jnp.tanh(omega / w_eps) - visc * omega
 
     def step(carry, x):
-        theta, omega, th_prev, w_f, integ, acc, pe, ve = carry
+        theta, omega, th_prev, w_f, integ, acc, pe, ve, dstate = carry
         th_r, w_r, a_r, dith = x
         # the encoder's count; the estimates are made from it as in power_up 0 (they are translation-invariant), and
         # the power-up's offset (index0, whole counts) is added where the drive uses its angle as such
@@ -611,7 +620,12 @@ def _run(params, xs, n_sub: int):
         n_int = jnp.maximum(n_table, 1.0).astype(jnp.int32)
         j0 = j0.astype(jnp.int32) % n_int
         j1 = (j0 + 1) % n_int
-        tab = (1.0 - fr) * table[j0] + fr * table[j1]
+        # a table per direction kept through a hysteresis band, and a fade-out with speed (LawParams), on the drive's
+        # own speed estimate
+        dstate = jnp.where(w_d > 0.5 * band, 1.0, jnp.where(w_d < -0.5 * band, -1.0, dstate))
+        tab = jnp.where(dstate < 0, (1.0 - fr) * table_rev[j0] + fr * table_rev[j1],
+                        (1.0 - fr) * table[j0] + fr * table[j1])
+        tab = tab * jnp.where(fade_e > fade_s, jnp.clip((fade_e - jnp.abs(w_d)) / (fade_e - fade_s), 0.0, 1.0), 1.0)
         law_cog, law_dir = jnp.sum(c * lc_a + s * lc_b), jnp.sum(c * ld_a + s * ld_b)
         iq = (u - law_cog + law_dir * sgn) / (1.0 + jnp.sum(c * lr_a + s * lr_b)) + tab
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
@@ -638,12 +652,13 @@ def _run(params, xs, n_sub: int):
             return th + dt * om + 0.5 * dt * dt * acc, om + dt * acc, acc
 
         theta_n, omega_n, acc_n = jax.lax.fori_loop(0, n_sub, sub, (theta, omega, acc), unroll=n_sub <= 4)
-        return (theta_n, omega_n, th_m, w_f, integ, acc_n, pe, ve), out
+        return (theta_n, omega_n, th_m, w_f, integ, acc_n, pe, ve, dstate), out
 
     q0 = jnp.round(theta0 / q) * q
     # the acceleration the first sub-step predicts its middle from: the rotor starts at rest, with none; the PLL
     # starts on the count, at rest
-    carry0 = (theta0, 0.0 * theta0, q0, 0.0 * theta0, 0.0 * theta0, 0.0 * theta0, q0, 0.0 * theta0)
+    carry0 = (theta0, 0.0 * theta0, q0, 0.0 * theta0, 0.0 * theta0, 0.0 * theta0, q0, 0.0 * theta0,
+              1.0 + 0.0 * theta0)
     _, outs = jax.lax.scan(step, carry0, xs)
     return outs
 
@@ -699,6 +714,13 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     else:
         t = np.asarray(law.table, float)
         table, n_table = np.concatenate([t, np.zeros(_pad(t.size) - t.size)]), t.size
+    table_rev = table
+    if law.table_reverse is not None:
+        t = np.asarray(law.table_reverse, float)
+        if t.size != n_table:
+            raise ValueError(f"table_reverse has {t.size} entries, table {n_table}")
+        table_rev = np.concatenate([t, np.zeros(_pad(t.size) - t.size)])
+    fade_s, fade_e = (0.0, 0.0) if law.fade is None else (float(law.fade[0]), float(law.fade[1]))
     i_lim = float(m.current_limit) if m.current_limit else np.inf
     beta = 1.0 - math.exp(-2 * math.pi * VELOCITY_CUTOFF_HZ * tc)
     q = 2 * math.pi / truth.encoder_counts
@@ -718,7 +740,8 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
               float(n_table), f(law.ff_a), f(law.ff_b), f(law.ff_d),
               f(gains.kp), f(gains.ki), f(gains.kd), f(gains.kpv), f(gains.kiv), beta, i_lim, mode_pos, th0,
               f(law.advance), 1.0 if bw > 0 else 0.0, 2.0 * bw, bw * bw, 1.0 if truth.drive_errors else 0.0,
-              tuple(f(x) for x in sensors), index0, f(m.pole_pairs), f(m.commutation_offset))
+              tuple(f(x) for x in sensors), index0, f(m.pole_pairs), f(m.commutation_offset), jnp.asarray(table_rev),
+              f(law.hysteresis), fade_s, fade_e)
     rng = np.random.default_rng(seed)
     dither = np.zeros(n) if ref.dither is None else np.asarray(ref.dither, float)
     refs = [np.asarray(v, float) for v in (ref.theta, ref.omega, ref.alpha, dither)]
