@@ -207,3 +207,19 @@ def test_unstable_mechanics_raises(plant0, exact_drive, reference):
 def test_default_pid_is_tuned_for_mass(double_integrator):
     assert isinstance(double_integrator, SimResult)
     assert PID.tuned(FRICTIONLESS.mass) == PID.tuned(30.0)
+
+
+def test_other_law_values_and_reference_lengths_reuse_the_compiled_loop(plant0, exact_drive, reference):
+    """The law's values and the reference are arguments of one compiled program: a second law of the same
+    class with other values, on a reference of another length, compiles nothing new."""
+    from pgcomm import simulate as sim_mod
+
+    kw = dict(drive=exact_drive, mechanics=FRICTIONLESS, sensors=NO_NOISE)
+    first = simulate(plant0, ClassicalLaw.from_motor(exact_drive), reference, feedforward=Feedforward(mass=30.0), **kw)
+    compiled = sim_mod._chunk._cache_size()
+    longer = trajectory.point_to_point(0.0, 0.08, 0.2, 2.0, 1000.0, 1e-3)
+    assert len(longer) != len(reference) and max(len(longer), len(reference)) > 1  # another length
+    other = simulate(plant0, ClassicalLaw.from_motor(exact_drive, k=60.0, zeta=-0.5), longer,
+                     feedforward=Feedforward(mass=25.0), **kw)
+    assert sim_mod._chunk._cache_size() == compiled
+    assert np.abs(other.currents[: len(first.t)] - first.currents).max() > 1e-3  # the other values were used

@@ -6,6 +6,12 @@ integrated with classical fourth-order Runge–Kutta in ``substeps`` sub-steps o
 controller sample, with the driving force held over the sample (zero-order hold).
 The smoothing velocity ``v_c`` keeps the friction Lipschitz, so the explicit
 integrator is stable when ``h f_c / (m v_c) < 2.7`` (checked by :func:`check_stable`).
+
+One sub-step is the default: for the default translator at 1 ms (``h (f_v + f_c/v_c)/m = 0.4``)
+its error over one sample, against 256 sub-steps along the paper's closed-loop references, is at
+most 7e-10 m in position and 1.7e-7 m/s in velocity, under 1 % of the 0.1 µm encoder quantum
+(tests/test_mechanics.py checks the bound). A stiffer friction or a longer sample needs more: the
+error of a step grows with the fifth power of ``h``.
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ class Mechanics:
     viscous: float = field(default=80.0, metadata={"range": (0.0, 1e6), "unit": "N s/m"})
     coulomb: float = field(default=12.0, metadata={"range": (0.0, 1e6), "unit": "N"})
     coulomb_velocity: float = field(default=1e-3, metadata={"range": (1e-9, 10.0), "unit": "m/s"})
-    substeps: int = field(default=4, metadata={"range": (1, MAX_SUBSTEPS),
+    substeps: int = field(default=1, metadata={"range": (1, MAX_SUBSTEPS),
                                                "hint": f"RK4 sub-steps per controller sample; 1 to {MAX_SUBSTEPS}"})
 
     def __post_init__(self):
@@ -64,9 +70,13 @@ def step(mech: Mechanics, y, v, force_y, dt):
         ``(y, v)`` after ``dt``, same shapes as the inputs.
     """
     h = dt / mech.substeps
+    # multiplications by reciprocals: the stages are the longest chain of dependent operations in a
+    # closed-loop step, and a division takes several times a multiplication's latency
+    inv_m = 1.0 / mech.mass
+    inv_vc = 1.0 / mech.coulomb_velocity
 
     def f(v_):
-        return acceleration(mech, v_, force_y)
+        return (force_y - mech.viscous * v_ - mech.coulomb * jnp.tanh(v_ * inv_vc)) * inv_m
 
     def substep(_, yv):
         y_, v_ = yv

@@ -104,8 +104,12 @@ class MLP:
     def __call__(self, s):
         """Network output ``S + G + (3,)`` for scaled positions ``s`` of shape ``S + G``."""
         h = self.features(s)
-        # Multiply-and-sum over the MINOR axis: the contraction is tiny (n_I), XLA fuses it, and
-        # on CPU a reduction over the minor axis runs ~10x faster than over a major one.
+        if h.shape[:-1] == self.W_out.shape[:-2]:
+            # one position per network (a closed-loop step): a matrix-vector product per network; the
+            # multiply-and-sum below would evaluate every hidden unit once per output row there
+            return jnp.einsum("...i,...ij->...j", h, self.W_out) + self.b_out
+        # Many positions: multiply-and-sum over the MINOR axis: the contraction is tiny (n_I), XLA fuses
+        # it, and on CPU a reduction over the minor axis runs ~10x faster than over a major one.
         return jnp.sum(h[..., None, :] * jnp.swapaxes(self.W_out, -1, -2), axis=-1) + self.b_out
 
     def padded(self, width: int) -> "MLP":

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import pgcomm._x64  # noqa: F401  (float64 before any array is made)
-import jax
 import jax.numpy as jnp
+import numpy as np
 
 
 @dataclass(frozen=True)
@@ -41,6 +41,11 @@ def quantise(y, resolution):
     return jnp.round(y / resolution) * resolution
 
 
-def force_noise(key, n, sensors: Sensors):
-    """``(n, 3)`` white force-sensor noise (N, N, N·m) drawn from ``key``."""
-    return jax.random.normal(key, (n, 3)) * jnp.asarray(sensors.force_noise)
+def force_noise(seed: int, n: int, sensors: Sensors) -> np.ndarray:
+    """``(n, 3)`` white force-sensor noise (N, N, N·m) drawn from the NumPy stream ``seed``.
+
+    NumPy's generator rather than JAX's: the noise is drawn on the host after the closed loop, and
+    NumPy draws it about 5x faster than an eager ``jax.random.normal`` (which also compiles a program
+    per length).
+    """
+    return np.random.default_rng(seed).standard_normal((int(n), 3)) * np.asarray(sensors.force_noise, dtype=float)

@@ -214,38 +214,48 @@ class TwinPlant:
     def _rows(self, y):
         """Rows ``(Fy, Fx, Tz)`` of the phase gain, each ``S + (L, 3)`` (columns phases a, b, c).
 
-        Every angle is an affine function of ``y``, so only ``sin/cos`` of three base angles
-        and ``exp(±y/λ)`` are evaluated; per-coil-set and per-phase offsets are applied by
-        angle addition with constants (transcendentals dominate the cost in a scan body).
+        Every angle is an affine function of ``y``: the electrical angle of coil set ``l``, phase ``p`` is
+        ``θ_lp = ω y + c_lp``, so ``sin(nθ_lp + φ) = sin(nωy) cos(n c_lp + φ) + cos(nωy) sin(n c_lp + φ)``.
+        Per position only ``sin/cos`` of ``ωy`` (``nωy`` by angle addition), of the ripple's angle and
+        ``exp(±y/λ)`` are evaluated; everything that does not depend on ``y`` is a table of coefficients
+        (computed once in a compiled loop: transcendentals dominate the cost of a closed-loop step).
         """
-        y = jnp.asarray(y, dtype=float)[..., None, None]  # S + (1, 1): broadcast over (L, phase)
+        y = jnp.asarray(y, dtype=float)
         slope, curv, ripple, drift, end_drop = (self.field[i] for i in range(5))
-        d = self.lever_arms[:, None]                      # (L, 1)
+        d = self.lever_arms                               # (L,)
         lo, hi = self.track_ends
-        # slow field scale where the coil set sits, p = y + d (m)
-        u = (y + d) / 0.1
         wr = 2 * jnp.pi / self.field_ripple_length
-        w = 2 * jnp.pi / self.pole_pitch + drift / 0.1
-        sr, cr = jnp.sin(wr * y), jnp.cos(wr * y)
-        e_hi, e_lo = jnp.exp(y / self.end_length), jnp.exp(-y / self.end_length)
-        s1, c1 = jnp.sin(w * y), jnp.cos(w * y)
-        ripple_term = sr * jnp.cos(wr * d + 0.7) + cr * jnp.sin(wr * d + 0.7)
-        end = e_hi * jnp.exp((d - hi) / self.end_length) + e_lo * jnp.exp((lo - d) / self.end_length)
-        scale = 1.0 + slope * u + curv * (u * u - 1.0 / 3.0) + ripple * ripple_term - end_drop * end
-        # electrical angle θ_lp = ω y + c_lp, with the phase drift's slope folded into ω
-        c = (self.zeta[:, None] + drift * d / 0.1 + jnp.asarray(PHASE_OFFSETS) + self.phase_angle_error)
-        st = s1 * jnp.cos(c) + c1 * jnp.sin(c)
-        ct = c1 * jnp.cos(c) - s1 * jnp.sin(c)
+        w = 2 * jnp.pi / self.pole_pitch + drift / 0.1    # the phase drift's slope folded into ω
+        # --- position-independent coefficients
+        c = self.zeta[:, None] + drift * d[:, None] / 0.1 + jnp.asarray(PHASE_OFFSETS) + self.phase_angle_error
         h5, h7, ph5, ph7 = (self.harmonics[i] for i in range(4))
-        # multiple angles by angle addition (no extra transcendentals): nθ = (n-2)θ + 2θ
-        c2, s2 = ct * ct - st * st, 2 * st * ct
-        c3, s3 = ct * c2 - st * s2, st * c2 + ct * s2
+        a5, a7 = 5 * c + ph5, 7 * c + ph7
+        # wy = sin θ + h5 sin(5θ + φ5) + h7 sin(7θ + φ7), wx = cos θ + h5 cos(5θ + φ5) + h7 cos(7θ + φ7),
+        # each (L, 3) = Σ over the basis [sin ωy, cos ωy, sin 5ωy, cos 5ωy, sin 7ωy, cos 7ωy]
+        cy = jnp.stack([jnp.cos(c), jnp.sin(c), h5 * jnp.cos(a5), h5 * jnp.sin(a5), h7 * jnp.cos(a7),
+                        h7 * jnp.sin(a7)], axis=-1)
+        cx = jnp.stack([-jnp.sin(c), jnp.cos(c), -h5 * jnp.sin(a5), h5 * jnp.cos(a5), -h7 * jnp.sin(a7),
+                        h7 * jnp.cos(a7)], axis=-1)
+        amp0 = (2.0 / 3.0) * self.k[:, None] * (1.0 + self.phase_gain_error)                  # (L, 3)
+        ripple_c, ripple_s = jnp.cos(wr * d + 0.7), jnp.sin(wr * d + 0.7)                       # (L,)
+        end_hi, end_lo = jnp.exp((d - hi) / self.end_length), jnp.exp((lo - d) / self.end_length)
+        # --- per position
+        s1, c1 = jnp.sin(w * y), jnp.cos(w * y)
+        # multiple angles by angle addition (no extra transcendentals): nωy = (n-2)ωy + 2ωy
+        c2, s2 = c1 * c1 - s1 * s1, 2 * s1 * c1
+        c3, s3 = c1 * c2 - s1 * s2, s1 * c2 + c1 * s2
         c5, s5 = c3 * c2 - s3 * s2, s3 * c2 + c3 * s2
         c7, s7 = c5 * c2 - s5 * s2, s5 * c2 + c5 * s2
-        cp5, sp5, cp7, sp7 = jnp.cos(ph5), jnp.sin(ph5), jnp.cos(ph7), jnp.sin(ph7)
-        wy = st + h5 * (s5 * cp5 + c5 * sp5) + h7 * (s7 * cp7 + c7 * sp7)
-        wx = ct + h5 * (c5 * cp5 - s5 * sp5) + h7 * (c7 * cp7 - s7 * sp7)
-        amp = (2.0 / 3.0) * self.k[:, None] * (1.0 + self.phase_gain_error) * scale
+        basis = jnp.stack([s1, c1, s5, c5, s7, c7], axis=-1)[..., None, None, :]               # S + (1, 1, 6)
+        wy = jnp.sum(cy * basis, axis=-1)
+        wx = jnp.sum(cx * basis, axis=-1)
+        # slow field scale where the coil set sits, p = y + d (m)
+        sr, cr = jnp.sin(wr * y)[..., None], jnp.cos(wr * y)[..., None]
+        e_hi, e_lo = jnp.exp(y / self.end_length)[..., None], jnp.exp(-y / self.end_length)[..., None]
+        u = (y[..., None] + d) / 0.1
+        scale = (1.0 + slope * u + curv * (u * u - 1.0 / 3.0) + ripple * (sr * ripple_c + cr * ripple_s)
+                 - end_drop * (e_hi * end_hi + e_lo * end_lo))                                   # S + (L,)
+        amp = amp0 * scale[..., None]
         fy = amp * wy
         fx = amp * self.mu * wx
         tz = self.lever_arms[:, None] * fx - self.lateral_offsets[:, None] * fy
