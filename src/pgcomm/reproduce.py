@@ -84,8 +84,8 @@ def model_error(model, plant, y_range, n: int = 2001) -> dict:
     import jax.numpy as jnp
 
     y = jnp.linspace(y_range[0], y_range[1], n)
-    g_hat, c_hat = (np.asarray(a) for a in _gain_and_cogging(model, y))
-    g, c = (np.asarray(a) for a in _gain_and_cogging(plant, y))
+    g_hat, c_hat = (np.asarray(a) for a in gain_and_cogging(model, y))
+    g, c = (np.asarray(a) for a in gain_and_cogging(plant, y))
     out = {"gain_rms": {}, "cogging_rms": {}, "gain_rms_relative": {}}
     for q, d in enumerate(DIRECTIONS):
         err = float(np.sqrt(np.mean((g_hat[:, :, q, :] - g[:, :, q, :]) ** 2)))
@@ -117,9 +117,10 @@ def filtered_noise_mse(sensors, sample_time: float, lowpass_hz: float) -> dict:
 
 
 @jax.jit
-def _gain_and_cogging(model, y):
-    # one compiled program per model structure: op by op, a network's forward pass compiled ~40
-    # small programs per call (1.7 s of a --quick run)
+def gain_and_cogging(model, y):
+    """``(model.gain(y), model.cogging(y))`` of a model or plant at positions ``y`` (m, ``(n,)``): ``(n, L, 3, 2)``
+    (N/A) and ``(n, 3)`` (N, N, N·m), one compiled program per model class (op by op, a network's forward pass
+    compiled ~40 small programs per call: 1.7 s of a --quick run)."""
     return model.gain(y), model.cogging(y)
 
 
@@ -444,10 +445,12 @@ class ReproduceResult:
 
 
 @contextmanager
-def _step(progress, message: str):
-    """One step of :func:`run`: the programs of the steps before it are released first
-    (:mod:`pgcomm._memory`: the run's peak memory halves), then ``progress.stage(message)``."""
-    release_compiled_programs()
+def _step(progress, message: str, release: bool = True):
+    """One step of :func:`run`: the programs of the steps before it are released first (:mod:`pgcomm._memory`:
+    the run's peak memory halves), then ``progress.stage(message)``. ``release=False`` for a step that runs the
+    closed loops of the step before it again: its compiled loops are kept (a few MB), not traced again."""
+    if release:
+        release_compiled_programs()
     with progress.stage(message):
         yield
 
@@ -484,7 +487,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
                         f"{cfg.calibration.delta:.4f} rad), {len(long_ref.r)} samples each"):
         data0 = experiment.generate(setup, long_ref, motor.k, motor.zeta, seed=seed)
 
-    with _step(progress, "calibration (Algorithm 1)"):
+    with _step(progress, "calibration (Algorithm 1)", release=False):
         cal, _ = experiment.run_calibration(setup, long_ref, seed=seed, progress=progress, first=data0)
 
     with _step(progress, "identification (Algorithm 2): PGNN and physics-only model per coil set"):
@@ -545,7 +548,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         ffs = dict(zip(names, experiment.tune_feedforward(setup, [laws[n] for n in names], long_ref, seed=stream_seed(seed, "feedforward", "rows"))))
 
     with _step(progress, "drive-style rows: anti-cogging table and harmonic fit from the classical residual, "
-                        "anti-cogging table from the controller's effort (no force sensor)"):
+                        "anti-cogging table from the controller's effort (no force sensor)", release=False):
         run_c = experiment.run_laws(setup, [laws["classical"]], long_ref, [ffs["classical"]], seeds=[stream_seed(seed, "classical run for the tables")])[0]
         residual = run_c.f_meas[:, 0] - run_c.f_star[:, 0]
         tables = {"cogging_table": fit_cogging_table(run_c.y_meas, residual, cfg.evaluation.cogging_table_entries,
@@ -567,7 +570,7 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
 
     rows = [row for row in ROWS if row in laws]
     runs: dict = {k: {} for k in refs}
-    with _step(progress, f"closed-loop evaluation: {len(rows)} laws x {len(refs)} references"):
+    with _step(progress, f"closed-loop evaluation: {len(rows)} laws x {len(refs)} references", release=False):
         jobs = [(row, rname) for row in rows for rname in refs]
         out = experiment.run_laws(setup, [laws[row] for row, _ in jobs], [refs[rn] for _, rn in jobs],
                                 [ffs[row] for row, _ in jobs], seeds=[reference_seed(seed, rn) for _, rn in jobs])

@@ -85,12 +85,16 @@ def run(args, out: Path, progress) -> None:
         for rname, label in labels.items():
             if rname in o.runs:
                 fig(f"compare_{rname}.png", plots.plot_comparison(o.runs[rname], lp, title=label))
+        # one compiled program per model class (the diagnostics compiled them for the same number of
+        # positions); op by op, each curve compiled dozens of small programs
+        def gain_and_cogging(model, positions):
+            return tuple(np.asarray(a) for a in reproduce.gain_and_cogging(model, jnp.asarray(positions)))
+
         y = np.linspace(*_train_range(o.pgnn, setup), 2001)
-        truth = np.asarray(setup.plant.cogging(jnp.asarray(y)))
-        fig("cogging.png", plots.plot_cogging(y, np.asarray(o.pgnn.cogging(jnp.asarray(y))), truth,
+        gm, cm = gain_and_cogging(o.pgnn, y)
+        gt, truth = gain_and_cogging(setup.plant, y)
+        fig("cogging.png", plots.plot_cogging(y, cm, truth,
                                               title="cogging force identified by the PGNN (mean over coil sets)"))
-        gm = np.asarray(o.pgnn.gain(jnp.asarray(y)))
-        gt = np.asarray(setup.plant.gain(jnp.asarray(y)))
         fig("gain_coilset1.png", plots.plot_gain_columns(y, gm[:, 0], gt[:, 0], 0, label="PGNN"))
         cal = o.calibration
         fig("calibration.png", plots.plot_calibration(cal.k_initial, cal.zeta_initial, cal.k, cal.zeta, setup.true_k,
@@ -99,12 +103,10 @@ def run(args, out: Path, progress) -> None:
         if o.spline is not None:
             ys = np.asarray(o.spline.model.gain_knots)
             yy = np.linspace(ys[0], ys[-1], 2001)
-            truth_c = np.asarray(setup.plant.cogging(jnp.asarray(yy)))
-            fig("cogging_spline.png", plots.plot_cogging(yy, np.asarray(o.spline.model.cogging(jnp.asarray(yy))),
-                                                         truth_c, title="cogging force of the spline model",
+            gs, cs = gain_and_cogging(o.spline.model, yy)
+            gts, truth_c = gain_and_cogging(setup.plant, yy)
+            fig("cogging_spline.png", plots.plot_cogging(yy, cs, truth_c, title="cogging force of the spline model",
                                                          label="spline model"))
-            gs = np.asarray(o.spline.model.gain(jnp.asarray(yy)))
-            gts = np.asarray(setup.plant.gain(jnp.asarray(yy)))
             fig("gain_spline_coilset1.png", plots.plot_gain_columns(yy, gs[:, 0], gts[:, 0], 0, label="spline model"))
         if o.spline is not None:
             save_model(out / "spline_model", o.spline.model,
