@@ -21,33 +21,31 @@ Rotary drives, from a compensation table over one mechanical revolution
 
 ``pgcomm export`` (:mod:`pgcomm.cli.export`) drives all of them: from a model file (``--model``,
 formats ``c`` and ``lut``) or from a table (``--table``, formats ``moteus``, ``odrive``, ``c-angle``).
+
+The names below load on first use: importing a submodule (the command line's option parsing,
+:mod:`pgcomm.export.options`) does not load JAX, so that ``pgcomm --help`` answers at once and an
+interrupt that arrives while the command line starts finds its handler installed.
 """
 
-from pgcomm.export.c import c_source, write_c
-from pgcomm.export.lut import (
-    DEFAULT_RESOLUTION,
-    CoggingTable,
-    CoggingTableError,
-    Lut,
-    LutError,
-    build_cogging_table,
-    build_lut,
-    classical_parameters,
-    cogging_table_error,
-    f_star_set,
-    lut_columns,
-    lut_currents,
-    lut_error,
-    lut_header,
-    read_lut,
-    write_cogging_table,
-    write_lut,
-)
+from __future__ import annotations
 
-__all__ = [
-    "c_source", "write_c",
-    "DEFAULT_RESOLUTION", "Lut", "LutError", "CoggingTable", "CoggingTableError",
-    "build_lut", "lut_currents", "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns", "f_star_set",
-    "build_cogging_table", "cogging_table_error", "write_cogging_table",
-    "classical_parameters",
-]
+import importlib
+
+_LUT = ("DEFAULT_RESOLUTION", "Lut", "LutError", "CoggingTable", "CoggingTableError", "build_lut", "lut_currents",
+        "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns", "f_star_set", "build_cogging_table",
+        "cogging_table_error", "write_cogging_table", "classical_parameters")
+_PUBLIC = {"c_source": "pgcomm.export.c", "write_c": "pgcomm.export.c", **{n: "pgcomm.export.lut" for n in _LUT}}
+
+__all__ = list(_PUBLIC)
+
+
+def __getattr__(name: str):
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(_PUBLIC[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'pgcomm.export' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_PUBLIC))
