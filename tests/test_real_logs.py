@@ -81,6 +81,26 @@ def test_a_filtered_report_is_found_and_read_back(jittered_logs):
     assert plain > 5 * cogging_error(res.model) and plain > 5 * known
 
 
+def test_a_filter_is_not_read_as_a_late_current():
+    """A 17 ms report filter on a current that a 100 Hz dither dominates lags it by 2.3 ms, as a current two samples
+    late would: with the delay, the current's form and the filter all detected, the filter is still found (the
+    search starts from both, :func:`pgcomm.rotary.readings.read_logs`), the current is read on time, and the cogging
+    comes out as with the true τ and timing given (the second formulation), up to what the misestimate of τ turns."""
+    tau = 0.017
+    logs = [_rotor.run(3.0, speed=s, dither=1.0, dither_hz=100.0, jitter=0.3, seed=k, report_filter=tau)
+            for k, s in ((3, 20.0), (4, -15.0))]
+    detect = {**FIXED, "current_delay": "detect", "current_lag": "detect"}
+    res = identify(logs, MOTOR, current_filter="detect", **detect)
+    found = res.info["current_filter"]
+    assert found["tau_s"] == pytest.approx(tau, rel=0.05)
+    assert res.info["current_delay"]["samples"] == 0
+    known = cogging_error(identify(logs, MOTOR, current_filter=tau, **FIXED).model)
+    a = np.array(_rotor.AMPLITUDES)
+    turned = float(np.sqrt(np.sum((a * np.array(_rotor.ORDERS) * 20.0 * abs(found["tau_s"] - tau)) ** 2)
+                           / np.sum(a ** 2)))
+    assert cogging_error(res.model) < known + 1.5 * turned + 2e-3, (found["tau_s"], known, turned)
+
+
 def test_one_direction_without_dither_pins_ripple_and_direction():
     """A speed-loop log at one speed, one direction, no dither determines the cogging only: the ripple is pinned at
     zero and the direction map folded into the cogging, each verdict naming the experiment that would determine it."""

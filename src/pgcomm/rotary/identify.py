@@ -34,7 +34,7 @@ from pgcomm.rotary.model import Fourier, RotaryModel, drive_orders, harmonic_col
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
-from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _report_filter, _with_delay, _with_pll, _with_report, \
+from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _with_pll, _with_report, \
     apply_reading, current_noise_beside_angle, lag_of
 from pgcomm.rotary.regression import DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, \
     Orders, information_shares, \
@@ -151,30 +151,13 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     shares = information_shares(prepared, orders, taps)
     pinned = {name: share for name, share in shares.items() if share < DETERMINED_SHARE or name in pin}
     orders = replace(orders, **{name: np.zeros(0, int) for name in pinned})
-    report = {"tau_s": float(current_filter or 0.0) if not isinstance(current_filter, str) else 0.0,
-              "evidence": None, "cost_by_tau": None}
-
-    def read(tau):
-        return _reading(_with_report(prepared, tau), orders, taps, encoder_step, current_delay, angle_pll,
-                        current_lag)
+    estimate, timing, report = read_logs(prepared, orders, taps, encoder_step, current_delay, angle_pll, current_lag,
+                                         current_filter)
 
     def angle(estimate):
         return None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
                                                                          estimate["damping"])
 
-    estimate, timing = read(report["tau_s"])
-    if isinstance(current_filter, str):
-        # a report filter is searched on the current read as the delay and PLL found (a whole-sample delay fits
-        # as a short filter, and would be taken for one), and the delay read again under the filter found
-        layout = _Layout.of(orders)
-        for _ in range(2):
-            found = _report_filter(_with_delay(_with_pll(prepared, angle(estimate)), timing["samples"],
-                                               lag_of(timing)), layout, taps)
-            moved = found["tau_s"] != report["tau_s"]
-            report = found
-            if not moved:
-                break
-            estimate, timing = read(report["tau_s"])
     prepared = _with_report(prepared, report["tau_s"])
     pll = angle(estimate)
     as_logged = _with_delay(prepared, timing["samples"], lag_of(timing))
