@@ -4,6 +4,8 @@ known cogging (tests/_rotor.py), noise-free, so each tolerance is the kernel's o
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -133,6 +135,28 @@ def write(tmp_path, name, t, theta, iq):
 
 MAP = {"columns": {"t": "time_s", "theta": "pos", "iq_1": "iq"}, "units": {"theta": "counts"},
        "options": {"encoder_counts": 8192}}
+
+
+REAL_LOGS = sorted((Path(__file__).resolve().parents[2] / "shared" / "real" / "odrive_cogging" / "logs").glob("*.csv"))
+
+
+@pytest.mark.skipif(not REAL_LOGS, reason="the shared real logs are not beside the checkout")
+def test_an_encoder_glitch_is_refused_and_real_logs_are_not(tmp_path):
+    """A jump of 0.3 rad that stays, where the speed predicts a hundredth of that, is refused with its row; none of
+    the real rig's 26 logs (host stamps, PLL angle, stalls, a shaking rotor, 0-77 rad/s) is, as recorded."""
+    for path in REAL_LOGS:
+        read_log(path, columns=MAP_ODRIVE, required=ROTARY_REQUIRED, stamps=True, gaps=True)
+    rng = np.random.default_rng(1)
+    t = np.cumsum(rng.uniform(0.5e-3, 1.5e-3, 2000))
+    counts = np.round(8192 * (2.0 * t + 0.01 * np.sin(40 * t)))  # 2 rev/s: 0.013 rad per step
+    counts[1200:] += 400  # 0.31 rad
+    with pytest.raises(DataError, match=r"c\.csv row 1201: .* jumps by 0\.3.* predicts 0\.01.*encoder glitch"):
+        read_log(write(tmp_path, "c.csv", t, counts, np.zeros_like(t)), columns=MAP, required=ROTARY_REQUIRED,
+                 stamps=True)
+
+
+MAP_ODRIVE = {"columns": {"t": "time_s", "theta": "pos_estimate_counts", "iq_1": "Iq_measured_A"},
+              "units": {"theta": "counts"}, "options": {"encoder_counts": 8192}}
 
 
 def test_counts_and_host_stamps_are_read_as_recorded(tmp_path):
