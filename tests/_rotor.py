@@ -26,15 +26,17 @@ def cogging(theta: np.ndarray) -> np.ndarray:
 
 
 def run(seconds: float, sample_time: float = 1e-3, speed: float = 20.0, dither: float = 0.3, jitter: float = 0.0,
-        seed: int = 0, sub: int = 2) -> dict:
-    """One log ``{"t", "theta", "iq_1"}``: the speed loop at ``speed`` rad/s (its sign the direction), a 3.1 Hz
-    dither of ``dither`` A, sample steps drawn uniformly in ``sample_time · [1 − jitter, 1 + jitter]``."""
+        seed: int = 0, sub: int = 2, dither_hz: float = 3.1, report_filter: float = 0.0) -> dict:
+    """One log ``{"t", "theta", "iq_1"}``: the speed loop at ``speed`` rad/s (its sign the direction), a
+    ``dither_hz`` dither of ``dither`` A, sample steps drawn uniformly in ``sample_time · [1 − jitter, 1 + jitter]``.
+    With ``report_filter = τ`` (s) the logged current is the report ``y`` of a first-order low-pass,
+    ``τ y' = i − y`` from ``y(0) = i(0)``, integrated with the rotor (a drive's filtered report of a smooth current)."""
     rng = np.random.default_rng(seed)
     kp = 0.05
     terms = list(zip(ORDERS, AMPLITUDES, PHASES))
 
     def current(t, w):
-        return kp * (speed - w) + VISCOUS * w + dither * math.sin(2 * math.pi * 3.1 * t) + 0.05
+        return kp * (speed - w) + VISCOUS * w + dither * math.sin(2 * math.pi * dither_hz * t) + 0.05
 
     def acc(t, th, w):
         return (current(t, w) + sum(a * math.cos(o * th + p) for o, a, p in terms) - VISCOUS * w) / INERTIA_RATIO
@@ -42,20 +44,31 @@ def run(seconds: float, sample_time: float = 1e-3, speed: float = 20.0, dither: 
     n = int(round(seconds / sample_time))
     steps = sample_time * (rng.uniform(1 - jitter, 1 + jitter, n - 1) if jitter > 0 else np.ones(n - 1))
     t = np.concatenate([[0.0], np.cumsum(steps)])
-    th, w = np.empty(n), np.empty(n)
+    th, w, rep = np.empty(n), np.empty(n), np.empty(n)
     x, v = 0.0, float(speed)
-    th[0], w[0] = x, v
+    y = current(0.0, v)
+    th[0], w[0], rep[0] = x, v, y
+
+    def dy(t, w, y):
+        return (current(t, w) - y) / report_filter if report_filter > 0 else 0.0
+
     for k in range(n - 1):
         h, tk = steps[k] / sub, t[k]
         for _ in range(sub):
-            a1 = acc(tk, x, v)
-            a2 = acc(tk + h / 2, x + h / 2 * v, v + h / 2 * a1)
-            a3 = acc(tk + h / 2, x + h / 2 * (v + h / 2 * a1), v + h / 2 * a2)
-            a4 = acc(tk + h, x + h * (v + h / 2 * a2), v + h * a3)
-            x, v = x + h * (v + h / 6 * (a1 + a2 + a3)), v + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+            # RK4 on (θ, ω, y) written out: θ' = ω, ω' = acc, y' = dy
+            v1, a1, y1 = v, acc(tk, x, v), dy(tk, v, y)
+            v2 = v + h / 2 * a1
+            a2, y2 = acc(tk + h / 2, x + h / 2 * v1, v2), dy(tk + h / 2, v2, y + h / 2 * y1)
+            v3 = v + h / 2 * a2
+            a3, y3 = acc(tk + h / 2, x + h / 2 * v2, v3), dy(tk + h / 2, v3, y + h / 2 * y2)
+            v4 = v + h * a3
+            a4, y4 = acc(tk + h, x + h * v3, v4), dy(tk + h, v4, y + h * y3)
+            x, v = x + h / 6 * (v1 + 2 * v2 + 2 * v3 + v4), v + h / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+            y = y + h / 6 * (y1 + 2 * y2 + 2 * y3 + y4)
             tk += h
-        th[k + 1], w[k + 1] = x, v
-    return {"t": t, "theta": th, "iq_1": np.array([current(a, b) for a, b in zip(t, w)])}
+        th[k + 1], w[k + 1], rep[k + 1] = x, v, y
+    iq = rep if report_filter > 0 else np.array([current(a, b) for a, b in zip(t, w)])
+    return {"t": t, "theta": th, "iq_1": iq}
 
 
 def report_filtered(log: dict, tau: float) -> dict:

@@ -4,6 +4,8 @@ known cogging (tests/_rotor.py), noise-free, so each tolerance is the kernel's o
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -81,6 +83,26 @@ def test_a_filtered_report_is_found_and_read_back(jittered_logs):
     assert plain > 5 * cogging_error(res.model) and plain > 5 * known
 
 
+def test_a_filter_is_not_read_as_a_late_current():
+    """A 17 ms report filter on a current that a 100 Hz dither dominates lags it by 2.3 ms, as a current two samples
+    late would: with the delay, the current's form and the filter all detected, the filter is still found (the
+    search starts from both, :func:`pgcomm.rotary.readings.read_logs`), the current is read on time, and the cogging
+    comes out as with the true τ and timing given (the second formulation), up to what the misestimate of τ turns."""
+    tau = 0.017
+    logs = [_rotor.run(3.0, speed=s, dither=1.0, dither_hz=100.0, jitter=0.3, seed=k, report_filter=tau)
+            for k, s in ((3, 20.0), (4, -15.0))]
+    detect = {**FIXED, "current_delay": "detect", "current_lag": "detect"}
+    res = identify(logs, MOTOR, current_filter="detect", **detect)
+    found = res.info["current_filter"]
+    assert found["tau_s"] == pytest.approx(tau, rel=0.05)
+    assert res.info["current_delay"]["samples"] == 0
+    known = cogging_error(identify(logs, MOTOR, current_filter=tau, **FIXED).model)
+    a = np.array(_rotor.AMPLITUDES)
+    turned = float(np.sqrt(np.sum((a * np.array(_rotor.ORDERS) * 20.0 * abs(found["tau_s"] - tau)) ** 2)
+                           / np.sum(a ** 2)))
+    assert cogging_error(res.model) < known + 1.5 * turned + 2e-3, (found["tau_s"], known, turned)
+
+
 def test_one_direction_without_dither_pins_ripple_and_direction():
     """A speed-loop log at one speed, one direction, no dither determines the cogging only: the ripple is pinned at
     zero and the direction map folded into the cogging, each verdict naming the experiment that would determine it."""
@@ -113,6 +135,28 @@ def write(tmp_path, name, t, theta, iq):
 
 MAP = {"columns": {"t": "time_s", "theta": "pos", "iq_1": "iq"}, "units": {"theta": "counts"},
        "options": {"encoder_counts": 8192}}
+
+
+REAL_LOGS = sorted((Path(__file__).resolve().parents[2] / "shared" / "real" / "odrive_cogging" / "logs").glob("*.csv"))
+
+
+@pytest.mark.skipif(not REAL_LOGS, reason="the shared real logs are not beside the checkout")
+def test_an_encoder_glitch_is_refused_and_real_logs_are_not(tmp_path):
+    """A jump of 0.3 rad that stays, where the speed predicts a hundredth of that, is refused with its row; none of
+    the real rig's 26 logs (host stamps, PLL angle, stalls, a shaking rotor, 0-77 rad/s) is, as recorded."""
+    for path in REAL_LOGS:
+        read_log(path, columns=MAP_ODRIVE, required=ROTARY_REQUIRED, stamps=True, gaps=True)
+    rng = np.random.default_rng(1)
+    t = np.cumsum(rng.uniform(0.5e-3, 1.5e-3, 2000))
+    counts = np.round(8192 * (2.0 * t + 0.01 * np.sin(40 * t)))  # 2 rev/s: 0.013 rad per step
+    counts[1200:] += 400  # 0.31 rad
+    with pytest.raises(DataError, match=r"c\.csv row 1201: .* jumps by 0\.3.* predicts 0\.01.*encoder glitch"):
+        read_log(write(tmp_path, "c.csv", t, counts, np.zeros_like(t)), columns=MAP, required=ROTARY_REQUIRED,
+                 stamps=True)
+
+
+MAP_ODRIVE = {"columns": {"t": "time_s", "theta": "pos_estimate_counts", "iq_1": "Iq_measured_A"},
+              "units": {"theta": "counts"}, "options": {"encoder_counts": 8192}}
 
 
 def test_counts_and_host_stamps_are_read_as_recorded(tmp_path):

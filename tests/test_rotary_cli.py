@@ -246,6 +246,7 @@ def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, z
     ("nan", "nan.csv row 50 column 'theta': nan is not a finite number"),
     ("family", "--family spline"),
     ("sweep one way", "sweep.csv: the angle moves one way only"),
+    ("sweep in degrees", r"deg\.csv: the angle travels 5[78] revolutions forward .* declare it in the --columns map"),
     ("delay", "--current-delay 0.5: an integer number of samples"),
     ("lag", "--current-lag 2: held, or a lag in samples between -0.5 and 0.5"),
     ("pll", "--angle-pll 1000,-1: a natural frequency in rad/s and optionally a damping, both positive"),
@@ -278,6 +279,14 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
         sweep = (zoo / "sweep" / "sweep.csv").read_text().splitlines()
         p = tmp_path / "sweep.csv"
         p.write_text("\n".join(sweep[: len(sweep) // 2]) + "\n")  # the forward pass only
+        args += ["--data", str(log), "--sweep", str(p)]
+    elif case == "sweep in degrees":
+        sweep = (zoo / "sweep" / "sweep.csv").read_text().splitlines()
+        head = sweep[0].split(",")
+        j = head.index("theta")
+        p = tmp_path / "deg.csv"
+        p.write_text("\n".join([sweep[0]] + [",".join(f"{float(c) * 180 / np.pi:.9g}" if i == j else c
+                                                      for i, c in enumerate(r.split(","))) for r in sweep[1:]]) + "\n")
         args += ["--data", str(log), "--sweep", str(p)]
     elif case == "delay":
         args += ["--data", str(log), "--current-delay", "0.5"]

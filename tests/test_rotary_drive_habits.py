@@ -71,6 +71,28 @@ def test_the_logged_current_is_the_drives_first_order_filter_of_what_it_measures
     assert abs(h) < 0.9  # the filter is visible at this frequency: the check could fail
 
 
+def test_the_sensors_noise_goes_through_the_report_filter():
+    """A filtered report carries the sensors' noise through the filter, as ODrive's ``Iq_measured`` and
+    ``Id_measured`` do: white noise of std ``σ`` per control cycle through ``y_k = a y_{k-1} + (1 - a) x_k`` has the
+    stationary variance ``σ² (1 - a)/(1 + a)``, and its lag-one correlation is ``a``. The logged d-current (held at
+    zero) is that noise alone: its variance within its sampling error (``2 (1 + ρ²)/(1 - ρ²) / n`` relative for an
+    AR(1) of correlation ``ρ = a^K`` between logged samples, 5 of them)."""
+    kk, sigma = 4, 0.05
+    t = replace(_quiet(draw_rotary(0, 0), report_filter=0.004), current_noise=sigma, control_per_log=kk)
+    n = 20000
+    log = simulate(t, _open_loop(n, np.zeros(n)), LawParams.classical(t.motor.pole_pairs), NO_FEEDBACK, seed=3)
+    a = math.exp(-t.motor.sample_time / kk / t.report_filter)
+    d = log["id_1"][200:]  # past the start's transient (a^(200 K) < 1e-80)
+    expect = sigma ** 2 * (1 - a) / (1 + a)
+    rho = a ** kk
+    rel = 5 * math.sqrt(2 * (1 + rho ** 2) / (1 - rho ** 2) / d.size)
+    assert abs(np.var(d) / expect - 1) < rel, (np.var(d), expect, rel)
+    r1 = float(np.corrcoef(d[1:], d[:-1])[0, 1])
+    assert abs(r1 - rho) < 5 / math.sqrt(d.size), (r1, rho)
+    # white noise added after the filter would read sigma² (the twin without a filtered report)
+    assert np.var(d) < 0.5 * sigma ** 2
+
+
 def _three_phase_flow(theta_e, iq, offsets, gains, dt_error, dt_width, tan_delta):
     """A second formulation of the current that flows: the drive holds its measured phase currents at the command's
     (``i_k = i_q (-sin(θ_e - 2πk/3))``); the sensors of phases a and b read ``(1 + g) i + o``, phase c is what closes

@@ -841,10 +841,11 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
             raise DataError(f"{src} {kind} {lab('velocity')}: unit '{vunit}' is linear but the log is a rotary "
                             "motor's (it has 'theta'); give rad/s, deg/s, rev/s or rpm")
     if rotary:
-        from pgcomm.io.angles import unwrap_angle
+        from pgcomm.io.angles import check_glitches, unwrap_angle
 
         steps = np.diff(cols["t"]) if gap_rows or not uniform else ts  # the motion over a step is that of its time
         cols["theta"], angle_wraps = unwrap_angle(cols["theta"], steps, cols.get("velocity"), src, lab("theta"))
+        check_glitches(cols["theta"], steps, src, lab("theta"))
         if angle_wraps:
             notes.append(f"theta: {angle_wraps} wrap(s) of one revolution removed (the file's angle was wrapped; "
                          "the log's theta is continuous)")

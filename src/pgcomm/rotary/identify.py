@@ -34,8 +34,8 @@ from pgcomm.rotary.model import Fourier, RotaryModel, drive_orders, harmonic_col
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
-from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _report_filter, _with_delay, _with_pll, _with_report, \
-    apply_reading, current_noise_beside_angle, lag_of
+from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _with_pll, _with_report, \
+    apply_reading, current_noise_beside_angle, lag_of, unfiltered
 from pgcomm.rotary.regression import DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, \
     Orders, information_shares, \
     _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, _map_gram, _map_standard_error, \
@@ -151,30 +151,13 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     shares = information_shares(prepared, orders, taps)
     pinned = {name: share for name, share in shares.items() if share < DETERMINED_SHARE or name in pin}
     orders = replace(orders, **{name: np.zeros(0, int) for name in pinned})
-    report = {"tau_s": float(current_filter or 0.0) if not isinstance(current_filter, str) else 0.0,
-              "evidence": None, "cost_by_tau": None}
-
-    def read(tau):
-        return _reading(_with_report(prepared, tau), orders, taps, encoder_step, current_delay, angle_pll,
-                        current_lag)
+    estimate, timing, report = read_logs(prepared, orders, taps, encoder_step, current_delay, angle_pll, current_lag,
+                                         current_filter)
 
     def angle(estimate):
         return None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
                                                                          estimate["damping"])
 
-    estimate, timing = read(report["tau_s"])
-    if isinstance(current_filter, str):
-        # a report filter is searched on the current read as the delay and PLL found (a whole-sample delay fits
-        # as a short filter, and would be taken for one), and the delay read again under the filter found
-        layout = _Layout.of(orders)
-        for _ in range(2):
-            found = _report_filter(_with_delay(_with_pll(prepared, angle(estimate)), timing["samples"],
-                                               lag_of(timing)), layout, taps)
-            moved = found["tau_s"] != report["tau_s"]
-            report = found
-            if not moved:
-                break
-            estimate, timing = read(report["tau_s"])
     prepared = _with_report(prepared, report["tau_s"])
     pll = angle(estimate)
     as_logged = _with_delay(prepared, timing["samples"], lag_of(timing))
@@ -204,7 +187,7 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
     if n_windows < 2 * n_unknowns:
         raise ExcitationError(f"{n_windows} usable windows for {n_unknowns} unknowns: record longer running logs "
                               f"(speeds up to {v_limit:.3g} rad/s, both directions)")
-    noise_info = _noise_info(logs, ts)
+    noise_info = _noise_info(logs, ts, report["tau_s"])
     correction = _current_noise_setting(current_noise, noise_info)
     fit = _fit(prepared, layout, taps, ridge, current_noise=correction["noise_A"],
                current_noise_uncertainty=correction["uncertainty"])
@@ -320,20 +303,25 @@ def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Ord
             "ripple_rms_error": _map_standard_error(fv["cov"], gram), **check, "offset_error": fv["offset_error"]}
 
 
-def _noise_info(logs, ts: float) -> dict:
+def _noise_info(logs, ts: float, report_filter: float = 0.0) -> dict:
     """The logged current's white noise (A), what a twin of this motor logs (``pgcomm reproduce --truth model.json``):
     from the logged d-current where every log has one (held at zero, it is the noise alone: the median absolute
     deviation), else from the q-current's sixth difference less the current the speed loop commands from the encoder's
     noise, which the logged angle predicts (:func:`pgcomm.rotary.readings.current_noise_beside_angle`: with a coarse
-    encoder the difference alone would read that commanded current as noise, several times the real one)."""
+    encoder the difference alone would read that commanded current as noise, several times the real one). Through a
+    report filter of ``report_filter`` (s) the currents are read back first (:func:`pgcomm.rotary.readings.unfiltered`):
+    the noise the fit sees is the read-back current's, not the smoothed report's."""
+    def back(x, log):
+        return unfiltered(x, np.asarray(log["t"], float) if "t" in log else ts, report_filter)
+
     if logs and all("id_1" in log for log in logs):
-        d = [np.asarray(log["id_1"], float) for log in logs]
+        d = [back(np.asarray(log["id_1"], float), log) for log in logs]
         noise = float(np.median([np.median(np.abs(x - np.median(x))) / 0.6745 for x in d if x.size]))
         # a drive that writes its d-current command (zeros) rather than the measurement shows no noise there
         if noise > 0:
             return {"current_noise_A": noise, "current_noise_from": "the logged d-current (held at zero)"}
     arrays = [_log_arrays(log, i, ts) for i, log in enumerate(logs)]
-    noise = float(np.median([current_noise_beside_angle(a[2], a[1]) for a in arrays]))
+    noise = float(np.median([current_noise_beside_angle(back(a[2], log), a[1]) for a, log in zip(arrays, logs)]))
     return {"current_noise_A": noise, "current_noise_from": "the q-current's sixth difference less what the logged "
             "angle predicts of it (the current the loop commands from the encoder's noise)"}
 

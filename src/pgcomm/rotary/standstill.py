@@ -24,6 +24,9 @@ __all__ = ["StandstillPlan", "StandstillTable", "staircase", "run_standstill", "
 #: A bin of a logged sweep's table needs at least this many samples per direction (the table's resolution
 #: follows from the log: :func:`table_from_sweep`).
 MIN_SAMPLES_PER_BIN = 10
+#: Most revolutions a sweep may travel in one direction: a drive's standstill sweep turns about one each way (a few
+#: passes at most); an angle in degrees read as radians travels 57 times as far, one in encoder counts thousands.
+MAX_SWEEP_REVOLUTIONS = 20.0
 
 
 @dataclass(frozen=True)
@@ -149,7 +152,8 @@ def table_from_sweep(theta, iq, sample_time: float, points: int | None = None,
         :class:`SweepTable`.
 
     Raises:
-        DataError: fewer than 64 bins' worth of samples, or no motion in one of the directions.
+        DataError: fewer than 64 bins' worth of samples, no motion in one of the directions, or more than
+            :data:`MAX_SWEEP_REVOLUTIONS` in one (an angle in degrees or counts read as radians).
     """
     from pgcomm.errors import DataError
 
@@ -168,6 +172,13 @@ def table_from_sweep(theta, iq, sample_time: float, points: int | None = None,
     if n_min == 0:
         raise DataError("sweep log: the angle moves one way only; the drives' table needs a forward and a "
                         "reverse pass")
+    d = np.diff(th)
+    travel = [float(np.sum(np.abs(d[m[1:]]))) / (2 * math.pi) for m in (fwd, rev)]
+    if max(travel) > MAX_SWEEP_REVOLUTIONS:
+        raise DataError(f"sweep log: the angle travels {travel[0]:.0f} revolutions forward and {travel[1]:.0f} in "
+                        f"reverse, where a standstill sweep turns about one each way (at most "
+                        f"{MAX_SWEEP_REVOLUTIONS:g}): if 'theta' is in degrees or encoder counts, declare it in the "
+                        "--columns map's [units] (theta = \"deg\", or \"counts\" with encoder_counts)")
     n = int(points) if points else int(min(3600, n_min // MIN_SAMPLES_PER_BIN))
     if n < 64:
         raise DataError(f"sweep log: {n_min} samples in its shorter direction give fewer than 64 bins of "

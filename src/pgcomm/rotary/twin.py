@@ -45,8 +45,9 @@ dither interpolated by a cubic spline, and logs a snapshot of every ``K``-th cyc
   leaves each phase ``deadtime_error · tanh(i_ph/deadtime_width)`` short. In the drive's frame the offsets make an error
   at the electrical order ``p``, the gain mismatch ``2p`` (and a mean gain), the dead time ``6p``. The torque the motor
   makes is that of the current that flows (:func:`drive_current_error`); the log holds the command the drive measures;
-* *a filtered current report* (``report_filter``, s): the logged q-current is the drive's first-order low-pass of
-  the current it measures, updated every control cycle (ODrive's ``Iq_measured``);
+* *a filtered current report* (``report_filter``, s): the logged q- and d-currents are the drive's first-order
+  low-pass of the currents it measures, sensor noise included, updated every control cycle (ODrive's ``Iq_measured``,
+  ``Id_measured``);
 * *a PLL angle* (``pll_bandwidth``, rad/s): the drive's angle and velocity are ODrive's encoder PLL's (``k_p = 2 bw``,
   ``k_i = bw²``, run every control cycle on the encoder count), for its loops, its law and its log;
 * *the host's clock* (``host_jitter``, ``host_gaps``, ``stamp_noise``): a PC polls the drive at jittered instants
@@ -110,7 +111,8 @@ class RotaryTruth:
         drag: ``D(θ)`` (N·m), zero mean: the position-dependent direction-dependent torque.
         coulomb: ``T_c`` (N·m); viscous: ``b`` (N·m·s/rad); inertia: ``J`` (kg·m²).
         friction_velocity: ``ω_ε`` (rad/s) of the smooth sign.
-        current_noise: std of the logged ``i_q``, ``i_d`` (A).
+        current_noise: std of the logged ``i_q``, ``i_d`` (A); with ``report_filter``, of the sensed current per
+            control cycle, before the filter.
         torque_noise: std of the logged torque (N·m).
         encoder_counts: counts per revolution.
         winding: the winding and inverter behind the logged q-voltage (:mod:`pgcomm.rotary.winding`), or
@@ -124,7 +126,9 @@ class RotaryTruth:
         sensor_gain: ``(g_a, g_b)`` (-): their relative gain errors; torque at ``2p`` and a mean gain.
         deadtime_error: how far each phase current falls short over the inverter's dead time (A; torque at ``6p``).
         deadtime_width: ``i_ε`` (A) of its ``tanh(i_ph / i_ε)``, positive when ``deadtime_error`` is.
-        report_filter: ``τ`` (s) of the first-order low-pass the logged q-current goes through; 0: none.
+        report_filter: ``τ`` (s) of the first-order low-pass the logged q- and d-currents go through, run every
+            control cycle on the measured current with its sensors' noise (``current_noise`` per control cycle); 0:
+            none.
         pll_bandwidth: ``bw`` (rad/s) of the drive's encoder PLL (``k_p = 2 bw``, ``k_i = bw²``); 0: the encoder's
             count and the low-passed difference (:data:`VELOCITY_CUTOFF_HZ`).
         host_jitter: ``σ`` of the log of the host's steps between rows (log-normal around the median step, clipped
@@ -752,11 +756,15 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         refs = [CubicSpline(ts * np.arange(n), v)(t_f) if n > 1 else np.repeat(v, k_ctl) for v in refs]
         n_sub = max(2, -(-int(n_sub) // k_ctl))
     outs = [np.asarray(o) for o in _run(params, tuple(jnp.asarray(v) for v in refs), n_sub)]
-    if truth.report_filter > 0:
+    filtered = truth.report_filter > 0
+    if filtered:
         # the drive's report: y_k = y_{k-1} + (1 - a)(i_k - y_{k-1}) every control cycle, from zero (no current
-        # before the run)
+        # before the run), of the current it measures: its sensors' noise, drawn per control cycle, goes through the
+        # filter too (read back, it is white again: ODrive's filtered Iq_measured reads back as smoothly as it does)
         a = math.exp(-tc / truth.report_filter)
-        report = lfilter([1.0 - a], [1.0, -a], outs[6])
+        sensed = truth.current_noise * np.random.default_rng([int(seed), 0x5E45]).standard_normal((2, n_f))
+        report = lfilter([1.0 - a], [1.0, -a], outs[6] + sensed[0])
+        report_d = lfilter([1.0 - a], [1.0, -a], sensed[1])
     else:
         report = outs[6]
     on_host = host and truth.host_logger and n_f > 1
@@ -784,8 +792,11 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     else:
         t_log = ts * np.arange(n)
         th_ref, om_ref = np.asarray(ref.theta, float), np.asarray(ref.omega, float)
-    iq = rep + truth.current_noise * noise[0]
-    idd = truth.current_noise * noise[1]
+    if filtered:
+        iq, idd = rep, report_d[idx]
+    else:
+        iq = rep + truth.current_noise * noise[0]
+        idd = truth.current_noise * noise[1]
     log = {"t": t_log, "theta": th_m, "velocity": w_f, "iq_1": iq, "id_1": idd, "theta_true": th_f,
            "omega_true": om_f, "iq_true": i_flow, "iq_drive": iq_act, "torque": tq + truth.torque_noise * noise[2],
            "demand": u, "theta_ref": th_ref, "omega_ref": om_ref}
