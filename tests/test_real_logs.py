@@ -103,6 +103,15 @@ def test_a_filter_is_not_read_as_a_late_current():
     assert cogging_error(res.model) < known + 1.5 * turned + 2e-3, (found["tau_s"], known, turned)
 
 
+def test_degrees_read_as_radians_name_the_unit(uniform_logs):
+    """An angle logged in degrees and read as radians turns 57 times as fast: every window is beyond the alias guard,
+    and the refusal says how fast the logs turn and which unit to declare."""
+    deg = [{**lg, "theta": np.degrees(lg["theta"])} for lg in uniform_logs]
+    with pytest.raises(ExcitationError, match=r"too fast .* turn at up to 1\d{3} rad/s .* declare it in the "
+                                              r"--columns map's \[units\] \(theta = \"deg\""):
+        identify(deg, MOTOR, current_filter=0.0, **FIXED)
+
+
 def test_one_direction_without_dither_pins_ripple_and_direction():
     """A speed-loop log at one speed, one direction, no dither determines the cogging only: the ripple is pinned at
     zero and the direction map folded into the cogging, each verdict naming the experiment that would determine it."""

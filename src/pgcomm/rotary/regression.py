@@ -330,7 +330,7 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
     span = taps + 2  # samples of θ one output needs: s .. s+T+1
     stride = max(1, taps // 2)
     counts = {"windows": 0, "alias": 0, "slow": 0}
-    prepared, ts_all = [], []
+    prepared, ts_all, fastest = [], [], 0.0
     v_limit = None
     for i, log in enumerate(logs):
         name, th, iq, _, ts = _log_arrays(log, i, motor.sample_time)
@@ -344,6 +344,7 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
         w[0], w[-1] = w[1], w[-2]
         speed = np.abs(w)
         v95 = float(np.percentile(speed, 95))
+        fastest = max(fastest, v95)
         v_limit = max_speed(orders, ts, min_samples)
         s_all = np.arange(0, n - span + 1, stride)
         idx = s_all[:, None] + np.arange(span)
@@ -373,8 +374,20 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
         raise ExcitationError(
             f"no usable window in {len(logs)} log(s): {counts['alias']} of {counts['windows']} windows too fast for "
             f"the encoder-sampled cogging (highest order {orders.highest} per revolution needs <= {lim} for "
-            f"{min_samples:g} samples per period), {counts['slow']} near standstill or reversing")
+            f"{min_samples:g} samples per period), {counts['slow']} near standstill or reversing"
+            + _unit_hint(fastest, v_limit))
     return prepared, counts, v_limit, float(np.median(ts_all))
+
+
+def _unit_hint(speed: float, limit: float | None) -> str:
+    """A hint on the angle's unit where the logs turn far faster than the alias guard allows (``speed`` the logs'
+    95th-percentile speed, rad/s): an angle in degrees read as radians turns 57 times as fast, one in counts
+    thousands of times."""
+    if limit is None or speed <= 10.0 * limit:
+        return ""
+    return (f"; the logs turn at up to {speed:.4g} rad/s ({speed * 60 / (2 * math.pi):.4g} rpm): if 'theta' is in "
+            "degrees or encoder counts, declare it in the --columns map's [units] (theta = \"deg\", or \"counts\" "
+            "with encoder_counts)")
 
 
 def _extended(theta: np.ndarray, lo: int, hi: int) -> np.ndarray:
