@@ -246,6 +246,7 @@ def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, z
     ("nan", "nan.csv row 50 column 'theta': nan is not a finite number"),
     ("family", "--family spline"),
     ("sweep one way", "sweep.csv: the angle moves one way only"),
+    ("glitch", r"glitch\.csv row 1001: 'theta' jumps by 0\.3.* encoder glitch"),
     ("sweep in degrees", r"deg\.csv: the angle travels 5[78] revolutions forward .* declare it in the --columns map"),
     ("delay", "--current-delay 0.5: an integer number of samples"),
     ("lag", "--current-lag 2: held, or a lag in samples between -0.5 and 0.5"),
@@ -280,6 +281,14 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
         p = tmp_path / "sweep.csv"
         p.write_text("\n".join(sweep[: len(sweep) // 2]) + "\n")  # the forward pass only
         args += ["--data", str(log), "--sweep", str(p)]
+    elif case == "glitch":  # the encoder slips by 0.3 rad at row 1001 and stays there
+        head = text[0].split(",")
+        j = head.index("theta")
+        p = tmp_path / "glitch.csv"
+        p.write_text("\n".join([text[0]] + [",".join(f"{float(c) + (0.3 if k >= 1000 else 0.0):.12g}" if i == j else c
+                                                      for i, c in enumerate(r.split(",")))
+                                             for k, r in enumerate(text[1:])]) + "\n")
+        args += ["--data", str(p)]
     elif case == "sweep in degrees":
         sweep = (zoo / "sweep" / "sweep.csv").read_text().splitlines()
         head = sweep[0].split(",")
