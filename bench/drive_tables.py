@@ -60,7 +60,7 @@ def run_linear(folder: str | None, seed: int) -> dict:
     from pgcomm.export import akd, beckhoff, moog, sinamics
     from pgcomm.export.compensation import from_linear_model
     from pgcomm.export.drive_twin import M_PER_MIN, linear_law
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.reproduce import reference_seed
     from pgcomm.settings import ExperimentConfig, load_experiment
 

@@ -2,7 +2,7 @@
 
 Usage: ``python bench/rotary_preview.py [--seed 0] [--motors 0,1,...,7] [--full]``.
 
-Per zoo motor: one round of the running logs a drive user records (:func:`pgcomm.rotary.zoo.write_running_logs`'s,
+Per zoo motor: one round of the running logs a drive user records (:func:`pgcomm.rotary.zoo.running_logs`'s,
 with the q- and d-voltages), identified without a torque sensor (:func:`pgcomm.rotary.identify.identify`); the twin
 of the motor as identified (:func:`pgcomm.rotary.zoo.truth_from_identification`, as the CLI builds it); then the experiment (:func:`pgcomm.rotary.experiment.run`, quick settings unless ``--full``) on
 the zoo's truth and on the preview, same seed. Printed: the preview's ``J`` and current noise against the truth's,

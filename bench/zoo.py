@@ -48,7 +48,7 @@ def run_motor(folder: str, seed: int, quick: bool, twin_type: bool = False) -> d
 
     import pgcomm  # noqa: F401
     from pgcomm import reproduce
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import load_experiment
 
     folder = Path(folder)

@@ -278,7 +278,7 @@ def test_simulated_runs_give_a_motor_without_mass_the_simulated_translators(tmp_
 
 
 def test_simulated_mass_names_a_motor_mass_that_differs():
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig
     from pgcomm.setup import simulated_mass
 

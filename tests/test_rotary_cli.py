@@ -21,7 +21,7 @@ import pytest
 from pgcomm.cli import main
 from pgcomm.export.angle_table import read_angle_table
 from pgcomm.rotary.model import RotaryModel
-from pgcomm.rotary.zoo import read_truth
+from pgcomm.io.rotary_zoo import read_truth
 
 from _drive_pll import pll_and_late, rewrite_logs
 
@@ -481,7 +481,7 @@ def test_logs_of_a_drive_faster_than_its_log_through_the_cli(tmp_path, zoo, caps
     ``--current-lag held`` it is not."""
     from dataclasses import replace
 
-    from pgcomm.rotary.zoo import write_running_logs
+    from pgcomm.io.rotary_zoo import write_running_logs
 
     truth = replace(read_truth(zoo / "truth.json"), control_per_log=8)
     logs = [tmp_path / "logs" / name for name in write_running_logs(truth, tmp_path / "logs", seed=0)]

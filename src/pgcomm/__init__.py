@@ -39,7 +39,7 @@ _PUBLIC = {
     # experiment settings, set-up, the whole experiment
     "ExperimentConfig": ("pgcomm.settings", "ExperimentConfig"),
     "load_experiment": ("pgcomm.settings", "load_experiment"),
-    "build_setup": ("pgcomm.io.setup", "build_setup"),
+    "build_setup": ("pgcomm.setup", "build_setup"),
     "run_experiment": ("pgcomm.reproduce", "run"),
     # the rig: plan, logs, calibration, identification
     "make_plan": ("pgcomm.plan", "make_plan"),

@@ -10,7 +10,7 @@ feedforward per law (:func:`tune_feedforward`), closed-loop runs (:func:`run_law
 metrics (:func:`run_metrics`). The CLI commands and :mod:`pgcomm.reproduce` use them.
 
 Where the pieces are: the settings schema is :mod:`pgcomm.settings`, the set-up and its checks
-:mod:`pgcomm.setup`, reading one from files :mod:`pgcomm.io.setup`, and the drives' sensorless
+:mod:`pgcomm.setup` (also reading one from files), and the drives' sensorless
 anti-cogging table :mod:`pgcomm.sensorless_table`.
 """
 
@@ -282,7 +282,7 @@ def write_production_logs(folder, seed: int = 0) -> list[Path]:
         the ``2 L`` log paths.
     """
     from pgcomm.io.logs import write_datasets
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import load_experiment
 
     folder = Path(folder)

@@ -46,6 +46,7 @@ from pgcomm.setup import Setup, check_reference, sensorless_mass, simulated_mass
 from pgcomm.identify import IdentifyResult
 from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se, reducible_share
 from pgcomm.models import CombinedModel
+from pgcomm.protocols import ForceModel, Plant
 
 ROWS = ("original", "classical", "physics", "pgnn", "pgnn_direction", "spline", "pgnn_sensorless", "cogging_table",
         "cogging_table_sensorless", "harmonic_cogging", "oracle")
@@ -66,7 +67,7 @@ PAPER = {
 }
 
 
-def model_error(model, plant, y_range, n: int = 2001) -> dict:
+def model_error(model: ForceModel, plant: Plant, y_range, n: int = 2001) -> dict:
     """RMS error of a model's gain and cogging against the plant's truth over ``y_range`` (m).
 
     Args:

@@ -17,7 +17,7 @@ An experiment config is a TOML file (read by :func:`load_experiment`) whose tabl
 
 Unknown keys are refused with the closest valid name. Every field carries its range, unit and
 a hint in its metadata (:func:`pgcomm.io.config.load_dataclass` reads them for the messages).
-Resolving the settings against a plant is :mod:`pgcomm.setup` and :mod:`pgcomm.io.setup`.
+Resolving the settings against a plant, and reading a set-up from files, is :mod:`pgcomm.setup`.
 """
 
 from __future__ import annotations

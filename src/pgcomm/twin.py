@@ -110,7 +110,7 @@ class TwinParams:
 
         ``mass`` (kg) defaults to the twin's default mechanics (:class:`pgcomm.mechanics.Mechanics`,
         30 kg): on the built-in twin the moving mass is known, so identification without a force
-        sensor needs no motor file. :func:`pgcomm.io.setup.build_setup` passes the configured
+        sensor needs no motor file. :func:`pgcomm.setup.build_setup` passes the configured
         ``[mechanics] mass``.
         """
         from pgcomm.mechanics import Mechanics

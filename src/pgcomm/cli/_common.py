@@ -111,7 +111,7 @@ def motor_from_args(args):
 
 def setup_from_args(args):
     """The :class:`pgcomm.setup.Setup` of ``--config``, ``--plant`` and ``--motor``."""
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig, load_experiment
 
     config_path = args.config

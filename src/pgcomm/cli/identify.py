@@ -460,7 +460,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
         se = res.info.get("standard_error")
         quant = res.info.get("quantisation")
         if quant and quant["logs_on_lattice"]:
-            from pgcomm.rotary.report import share_text
+            from pgcomm.report.rotary import share_text
 
             progress.info(f"encoder: {quant['logs_on_lattice']} of {quant['logs']} logged angle(s) on a "
                           f"{'/'.join(map(str, quant['counts_per_revolution']))}-count lattice; its rounding noise "
@@ -476,7 +476,8 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
     sweep = None
     static = []
     if args.sweep:
-        from pgcomm.rotary.static_map import compare, is_static_map, read_static_map, text
+        from pgcomm.io.static_map import is_static_map, read_static_map
+        from pgcomm.rotary.static_map import compare, text
 
         maps = [p for pat in args.sweep for p in sorted(glob.glob(pat)) or [pat] if is_static_map(p)]
         args.sweep = [p for p in args.sweep if p not in maps]
@@ -540,7 +541,7 @@ def _identify_rotary(args, out: Path, progress, t0: float) -> None:
                                         "their mean",))
         write_results(out / "results.json", results)
         _plot_rotary(out / "identify_rotary.png", model, res.info, motor, sweep=sweep)
-        from pgcomm.rotary.report import write_rotary_report
+        from pgcomm.report.rotary import write_rotary_report
 
         write_rotary_report(out / "report.html", results, {
             "The identified maps over one revolution with their standard error as a band: the compensating q "

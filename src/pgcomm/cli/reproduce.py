@@ -38,7 +38,7 @@ def run(args, out: Path, progress) -> None:
     from pgcomm import __version__, plots, reproduce
     from pgcomm.io.model import save_model
     from pgcomm.io.results import write_results
-    from pgcomm.report import figure_captions, write_report
+    from pgcomm.report.linear import figure_captions, write_report
 
     t0 = time.perf_counter()
     if motor_is_rotary(args):
@@ -198,7 +198,8 @@ def _run_rotary(args, out: Path, progress, t0: float) -> None:
     from pgcomm.errors import ConfigError
     from pgcomm.io.config import load_rotary_motor
     from pgcomm.rotary import experiment as rexp
-    from pgcomm.rotary.zoo import default_truth, read_truth
+    from pgcomm.io.rotary_zoo import read_truth
+    from pgcomm.rotary.zoo import default_truth
 
     for opt in ("plant", "config", "reference"):
         if getattr(args, opt, None):
@@ -334,7 +335,7 @@ def _write_rotary_outputs(out, results: dict, truth) -> list:
     ax[2].legend(fontsize=8)
     fig.suptitle(f"rotary {truth.motor.name}: identification and tracking")
     plots.save(fig, out / "rotary.png")
-    from pgcomm.rotary.report import write_rotary_report
+    from pgcomm.report.rotary import write_rotary_report
 
     write_rotary_report(out / "report.html", results, {
         "Top: the compensating q current over one revolution, from the standstill sweep, from the model identified "

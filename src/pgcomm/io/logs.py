@@ -9,7 +9,7 @@ Log format (DESIGN, "Formats"): one row per controller sample, columns
   the motion, ``pgcomm identify --no-force-sensor``); a log with only some of them is refused;
 * per coil set ``l = 1..L`` the star currents ``ia_{l}``, ``ib_{l}`` (A), or the drive inputs
   ``Fy_ref_{l}`` (N), ``delta_{l}`` (rad), or the q/d-axis currents ``iq_{l}``, ``id_{l}`` (A) of a
-  field-oriented drive in its own electrical frame (:mod:`pgcomm.drive_frame`: the paper's drive
+  field-oriented drive in its own electrical frame (the q axis along the force, the paper's drive
   inputs seen from that drive; ``id_{l}`` may be absent — a drive holding ``i_d* = 0`` often does
   not log it — and is then taken as 0 A by :meth:`Log.dq_currents`, noted in :attr:`Log.notes`;
   an ``id_{l}`` without ``iq_{l}`` is refused), or several of these forms. Sign convention of
@@ -454,7 +454,7 @@ class Log:
         """q/d-axis currents ``(N, L, 2)`` = ``[iq_l, id_l]`` (A) in the drive's frame, or ``None`` if a coil set has no ``iq_l``.
 
         A coil set without ``id_l`` gets ``id = 0`` (a field-oriented drive holding ``i_d* = 0``;
-        :func:`read_log` says so in :attr:`notes`). Convert with :mod:`pgcomm.drive_frame`.
+        :func:`read_log` says so in :attr:`notes`).
         """
         n = self.n_coil_sets
         if n == 0 or not all(f"iq_{l}" in self.columns for l in range(1, n + 1)):

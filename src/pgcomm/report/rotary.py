@@ -1,7 +1,7 @@
 """Self-contained HTML report of a rotary run (``pgcomm reproduce`` or ``pgcomm identify`` on a rotary motor).
 
 Every number is read from the run's ``results.json`` dict (keys in ``docs/results.md``); the figures are
-embedded as base64 PNG with the style of the linear report (:mod:`pgcomm.report`). Units: angles in
+embedded as base64 PNG with the style of the linear report (:mod:`pgcomm.report.linear`). Units: angles in
 rad, speeds in rad/s, currents in A; the maps in current units (cogging and direction term as an
 equivalent q-current, the ripple relative).
 """
@@ -11,7 +11,8 @@ from __future__ import annotations
 import html
 from pathlib import Path
 
-from pgcomm.report import CSS, figure_html
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.report.page import CSS, figure_html
 from pgcomm.rotary.identify import resolution_verdict
 from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.readings import delay_text, pll_text
@@ -185,8 +186,6 @@ def write_rotary_report(path, results: dict, figures: dict, *, version: str = ""
     Returns:
         ``path``.
     """
-    from pgcomm.io.atomic import atomic_write_text
-
     motor = results.get("motor", {})
     name = motor.get("name") or f"{motor.get('slots', '?')}N{2 * int(motor.get('pole_pairs', 0))}P"
     command = results.get("command", "reproduce")
