@@ -29,7 +29,8 @@ def main(argv=None) -> int:
     ap.add_argument("--full", action="store_true", help="the full experiment (default: quick settings)")
     args = ap.parse_args(argv)
 
-    from pgcomm.rotary.experiment import RotarySettings, quick_settings, run, running_references
+    from pgcomm.rotary.experiment import quick_settings, run, running_references
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.identify import identify
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
@@ -48,7 +49,7 @@ def main(argv=None) -> int:
                 for k, r in enumerate(refs, start=1)]
         secs = sum(lg["t"].size for lg in logs) * t.motor.sample_time
         res = identify(logs, t.motor)
-        preview = truth_from_identification(res.model, res.info, t.motor, seed=args.seed)
+        preview = truth_from_identification(res.model, res.to_dict(), t.motor, seed=args.seed)
         ratios = []
         for truth in (t, preview):
             r = run(truth, settings, seed=args.seed)["tracking_ratio_model_over_standstill"]

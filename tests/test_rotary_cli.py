@@ -356,7 +356,8 @@ def test_sweep_table_of_a_staircase_of_holds_matches_the_hold_averages():
     """A sweep logged as a staircase of holds (the drives' other way): binned by angle at the staircase's own
     resolution it covers the whole revolution and is within the hold-average table's own error of the truth
     (twice its RMS error at most: the bins also take the settling samples the hold averages leave out)."""
-    from pgcomm.rotary.standstill import StandstillPlan, run_standstill, staircase, table_from_sweep
+    from pgcomm.rotary.standstill import run_standstill, staircase, table_from_sweep
+    from pgcomm.settings import StandstillPlan
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
     from pgcomm.rotary.zoo import draw_rotary
 
@@ -518,3 +519,30 @@ def test_zoo_drives_faster_than_their_logs(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and match in err[0] and "Traceback" not in err[0]
         assert not bad.exists()
+
+
+def test_the_rotary_table_of_the_settings_reads_as_the_options_on_the_command_line(tmp_path):
+    """``--config``'s ``[rotary]`` table and the reading options on the command line make the same
+    :class:`~pgcomm.settings.RotaryIdentifyOptions` (TOML's ``"held"``/``"none"`` as the options' ``held``/``none``);
+    an option on the command line takes the table's place, and what neither gives is detected."""
+    from dataclasses import replace
+
+    from pgcomm.cli import build_parser
+    from pgcomm.cli._identify_rotary import _rotary_options
+    from pgcomm.settings import RotaryIdentifyOptions
+
+    parser = build_parser()
+    base = ["identify", "--motor", "m.toml", "--data", "x.csv", "--out", str(tmp_path / "o")]
+    cfg = tmp_path / "exp.toml"
+    cfg.write_text("[rotary]\ncurrent_delay = 1\ncurrent_lag = \"held\"\nangle_pll = [1000.0, 0.7]\n"
+                   "time_lines = [50.0]\ncurrent_noise = 0.01\ncurrent_filter = \"none\"\n")
+    from_file = _rotary_options(parser.parse_args([*base, "--config", str(cfg)]))
+    from_flags = _rotary_options(parser.parse_args([*base, "--current-delay", "1", "--current-lag", "held",
+                                                    "--angle-pll", "1000,0.7", "--time-lines", "50",
+                                                    "--current-noise", "0.01", "--current-filter", "none"]))
+    assert from_file == from_flags == RotaryIdentifyOptions(current_delay=1, current_lag=None, angle_pll=(1000.0, 0.7),
+                                                            time_lines=(50.0,), current_noise=0.01,
+                                                            current_filter=0.0)
+    both = _rotary_options(parser.parse_args([*base, "--config", str(cfg), "--current-filter", "0.08"]))
+    assert both == replace(from_file, current_filter=0.08)
+    assert _rotary_options(parser.parse_args(base)) == RotaryIdentifyOptions()

@@ -9,7 +9,7 @@ import pytest
 
 import pgcomm  # noqa: F401  (enables float64)
 from pgcomm.setup import build_setup
-from pgcomm.settings import load_experiment
+from pgcomm.io.config import load_experiment
 from pgcomm.forcemap import ForceMapPlant
 from pgcomm.io.forcemap import load_forcemap
 from pgcomm.io.config import load_motor

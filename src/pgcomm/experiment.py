@@ -283,7 +283,7 @@ def write_production_logs(folder, seed: int = 0) -> list[Path]:
     """
     from pgcomm.io.logs import write_datasets
     from pgcomm.setup import build_setup
-    from pgcomm.settings import load_experiment
+    from pgcomm.io.config import load_experiment
 
     folder = Path(folder)
     setup = build_setup(load_experiment(folder / "config.toml"), forcemap_path=folder / "plant.csv",

@@ -103,12 +103,12 @@ class AkdTable:
         """Length (rad or m) the 8192 entries cover."""
         return 2.0 * math.pi if self.kind == "rotary" else float(self.high - self.low)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": ENTRIES, "unit": "A", "range_m": None if self.low is None else [self.low, self.high],
                 "limit_A": self.limit, "conversion": self.conversion,
-                "resolution": None if self.resolution is None else self.resolution.as_dict(),
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": None if self.resolution is None else self.resolution.to_dict(),
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "sources": [s.text() for s in SOURCES], "assumptions": list(ASSUMED)}
 
 

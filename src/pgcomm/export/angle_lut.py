@@ -70,10 +70,10 @@ class AngleLut:
         """Entries ``N``."""
         return int(self.values.size)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": self.n, "precision": self.precision, "current_limit_A": self.current_limit,
-                "error": self.error.as_dict(), "clipped_entries": self.clipped,
+                "error": self.error.to_dict(), "clipped_entries": self.clipped,
                 "bytes": self.n * (8 if self.precision == "double" else 4)}
 
 

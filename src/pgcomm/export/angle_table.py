@@ -93,7 +93,7 @@ class TableError:
     max: float
     theta_max: float
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """``{"rms_A", "max_A", "theta_max_rad"}`` for results.json."""
         return {"rms_A": self.rms, "max_A": self.max, "theta_max_rad": self.theta_max}
 

@@ -111,14 +111,14 @@ class BeckhoffTable:
     conversion: str = ""
     round_trip: RoundTrip | None = None
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"harmonics": [{"n": int(n), "phi_deg": float(p), "r": float(a)}
                               for n, p, a in zip(self.orders, self.phi, self.r)],
                 "unit": self.unit, "period": self.period, "gain": self.gain, "dropped_rms": self.dropped,
                 "limit": self.limit, "conversion": self.conversion,
-                "resolution": None if self.resolution is None else self.resolution.as_dict(),
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": None if self.resolution is None else self.resolution.to_dict(),
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "sources": [s.text() for s in SOURCES], "assumptions": list(ASSUMED)}
 
 

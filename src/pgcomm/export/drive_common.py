@@ -47,7 +47,7 @@ class TableError:
     max: float
     where: float
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """``{"rms", "max", "at"}``."""
         return {"rms": self.rms, "max": self.max, "at": self.where}
 
@@ -73,7 +73,7 @@ class RoundTrip:
     bound: float
     unit: str
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """For results.json."""
         return {"max": self.max, "rms": self.rms, "bound": self.bound, "unit": self.unit}
 

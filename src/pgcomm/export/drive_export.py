@@ -224,7 +224,7 @@ def _moteus(args, comp, out, name):
              "applies in the position family of modes only (position, zero velocity, stay within bounds): command "
              "torque through position mode with kp = kd = 0",
              f"load with: python -m moteus.moteus_tool --target ID --write-config {path.name}, then conf write"]
-    return path, mt.as_dict(), lines
+    return path, mt.to_dict(), lines
 
 
 def _odrive(args, comp, k_t, out, name, provenance):
@@ -243,7 +243,7 @@ def _odrive(args, comp, k_t, out, name, provenance):
              "(odrive-interface.yaml exposes only get_anticogging_value). Ways around it:",
              *(f"  - {w}" for w in WORKAROUNDS),
              "assumes: " + "; ".join(ASSUMPTIONS[:3])]
-    return path, om.as_dict(), lines
+    return path, om.to_dict(), lines
 
 
 def _c_angle(args, table, comp, out, name, provenance):
@@ -255,7 +255,7 @@ def _c_angle(args, table, comp, out, name, provenance):
     lines = [f"C lookup {name}: {lut.n} entries ({args.precision}), periodic linear interpolation vs the input table: "
              f"RMS {e.rms:.3g} A, max {e.max:.3g} A; current limit {_limit_text(comp.limit, comp.limit_source)}"
              + (f"; {lut.clipped} entries clipped" if lut.clipped else "")]
-    return path, lut.as_dict(), lines
+    return path, lut.to_dict(), lines
 
 
 def _industrial(args, comp, k_t, out, name, provenance):
@@ -311,7 +311,7 @@ def _industrial(args, comp, k_t, out, name, provenance):
     lines = [f"{TITLES[f]}: {what}; limit {limit}",
              f"what the drive applies vs the compensation (between entries, on the model's span): {res} {unit}",
              tab.round_trip.line(), "assumes: " + "; ".join(assumed), LOAD[f]]
-    return path, tab.as_dict(), lines
+    return path, tab.to_dict(), lines
 
 
 def export_rotary_law(args, out, progress, t0) -> None:
@@ -348,11 +348,11 @@ def export_rotary_law(args, out, progress, t0) -> None:
                                 [f"model file {args.model} ({model.info.get('motor', 'rotary motor')})"])
     results = {"command": "export", "format": "c-rotary", "model": str(args.model), "name": name,
                "current_limit": limit, "current_limit_source": limit_source, "files": [path.name],
-               "c_rotary": tables.as_dict(), "runtime_s": time.perf_counter() - t0}
+               "c_rotary": tables.to_dict(), "runtime_s": time.perf_counter() - t0}
     write_results(out / "results.json", results)
     if not args.quiet:
         e = tables.errors
-        print(f"C law {name}: {tables.n} entries per map ({args.precision}, {tables.as_dict()['bytes']} bytes); "
+        print(f"C law {name}: {tables.n} entries per map ({args.precision}, {tables.to_dict()['bytes']} bytes); "
               f"interpolation max: cogging {e['cogging']['max']:.3g} A, drag {e['direction']['max']:.3g} A, gain "
               f"{e['gain']['max']:.3g}; the law vs the model's: max {e['law']['max']:.3g} A; current limit "
               f"{limit_text(limit, limit_source)}")

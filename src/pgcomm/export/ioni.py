@@ -91,16 +91,16 @@ class IoniTable:
     limit: float | None = None
     round_trip: RoundTrip | None = None
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         def s(x):
             return None if x is None else {"N": x.n, "amplitude": x.amplitude, "phase_deg": math.degrees(x.phase)}
 
         return {"pole_pairs": self.pole_pairs, "TRF1_TRA1": s(self.cogging), "TRF2_TRA2": s(self.ripple),
                 "limit_A": self.limit,
-                "resolution": None if self.resolution is None else self.resolution.as_dict(),
-                "ripple_resolution": None if self.ripple_resolution is None else self.ripple_resolution.as_dict(),
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": None if self.resolution is None else self.resolution.to_dict(),
+                "ripple_resolution": None if self.ripple_resolution is None else self.ripple_resolution.to_dict(),
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "source": SOURCE.text(), "assumptions": list(ASSUMED)}
 
 

@@ -109,13 +109,13 @@ class MoogTable:
         """250 or 4000."""
         return int(self.values.size)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": self.size, "unit": "A", "pos_start_m": self.start, "pos_delta_m": self.delta,
                 "fade_out_rpm": None if self.fade is None else list(self.fade), "limit_A": self.limit,
                 "conversion": self.conversion,
-                "resolution": None if self.resolution is None else self.resolution.as_dict(),
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": None if self.resolution is None else self.resolution.to_dict(),
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "source": SOURCE.text(), "assumptions": list(ASSUMED)}
 
 

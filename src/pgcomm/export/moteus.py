@@ -128,11 +128,11 @@ class MoteusTable:
     current_limit: float | None = None
     assumptions: tuple = field(default=ASSUMPTIONS)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json (A)."""
         return {"entries": ENTRIES, "scale_A_per_lsb": self.scale, "quantisation_max_A": self.quantisation,
                 "quantisation_rms_A": self.quantisation_rms, "quantisation_bound_A": 0.5 * self.scale,
-                "interpolation": self.interpolation.as_dict(), "total": self.total.as_dict(),
+                "interpolation": self.interpolation.to_dict(), "total": self.total.to_dict(),
                 "clipped_entries": self.clipped, "current_limit_A": self.current_limit,
                 "citation": CITATION, "assumptions": list(self.assumptions)}
 

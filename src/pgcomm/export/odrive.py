@@ -132,10 +132,10 @@ class OdriveMap:
         """``(3600,)`` the entries as q current (A): ``torque / torque_constant``."""
         return self.torque.astype(np.float64) / self.torque_constant
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json (A, N·m)."""
         return {"entries": ENTRIES, "torque_constant_Nm_per_A": self.torque_constant,
-                "positive_positions": self.positive.as_dict(), "negative_positions": self.negative.as_dict(),
+                "positive_positions": self.positive.to_dict(), "negative_positions": self.negative.to_dict(),
                 "clipped_entries": self.clipped, "current_limit_A": self.current_limit,
                 "loadable_by_stock_firmware": False, "ways_around": list(WORKAROUNDS), "citation": CITATION,
                 "assumptions": list(ASSUMPTIONS)}
@@ -223,7 +223,7 @@ def odrive_document(om: OdriveMap, provenance=()) -> dict:
         "citation": CITATION,
         "assumptions": list(ASSUMPTIONS),
         "provenance": list(provenance),
-        "error_A": {"positive_positions": om.positive.as_dict(), "negative_positions": om.negative.as_dict()},
+        "error_A": {"positive_positions": om.positive.to_dict(), "negative_positions": om.negative.to_dict()},
         "cogging_map": [float("%.9g" % v) for v in om.torque],
     }
 

@@ -70,7 +70,7 @@ class RotaryLawTables:
         """Entries ``N``."""
         return int(self.cogging.size)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": self.n, "precision": self.precision, "current_limit_A": self.current_limit,
                 "errors": self.errors, "bytes": 3 * self.n * (8 if self.precision == "double" else 4)}

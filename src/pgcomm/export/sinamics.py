@@ -122,12 +122,12 @@ class SinamicsTable:
         """1 or 2 tables."""
         return 2 if "forward" in self.tables else 1
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": ENTRIES, "tables": self.directions, "unit": self.unit, "p5253": self.factor,
                 "period": self.period, "p5256": self.hysteresis, "limit": self.limit, "conversion": self.conversion,
-                "resolution": {k: v.as_dict() for k, v in self.resolution.items()},
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": {k: v.to_dict() for k, v in self.resolution.items()},
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "source": SOURCE.text(), "assumptions": list(ASSUMED)}
 
 

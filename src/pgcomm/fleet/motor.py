@@ -153,7 +153,8 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     from pgcomm.data import coil_set_data_from_logs
     from pgcomm.evaluation import evaluate_logs, evaluation_results
     from pgcomm.experiment import identification_results, identify_models
-    from pgcomm.settings import ExperimentConfig, load_experiment
+    from pgcomm.io.config import load_experiment
+    from pgcomm.settings import ExperimentConfig
     from pgcomm.setup import Setup
     from pgcomm.export.c import write_c
     from pgcomm.export.lut import build_cogging_table, build_lut, write_cogging_table, write_lut

@@ -39,8 +39,8 @@ files is a unit of the wrong magnitude (a pole pitch of 30 "m" that was meant
 in mm). Unknown keys are refused with the closest valid key: a misspelt
 optional key must not silently fall back to its default.
 
-:func:`load_dataclass` does the same for any (nested) frozen dataclass schema,
-e.g. experiment configs defined elsewhere.
+:func:`load_dataclass` does the same for any (nested) frozen dataclass schema:
+:func:`load_experiment` reads an experiment config (:mod:`pgcomm.settings`) with it.
 """
 
 from __future__ import annotations
@@ -381,6 +381,21 @@ def load_dataclass(cls, table: dict, where: str):
     if not dataclasses.is_dataclass(cls):
         raise TypeError(f"load_dataclass needs a dataclass type, got {cls!r}")
     return _load(cls, table, _Where.parse(where))
+
+
+def load_experiment(path):
+    """Read an experiment TOML into :class:`pgcomm.settings.ExperimentConfig` (unknown keys refused, by
+    :func:`load_dataclass`): the linear experiment's tables, ``[rotary]`` (a rotary motor's identification,
+    :class:`pgcomm.settings.RotaryIdentifyOptions`) and ``[rotary_experiment]``
+    (:class:`pgcomm.settings.RotarySettings`).
+
+    Raises:
+        ConfigError: one line naming the file, table and key.
+    """
+    # start-up cost: the settings hold the twin's parameters (JAX); reading a motor or a log loads none
+    from pgcomm.settings import ExperimentConfig
+
+    return load_dataclass(ExperimentConfig, load_toml(path), str(path))
 
 
 # --------------------------------------------------------------------------- motor

@@ -13,12 +13,12 @@ from pathlib import Path
 
 from pgcomm.io.atomic import atomic_write_text
 from pgcomm.report.page import CSS, figure_html
-from pgcomm.rotary.identify import resolution_verdict
+from pgcomm.rotary.identify import resolution_verdict, share_text
 from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.readings import delay_text, pll_text
 from pgcomm.rotary.time_lines import lines_text
 
-__all__ = ["write_rotary_report", "ROW_DESCRIPTIONS", "share_text"]
+__all__ = ["write_rotary_report", "ROW_DESCRIPTIONS"]
 
 #: One line per row of ``reproduce``'s table.
 ROW_DESCRIPTIONS = {
@@ -37,11 +37,6 @@ def _g(x, digits: int = 3, unit: str = "") -> str:
 
 def _pct(x) -> str:
     return "–" if x is None else f"{100 * x:.1f} %"
-
-
-def share_text(x: float) -> str:
-    """A share as per cent with two significant digits, or "under 0.1 %"."""
-    return "under 0.1 %" if x < 1e-3 else f"{100 * x:.2g} %"
 
 
 def _identification_html(r: dict) -> str:

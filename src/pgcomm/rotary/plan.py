@@ -217,7 +217,7 @@ class FirstRound:
         sample_time: the median step of their time stamps (s): the rate the host reached.
         inertia_ratio: ``|J/k0|`` identified (A·s²/rad).
         slots: the slot count read from the logs where the motor TOML lacked it, else ``None``.
-        standard_error: the identification's ``info["standard_error"]`` (per map: ``relative``, ``resolved``,
+        standard_error: the identification's ``standard_error`` (per map: ``relative``, ``resolved``,
             ``log_time_factor_to_resolve``, ...).
         verdicts: per map of :data:`MAPS`, :func:`pgcomm.rotary.identify.resolution_verdict`'s phrase.
     """
@@ -585,7 +585,7 @@ def read_first_round(data, motor: RotaryMotor) -> FirstRound:
 
         slots, _ = count_slots(data, motor)
         motor = replace(motor, slots=int(slots))
-    res = identify(data, motor, Orders.for_motor(motor))
+    res = identify(data, motor)
     seconds = 0.0
     steps = []
     for d in data:
@@ -593,7 +593,7 @@ def read_first_round(data, motor: RotaryMotor) -> FirstRound:
         step = np.diff(t)
         steps.append(step)
         seconds += float(t[-1] - t[0]) + float(np.median(step))
-    se = res.info["standard_error"]
+    se = res.standard_error
     return FirstRound(seconds, float(np.median(np.concatenate(steps))), abs(float(res.model.inertia_ratio)),
                       None if slots is None else int(slots), se,
                       {m: resolution_verdict(se[m], seconds) for m in MAPS if m in se})

@@ -477,13 +477,13 @@ def _times(ratio: float) -> str:
 
 
 def lag_of(timing: dict):
-    """The ``current_lag`` that reads the logs as ``timing`` (``info["current_delay"]``) says: ``None`` held, else the
+    """The ``current_lag`` that reads the logs as ``timing`` (``current_delay``) says: ``None`` held, else the
     smooth curve's lag (samples)."""
     return None if not timing or timing.get("held", True) else float(timing.get("lag", 0.0))
 
 
 def delay_text(timing: dict) -> str | None:
-    """One sentence on the logged current's timing (``info["current_delay"]`` of
+    """One sentence on the logged current's timing (``current_delay`` of
     :func:`pgcomm.rotary.identify.identify`), or ``None`` when it was given rather than detected."""
     if not timing or not timing.get("detected"):
         return None
@@ -511,7 +511,7 @@ def delay_text(timing: dict) -> str | None:
 
 
 def pll_text(estimate: dict) -> str | None:
-    """One sentence on how the logged angle was read (``info["angle_pll"]`` of :func:`identify`), or ``None`` when
+    """One sentence on how the logged angle was read (``angle_pll`` of :func:`identify`), or ``None`` when
     nothing was searched or given."""
     if not estimate:
         return None

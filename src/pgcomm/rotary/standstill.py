@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, simulate
+from pgcomm.settings import StandstillPlan
 
 __all__ = ["StandstillPlan", "StandstillTable", "staircase", "run_standstill", "table_from_log", "SweepTable",
            "table_from_sweep", "sweep_reference", "MIN_SAMPLES_PER_BIN"]
@@ -24,19 +25,6 @@ __all__ = ["StandstillPlan", "StandstillTable", "staircase", "run_standstill", "
 #: A bin of a logged sweep's table needs at least this many samples per direction (the table's resolution
 #: follows from the log: :func:`table_from_sweep`).
 MIN_SAMPLES_PER_BIN = 10
-
-
-@dataclass(frozen=True)
-class StandstillPlan:
-    """A standstill sweep: ``points`` angles per revolution, ``settle`` and ``average`` samples per angle."""
-
-    points: int = 3600
-    settle: int = 30
-    average: int = 20
-
-    def duration(self, sample_time: float) -> float:
-        """Seconds the sweep takes on the rig (both directions)."""
-        return 2 * self.points * (self.settle + self.average) * sample_time
 
 
 @dataclass

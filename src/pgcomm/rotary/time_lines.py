@@ -307,7 +307,7 @@ def detect_time_lines(logs, motor: RotaryMotor, orders: Orders | None = None, *,
     (a pickup at two speeds spreads over orders the basis does not have).
 
     Returns:
-        the entry :func:`identify` reports as ``info["time_lines"]`` (without the amplitudes).
+        the entry :func:`identify` reports as ``time_lines`` (without the amplitudes).
     """
     orders = orders or Orders.for_motor(motor)
     prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps, current_lag=current_lag)
@@ -315,7 +315,7 @@ def detect_time_lines(logs, motor: RotaryMotor, orders: Orders | None = None, *,
 
 
 def lines_text(lines: dict) -> str | None:
-    """One sentence on the time-periodic disturbances (``info["time_lines"]`` of :func:`identify`), or ``None`` when
+    """One sentence on the time-periodic disturbances (``time_lines`` of :func:`identify`), or ``None`` when
     none was searched or given."""
     if not lines or not (lines.get("searched") or lines.get("hz")):
         return None

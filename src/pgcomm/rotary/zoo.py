@@ -42,7 +42,8 @@ import numpy as np
 from pgcomm.rotary.model import Fourier, RotaryModel, cogging_orders, direction_orders, fundamental_cogging_order, \
     ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
-from pgcomm.rotary.experiment import RotarySettings, running_references, stall_log
+from pgcomm.rotary.experiment import running_references, stall_log
+from pgcomm.settings import RotarySettings
 from pgcomm.rotary.regression import Orders
 from pgcomm.rotary.standstill import sweep_reference
 from pgcomm.rotary.twin import LawParams, RotaryTruth, default_gains, simulate
