@@ -31,6 +31,7 @@ from pgcomm.control import PID
 from pgcomm.mechanics import Mechanics
 from pgcomm.sensors import Sensors
 from pgcomm.twin import TwinParams
+from pgcomm.identify.options import IdentifyOptions
 
 __all__ = ["ControllerConfig", "ReferenceConfig", "CalibrationConfig", "IdentificationConfig", "EvaluationConfig",
            "StandstillPlan", "RotarySettings", "RotaryIdentifyOptions", "ExperimentConfig"]
@@ -145,8 +146,6 @@ class IdentificationConfig:
             changes: fields of :class:`~pgcomm.identify.options.IdentifyOptions` that differ from the
                 settings for one call (e.g. ``direction=True`` for the direction row).
         """
-        from pgcomm.identify.options import IdentifyOptions
-
         fields = dict(gain_widths=self.gain_widths, cog_widths=self.cog_widths,
                       gain_width_candidates=self.gain_width_candidates, activation=self.activation,
                       regularisation=self.regularisation, ridge_output=self.ridge_output, starts=self.starts,

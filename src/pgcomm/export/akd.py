@@ -45,6 +45,7 @@ from pgcomm.export.drive_common import (
     round_trip,
     unit_factor,
 )
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["ENTRIES", "SOURCES", "AkdTable", "build_akd", "write_akd", "read_akd", "akd_apply"]
 
@@ -165,8 +166,6 @@ def akd_script(tab: AkdTable, provenance=()) -> str:
 
 def write_akd(tab: AkdTable, path, provenance=()) -> AkdTable:
     """Write the keyword script atomically, read it back and check it (returns ``tab`` with its round trip)."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, akd_script(tab, provenance))
     back = read_akd(path)
     return replace(tab, round_trip=round_trip(back["values"], tab.meant, float32_bound(tab.meant), str(path), "A"))

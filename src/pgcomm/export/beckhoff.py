@@ -33,6 +33,7 @@ import numpy as np
 from pgcomm.errors import ConfigError, DataError
 from pgcomm.export.compensation import fourier_coefficients
 from pgcomm.export.drive_common import RoundTrip, Source, error_of, f32, header, round_trip, unit_factor
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["MAX_HARMONICS", "MAX_ORDER", "SOURCES", "BeckhoffTable", "build_beckhoff", "write_beckhoff",
            "read_beckhoff", "beckhoff_apply", "harmonic_sum"]
@@ -205,8 +206,6 @@ def beckhoff_list(tab: BeckhoffTable, provenance=()) -> str:
 
 def write_beckhoff(tab: BeckhoffTable, path, provenance=()) -> BeckhoffTable:
     """Write the list atomically, read it back and compare the sums on a grid over one period."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, beckhoff_list(tab, provenance))
     back = read_beckhoff(path)
     x = tab.period * np.arange(4096) / 4096

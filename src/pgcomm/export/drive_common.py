@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.errors import ConfigError, DataError
+from pgcomm import __version__
 
 __all__ = ["Source", "RoundTrip", "round_trip", "header", "f32", "fmt32", "float32_bound", "unit_factor",
            "periodic_linear", "TableError", "error_of", "FINE"]
@@ -157,8 +158,6 @@ def periodic_linear(values, u) -> np.ndarray:
 def header(title: str, sources, documented, assumed, checks, provenance=(), prefix: str = "# ",
            width: int = 110) -> str:
     """The comment block every drive file starts with (module docstring), each line prefixed."""
-    from pgcomm import __version__
-
     def wrap(text: str, indent: str) -> list[str]:
         words, lines, cur = " ".join(str(text).split()).split(" "), [], ""
         for w in words:

@@ -31,6 +31,17 @@ import time
 from pathlib import Path
 
 from pgcomm.errors import ConfigError, DataError
+from pgcomm.export import akd, beckhoff, compensation as cs, ioni, moog, sinamics, summit
+from pgcomm.export.angle_lut import build_angle_lut, write_angle_lut
+from pgcomm.export.angle_table import check_within_limit, read_angle_table
+from pgcomm.export.drive_common import parse_pair
+from pgcomm.export.moteus import build_moteus, write_moteus
+from pgcomm.export.odrive import ASSUMPTIONS, build_odrive, WORKAROUNDS, write_odrive
+from pgcomm.export.options import c_name, drive_commutation, entries_name_limit, fmt_values, limit_text, \
+    parse_current_limit
+from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
+from pgcomm.io.model import current_limit_of, load_model, load_rotary_model
+from pgcomm.io.results import write_results
 
 __all__ = ["TABLE_FORMATS", "DRIVE_FORMATS", "LINEAR_FORMATS", "add_drive_options", "export_drive",
            "export_rotary_law"]
@@ -104,8 +115,6 @@ def _is_rotary_model(path) -> bool:
 def _limit(args, recorded, source_text, what):
     """``(limit A or None, source)`` from --current-limit, else the input's record; neither: one line (every table
     format needs a limit, as :mod:`pgcomm.cli.export` says)."""
-    from pgcomm.export.options import parse_current_limit
-
     limit, given = parse_current_limit(args.current_limit)
     if given:
         return limit, "--current-limit" if limit is not None else "turned off with --current-limit none"
@@ -118,16 +127,12 @@ def _limit(args, recorded, source_text, what):
 def _source(args):
     """The :class:`~pgcomm.export.compensation.Compensation` of ``--table`` or ``--model`` and the torque
     constant a rotary model records."""
-    from pgcomm.export import compensation as cs
-
     if args.table is not None and args.model is not None:
         raise ConfigError(f"--format {args.format}: give --table TABLE.csv or --model MODEL.json, not both")
     if args.table is None and args.model is None:
         raise ConfigError(f"--format {args.format} exports a compensation: give --table TABLE.csv (angle rad, iq A, one "
                           "revolution) or --model MODEL.json (a rotary or linear model file)")
     if args.table is not None:
-        from pgcomm.export.angle_table import check_within_limit, read_angle_table
-
         table = read_angle_table(args.table)
         limit, src = _limit(args, table.current_limit, f"{args.table} (# current_limit, the motor description's)",
                             f"{args.table}: the table")
@@ -136,8 +141,6 @@ def _source(args):
         check_within_limit(table, limit, slack, src)
         return cs.from_angle_table(table, args.pole_pairs, limit, src), None, table
     if _is_rotary_model(args.model):
-        from pgcomm.io.model import load_rotary_model
-
         model = load_rotary_model(args.model)
         limit, src = _limit(args, model.info.get("current_limit"), "from the model file",
                             f"{args.model}: the model file")
@@ -145,8 +148,6 @@ def _source(args):
     if args.format not in LINEAR_FORMATS:
         raise ConfigError(f"{args.model} is a linear model; --format {args.format} holds a table over a rotor's "
                           f"revolution (linear motors: --format {', '.join(LINEAR_FORMATS)})")
-    from pgcomm.export.options import drive_commutation, fmt_values
-    from pgcomm.io.model import current_limit_of, load_model
 
     model, document = load_model(args.model)
     limit, src = _limit(args, current_limit_of(document, args.model), "from the model file",
@@ -160,10 +161,6 @@ def _source(args):
 
 def export_drive(args, out: Path, progress, t0: float) -> None:
     """``--format moteus|odrive|c-angle|sinamics|akd|moog|beckhoff|summit|ioni`` (module docstring)."""
-    from pgcomm.export import compensation as cs
-    from pgcomm.export.options import c_name
-    from pgcomm.io.results import write_results
-
     if args.format == "c-angle" and args.model is not None:
         raise ConfigError("--format c-angle exports --table, not --model (a rotary model's whole law: --format c-rotary)")
     if args.entries is not None and not 8 <= args.entries <= 1 << 20:
@@ -210,8 +207,6 @@ def _limit_text(limit, source) -> str:
 
 
 def _moteus(args, comp, out, name):
-    from pgcomm.export.moteus import build_moteus, write_moteus
-
     mt = build_moteus(comp, scale=args.scale)
     path = write_moteus(mt, out / f"{name}.cfg")
     t, i = mt.total, mt.interpolation
@@ -228,8 +223,6 @@ def _moteus(args, comp, out, name):
 
 
 def _odrive(args, comp, k_t, out, name, provenance):
-    from pgcomm.export.odrive import ASSUMPTIONS, WORKAROUNDS, build_odrive, write_odrive
-
     if k_t is None:
         raise ConfigError("--format odrive needs --torque-constant NM_PER_A, the ODrive's "
                           "motor.config.torque_constant (its cogging_map is in N m: entry = k_t x iq_comp)")
@@ -247,8 +240,6 @@ def _odrive(args, comp, k_t, out, name, provenance):
 
 
 def _c_angle(args, table, comp, out, name, provenance):
-    from pgcomm.export.angle_lut import build_angle_lut, write_angle_lut
-
     lut = build_angle_lut(table, args.entries, args.precision, current_limit=comp.limit)
     path = write_angle_lut(lut, out / f"{name}.h", name, comp.limit_source, provenance)
     e = lut.error
@@ -260,9 +251,6 @@ def _c_angle(args, table, comp, out, name, provenance):
 
 def _industrial(args, comp, k_t, out, name, provenance):
     """SINAMICS, AKD, Moog, Beckhoff, Summit, IONI: build, write, read back; the printed lines."""
-    from pgcomm.export import akd, beckhoff, ioni, moog, sinamics, summit
-    from pgcomm.export.drive_common import parse_pair
-
     f = args.format
     path = out / f"{name}.txt"
     if f == "sinamics":
@@ -316,17 +304,12 @@ def _industrial(args, comp, k_t, out, name, provenance):
 
 def export_rotary_law(args, out, progress, t0) -> None:
     """``--format c-rotary --model MODEL.json``: the whole rotary law as C99 (:mod:`pgcomm.export.rotary_law`)."""
-    from pgcomm.export.options import entries_name_limit, limit_text
-    from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
-    from pgcomm.io.results import write_results
-
     if args.model is None:
         raise ConfigError("--format c-rotary exports a rotary model file: give --model MODEL.json (pgcomm identify "
                           "on a rotary motor)")
     if args.table is not None:
         raise ConfigError("--format c-rotary exports --model, not --table (a table's formats: "
                           f"{', '.join(TABLE_FORMATS)})")
-    from pgcomm.io.model import load_rotary_model
 
     name, limit, limit_given = entries_name_limit(args)
     model = load_rotary_model(args.model)

@@ -47,6 +47,7 @@ from pgcomm.export.drive_common import (
     round_trip,
     unit_factor,
 )
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["SIZES", "SOURCE", "MoogTable", "build_moog", "write_moog", "read_moog", "moog_apply", "fade"]
 
@@ -187,8 +188,6 @@ def moog_script(tab: MoogTable, provenance=()) -> str:
 
 def write_moog(tab: MoogTable, path, provenance=()) -> MoogTable:
     """Write the listing atomically, read it back and check it."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, moog_script(tab, provenance))
     back = read_moog(path)
     return replace(tab, round_trip=round_trip(back["values"], tab.meant, float32_bound(tab.meant), str(path), "A"))

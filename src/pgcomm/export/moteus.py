@@ -67,7 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pgcomm.errors import DataError
+from pgcomm.errors import ConfigError, DataError
 from pgcomm.export.angle_table import (
     AngleTable,
     TableError,
@@ -75,6 +75,8 @@ from pgcomm.export.angle_table import (
     linear_on_grid,
     reconstruction_error,
 )
+from pgcomm.export.compensation import Compensation, from_angle_table
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["ENTRIES", "LSB_MAX", "MoteusTable", "build_moteus", "moteus_lines", "write_moteus", "read_moteus",
            "moteus_current", "moteus_apply", "CITATION"]
@@ -154,9 +156,6 @@ def build_moteus(table, current_limit: float | None = None, scale: float | None 
     Raises:
         ConfigError: a ``scale`` that is not positive, or so small that an entry would overflow int8.
     """
-    from pgcomm.errors import ConfigError
-    from pgcomm.export.compensation import Compensation, from_angle_table
-
     comp = table if isinstance(table, Compensation) else from_angle_table(table)
     if not comp.rotary:
         raise ConfigError("moteus holds a table over the rotor's revolution; a linear model has none")
@@ -223,8 +222,6 @@ def moteus_lines(mt: MoteusTable) -> list[str]:
 def write_moteus(mt: MoteusTable, path) -> Path:
     """Write the ``conf set`` lines to ``path`` atomically; load with ``python -m moteus.moteus_tool
     --target N --write-config FILE``, then ``conf write`` to keep them."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, "\n".join(moteus_lines(mt)) + "\n")
     return Path(path)
 

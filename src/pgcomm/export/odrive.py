@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +71,8 @@ from pgcomm.export.angle_table import (
     fine_grid_size,
     reconstruction_error,
 )
+from pgcomm.export.compensation import Compensation, from_angle_table
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["ENTRIES", "OdriveMap", "build_odrive", "odrive_document", "write_odrive", "read_odrive",
            "odrive_current", "odrive_apply", "CITATION", "FORMAT", "WORKAROUNDS"]
@@ -169,10 +171,6 @@ def build_odrive(table, torque_constant: float, current_limit: float | None = No
     Raises:
         ValueError: a torque constant that is not a positive finite number.
     """
-    from dataclasses import replace
-
-    from pgcomm.export.compensation import Compensation, from_angle_table
-
     if not (isinstance(torque_constant, (int, float)) and math.isfinite(torque_constant) and torque_constant > 0):
         raise ValueError(f"torque constant {torque_constant!r} must be a positive number of N m/A")
     comp = table if isinstance(table, Compensation) else from_angle_table(table)
@@ -230,8 +228,6 @@ def odrive_document(om: OdriveMap, provenance=()) -> dict:
 
 def write_odrive(om: OdriveMap, path, provenance=()) -> Path:
     """Write :func:`odrive_document` to ``path`` atomically."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, json.dumps(odrive_document(om, provenance), indent=1) + "\n")
     return Path(path)
 

@@ -41,6 +41,7 @@ from pgcomm.export.drive_common import (
     round_trip,
     unit_factor,
 )
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["MAX_ENTRIES", "SOURCES", "SummitTable", "build_summit", "write_summit", "read_summit", "summit_apply"]
 
@@ -150,8 +151,6 @@ def summit_list(tab: SummitTable, provenance=()) -> str:
 
 def write_summit(tab: SummitTable, path, provenance=()) -> SummitTable:
     """Write the list atomically, read it back and check it."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, summit_list(tab, provenance))
     back = read_summit(path)
     return replace(tab, round_trip=round_trip(back, tab.meant, float32_bound(tab.meant), str(path), "A"))

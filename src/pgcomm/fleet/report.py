@@ -71,9 +71,9 @@ def write_fleet_table(out_dir, rows, threshold: float = DEFAULT_OUTLIER_Z) -> li
     Returns:
         the three paths.
     """
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-    import pyarrow.parquet as pq
+    import pyarrow as pa  # start-up cost: PyArrow loads only when this runs
+    import pyarrow.csv as pacsv  # start-up cost: PyArrow loads only when this runs
+    import pyarrow.parquet as pq  # start-up cost: PyArrow loads only when this runs
 
     out_dir = Path(out_dir)
     types = {"motor": pa.string(), "coil_set": pa.int64(), "status": pa.string(), "error": pa.string()}

@@ -56,6 +56,8 @@ from pathlib import Path
 
 from pgcomm.errors import ConfigError
 from pgcomm.io.atomic import atomic_write_text
+from pgcomm.rotary.model import cogging_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.rotary.motor import RotaryMotor
 
 __all__ = [
     "closest_match",
@@ -525,6 +527,7 @@ def load_motor(path) -> Motor:
     zeta = _per_coil_set(nominal, "zeta", w, n)
     mu = _number(nominal, "mu", w, required=False)
     kwargs = {} if mu is None else {"mu": mu}
+    # start-up cost: loads JAX only when this runs
     from pgcomm.motor import Motor  # here: reading a log or a setting needs no JAX
 
     return Motor(
@@ -659,8 +662,6 @@ def load_rotary_motor(path):
             non-integer pole-pair/slot/count number, an implausible value (wrong unit), or
             ``slots``/``pole_pairs`` that make no three-phase motor.
     """
-    from pgcomm.rotary.motor import RotaryMotor
-
     file = str(path)
     doc = load_toml(path)
     if _kind(doc, file) != "rotary":
@@ -706,8 +707,6 @@ def load_rotary_motor(path):
 def _check_rotary_orders(vals: dict, file: str) -> None:
     """Refuse a slot/pole combination whose model reaches beyond :data:`MAX_ROTARY_ORDER` (each value may be in its
     range, their least common multiple not)."""
-    from pgcomm.rotary.model import cogging_orders, fundamental_cogging_order, ripple_orders
-
     p, q = vals["pole_pairs"], vals.get("slots")
     if q is not None and int(cogging_orders(q, p).max()) > MAX_ROTARY_ORDER:
         lcm = fundamental_cogging_order(q, p)

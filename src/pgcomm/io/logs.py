@@ -95,6 +95,7 @@ from pgcomm.errors import ConfigError, DataError
 from pgcomm.io.atomic import atomic_path
 from pgcomm.io.config import closest_hint, list_names, load_toml
 from pgcomm.io.tables import read_table
+from pgcomm.io.angles import unwrap_angle
 
 __all__ = [
     "Log",
@@ -527,7 +528,7 @@ def write_log(path, log: Log) -> None:
     Raises:
         ConfigError: unsupported suffix or unwritable column name.
     """
-    import pyarrow as pa
+    import pyarrow as pa  # start-up cost: PyArrow loads only when this runs
 
     path = Path(path)
     suffix = path.suffix.lower()
@@ -536,7 +537,7 @@ def write_log(path, log: Log) -> None:
     names, arrays = _ordered(log)
     table = pa.table(dict(zip(names, arrays)))
     if suffix == ".csv":
-        import pyarrow.csv as pacsv
+        import pyarrow.csv as pacsv  # start-up cost: PyArrow loads only when this runs
 
         with atomic_path(path) as tmp:
             with pa.OSFile(str(tmp), "wb") as sink:
@@ -544,7 +545,7 @@ def write_log(path, log: Log) -> None:
                 sink.write((",".join(names) + "\n").encode())
                 pacsv.write_csv(table, sink, write_options=pacsv.WriteOptions(include_header=False))
     else:
-        import pyarrow.parquet as pq
+        import pyarrow.parquet as pq  # start-up cost: PyArrow loads only when this runs
 
         table = table.replace_schema_metadata({b"pgcomm.sample_time": repr(log.sample_time).encode()})
         with atomic_path(path) as tmp:
@@ -841,8 +842,6 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
             raise DataError(f"{src} {kind} {lab('velocity')}: unit '{vunit}' is linear but the log is a rotary "
                             "motor's (it has 'theta'); give rad/s, deg/s, rev/s or rpm")
     if rotary:
-        from pgcomm.io.angles import unwrap_angle
-
         steps = np.diff(cols["t"]) if gap_rows or not uniform else ts  # the motion over a step is that of its time
         cols["theta"], angle_wraps = unwrap_angle(cols["theta"], steps, cols.get("velocity"), src, lab("theta"))
         if angle_wraps:

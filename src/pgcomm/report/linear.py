@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import html
 from pathlib import Path
+import jax.numpy as jnp
+import numpy as np
 
 from pgcomm.io.atomic import atomic_write_text
 from pgcomm.report.page import CSS, figure_html
@@ -63,9 +65,6 @@ def _fmt(x, digits: int = 3, unit: str = "") -> str:
 
 def _plant_direction_force(result: ReproduceResult) -> float:
     """Mean magnitude (N) of the plant's direction-dependent force in y over the reference's span (0 on a force map)."""
-    import jax.numpy as jnp
-    import numpy as np
-
     y = jnp.linspace(*result.setup.config.reference.span, 501)
     return float(np.mean(np.abs(np.asarray(result.setup.plant.direction_force(y, jnp.ones_like(y)))[:, 0])))
 

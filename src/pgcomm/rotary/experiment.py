@@ -51,9 +51,10 @@ from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.readings import delay_text, lag_of
 from pgcomm.rotary.regression import Orders, max_speed
 from pgcomm.rotary.model import RotaryModel
-from pgcomm.rotary.standstill import run_standstill
+from pgcomm.rotary.standstill import run_standstill, sweep_reference
 from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, breakaway_current, default_gains, simulate
 from pgcomm.settings import RotarySettings, StandstillPlan
+from pgcomm.progress import Progress
 
 __all__ = ["running_references", "running_log", "record_running_logs", "RunningLogs",
            "drive_log_mix", "tracking_references", "closed_loop", "run", "identification_errors", "ROWS",
@@ -190,8 +191,6 @@ def drive_log_mix(truth: RotaryTruth, seed: int = 0) -> dict:
     Returns:
         ``{"const": [log, ...], "accel": [...], "sweep": [log]}``, logs as :func:`pgcomm.rotary.twin.simulate`'s.
     """
-    from pgcomm.rotary.standstill import sweep_reference
-
     m = truth.motor
     ts = m.sample_time
     a = truth.inertia / truth.k0
@@ -321,8 +320,6 @@ def record_running_logs(truth: RotaryTruth, settings: RotarySettings = RotarySet
         :class:`RunningLogs`; its identification has ``rounds``, ``first_round_standard_error``,
         ``log_budget_s`` (s) and the ``current_delay`` read on the first round.
     """
-    from pgcomm.progress import Progress
-
     progress = progress or Progress(enabled=False)
     motor = truth.motor
     ts = motor.sample_time
@@ -418,8 +415,6 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         ``reducible_share``, ``tracking_ratio_model_over_standstill``, ``timing`` and the models
         (``models``: the identified and true :class:`RotaryModel`, the standstill table).
     """
-    from pgcomm.progress import Progress
-
     progress = progress or Progress(enabled=False)
     t_start = time.perf_counter()
     motor = truth.motor

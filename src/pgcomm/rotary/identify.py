@@ -37,12 +37,12 @@ from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
 from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _report_filter, _with_delay, _with_pll, _with_report, \
     apply_reading, current_noise_beside_angle, lag_of
-from pgcomm.rotary.regression import DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, \
-    Orders, information_shares, \
-    _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, _map_gram, _map_standard_error, \
-    _prepare, _quantisation_correction, _significant_extra_orders
+from pgcomm.rotary.regression import _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, \
+    _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
+    DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID
 from pgcomm.rotary.time_lines import _time_lines
 from pgcomm.settings import RotaryIdentifyOptions
+from pgcomm.rotary.law import MIN_GAIN
 
 __all__ = ["identify", "fit_mechanics", "orders_of", "Reading", "check_plausible", "resolution_verdict", "share_text",
            "RESOLVED_SHARE", "RESOLVED_CONFIDENCE", "RotaryIdentification"]
@@ -482,8 +482,6 @@ def check_plausible(result: RotaryIdentification) -> RotaryIdentification:
     Raises:
         ExcitationError: the ripple's peak, where, and how many windows the fit had.
     """
-    from pgcomm.rotary.law import MIN_GAIN
-
     th = 2 * math.pi * np.arange(4096) / 4096
     r = result.model.ripple(th)
     j = int(np.argmax(np.abs(r)))
@@ -724,8 +722,6 @@ def fit_mechanics(logs, motor: RotaryMotor, options: RotaryIdentifyOptions | Non
 
 
 def _identify_torque(logs, motor, orders, t0) -> RotaryIdentification:
-    from pgcomm.rotary.regression import _require_current
-
     _require_current(logs, motor.sample_time)
     ys, xs = [], []
     for i, log in enumerate(logs):

@@ -63,6 +63,7 @@ import numpy as np
 from pgcomm.errors import ConfigError, DataError
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import MIN_SAMPLES_PER_PERIOD, Orders, max_speed
+from pgcomm.rotary.slots import count_slots, MAX_ORDER
 
 __all__ = ["RotaryPlanSettings", "Run", "RotaryPlan", "FirstRound", "DRIVES", "DRIVE_COLUMNS", "DITHER_MAX_HZ",
            "highest_order", "segment_speeds", "first_round_cruise", "dither_frequencies", "dither_amplitudes",
@@ -285,8 +286,6 @@ def highest_order(motor: RotaryMotor) -> int:
     """The highest order per revolution the identification models (:meth:`Orders.for_motor`), or, without the slot
     count, :data:`pgcomm.rotary.slots.MAX_ORDER` (the highest the slot count's detection examines)."""
     if motor.slots is None:
-        from pgcomm.rotary.slots import MAX_ORDER
-
         return int(MAX_ORDER)
     return Orders.for_motor(motor).highest
 
@@ -577,12 +576,10 @@ def read_first_round(data, motor: RotaryMotor) -> FirstRound:
     Raises:
         DataError, ExcitationError: as the identification (logs that never move, no usable window, ...).
     """
-    from pgcomm.rotary.identify import identify, resolution_verdict
+    from pgcomm.rotary.identify import identify, resolution_verdict  # start-up cost: loads JAX only when this runs
 
     slots = None
     if motor.slots is None:
-        from pgcomm.rotary.slots import count_slots
-
         slots, _ = count_slots(data, motor)
         motor = replace(motor, slots=int(slots))
     res = identify(data, motor)

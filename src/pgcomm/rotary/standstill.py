@@ -18,6 +18,7 @@ import numpy as np
 
 from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, simulate
 from pgcomm.settings import StandstillPlan
+from pgcomm.errors import DataError
 
 __all__ = ["StandstillPlan", "StandstillTable", "staircase", "run_standstill", "table_from_log", "SweepTable",
            "table_from_sweep", "sweep_reference", "MIN_SAMPLES_PER_BIN"]
@@ -139,8 +140,6 @@ def table_from_sweep(theta, iq, sample_time: float, points: int | None = None,
     Raises:
         DataError: fewer than 64 bins' worth of samples, or no motion in one of the directions.
     """
-    from pgcomm.errors import DataError
-
     th = np.asarray(theta, float)
     i = np.asarray(iq, float)
     k = max(1, int(round(trend_seconds / sample_time / 2)))

@@ -36,6 +36,7 @@ that moves between power-ups (by half a revolution or an electrical period, or n
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -48,6 +49,7 @@ from pgcomm.rotary.regression import Orders
 from pgcomm.rotary.standstill import sweep_reference
 from pgcomm.rotary.twin import LawParams, RotaryTruth, default_gains, simulate
 from pgcomm.rotary.winding import draw_winding
+from pgcomm.errors import ConfigError
 
 __all__ = ["COMBINATIONS", "CONTROL_RATE_HZ", "draw_control_per_log", "draw_rotary", "default_truth", "truth_from_model",
            "truth_from_identification", "running_logs", "sweep_log", "MAX_MOTORS", "draw_drive_habits",
@@ -223,8 +225,6 @@ def draw_rotary(seed: int, index: int, control_per_log: int | None = None, real_
     them; ``control_per_log`` gives the drive's control cycles per logged sample instead of drawing them (1: a drive
     that controls at its log rate). ``real_drive``: with a real drive's and host's habits
     (:func:`draw_drive_habits`), from a stream of their own too: the same motor and drive as without them."""
-    from dataclasses import replace
-
     rng = np.random.default_rng([int(seed), int(index), 0x70])
     if index < len(COMBINATIONS):
         q, p = COMBINATIONS[index]
@@ -242,8 +242,6 @@ def draw_rotary(seed: int, index: int, control_per_log: int | None = None, real_
 def _with_winding(truth: RotaryTruth, rng) -> RotaryTruth:
     """``truth`` with a winding drawn from its own stream (:func:`pgcomm.rotary.winding.draw_winding`), so the
     mechanical and magnetic draws stay those of a zoo without voltages."""
-    from dataclasses import replace
-
     return replace(truth, winding=draw_winding(rng, truth.k_t, truth.current_noise))
 
 
@@ -254,7 +252,6 @@ def default_truth(motor: RotaryMotor, seed: int = 0) -> RotaryTruth:
     t = draw_truth(rng, motor.slots, motor.pole_pairs, k_t=motor.k_t, current_limit=motor.current_limit,
                    inertia=motor.inertia, sample_time=motor.sample_time)
     counts = motor.encoder_counts or t.encoder_counts
-    from dataclasses import replace
     k = motor.control_per_log or draw_control_per_log(np.random.default_rng([int(seed), 0x75]), motor.sample_time)
     return replace(_with_winding(replace(t, motor=motor, encoder_counts=int(counts)),
                                  np.random.default_rng([int(seed), 0x73])), control_per_log=k)
@@ -283,10 +280,6 @@ def truth_from_model(model: RotaryModel, motor: RotaryMotor, *, current_noise: f
     Raises:
         ConfigError: the model has no ``k_t`` or no ``inertia_ratio``.
     """
-    from dataclasses import replace
-
-    from pgcomm.errors import ConfigError
-
     if not model.k_t or not model.inertia_ratio or model.inertia_ratio <= 0:
         raise ConfigError("the model has no " + ("torque constant k0 (log vq_1, or give k_t in the motor TOML)"
                                                  if not model.k_t else "positive J/k0 (identify it from running logs)"))
@@ -329,10 +322,6 @@ def truth_from_identification(model: RotaryModel, identification: dict, motor: R
         ConfigError: no ``current_noise_A`` (an identification by an older pgcomm), or what :func:`truth_from_model`
             refuses.
     """
-    from dataclasses import replace
-
-    from pgcomm.errors import ConfigError
-
     if identification.get("current_noise_A") is None:
         raise ConfigError("the identification has no current_noise_A (identified by an older pgcomm: identify again)")
     back_emf = identification.get("back_emf") or {}
