@@ -41,7 +41,6 @@ from pgcomm.export.angle_table import (
     resample_periodic,
 )
 from pgcomm import __version__
-from pgcomm.export.c import _DOUBLE, _m, _SINGLE, check_c_name, ieee_finite
 from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["AngleLut", "build_angle_lut", "angle_lut_header", "write_angle_lut", "angle_lut_values",
@@ -185,6 +184,8 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
         limit_source: where the limit (or its absence) came from, for the comment block.
         provenance: further comment lines (the input table's own ``#`` lines, the command).
     """
+    from pgcomm.export.c import _DOUBLE, _SINGLE, _m, check_c_name  # start-up cost: loads JAX only when this runs
+
     check_c_name(name)
     num = _SINGLE if lut.precision == "single" else _DOUBLE
     T, lit, fl = num.ctype, num.lit, num.fn("floor")
@@ -229,6 +230,7 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
             "        *iq = 0;\n        return 2;\n    }\n",
             "    *iq = iq_star + c;\n",
             *c_current_tail(U, "iq", lut.current_limit is not None, guard)]
+    from pgcomm.export.c import ieee_finite  # start-up cost: loads JAX only when this runs
 
     return ieee_finite("".join(out), name, lut.precision == "single")
 

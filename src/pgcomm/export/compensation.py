@@ -28,11 +28,9 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-import jax.numpy as jnp
 
 from pgcomm.errors import ConfigError, DataError
 from pgcomm.export.angle_table import resample_periodic
-from pgcomm.export.lut import _cog_y, _drive, drive_gain, MIN_DRIVE_GAIN
 from pgcomm.rotary.law import MIN_GAIN
 from pgcomm.rotary.model import harmonic_rows
 
@@ -199,12 +197,17 @@ def from_linear_model(model, k_hat, zeta_hat, current_limit: float | None = None
         ConfigError: the model has no training range (a table needs an extent) or the drive's commutation makes
             too little force somewhere on it (:data:`pgcomm.export.lut.MIN_DRIVE_GAIN`).
     """
+    import jax.numpy as jnp  # start-up cost: JAX loads only when this runs
+
+    from pgcomm.export.lut import _cog_y, _drive, drive_gain  # start-up cost: loads JAX only when this runs
+
     if model.training_range is None:
         raise ConfigError(f"{source}: the model has no training range, so a drive table has no extent")
     lo, hi = (float(v) for v in model.training_range)
     k_hat, zeta_hat = _drive(model, k_hat, zeta_hat)
     probe = np.linspace(lo, hi, 2001)
     g = drive_gain(model, probe, k_hat, zeta_hat)
+    from pgcomm.export.lut import MIN_DRIVE_GAIN  # start-up cost: loads JAX only when this runs
 
     if not np.min(g) >= MIN_DRIVE_GAIN:
         j = int(np.argmin(g))

@@ -40,7 +40,6 @@ from pgcomm.export.odrive import ASSUMPTIONS, build_odrive, WORKAROUNDS, write_o
 from pgcomm.export.options import c_name, drive_commutation, entries_name_limit, fmt_values, limit_text, \
     parse_current_limit
 from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
-from pgcomm.io.model import current_limit_of, load_model, load_rotary_model
 from pgcomm.io.results import write_results
 
 __all__ = ["TABLE_FORMATS", "DRIVE_FORMATS", "LINEAR_FORMATS", "add_drive_options", "export_drive",
@@ -141,6 +140,8 @@ def _source(args):
         check_within_limit(table, limit, slack, src)
         return cs.from_angle_table(table, args.pole_pairs, limit, src), None, table
     if _is_rotary_model(args.model):
+        from pgcomm.io.model import load_rotary_model  # start-up cost: loads JAX only when this runs
+
         model = load_rotary_model(args.model)
         limit, src = _limit(args, model.info.get("current_limit"), "from the model file",
                             f"{args.model}: the model file")
@@ -148,6 +149,7 @@ def _source(args):
     if args.format not in LINEAR_FORMATS:
         raise ConfigError(f"{args.model} is a linear model; --format {args.format} holds a table over a rotor's "
                           f"revolution (linear motors: --format {', '.join(LINEAR_FORMATS)})")
+    from pgcomm.io.model import current_limit_of, load_model  # start-up cost: loads JAX only when this runs
 
     model, document = load_model(args.model)
     limit, src = _limit(args, current_limit_of(document, args.model), "from the model file",
@@ -310,6 +312,7 @@ def export_rotary_law(args, out, progress, t0) -> None:
     if args.table is not None:
         raise ConfigError("--format c-rotary exports --model, not --table (a table's formats: "
                           f"{', '.join(TABLE_FORMATS)})")
+    from pgcomm.io.model import load_rotary_model  # start-up cost: loads JAX only when this runs
 
     name, limit, limit_given = entries_name_limit(args)
     model = load_rotary_model(args.model)

@@ -11,10 +11,7 @@ import math
 import numpy as np
 
 from pgcomm.errors import ConfigError
-from pgcomm.export.c import check_c_name
-from pgcomm.export.lut import classical_parameters
 from pgcomm.io.config import _plausible
-from pgcomm.io.model import drive_of
 
 #: ``--name`` when not given; the drive tables default to ``pgcomm_<format>``.
 DEFAULT_NAMES = {"c": "pgcomm_law", "lut": "pgcomm_lut", "c-angle": "pgcomm_angle_lut",
@@ -78,6 +75,9 @@ def drive_commutation(args, model, metadata) -> dict:
         ``{"k_hat": (L,), "zeta_hat": (L,), "source": str, "given": bool}``; ``given`` is true when the
         values are the user's or the model file's (not the fit to the model's fundamental).
     """
+    from pgcomm.export.lut import classical_parameters  # start-up cost: loads JAX only when this runs
+    from pgcomm.io.model import drive_of  # start-up cost: loads JAX only when this runs
+
     L = model.n_coil_sets
     k = parse_per_coil_set(args.drive_k, "--drive-k", "k", L)
     z = parse_per_coil_set(args.drive_zeta, "--drive-zeta", "zeta", L)
@@ -115,6 +115,8 @@ def entries_name_limit(args) -> tuple[str, float | None, bool]:
 
 def c_name(args) -> str:
     """``--name`` (default per format), checked as a C identifier prefix."""
+    from pgcomm.export.c import check_c_name  # start-up cost: loads JAX only when this runs
+
     name = args.name or DEFAULT_NAMES.get(args.format, f"pgcomm_{args.format.replace('-', '_')}")
     try:
         check_c_name(name)

@@ -34,7 +34,6 @@ from pgcomm.export.angle_lut import c_current_tail, c_entry_coordinate, interpol
 from pgcomm.rotary.law import MIN_GAIN, iq_command
 from pgcomm.rotary.model import RotaryModel
 from pgcomm import __version__
-from pgcomm.export.c import _DOUBLE, _m, _SINGLE, check_c_name, ieee_finite
 from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["RotaryLawTables", "build_rotary_law", "default_entries", "rotary_law_values", "rotary_law_header",
@@ -165,6 +164,8 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
         limit_source: where the limit (or its absence) came from, for the comment block.
         provenance: further comment lines (the model file, the command).
     """
+    from pgcomm.export.c import _DOUBLE, _SINGLE, _m, check_c_name  # start-up cost: loads JAX only when this runs
+
     check_c_name(name)
     num = _SINGLE if tables.precision == "single" else _DOUBLE
     T, lit, fl = num.ctype, num.lit, num.fn("floor")
@@ -216,6 +217,7 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
             "    sg = (s > 0) ? 1 : ((s < 0) ? -1 : 0);\n",
             "    *iq = (demand - c + d * sg) / g;\n",
             *c_current_tail(U, "iq", tables.current_limit is not None, guard)]
+    from pgcomm.export.c import ieee_finite  # start-up cost: loads JAX only when this runs
 
     return ieee_finite("".join(out), name, tables.precision == "single")
 
