@@ -67,6 +67,32 @@ def test_identify_rotary_logs_recovers_the_cogging(tmp_path, zoo):
     quant = res["identification"]["quantisation"]
     assert quant["counts_per_revolution"] == [truth.encoder_counts] and quant["logs_on_lattice"] == quant["logs"]
     assert f"lattice of {truth.encoder_counts} counts per revolution" in page
+    # the Python API is the command: the same logs read and identified in this process give the same results.json
+    from pgcomm import identify_rotary_logs, load_rotary_motor, read_logs
+    from pgcomm.io.logs import ROTARY_REQUIRED
+
+    logs = read_logs(sorted(map(str, (zoo / "logs").glob("*.csv"))), required=ROTARY_REQUIRED, gaps=True, stamps=True)
+    found = identify_rotary_logs(logs, load_rotary_motor(zoo / "motor.toml"))
+    api = found.to_dict()
+
+    def same(a, b, where="results"):
+        # the same keys throughout; numbers within rounding of their own size (timings apart)
+        if isinstance(a, dict):
+            assert list(a) == list(b), where
+            for k in a:
+                if k not in ("runtime_s", "seconds"):
+                    same(a[k], b[k], f"{where}.{k}")
+        elif isinstance(a, list):
+            assert len(a) == len(b), where
+            for i, (x, y) in enumerate(zip(a, b)):
+                same(x, y, f"{where}[{i}]")
+        elif isinstance(a, float) and isinstance(b, float):
+            assert (a != a and b != b) or math.isclose(a, b, rel_tol=1e-9), where
+        else:
+            assert a == b, where
+
+    same(json.loads(json.dumps(api)), res)
+    np.testing.assert_allclose(found.table, table.iq, rtol=0, atol=1e-12 * np.max(np.abs(table.iq)))
 
 
 def test_real_drive_log_shape_gives_the_same_model(tmp_path, zoo):
