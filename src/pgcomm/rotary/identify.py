@@ -36,7 +36,7 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
 from pgcomm.rotary.readings import PLL_UNCERTAINTY, _reading, _report_filter, _with_delay, _with_pll, _with_report, \
-    apply_reading, current_noise_beside_angle, lag_of
+    apply_reading, current_noise_beside_angle, lag_of, orders_of
 from pgcomm.rotary.regression import _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, \
     _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
     DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID
@@ -177,13 +177,6 @@ class RotaryIdentification:
                        current_lag=None if timing["held"] else float(timing["lag"]),
                        angle_pll=None if w is None else (float(w), float(pll["damping"])),
                        time_lines=tuple(float(f) for f in self.time_lines["hz"]))
-
-
-def orders_of(options: RotaryIdentifyOptions, motor: RotaryMotor) -> Orders:
-    """The maps' orders ``options`` give, or the motor's (:meth:`Orders.for_motor`) where they give none."""
-    if options.orders is None:
-        return Orders.for_motor(motor)
-    return Orders(*(np.asarray(o, int) for o in options.orders))
 
 
 def _guard(options: RotaryIdentifyOptions) -> tuple[float, int]:

@@ -37,6 +37,7 @@ import numpy as np
 
 from pgcomm.errors import ExcitationError
 from pgcomm.rotary.model import cogging_orders, direction_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.settings import RotaryIdentifyOptions
 
 __all__ = ["detect_slots", "count_slots", "MAX_SLOTS", "MAX_ORDER"]
 
@@ -164,8 +165,8 @@ def count_slots(logs, motor, *, current_delay="detect", angle_pll="detect", curr
     """
     p, ts = motor.pole_pairs, motor.sample_time
     q, info = detect_slots(logs, p, ts)
-    est, timing = detect_reading(logs, replace(motor, slots=q), current_delay=current_delay, angle_pll=angle_pll,
-                                 current_lag=current_lag)
+    est, timing = detect_reading(logs, replace(motor, slots=q), RotaryIdentifyOptions(
+        current_delay=current_delay, angle_pll=angle_pll, current_lag=current_lag))
     pll = None if est["natural_frequency_rad_s"] is None else (est["natural_frequency_rad_s"], est["damping"])
     lag = lag_of(timing)
     read, counted = logs, False
