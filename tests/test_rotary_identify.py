@@ -487,7 +487,7 @@ def test_a_fit_whose_torque_constant_leaves_the_laws_range_is_refused(motor0):
     def fit(amplitude):
         model = RotaryModel(4, Fourier.zeros([]), Fourier(np.array([3]), np.array([[0.0, amplitude]])),
                             Fourier.zeros([]))
-        return RotaryIdentification(model, {"windows_used": 383, "windows": 4622})
+        return RotaryIdentification(model, seconds=0.0, windows_used=383, windows=4622)
 
     inside = fit(0.99 * (1 - MIN_GAIN))
     assert check_plausible(inside) is inside

@@ -37,6 +37,11 @@ import numpy as np
 
 from pgcomm.errors import ExcitationError
 from pgcomm.rotary.model import cogging_orders, direction_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.rotary.motor import RotaryMotor
+from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
+from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, Orders, \
+    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders
+from pgcomm.rotary.time_lines import detect_time_lines
 from pgcomm.settings import RotaryIdentifyOptions
 
 __all__ = ["detect_slots", "count_slots", "MAX_SLOTS", "MAX_ORDER"]
