@@ -56,7 +56,7 @@ int law_call(double y, const double f[3], double cur[LAW_L][2]);
 def bench_identification() -> None:
     from pgcomm import experiment
     from pgcomm.data import coil_set_data_from_runs
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig
     from pgcomm.identify import IdentifyOptions, identify
 
@@ -106,7 +106,7 @@ def bench_c(cc, n, reps) -> None:
 
 def bench_sensorless(full: bool) -> None:
     from pgcomm import reproduce
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig
     cfg = ExperimentConfig() if full else reproduce.quick_config(ExperimentConfig())
     setup = build_setup(cfg)

@@ -60,9 +60,10 @@ def run_linear(folder: str | None, seed: int) -> dict:
     from pgcomm.export import akd, beckhoff, moog, sinamics
     from pgcomm.export.compensation import from_linear_model
     from pgcomm.export.drive_twin import M_PER_MIN, linear_law
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.reproduce import reference_seed
-    from pgcomm.settings import ExperimentConfig, load_experiment
+    from pgcomm.io.config import load_experiment
+    from pgcomm.settings import ExperimentConfig
 
     if folder is None:
         setup, name = build_setup(ExperimentConfig()), "twin"
@@ -109,15 +110,11 @@ def run_rotary(index: int, seed: int, quick: bool) -> dict:
     from pgcomm.export.drive_twin import RPM, rotary_law
     from pgcomm.export.moteus import build_moteus
     from pgcomm.export.odrive import build_odrive
-    from pgcomm.rotary.experiment import (
-        RotarySettings,
-        _tuned_drive,
-        closed_loop,
-        quick_settings,
-        record_running_logs,
-        tracking_references,
-    )
+    from pgcomm.rotary.experiment import _tuned_drive, closed_loop, quick_settings, record_running_logs, \
+        tracking_references
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.identify import fit_mechanics
+    from pgcomm.settings import RotaryIdentifyOptions
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams
     from pgcomm.rotary.zoo import draw_rotary
@@ -128,8 +125,8 @@ def run_rotary(index: int, seed: int, quick: bool) -> dict:
     orders, a_nom, gains, _ = _tuned_drive(truth)
     rec = record_running_logs(truth, settings, seed)
     model = rec.identification.model
-    mech = fit_mechanics(rec.logs, m, orders, current_delay=rec.delay,
-                         time_lines=rec.identification.info["time_lines"]["hz"], current_lag=rec.lag)
+    mech = fit_mechanics(rec.logs, m, RotaryIdentifyOptions(orders=orders, current_delay=rec.delay, current_lag=rec.lag,
+                                                            time_lines=rec.identification.time_lines["hz"]))
     comp = from_rotary_model(model, m.current_limit, "motor", m.name)
     p = m.pole_pairs
     # the drives' speeds: hysteresis twice the encoder's speed quantum; fade-out from half to twice the

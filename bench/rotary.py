@@ -40,7 +40,8 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--control-per-log", type=int, default=None, help="the drives' control cycles per logged sample")
     args = ap.parse_args(argv)
-    from pgcomm.rotary.experiment import RotarySettings, quick_settings, run
+    from pgcomm.rotary.experiment import quick_settings, run
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.zoo import draw_rotary
 
     settings = quick_settings() if args.quick else RotarySettings()

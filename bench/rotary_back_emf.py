@@ -39,7 +39,8 @@ def main(argv=None) -> int:
     import numpy as np
 
     from pgcomm.rotary.back_emf import fit_voltage
-    from pgcomm.rotary.experiment import RotarySettings, identification_errors, running_log, running_references
+    from pgcomm.rotary.experiment import identification_errors, running_log, running_references
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.identify import identify
     from pgcomm.rotary.model import Fourier
     from pgcomm.rotary.regression import Orders
@@ -75,9 +76,9 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         fv = fit_voltage(logs, orders, t.motor.pole_pairs, t.motor.sample_time, offset=t.motor.commutation_offset)
         t_v = time.perf_counter() - t0
-        v = res.info["back_emf"]
+        v = res.back_emf
         e_i = identification_errors(res.model, t)["ripple_rel"]
-        se_i = res.info["standard_error"]["ripple"]["rms_error"] / t.ripple.rms()
+        se_i = res.standard_error["ripple"]["rms_error"] / t.ripple.rms()
         se_v = float(np.sqrt(0.5 * np.trace(fv["cov"]))) / t.ripple.rms()
         if fast:
             fl = logs_of(RotarySettings(speed_shares=fast, revolutions=args.revolutions))

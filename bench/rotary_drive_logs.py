@@ -36,7 +36,8 @@ def main(argv=None) -> int:
                     help="the drives' control cycles per logged sample (default: the zoo's, drawn per motor)")
     ap.add_argument("--motors", default="0,1,2,3", help="zoo indices, comma-separated")
     args = ap.parse_args(argv)
-    from pgcomm.rotary.experiment import RotarySettings, closed_loop, drive_log_mix, identification_errors
+    from pgcomm.rotary.experiment import closed_loop, drive_log_mix, identification_errors
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.identify import fit_mechanics, identify, resolution_verdict
     from pgcomm.rotary.standstill import run_standstill
     from pgcomm.rotary.twin import LawParams, default_gains
@@ -68,7 +69,7 @@ def main(argv=None) -> int:
                 print(f"  {name:18s} {secs:5.0f} s: refused: {e}", flush=True)
                 continue
             err = identification_errors(res.model, truth)
-            se = res.info["standard_error"]
+            se = res.standard_error
 
             def cell(key):
                 e = se[key]
@@ -79,8 +80,8 @@ def main(argv=None) -> int:
                     verdict += " (encoder)"
                 return f"{key} {100 * err[key + '_rel']:6.1f} % (se {100 * e['relative']:5.1f} %, {verdict})"
 
-            added = {k: v for k, v in res.info["orders_added"].items() if v}
-            v = res.info.get("back_emf") or {}
+            added = {k: v for k, v in res.orders_added.items() if v}
+            v = res.back_emf or {}
             volt = ""
             if v and v.get("consistent") is None:
                 volt = f"; q-voltage: k0 not determined (±{100 * v['back_emf_constant_se'] / v['back_emf_constant']:.0f} %)"

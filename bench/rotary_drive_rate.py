@@ -40,9 +40,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     from dataclasses import replace
 
-    from pgcomm.rotary.experiment import (RotarySettings, drive_log_mix, identification_errors, running_log,
-                                          running_references)
+    from pgcomm.rotary.experiment import drive_log_mix, identification_errors, running_log, running_references
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.identify import identify
+    from pgcomm.settings import RotaryIdentifyOptions
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains
     from pgcomm.rotary.zoo import draw_rotary
@@ -75,17 +76,17 @@ def main(argv=None) -> int:
 
                 logs = _pll_read(logs, every=max(k, 8))
             c0 = time.perf_counter()
-            res = identify(logs, m, orders)
+            res = identify(logs, m, RotaryIdentifyOptions(orders=orders))
             wall = time.perf_counter() - c0
-            held = identify(logs, m, orders, current_lag=None)
-            tm = res.info["current_delay"]
+            held = identify(logs, m, RotaryIdentifyOptions(orders=orders, current_lag=None))
+            tm = res.current_delay
             reading = "held" if tm["held"] else f"smooth {tm['lag']:.4f}"
             if tm["samples"]:
                 reading += f" {tm['samples']:+d}"
             if args.pll:
-                w = res.info["angle_pll"]["natural_frequency_rad_s"]
+                w = res.angle_pll["natural_frequency_rad_s"]
                 reading += f" PLL {w:.0f}" if w else " no PLL"
-            print(f"{i:2d} {m.name:7s} {k:3d} {reading:>24s} | {fmt(identification_errors(res.model, t), res.info['standard_error'])}"
+            print(f"{i:2d} {m.name:7s} {k:3d} {reading:>24s} | {fmt(identification_errors(res.model, t), res.standard_error)}"
                   f" | held: {fmt(identification_errors(held.model, t))} | {wall:5.1f}", flush=True)
     return 0
 

@@ -50,7 +50,6 @@ def main(argv=None) -> int:
     from pgcomm.rotary.experiment import (RotarySettings, _tuned_drive, identification_errors, running_log,
                                           running_references)
     from pgcomm.rotary.identify import identify
-    from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.zoo import draw_rotary
     from pgcomm.seeds import stream_seed
 
@@ -70,16 +69,15 @@ def main(argv=None) -> int:
             refs = running_references(truth.motor, a_nom, settings, orders)
             logs = [running_log(truth, r, classical, gains, stream_seed(args.seed, "rotary running log", k, i))
                     for k in range(args.rounds) for i, r in enumerate(refs)]
-            res = identify(logs, truth.motor, Orders.for_motor(truth.motor))
+            res = identify(logs, truth.motor)
             e = identification_errors(res.model, truth)
-            info = res.info
-            se = info["standard_error"]["cogging"]["relative"]
-            cd = info["current_delay"]
+            se = res.standard_error["cogging"]["relative"]
+            cd = res.current_delay
             form = "held" if cd["held"] else f"lag {cd['lag']:+.2f}"
-            pll = info.get("angle_pll", {}).get("natural_frequency_rad_s")
+            pll = (res.angle_pll or {}).get("natural_frequency_rad_s")
             print(f"{truth.motor.name + ' #' + str(index):>10s} {name:20s} {pct(e['cogging_rel'], 8)} "
                   f"{pct(se, 6)} {pct(e['ripple_rel'], 8)} {pct(e['inertia_ratio_rel'], 8)} "
-                  f"{1e3 * info['current_filter']['tau_s']:9.1f} {cd['samples']:>3d} {form:>6s} "
+                  f"{1e3 * res.current_filter['tau_s']:9.1f} {cd['samples']:>3d} {form:>6s} "
                   f"{'-' if pll is None else str(round(pll)):>9s} {time.perf_counter() - t0:5.0f}", flush=True)
     return 0
 

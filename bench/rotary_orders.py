@@ -27,6 +27,7 @@ def main() -> None:
     ap.add_argument("--motors", default="12N14P,36N42P,54N48P,72N64P", help="QNmP combinations (m = 2p poles)")
     a = ap.parse_args()
     from pgcomm.rotary import experiment as rexp
+    from pgcomm.settings import RotaryIdentifyOptions
     from pgcomm.rotary.identify import identify
     from pgcomm.rotary.motor import RotaryMotor
     from pgcomm.rotary.regression import Orders, _full, _Layout
@@ -47,7 +48,7 @@ def main() -> None:
         refs = rexp.running_references(motor, a_nom, rexp.RotarySettings(), drive_orders)
         logs = [rexp.running_log(truth, r, classical, gains, 1000 + i) for i, r in enumerate(refs)]
         c1 = cpu_seconds()
-        identify(logs, motor, drive_orders)
+        identify(logs, motor, RotaryIdentifyOptions(orders=drive_orders))
         c2 = cpu_seconds()
         rows = sum(len(lg["t"]) for lg in logs)
         print(f"{motor.name}: highest order {orders.highest}, screening columns {columns}, rows {rows}, "

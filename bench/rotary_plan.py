@@ -66,7 +66,7 @@ def _row(name, label, data, motor, truth, t0):
 
     seconds = sum(float(d["t"][-1] - d["t"][0] + np.median(np.diff(d["t"]))) for d in data)
     res = identify(data, motor)
-    se, err = res.info["standard_error"], identification_errors(res.model, truth)
+    se, err = res.standard_error, identification_errors(res.model, truth)
     cells = " ".join(f"{se[m]['relative'] * math.sqrt(seconds):7.3f}" for m in ("cogging", "ripple", "direction"))
     need = " ".join(f"{se[m]['log_time_factor_to_resolve'] * seconds:8.0f}" for m in ("cogging", "ripple"))
     print(f"{name:11s} {label:14s} {seconds:7.1f} {cells} {100 * err['cogging_rel']:7.2f} "
@@ -84,7 +84,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     from dataclasses import replace
 
-    from pgcomm.rotary.experiment import RotarySettings, _tuned_drive, running_references
+    from pgcomm.rotary.experiment import _tuned_drive, running_references
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.plan import RotaryPlanSettings, first_plan, read_first_round, refined_plan
     from pgcomm.rotary.zoo import draw_rotary
 

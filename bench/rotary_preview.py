@@ -2,7 +2,7 @@
 
 Usage: ``python bench/rotary_preview.py [--seed 0] [--motors 0,1,...,7] [--full]``.
 
-Per zoo motor: one round of the running logs a drive user records (:func:`pgcomm.rotary.zoo.write_running_logs`'s,
+Per zoo motor: one round of the running logs a drive user records (:func:`pgcomm.rotary.zoo.running_logs`'s,
 with the q- and d-voltages), identified without a torque sensor (:func:`pgcomm.rotary.identify.identify`); the twin
 of the motor as identified (:func:`pgcomm.rotary.zoo.truth_from_identification`, as the CLI builds it); then the experiment (:func:`pgcomm.rotary.experiment.run`, quick settings unless ``--full``) on
 the zoo's truth and on the preview, same seed. Printed: the preview's ``J`` and current noise against the truth's,
@@ -29,7 +29,8 @@ def main(argv=None) -> int:
     ap.add_argument("--full", action="store_true", help="the full experiment (default: quick settings)")
     args = ap.parse_args(argv)
 
-    from pgcomm.rotary.experiment import RotarySettings, quick_settings, run, running_references
+    from pgcomm.rotary.experiment import quick_settings, run, running_references
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.identify import identify
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
@@ -48,7 +49,7 @@ def main(argv=None) -> int:
                 for k, r in enumerate(refs, start=1)]
         secs = sum(lg["t"].size for lg in logs) * t.motor.sample_time
         res = identify(logs, t.motor)
-        preview = truth_from_identification(res.model, res.info, t.motor, seed=args.seed)
+        preview = truth_from_identification(res.model, res.to_dict(), t.motor, seed=args.seed)
         ratios = []
         for truth in (t, preview):
             r = run(truth, settings, seed=args.seed)["tracking_ratio_model_over_standstill"]

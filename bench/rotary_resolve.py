@@ -33,7 +33,8 @@ def main(argv=None) -> int:
     ap.add_argument("--max-seconds", type=float, default=3600.0, help="the running logs' budget (rig s)")
     args = ap.parse_args(argv)
     import numpy as np
-    from pgcomm.rotary.experiment import RotarySettings, identification_errors, record_running_logs
+    from pgcomm.rotary.experiment import identification_errors, record_running_logs
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.zoo import draw_rotary
 
     base = RotarySettings()
@@ -50,7 +51,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         rec = record_running_logs(truth, settings, seed=seed)
         wall = time.perf_counter() - t0
-        info = rec.identification.info
+        info = rec.identification.to_dict()
         first = info["first_round_standard_error"]
         asked = rec.round_seconds * max(first["cogging"]["log_time_factor_to_resolve"],
                                         first["ripple"]["log_time_factor_to_resolve"])

@@ -62,9 +62,10 @@ def main(argv=None) -> int:
     from dataclasses import replace
 
     import numpy as np
-    from pgcomm.rotary.experiment import RotarySettings, _tuned_drive, identification_errors, running_log, \
-        running_references
+    from pgcomm.rotary.experiment import _tuned_drive, identification_errors, running_log, running_references
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.identify import identify
+    from pgcomm.settings import RotaryIdentifyOptions
     from pgcomm.rotary.model import Fourier, fundamental_cogging_order
     from pgcomm.seeds import stream_seed
     from pgcomm.rotary.zoo import draw_rotary
@@ -115,12 +116,13 @@ def main(argv=None) -> int:
                     fed = [{**log, "iq_1": log["iq_true"] + sigma * rng.standard_normal(log["t"].size),
                             "id_1": sigma * rng.standard_normal(log["t"].size)} for log in logs]
                     for key, noise in (("off", None), ("detect", "detect")):
-                        res = identify(fed, m, orders, current_delay=0, current_lag=lag,
-                                       angle_pll=None, time_lines=[], extra_orders=False, current_noise=noise)
+                        res = identify(fed, m, RotaryIdentifyOptions(
+                            orders=orders, current_delay=0, current_lag=lag, angle_pll=None, time_lines=(),
+                            extra_orders=False, current_noise=noise))
                         got = {int(h): complex(*c) for h, c in zip(res.model.ripple.orders, res.model.ripple.coef)}
                         ratios[key].append([(got[h] / true[h]).real for h in basis])
                         errors[key].append((identification_errors(res.model, truth)["ripple_rel"],
-                                            res.info["standard_error"]["ripple"]["relative"]))
+                                            res.standard_error["ripple"]["relative"]))
             for key, label in (("off", "uncorrected"), ("detect", "corrected")):
                 r = np.asarray(ratios[key])
                 e = np.asarray(errors[key])

@@ -32,7 +32,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     from dataclasses import replace
 
-    from pgcomm.rotary.experiment import RotarySettings, drive_log_mix, running_log, running_references
+    from pgcomm.rotary.experiment import drive_log_mix, running_log, running_references
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.slots import count_slots, detect_slots
     from pgcomm.rotary.twin import LawParams, default_gains

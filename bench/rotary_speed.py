@@ -44,6 +44,7 @@ def main(argv=None) -> int:
 
     from pgcomm.rotary.experiment import quick_settings, running_references
     from pgcomm.rotary.identify import identify
+    from pgcomm.settings import RotaryIdentifyOptions
     from pgcomm.rotary.model import harmonic_rows
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
@@ -73,7 +74,7 @@ def main(argv=None) -> int:
         secs = sum(r.n for r in refs) * t.motor.sample_time
         t_id, res = _best(lambda: identify(logs, t.motor), args.repeat)
         read = res.reading()
-        t_read, _ = _best(lambda: identify(logs, t.motor, **read), args.repeat)
+        t_read, _ = _best(lambda: identify(logs, t.motor, RotaryIdentifyOptions().with_reading(read)), args.repeat)
         name = f"{t.motor.slots}N{2 * t.motor.pole_pairs}P"
         print(f"{idx:>2} {name:7s} {t.control_per_log:>3d} {union.size:>6d} {t_closed / t_rows:>9.1f} {diff:>9.1e} "
               f"{secs:>6.1f} {t_twin / secs:>9.3f} {t_id / secs:>10.3f} {t_read / secs:>9.3f} "

@@ -88,7 +88,8 @@ def _pll_read(logs, bandwidth: float = 1000.0, every: int = 16) -> list:
 def _motors(args):
     """Per zoo motor of ``args.motors`` (seed ``args.seed``): its index, truth, orders, the first round of
     ``reproduce``'s running references and the disturbances' size (1 % of the current limit, A)."""
-    from pgcomm.rotary.experiment import RotarySettings, running_references
+    from pgcomm.rotary.experiment import running_references
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.zoo import draw_rotary
 
@@ -103,6 +104,7 @@ def _several(args) -> int:
     """``--several``: lines at several frequencies at once, and the dither's misfits with the angle misread."""
     from pgcomm.rotary.experiment import identification_errors
     from pgcomm.rotary.identify import identify
+    from pgcomm.settings import RotaryIdentifyOptions
 
     sets = {"50+100+150 Hz": ((1.0, 50.0), (0.5, 100.0), (0.3, 150.0)), "60+180 Hz": ((1.0, 60.0), (0.5, 180.0))}
     found_total, given_total, misfit = 0, 0, []
@@ -115,9 +117,9 @@ def _several(args) -> int:
                                       ("PLL misread", pll, {"angle_pll": None}, ()),
                                       *((k, _logs(truth, refs, args.seed, [(a * amp, f) for a, f in v]), {}, v)
                                         for k, v in sets.items())):
-            res = identify(logs, m, orders, **kw)
+            res = identify(logs, m, RotaryIdentifyOptions(orders=orders, **kw))
             e = identification_errors(res.model, truth)
-            info = res.info["time_lines"]
+            info = res.time_lines
             # a line given at f is found at f or at an alias of it (the windows' grid)
             hit = [f for _, f in given if any(abs(x - f) < 0.5 or any(abs(y - f) < 0.5 for y in al)
                                                for x, al in zip(info["hz"], info["aliases"]))]
@@ -151,7 +153,8 @@ def main(argv=None) -> int:
         return _several(args)
     import numpy as np
 
-    from pgcomm.rotary.experiment import RotarySettings, closed_loop, identification_errors
+    from pgcomm.rotary.experiment import closed_loop, identification_errors
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.identify import fit_mechanics, identify
     from pgcomm.rotary.standstill import run_standstill
     from pgcomm.rotary.twin import LawParams, default_gains
@@ -165,10 +168,10 @@ def main(argv=None) -> int:
         for case, (a, hz) in (("clean", (0.0, 50.0)), ("pickup 50 Hz", (amp, 50.0)), ("torque 23.7 Hz", (amp, 23.7))):
             logs = _logs(truth, refs, args.seed, [(a, hz)])
             for label, lines in (("detect", "detect"), ("none", ())):
-                res = identify(logs, m, orders, time_lines=lines)
+                res = identify(logs, m, RotaryIdentifyOptions(orders=orders, time_lines=lines))
                 laws[f"{case}, {label}"] = LawParams(res.model, None, res.model.inertia_ratio, res.model.viscous, 0.0)
                 e = identification_errors(res.model, truth)
-                info = res.info["time_lines"]
+                info = res.time_lines
                 found = ", ".join(f"{f:.3f} Hz ({x / amp:.3f}x)" if a else f"{f:.3f} Hz ({x:.3g} A)"
                                   for f, x in zip(info["hz"], info.get("amplitude_A", [])))
                 print(f"  {case:15s} {label:6s} cogging {100 * e['cogging_rel']:6.2f} %  ripple "
@@ -178,7 +181,7 @@ def main(argv=None) -> int:
                 gains = default_gains(truth.inertia / truth.k0)
                 sweep = run_standstill(truth, gains, RotarySettings().standstill,
                                        seed=stream_seed(args.seed, "rotary standstill sweep"))
-                mech = fit_mechanics(logs, m, orders)
+                mech = fit_mechanics(logs, m, RotaryIdentifyOptions(orders=orders))
                 classical = LawParams.classical(m.pole_pairs)
                 laws["standstill_table"] = LawParams(classical.model, sweep.table, mech["inertia_ratio"],
                                                      mech["viscous"], mech["coulomb"])
@@ -188,7 +191,7 @@ def main(argv=None) -> int:
                 for _ in range(args.repeat):
                     for label, lines in (("detect", "detect"), ("none", ())):
                         t0 = time.perf_counter()
-                        identify(logs, m, orders, time_lines=lines)
+                        identify(logs, m, RotaryIdentifyOptions(orders=orders, time_lines=lines))
                         times[label].append(time.perf_counter() - t0)
                 td, tn = float(np.median(times["detect"])), float(np.median(times["none"]))
                 ratios.append(td / tn)

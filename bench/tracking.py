@@ -45,8 +45,8 @@ def run_motor(folder: str, seed: int, twin_type: bool) -> dict:
 
     import pgcomm  # noqa: F401
     from pgcomm import experiment
-    from pgcomm.io.setup import build_setup
-    from pgcomm.settings import load_experiment
+    from pgcomm.setup import build_setup
+    from pgcomm.io.config import load_experiment
     from pgcomm.commutation import ClassicalLaw, ModelLaw, OffsetLaw, oracle_law
     from pgcomm.compensation import fit_cogging_table
     from pgcomm.data import coil_set_data_from_runs

@@ -48,8 +48,8 @@ def run_motor(folder: str, seed: int, quick: bool, twin_type: bool = False) -> d
 
     import pgcomm  # noqa: F401
     from pgcomm import reproduce
-    from pgcomm.io.setup import build_setup
-    from pgcomm.settings import load_experiment
+    from pgcomm.setup import build_setup
+    from pgcomm.io.config import load_experiment
 
     folder = Path(folder)
     config = load_experiment(folder / "config.toml")

@@ -186,6 +186,16 @@ CONFIG_CASES = [
     ("identify", "[identification]\nvalidation_fraction = 1.0\n", r"validation_fraction = 1 .*expected 0"),
     ("identify", "[identification]\nvalidation_fraction = -0.1\n", r"validation_fraction = -0\.1"),
     ("reproduce", "[reference]\nstroke = 100\n", r"stroke = 100 m .*mm"),
+    ("identify", "[rotary]\ncurrent_lag = 2\n", r"exp\.toml \[rotary\]: current_lag = 2\.0: \"held\", or a lag"),
+    ("identify", "[rotary]\nangle_pll = [1000, -1]\n", r"\[rotary\]: angle_pll = \[1000\.0, -1\.0\]: .*both positive"),
+    ("identify", "[rotary]\ncurrent_filter = \"off\"\n",
+     r"\[rotary\]: current_filter = 'off': expected 'detect' or 'none', or a time constant in s"),
+    ("identify", "[rotary]\ncurrent_delay = 0.5\n", r"\[rotary\]: current_delay = 0\.5 .*an integer or a string"),
+    ("identify", "[rotary]\npin = [\"cogging\"]\n", r"\[rotary\]: pin = \['cogging'\]: maps to pin are"),
+    ("identify", "[rotary]\ncurent_filter = 0.1\n",
+     r"unknown key 'curent_filter' in table \[rotary\] \(closest valid key: 'current_filter'\)"),
+    ("identify", "[rotary_experiment]\nspeed_shares = []\n", r"\[rotary_experiment\]: speed_shares = \[\]: give at least"),
+    ("identify", "[rotary_experiment.standstill]\npoints = 4\n", r"\[rotary_experiment\.standstill\]: points = 4 "),
 ]
 
 
@@ -278,7 +288,7 @@ def test_simulated_runs_give_a_motor_without_mass_the_simulated_translators(tmp_
 
 
 def test_simulated_mass_names_a_motor_mass_that_differs():
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig
     from pgcomm.setup import simulated_mass
 

@@ -130,7 +130,7 @@ def test_forcemap_too_short_for_stroke(tmp_path, capsys):
 def test_default_reference_spans_the_map(tmp_path):
     """Without [reference] stroke, the reference covers the map's range less the margin (any centre)."""
     from pgcomm.experiment import data_generation_reference
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig
     from pgcomm.setup import reference_span
 

@@ -101,7 +101,7 @@ def twin():
     from pgcomm import experiment, sensorless_table
     from pgcomm.commutation import ClassicalLaw, OffsetLaw
     from pgcomm.compensation import fit_cogging_table
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig
     from pgcomm.reproduce import quick_config
 

@@ -574,7 +574,7 @@ def test_linear_closed_loop_carries_the_direction_table():
     from pgcomm import experiment
     from pgcomm.commutation import ClassicalLaw
     from pgcomm.export.drive_twin import DriveTableLaw
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig
 
     setup = build_setup(ExperimentConfig())

@@ -238,3 +238,52 @@ def test_motor_structure_errors(tmp_path):
     no_nominal = MOTOR.replace("[nominal]\nk = [61.0, 62.0, 60.0]\nzeta = -0.52\nmu = 0.04\n", "")
     with pytest.raises(ConfigError, match=r"motor.toml: table \[nominal\] missing"):
         load_motor(_toml(tmp_path, no_nominal, "x.toml").rename(tmp_path / "motor.toml"))
+
+
+# ----------------------------------------------------------------------------- the rotary tables of the settings
+
+
+def test_rotary_tables_load_as_the_options_built_in_python(tmp_path):
+    """``[rotary]`` and ``[rotary_experiment]`` of an experiment TOML load, by the settings' one loader, into the same
+    frozen objects as built in Python; TOML's words for ``None`` (``"none"``, ``"held"``) read as the Python values."""
+    from pgcomm.io.config import load_experiment
+    from pgcomm.settings import RotaryIdentifyOptions, RotarySettings, StandstillPlan
+
+    p = _toml(tmp_path, "[rotary]\norders = [[0, 18], [6, 12], [0, 1]]\nangle_pll = [1000]\ncurrent_lag = \"held\"\n"
+              "current_noise = \"none\"\ncurrent_filter = \"none\"\ntime_lines = [50, 100.0]\ncurrent_delay = 1\n"
+              "encoder_step = \"none\"\npin = [\"ripple\"]\n"
+              "[rotary_experiment]\nrevolutions = 1.5\ndither_hz = [61, 83]\n[rotary_experiment.standstill]\n"
+              "points = 720\n", "exp.toml")
+    config = load_experiment(p)
+    assert config.rotary == RotaryIdentifyOptions(
+        orders=((0, 18), (6, 12), (0, 1)), angle_pll=(1000.0, 1.0), current_lag=None, current_noise=None,
+        current_filter=0.0, time_lines=(50.0, 100.0), current_delay=1, encoder_step=None, pin=("ripple",))
+    assert config.rotary_experiment == RotarySettings(revolutions=1.5, dither_hz=(61.0, 83.0),
+                                                      standstill=StandstillPlan(points=720))
+    # left out, every reading is detected
+    assert load_experiment(_toml(tmp_path, "", "empty.toml")).rotary == RotaryIdentifyOptions()
+    assert RotaryIdentifyOptions().current_filter == "detect"
+
+
+def test_rotary_options_take_the_orders_and_the_reading_of_an_identification():
+    """An :class:`~pgcomm.rotary.regression.Orders` is held as integer tuples and read back unchanged; a reading
+    fixes the current's delay and lag, the PLL and the lines, and nothing else."""
+    import numpy as np
+
+    from pgcomm.rotary.identify import Reading, orders_of
+    from pgcomm.rotary.motor import RotaryMotor
+    from pgcomm.rotary.regression import Orders
+    from pgcomm.settings import RotaryIdentifyOptions
+
+    motor = RotaryMotor(pole_pairs=3, slots=9, sample_time=1e-3)
+    orders = Orders.for_motor(motor)
+    opts = RotaryIdentifyOptions(orders=orders, current_filter=0.05)
+    back = orders_of(opts, motor)
+    for name in ("cogging", "ripple", "direction"):
+        assert np.array_equal(getattr(back, name), getattr(orders, name))
+    assert np.array_equal(orders_of(RotaryIdentifyOptions(), motor).cogging, orders.cogging)
+    read = Reading(current_delay=1, current_lag=0.0625, angle_pll=(800.0, 0.7), time_lines=(50.0,))
+    fixed = opts.with_reading(read)
+    assert (fixed.current_delay, fixed.current_lag, fixed.angle_pll, fixed.time_lines) == (1, 0.0625, (800.0, 0.7),
+                                                                                          (50.0,))
+    assert fixed.current_filter == 0.05 and fixed.current_noise == "detect" and fixed.orders == opts.orders

@@ -19,7 +19,7 @@ import scipy.io as sio
 
 from pgcomm import experiment, trajectory
 from pgcomm.excitation import excitation_report
-from pgcomm.io.setup import build_setup
+from pgcomm.setup import build_setup
 from pgcomm.settings import ExperimentConfig
 from pgcomm.identify import IdentifyOptions, identify_all
 from pgcomm.io.logs import Log, read_logs, write_log

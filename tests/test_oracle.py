@@ -89,7 +89,7 @@ def test_oracle_removes_the_direction_force(runs):
 def test_adding_a_reference_leaves_the_other_runs_unchanged():
     """Noise is seeded per reference (DESIGN.md): an extra reference in the batch changes no other run."""
     from pgcomm.experiment import run_laws
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig
     from pgcomm.reproduce import reference_seed
 

@@ -4,6 +4,7 @@ known cogging (tests/_rotor.py), noise-free, so each tolerance is the kernel's o
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -13,13 +14,15 @@ import _rotor
 from pgcomm.errors import DataError, ExcitationError
 from pgcomm.io.logs import ROTARY_REQUIRED, column_mapping, read_log, with_encoder_counts
 from pgcomm.rotary.identify import identify, resolution_verdict
+from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import DETERMINED_SHARE
 
 MOTOR = RotaryMotor(pole_pairs=3, slots=9, sample_time=1e-3, k_t=0.1, current_limit=5.0)
 GRID = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
 #: Every reading fixed (none of them is under test here) except where a test detects one.
-FIXED = dict(current_delay=0, current_lag=0.0, angle_pll=None, time_lines=(), current_noise=None, extra_orders=False)
+FIXED = RotaryIdentifyOptions(current_delay=0, current_lag=0.0, angle_pll=None, time_lines=(), current_noise=None,
+                              extra_orders=False)
 
 
 def cogging_error(model) -> float:
@@ -45,15 +48,15 @@ def jittered_logs():
 def test_non_uniform_stamps_against_the_uniform_fit(uniform_logs, jittered_logs):
     """Steps of 0.5-1.5 times the median, integrated over the real intervals, give the cogging as a uniform log does:
     both within the kernel's error at this step (the cubic path at 6 samples per period of the highest order)."""
-    uniform = identify(uniform_logs, MOTOR, current_filter=0.0, **FIXED)
-    jittered = identify(jittered_logs, MOTOR, current_filter=0.0, **FIXED)
+    uniform = identify(uniform_logs, MOTOR, replace(FIXED, current_filter=0.0))
+    jittered = identify(jittered_logs, MOTOR, replace(FIXED, current_filter=0.0))
     e_u, e_j = cogging_error(uniform.model), cogging_error(jittered.model)
     assert e_u < 2e-3 and e_j < 2e-3, (e_u, e_j)
     assert jittered.model.inertia_ratio == pytest.approx(_rotor.INERTIA_RATIO, rel=1e-2)
     # the same stamps replaced by a uniform grid: the time the regression integrates over is wrong
     as_uniform = [{**lg, "t": np.arange(lg["t"].size) * np.median(np.diff(lg["t"]))} for lg in jittered_logs]
     try:
-        wrong = cogging_error(identify(as_uniform, MOTOR, current_filter=0.0, **FIXED).model)
+        wrong = cogging_error(identify(as_uniform, MOTOR, replace(FIXED, current_filter=0.0)).model)
     except ExcitationError:
         wrong = np.inf  # refused as implausible: also a sign that the real intervals matter
     assert wrong > 10 * max(e_j, 1e-3)
@@ -64,20 +67,20 @@ def test_a_filtered_report_is_found_and_read_back(jittered_logs):
     cogging comes out as from the current that acted."""
     tau = 0.02
     logs = [_rotor.report_filtered(lg, tau) for lg in jittered_logs]
-    res = identify(logs, MOTOR, current_filter="detect", **FIXED)
-    found = res.info["current_filter"]
+    res = identify(logs, MOTOR, replace(FIXED, current_filter="detect"))
+    found = res.current_filter
     assert found["tau_s"] == pytest.approx(tau, rel=0.05)
     assert found["evidence"] > 10.83
     # against the same logs read back with the true τ (the second formulation: what the read-back's discretisation
     # leaves), the detection adds only the misestimate of τ turning each order h by h ω Δτ (ω up to 20 rad/s)
-    known = cogging_error(identify(logs, MOTOR, current_filter=tau, **FIXED).model)
+    known = cogging_error(identify(logs, MOTOR, replace(FIXED, current_filter=tau)).model)
     dtau = abs(found["tau_s"] - tau)
     a = np.array(_rotor.AMPLITUDES)
     turned = float(np.sqrt(np.sum((a * np.array(_rotor.ORDERS) * 20.0 * dtau) ** 2) / np.sum(a ** 2)))
     assert cogging_error(res.model) < known + 1.5 * turned + 1e-3, (found["tau_s"], known, turned)
     # as logged, the table is late by τ: far off
     try:
-        plain = cogging_error(identify(logs, MOTOR, current_filter=0.0, **FIXED).model)
+        plain = cogging_error(identify(logs, MOTOR, replace(FIXED, current_filter=0.0)).model)
     except ExcitationError:
         plain = np.inf  # refused as implausible
     assert plain > 5 * cogging_error(res.model) and plain > 5 * known
@@ -91,12 +94,11 @@ def test_a_filter_is_not_read_as_a_late_current():
     tau = 0.017
     logs = [_rotor.run(3.0, speed=s, dither=1.0, dither_hz=100.0, jitter=0.3, seed=k, report_filter=tau)
             for k, s in ((3, 20.0), (4, -15.0))]
-    detect = {**FIXED, "current_delay": "detect", "current_lag": "detect"}
-    res = identify(logs, MOTOR, current_filter="detect", **detect)
-    found = res.info["current_filter"]
+    res = identify(logs, MOTOR, replace(FIXED, current_delay="detect", current_lag="detect", current_filter="detect"))
+    found = res.current_filter
     assert found["tau_s"] == pytest.approx(tau, rel=0.05)
-    assert res.info["current_delay"]["samples"] == 0
-    known = cogging_error(identify(logs, MOTOR, current_filter=tau, **FIXED).model)
+    assert res.current_delay["samples"] == 0
+    known = cogging_error(identify(logs, MOTOR, replace(FIXED, current_filter=tau)).model)
     a = np.array(_rotor.AMPLITUDES)
     turned = float(np.sqrt(np.sum((a * np.array(_rotor.ORDERS) * 20.0 * abs(found["tau_s"] - tau)) ** 2)
                            / np.sum(a ** 2)))
@@ -109,17 +111,17 @@ def test_degrees_read_as_radians_name_the_unit(uniform_logs):
     deg = [{**lg, "theta": np.degrees(lg["theta"])} for lg in uniform_logs]
     with pytest.raises(ExcitationError, match=r"too fast .* turn at up to 1\d{3} rad/s .* declare it in the "
                                               r"--columns map's \[units\] \(theta = \"deg\""):
-        identify(deg, MOTOR, current_filter=0.0, **FIXED)
+        identify(deg, MOTOR, replace(FIXED, current_filter=0.0))
 
 
 def test_one_direction_without_dither_pins_ripple_and_direction():
     """A speed-loop log at one speed, one direction, no dither determines the cogging only: the ripple is pinned at
     zero and the direction map folded into the cogging, each verdict naming the experiment that would determine it."""
     log = _rotor.run(6.0, speed=20.0, dither=0.0, seed=3)
-    res = identify([log], MOTOR, current_filter=0.0, **FIXED)
-    assert set(res.info["pinned"]) == {"ripple", "direction"}
+    res = identify([log], MOTOR, replace(FIXED, current_filter=0.0))
+    assert set(res.pinned) == {"ripple", "direction"}
     assert res.model.ripple.orders.size == 0 and res.model.direction.orders.size == 0
-    se = res.info["standard_error"]
+    se = res.standard_error
     assert "dither" in resolution_verdict(se["ripple"]) and "both directions" in resolution_verdict(se["direction"])
     # noise-free, what is left is the ridge's pull on columns that one pass makes nearly collinear (J/k0's θ̈ is a
     # function of the angle too): the verdict reports it, and the error stays within it
@@ -128,9 +130,9 @@ def test_one_direction_without_dither_pins_ripple_and_direction():
 
 
 def test_both_directions_with_a_dither_pin_nothing(uniform_logs):
-    res = identify(uniform_logs, MOTOR, current_filter=0.0, **FIXED)
-    assert res.info["pinned"] == []
-    assert min(res.info["information_share"].values()) > DETERMINED_SHARE
+    res = identify(uniform_logs, MOTOR, replace(FIXED, current_filter=0.0))
+    assert res.pinned == []
+    assert min(res.information_share.values()) > DETERMINED_SHARE
 
 
 # --------------------------------------------------------------------------- the reader
@@ -239,8 +241,8 @@ def test_a_log_that_never_moves_is_refused_by_the_cli(tmp_path):
 def test_a_pinned_ripple_leaves_the_cogging_of_logs_that_determine_it(uniform_logs):
     """``pin``: the ripple pinned on logs that would determine it (the path a fit whose ripple is not a motor's takes)
     leaves the cogging as the full fit has it, this rotor having no ripple."""
-    full = identify(uniform_logs, MOTOR, current_filter=0.0, **FIXED)
-    pinned = identify(uniform_logs, MOTOR, current_filter=0.0, pin=("ripple",), **FIXED)
-    assert pinned.info["pinned"] == ["ripple"] and pinned.model.ripple.orders.size == 0
-    assert "not determined by these logs" in resolution_verdict(pinned.info["standard_error"]["ripple"])
+    full = identify(uniform_logs, MOTOR, replace(FIXED, current_filter=0.0))
+    pinned = identify(uniform_logs, MOTOR, replace(FIXED, current_filter=0.0, pin=("ripple",)))
+    assert pinned.pinned == ["ripple"] and pinned.model.ripple.orders.size == 0
+    assert "not determined by these logs" in resolution_verdict(pinned.standard_error["ripple"])
     assert cogging_error(pinned.model) < max(2 * cogging_error(full.model), 2e-3)

@@ -14,7 +14,7 @@ import pytest
 from pgcomm.calibration import convergence, fit_coefficients
 from pgcomm.cli import main
 from pgcomm.experiment import data_generation_reference, run_calibration
-from pgcomm.io.setup import build_setup
+from pgcomm.setup import build_setup
 from pgcomm.settings import CalibrationConfig, ExperimentConfig
 from pgcomm.io.config import load_motor
 from pgcomm.io.plan import read_plan

@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_d_voltage, has_voltage, offset_text, voltage_text
-from pgcomm.rotary.experiment import RotarySettings, running_references
+from pgcomm.rotary.experiment import running_references
+from pgcomm.settings import RotarySettings
 from pgcomm.rotary.identify import identify
+from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.model import Fourier
 from pgcomm.rotary.regression import Orders
 from pgcomm.rotary.twin import LawParams, default_gains, simulate
@@ -118,8 +120,8 @@ def test_the_voltage_takes_the_currents_timing():
 
     shifted = [dict(log, iq_1=late(log["iq_1"]), vq_1=late(log["vq_1"])) for log in logs]
     a, b = identify(logs, t.motor), identify(shifted, t.motor)
-    assert b.info["current_delay"]["samples"] == 1
-    va, vb = a.info["back_emf"], b.info["back_emf"]
+    assert b.current_delay["samples"] == 1
+    va, vb = a.back_emf, b.back_emf
     assert vb["voltage_delay"] == 1
     assert abs(vb["back_emf_constant"] - va["back_emf_constant"]) < va["back_emf_constant_se"] / 3
     ra, rb = Fourier.from_dict(va["ripple"]), Fourier.from_dict(vb["ripple"])
@@ -154,9 +156,9 @@ def test_identify_checks_the_ripple_against_the_voltage_and_reads_k0(index):
     logs = _logs(t)
     assert has_voltage(logs)
     res = identify(logs, t.motor)
-    bare = identify(logs, t.motor, back_emf=False)
-    v = res.info["back_emf"]
-    assert bare.info["back_emf"] is None
+    bare = identify(logs, t.motor, RotaryIdentifyOptions(back_emf=False))
+    v = res.back_emf
+    assert bare.back_emf is None
     se = v["back_emf_constant_se"] / BACK_EMF_FACTOR
     assert abs(v["k0_amplitude_invariant"] - t.k0) < 4 * se
     assert abs(v["resistance"] / t.winding.resistance - 1.0) < 0.1
@@ -167,7 +169,7 @@ def test_identify_checks_the_ripple_against_the_voltage_and_reads_k0(index):
     kappa = BACK_EMF_FACTOR * t.k0
     bad = [dict(log, vq_1=log["vq_1"] + 0.05 * kappa * log["omega_true"] * np.cos(2 * p * log["theta_true"]))
            for log in logs]
-    w = identify(bad, t.motor).info["back_emf"]
+    w = identify(bad, t.motor).back_emf
     assert not w["consistent"], w
     assert "differs from the currents" in voltage_text(w)
 
@@ -191,7 +193,7 @@ def test_a_voltage_without_back_emf_is_said_so_not_read():
     logs = _logs(t, RotarySettings(revolutions=1.0))
     rng = np.random.default_rng(3)
     noise = [dict(log, vq_1=0.01 * rng.standard_normal(log["t"].size)) for log in logs]
-    v = identify(noise, t.motor).info["back_emf"]
+    v = identify(noise, t.motor).back_emf
     assert v["consistent"] is None and math.isfinite(v["back_emf_constant"])
     assert "does not determine the back-EMF constant" in voltage_text(v)
 
@@ -236,13 +238,13 @@ def test_identify_reads_the_drives_offset_error_from_the_d_voltage(index):
     t = draw_rotary(0, index)
     logs = _logs(t)
     assert has_d_voltage(logs)
-    off = identify(logs, t.motor).info["back_emf"]["offset_error"]
+    off = identify(logs, t.motor).back_emf["offset_error"]
     assert abs(off["delta"] - t.offset_error) < 4 * off["delta_se"], (off, t.offset_error)
     assert abs(off["k_t_aligned"] - t.k_t) < 4 * off["k_t_aligned_se"]
     assert "ahead of the drive's" in offset_text({"offset_error": off})
     turned = replace(t, offset_error=t.offset_error - (off["corrected_offset"] - t.motor.commutation_offset),
                      motor=replace(t.motor, commutation_offset=off["corrected_offset"]))
-    v = identify(_logs(turned, seed=7), turned.motor).info["back_emf"]
+    v = identify(_logs(turned, seed=7), turned.motor).back_emf
     again = v["offset_error"]
     assert abs(again["delta"]) < 4 * again["delta_se"], again
     assert abs(v["k0_amplitude_invariant"] - t.k_t) < 4 * v["back_emf_constant_se"] / BACK_EMF_FACTOR
@@ -305,7 +307,7 @@ def test_without_a_d_voltage_the_line_says_what_would_give_the_offset():
     column that would give it; logs without any voltage say nothing about it."""
     t = draw_rotary(0, 0)
     logs = [{k: v for k, v in log.items() if k != "vd_1"} for log in _logs(t, RotarySettings(revolutions=1.0))]
-    v = identify(logs, t.motor).info["back_emf"]
+    v = identify(logs, t.motor).back_emf
     assert v["consistent"] is not None and v["offset_error"] is None
     assert "vd_1" in offset_text(v)
     assert offset_text(None) is None

@@ -21,7 +21,7 @@ import pytest
 from pgcomm.cli import main
 from pgcomm.export.angle_table import read_angle_table
 from pgcomm.rotary.model import RotaryModel
-from pgcomm.rotary.zoo import read_truth
+from pgcomm.io.rotary_zoo import read_truth
 
 from _drive_pll import pll_and_late, rewrite_logs
 
@@ -67,6 +67,32 @@ def test_identify_rotary_logs_recovers_the_cogging(tmp_path, zoo):
     quant = res["identification"]["quantisation"]
     assert quant["counts_per_revolution"] == [truth.encoder_counts] and quant["logs_on_lattice"] == quant["logs"]
     assert f"lattice of {truth.encoder_counts} counts per revolution" in page
+    # the Python API is the command: the same logs read and identified in this process give the same results.json
+    from pgcomm import identify_rotary_logs, load_rotary_motor, read_logs
+    from pgcomm.io.logs import ROTARY_REQUIRED
+
+    logs = read_logs(sorted(map(str, (zoo / "logs").glob("*.csv"))), required=ROTARY_REQUIRED, gaps=True, stamps=True)
+    found = identify_rotary_logs(logs, load_rotary_motor(zoo / "motor.toml"))
+    api = found.to_dict()
+
+    def same(a, b, where="results"):
+        # the same keys throughout; numbers within rounding of their own size (timings apart)
+        if isinstance(a, dict):
+            assert list(a) == list(b), where
+            for k in a:
+                if k not in ("runtime_s", "seconds"):
+                    same(a[k], b[k], f"{where}.{k}")
+        elif isinstance(a, list):
+            assert len(a) == len(b), where
+            for i, (x, y) in enumerate(zip(a, b)):
+                same(x, y, f"{where}[{i}]")
+        elif isinstance(a, float) and isinstance(b, float):
+            assert (a != a and b != b) or math.isclose(a, b, rel_tol=1e-9), where
+        else:
+            assert a == b, where
+
+    same(json.loads(json.dumps(api)), res)
+    np.testing.assert_allclose(found.table, table.iq, rtol=0, atol=1e-12 * np.max(np.abs(table.iq)))
 
 
 def test_real_drive_log_shape_gives_the_same_model(tmp_path, zoo):
@@ -374,7 +400,8 @@ def test_sweep_table_of_a_staircase_of_holds_matches_the_hold_averages():
     """A sweep logged as a staircase of holds (the drives' other way): binned by angle at the staircase's own
     resolution it covers the whole revolution and is within the hold-average table's own error of the truth
     (twice its RMS error at most: the bins also take the settling samples the hold averages leave out)."""
-    from pgcomm.rotary.standstill import StandstillPlan, run_standstill, staircase, table_from_sweep
+    from pgcomm.rotary.standstill import run_standstill, staircase, table_from_sweep
+    from pgcomm.settings import StandstillPlan
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
     from pgcomm.rotary.zoo import draw_rotary
 
@@ -499,7 +526,7 @@ def test_logs_of_a_drive_faster_than_its_log_through_the_cli(tmp_path, zoo, caps
     ``--current-lag held`` it is not."""
     from dataclasses import replace
 
-    from pgcomm.rotary.zoo import write_running_logs
+    from pgcomm.io.rotary_zoo import write_running_logs
 
     truth = replace(read_truth(zoo / "truth.json"), control_per_log=8)
     logs = [tmp_path / "logs" / name for name in write_running_logs(truth, tmp_path / "logs", seed=0)]
@@ -536,3 +563,30 @@ def test_zoo_drives_faster_than_their_logs(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and match in err[0] and "Traceback" not in err[0]
         assert not bad.exists()
+
+
+def test_the_rotary_table_of_the_settings_reads_as_the_options_on_the_command_line(tmp_path):
+    """``--config``'s ``[rotary]`` table and the reading options on the command line make the same
+    :class:`~pgcomm.settings.RotaryIdentifyOptions` (TOML's ``"held"``/``"none"`` as the options' ``held``/``none``);
+    an option on the command line takes the table's place, and what neither gives is detected."""
+    from dataclasses import replace
+
+    from pgcomm.cli import build_parser
+    from pgcomm.cli._identify_rotary import _rotary_options
+    from pgcomm.settings import RotaryIdentifyOptions
+
+    parser = build_parser()
+    base = ["identify", "--motor", "m.toml", "--data", "x.csv", "--out", str(tmp_path / "o")]
+    cfg = tmp_path / "exp.toml"
+    cfg.write_text("[rotary]\ncurrent_delay = 1\ncurrent_lag = \"held\"\nangle_pll = [1000.0, 0.7]\n"
+                   "time_lines = [50.0]\ncurrent_noise = 0.01\ncurrent_filter = \"none\"\n")
+    from_file = _rotary_options(parser.parse_args([*base, "--config", str(cfg)]))
+    from_flags = _rotary_options(parser.parse_args([*base, "--current-delay", "1", "--current-lag", "held",
+                                                    "--angle-pll", "1000,0.7", "--time-lines", "50",
+                                                    "--current-noise", "0.01", "--current-filter", "none"]))
+    assert from_file == from_flags == RotaryIdentifyOptions(current_delay=1, current_lag=None, angle_pll=(1000.0, 0.7),
+                                                            time_lines=(50.0,), current_noise=0.01,
+                                                            current_filter=0.0)
+    both = _rotary_options(parser.parse_args([*base, "--config", str(cfg), "--current-filter", "0.08"]))
+    assert both == replace(from_file, current_filter=0.08)
+    assert _rotary_options(parser.parse_args(base)) == RotaryIdentifyOptions()

@@ -278,12 +278,12 @@ def test_host_rows_are_the_drives_state_at_jittered_stamps():
 
 def test_a_host_log_written_as_csv_keeps_its_stamps(tmp_path):
     """The zoo's CSV writer keeps a host's stamps as they are (12 digits), non-uniform."""
-    from pgcomm.rotary.zoo import _write_drive_log
+    from pgcomm.io.rotary_zoo import write_drive_log
 
     t = replace(_quiet(draw_rotary(0, 1)), host_jitter=0.2, host_gaps=0.01)
     n = 1500
     log = simulate(t, _open_loop(n, np.full(n, 0.1)), LawParams.classical(t.motor.pole_pairs), NO_FEEDBACK, host=True)
-    _write_drive_log(tmp_path / "run.csv", log)
+    write_drive_log(tmp_path / "run.csv", log)
     back = np.genfromtxt(tmp_path / "run.csv", delimiter=",", names=True)
     np.testing.assert_allclose(back["t"], log["t"], rtol=1e-11, atol=0)
     steps = np.diff(back["t"])
@@ -404,7 +404,7 @@ def test_zoo_real_drive_on_the_command_line(tmp_path, capsys):
     """``pgcomm zoo --kind rotary --real-drive`` writes truths with the habits; the switches are a rotary drive's, and
     ``--stall`` writes a log (it needs ``--logs``): refused in one line, exit 2, nothing written."""
     from pgcomm.cli import main
-    from pgcomm.rotary.zoo import read_truth
+    from pgcomm.io.rotary_zoo import read_truth
 
     from test_bad_input import _check_refused
 

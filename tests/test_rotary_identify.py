@@ -11,6 +11,7 @@ the tests of the snapshot current run it as drawn.
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -18,8 +19,10 @@ import pytest
 from pgcomm.errors import ExcitationError
 from pgcomm.rotary.experiment import identification_errors, quick_settings, running_references
 from pgcomm.rotary.identify import identify, resolution_verdict
+from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.regression import Orders, max_speed
-from pgcomm.rotary.standstill import StandstillPlan, run_standstill
+from pgcomm.rotary.standstill import run_standstill
+from pgcomm.settings import StandstillPlan
 from pgcomm.rotary.twin import LawParams, Reference, default_gains, simulate
 from pgcomm.rotary.zoo import draw_rotary
 from _drive_pll import odrive_pll, with_sensor_pickup
@@ -64,8 +67,8 @@ def test_identification_without_torque_sensor_matches_the_truth(motor0):
     t, logs = motor0
     res = identify(logs, t.motor)
     _within_the_bars(res.model, t)
-    assert res.info["ridge_chosen_by"].startswith("validation")
-    assert res.info["windows_used"] > 0
+    assert res.ridge_chosen_by.startswith("validation")
+    assert res.windows_used > 0
 
 
 def test_a_current_offset_is_the_cogging_maps_constant_and_moves_nothing_else(motor0):
@@ -80,7 +83,7 @@ def test_a_current_offset_is_the_cogging_maps_constant_and_moves_nothing_else(mo
     shifted = identify([dict(lg, iq_1=lg["iq_1"] + i0) for lg in logs], t.motor)
     c = shifted.model.cogging
     c0 = float(c.coef[c.orders == 0, 0].sum())
-    se = shifted.info["standard_error"]
+    se = shifted.standard_error
     assert c0 == pytest.approx(-i0 + float(plain.model.cogging.coef[plain.model.cogging.orders == 0, 0].sum()),
                                abs=0.2 * se["cogging"]["rms_error"] + 1e-3 * i0)
     th = 2 * np.pi * np.arange(4096) / 4096
@@ -102,9 +105,9 @@ def test_a_current_shifted_against_the_angle_is_found(motor0, delay):
 
     t, logs = motor0
     plain = identify(logs, t.motor)
-    assert plain.info["current_delay"]["samples"] == 0
-    assert set(plain.info["current_delay"]["cost_by_delay"]) == set(CURRENT_DELAYS)
-    assert delay_text(plain.info["current_delay"]).startswith("the logged q-current is in time with the angle")
+    assert plain.current_delay["samples"] == 0
+    assert set(plain.current_delay["cost_by_delay"]) == set(CURRENT_DELAYS)
+    assert delay_text(plain.current_delay).startswith("the logged q-current is in time with the angle")
 
     def shift(x):
         out = np.empty_like(x)
@@ -116,15 +119,15 @@ def test_a_current_shifted_against_the_angle_is_found(motor0, delay):
 
     moved = [dict(lg, iq_1=shift(np.asarray(lg["iq_1"]))) for lg in logs]
     found = identify(moved, t.motor)
-    assert found.info["current_delay"]["samples"] == delay
-    assert f"used shifted by {delay}" in delay_text(found.info["current_delay"])
+    assert found.current_delay["samples"] == delay
+    assert f"used shifted by {delay}" in delay_text(found.current_delay)
     th = 2 * np.pi * np.arange(4096) / 4096
     rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
-    se = plain.info["standard_error"]
+    se = plain.standard_error
     assert rms(found.model.cogging(th) - plain.model.cogging(th)) <= 0.1 * se["cogging"]["rms_error"]
     assert rms(found.model.ripple(th) - plain.model.ripple(th)) <= 0.1 * se["ripple"]["rms_error"]
-    as_logged = identify(moved, t.motor, current_delay=0, current_lag=None)
-    assert as_logged.info["current_delay"] == {"samples": 0, "held": True, "lag": 0.0, "cost_by_delay": None,
+    as_logged = identify(moved, t.motor, RotaryIdentifyOptions(current_delay=0, current_lag=None))
+    assert as_logged.current_delay == {"samples": 0, "held": True, "lag": 0.0, "cost_by_delay": None,
                                                "evidence": None, "detected": False}
     assert rms(as_logged.model.cogging(th) - plain.model.cogging(th)) > 3 * se["cogging"]["rms_error"]
 
@@ -140,17 +143,17 @@ def test_a_drive_that_controls_faster_than_it_logs_is_read_smooth(motor0_fast):
 
     t, logs = motor0_fast
     res = identify(logs, t.motor)
-    timing = res.info["current_delay"]
+    timing = res.current_delay
     assert timing["detected"] and not timing["held"] and timing["samples"] == 0
     k = t.control_per_log
     assert timing["lag"] == pytest.approx(1 / (2 * k), abs=1 / 64)
     assert f"about {k} control cycles per logged sample" in delay_text(timing)
     _within_the_bars(res.model, t)
     # held and nothing else: a report filter of a fraction of a sample, searched by default, mimics the snapshot's lag
-    held = identify(logs, t.motor, current_lag=None, current_filter=0.0)
+    held = identify(logs, t.motor, RotaryIdentifyOptions(current_lag=None, current_filter=0.0))
     e_held = identification_errors(held.model, t)
-    assert held.info["current_delay"]["held"]
-    assert e_held["cogging_rel"] > 10 * res.info["standard_error"]["cogging"]["relative"]
+    assert held.current_delay["held"]
+    assert e_held["cogging_rel"] > 10 * res.standard_error["cogging"]["relative"]
     assert e_held["inertia_ratio_rel"] > 0.03
 
 
@@ -170,18 +173,18 @@ def test_an_odrive_log_pll_angle_and_snapshot_current(motor0_fast):
         logs.append({"t": c["t"], "theta": odrive_pll(fine, CubicSpline(c["t"], c["theta"])(fine), 1000.0, 8),
                      "iq_1": c["iq_1"]})
     res = identify(logs, t.motor)
-    assert res.info["angle_pll"]["natural_frequency_rad_s"] == pytest.approx(1000.0, rel=0.3)
-    assert not res.info["current_delay"]["held"] and res.info["current_delay"]["samples"] == 0
+    assert res.angle_pll["natural_frequency_rad_s"] == pytest.approx(1000.0, rel=0.3)
+    assert not res.current_delay["held"] and res.current_delay["samples"] == 0
     _within_the_bars(res.model, t)
     # held and nothing else: a report filter of a fraction of a sample, searched by default, mimics the snapshot's lag
-    held = identify(logs, t.motor, current_lag=None, current_filter=0.0)
-    assert held.info["angle_pll"]["natural_frequency_rad_s"] is None
-    assert identification_errors(held.model, t)["cogging_rel"] > 10 * res.info["standard_error"]["cogging"]["relative"]
+    held = identify(logs, t.motor, RotaryIdentifyOptions(current_lag=None, current_filter=0.0))
+    assert held.angle_pll["natural_frequency_rad_s"] is None
+    assert identification_errors(held.model, t)["cogging_rel"] > 10 * res.standard_error["cogging"]["relative"]
 
 
 def test_identification_with_torque_sensor(motor0):
     t, logs = motor0
-    res = identify(logs, t.motor, torque_sensor=True)
+    res = identify(logs, t.motor, RotaryIdentifyOptions(torque_sensor=True))
     assert res.model.k_t == pytest.approx(t.k0, rel=2e-3)
     e = identification_errors(res.model, t)
     assert e["cogging_rel"] <= 0.05
@@ -196,10 +199,10 @@ def test_the_reading_found_reads_the_logs_again_without_a_search(motor0_fast, mo
     t, logs = motor0_fast
     res = identify(logs, t.motor)
     read = res.reading()
-    assert read["current_lag"] is not None and read["current_lag"] == res.info["current_delay"]["lag"]
-    again = identify(logs, t.motor, **read)
-    assert not again.info["angle_pll"]["searched"] and not again.info["time_lines"]["searched"]
-    assert again.info["current_delay"]["detected"] is False
+    assert read.current_lag is not None and read.current_lag == res.current_delay["lag"]
+    again = identify(logs, t.motor, RotaryIdentifyOptions().with_reading(read))
+    assert not again.angle_pll["searched"] and not again.time_lines["searched"]
+    assert again.current_delay["detected"] is False
     assert again.reading() == read
     for name in ("cogging", "ripple", "direction"):
         a, b = getattr(res.model, name), getattr(again.model, name)
@@ -207,7 +210,7 @@ def test_the_reading_found_reads_the_logs_again_without_a_search(motor0_fast, mo
         np.testing.assert_allclose(b.coef, a.coef, rtol=0, atol=1e-9 * np.abs(a.coef).max())
     t0, logs0 = motor0
     with pytest.raises(ValueError, match="torque sensor"):
-        identify(logs0, t0.motor, torque_sensor=True).reading()
+        identify(logs0, t0.motor, RotaryIdentifyOptions(torque_sensor=True)).reading()
 
 
 def test_alias_guard_refuses_fast_windows(motor0):
@@ -221,7 +224,7 @@ def test_alias_guard_refuses_fast_windows(motor0):
     with pytest.raises(ExcitationError, match="too fast"):
         identify([fast], t.motor)
     res = identify(list(logs) + [fast], t.motor)
-    assert res.info["windows_refused_alias"] > 0 and "refused" in res.info["note"]
+    assert res.windows_refused_alias > 0 and "refused" in res.note
 
 
 def test_standstill_sweep_holds_the_cogging(motor0):
@@ -286,7 +289,7 @@ def test_log_budget_is_a_share_of_this_motors_sweep():
     """``--log-budget`` seconds become the settings' share of the sweep's rig time on the motor's own sample time."""
     import argparse
 
-    from pgcomm.cli.reproduce import _log_budget
+    from pgcomm.cli._reproduce_rotary import _log_budget
 
     s = quick_settings()
     for ts in (1e-3, 2.5e-4):
@@ -312,8 +315,9 @@ def test_standard_errors_predict_the_error_over_noise_seeds():
     for seed in range(4):
         logs = [simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=100 * seed + 1 + k)
                 for k, r in enumerate(refs)]
-        res = identify(logs, t.motor, ridge=1e-10)  # a negligible ridge: the standard error has no bias part
-        e, se = identification_errors(res.model, t), res.info["standard_error"]
+        # a negligible ridge: the standard error has no bias part
+        res = identify(logs, t.motor, RotaryIdentifyOptions(ridge=1e-10))
+        e, se = identification_errors(res.model, t), res.standard_error
         err.append([e["cogging_rms_A"], e["ripple_rms"]])
         pred.append([se["cogging"]["rms_error"], se["ripple"]["rms_error"]])
         assert se["ripple"]["log_time_factor_to_resolve"] >= 1.0
@@ -418,8 +422,8 @@ def test_ridge_bias_is_the_shift_of_a_refit_on_the_fitted_currents(motor0):
     assert float(np.sqrt(np.mean((X @ (shifted - fit["beta"] - fit["bias"])) ** 2))) <= 1e-8 * rms_y
     assert float(np.sqrt(np.mean((X @ fit["bias"]) ** 2))) > 1e-4 * rms_y  # the check above is not vacuous
 
-    strong = identify(logs, t.motor, ridge=1.0).info["standard_error"]
-    weak = identify(logs, t.motor, ridge=1e-10).info["standard_error"]
+    strong = identify(logs, t.motor, RotaryIdentifyOptions(ridge=1.0)).standard_error
+    weak = identify(logs, t.motor, RotaryIdentifyOptions(ridge=1e-10)).standard_error
     for name in ("cogging", "ripple"):
         assert weak[name]["ridge_bias"] < 1e-6
         assert strong[name]["ridge_bias"] > RESOLVED_SHARE and not strong[name]["resolved"]
@@ -459,16 +463,16 @@ def test_screening_adds_the_order_outside_the_basis_and_no_noise_order():
     res = identify(logs, t.motor)
     # the same drive's logs, read as the first identification read them (the reading is not what is tested here)
     read = res.reading()
-    base = identify(logs, t.motor, extra_orders=False, **read)
-    assert res.info["orders_screened"] and not base.info["orders_screened"]
-    assert res.info["orders_added"]["cogging"] == outside.tolist()
+    base = identify(logs, t.motor, RotaryIdentifyOptions(extra_orders=False).with_reading(read))
+    assert res.orders_screened and not base.orders_screened
+    assert res.orders_added["cogging"] == outside.tolist()
     assert np.array_equal(base.model.cogging.orders, orders.cogging)
     e_base, e = identification_errors(base.model, t), identification_errors(res.model, t)
     assert e["cogging_rel"] <= 0.5 * e_base["cogging_rel"]
     clean = _strip_outside(t)
     for seed in range(3):
         logs = [simulate(clean, r, law, gains, seed=100 * seed + 7 + k) for k, r in enumerate(refs)]
-        added = identify(logs, t.motor, **read).info["orders_added"]
+        added = identify(logs, t.motor, RotaryIdentifyOptions().with_reading(read)).orders_added
         assert added == {"cogging": [], "ripple": []}, (seed, added)
 
 
@@ -483,7 +487,7 @@ def test_a_fit_whose_torque_constant_leaves_the_laws_range_is_refused(motor0):
     def fit(amplitude):
         model = RotaryModel(4, Fourier.zeros([]), Fourier(np.array([3]), np.array([[0.0, amplitude]])),
                             Fourier.zeros([]))
-        return RotaryIdentification(model, {"windows_used": 383, "windows": 4622})
+        return RotaryIdentification(model, seconds=0.0, windows_used=383, windows=4622)
 
     inside = fit(0.99 * (1 - MIN_GAIN))
     assert check_plausible(inside) is inside
@@ -623,8 +627,8 @@ def test_noise_free_identification_at_three_samples_per_period():
     logs = [simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=k)
             for k, r in enumerate(refs)]
     res = identify(logs, t.motor)
-    assert res.info["min_samples_per_period"] == 3.0
-    assert res.info["windows_refused_alias"] < 0.2 * res.info["windows"]
+    assert res.min_samples_per_period == 3.0
+    assert res.windows_refused_alias < 0.2 * res.windows
     assert identification_errors(res.model, t)["cogging_rel"] <= 0.005
 
 
@@ -644,7 +648,7 @@ def test_outside_order_limit_is_what_the_screening_sees():
     refs = running_references(t.motor, a, replace(quick_settings(), revolutions=3.0), orders)
     law, gains = LawParams.classical(t.motor.pole_pairs), default_gains(a)
     logs = [simulate(t, r, law, gains, seed=11 + k) for k, r in enumerate(refs)]
-    se = identify(logs, t.motor).info["standard_error"]["cogging"]
+    se = identify(logs, t.motor).standard_error["cogging"]
     lim = se["outside_order_limit"]
     assert 0.1 * se["relative"] < lim < 10 * se["relative"]
     rms_abs = 2.0 * lim * se["rms"] * t.k0  # N·m; the map is in current units
@@ -652,7 +656,7 @@ def test_outside_order_limit_is_what_the_screening_sees():
                       np.concatenate([t.cogging.coef, [[rms_abs * np.sqrt(2.0), 0.0]]]))
     t2 = replace(t, cogging=planted)
     logs = [simulate(t2, r, law, gains, seed=11 + k) for k, r in enumerate(refs)]
-    assert 43 in identify(logs, t2.motor).info["orders_added"]["cogging"]
+    assert 43 in identify(logs, t2.motor).orders_added["cogging"]
 
 
 def test_rounds_of_running_logs_do_not_retrace_the_same_path(motor0):
@@ -699,8 +703,8 @@ def test_reproduce_fills_the_log_budget_unless_told_to_stop_when_resolved():
     assert early.rounds < ident["rounds"]
     assert len(early.logs) == early.rounds * len(refs)
     assert early.seconds == pytest.approx(sum(g["t"].size for g in early.logs) * t.motor.sample_time, rel=1e-12)
-    assert early.identification.info["rounds"] == early.rounds
-    se = early.identification.info["standard_error"]
+    assert early.identification.rounds == early.rounds
+    se = early.identification.standard_error
     assert se["cogging"]["resolved"] and se["ripple"]["resolved"]
 
 
@@ -720,16 +724,16 @@ def test_the_log_mix_a_drive_user_has_gives_the_cogging_and_an_honest_ripple_ver
     t = draw_rotary(0, 0)
     logs = drive_log_mix(t, seed=3)
     const = identify(logs["const"], t.motor)
-    e, se = identification_errors(const.model, t), const.info["standard_error"]
+    e, se = identification_errors(const.model, t), const.standard_error
     assert e["cogging_rel"] <= 0.05 and se["cogging"]["resolved"]
     assert e["ripple_rel"] > 0.05 and not se["ripple"]["resolved"]
     assert "dither" in resolution_verdict(se["ripple"]) and "excitation_hint" not in se["cogging"]
     accel = identify(logs["const"] + logs["accel"], t.motor)
-    assert accel.info["standard_error"]["ripple"]["relative"] <= 0.5 * se["ripple"]["relative"]
+    assert accel.standard_error["ripple"]["relative"] <= 0.5 * se["ripple"]["relative"]
     every = identify(logs["const"] + logs["accel"] + logs["sweep"], t.motor)
     assert identification_errors(every.model, t)["cogging_rel"] <= 0.05
-    for k, v in every.info["orders_added"].items():
-        assert set(v) <= set(accel.info["orders_added"][k]), (k, v)
+    for k, v in every.orders_added.items():
+        assert set(v) <= set(accel.orders_added[k]), (k, v)
 
 
 def test_pll_correction_inverts_a_drive_pll():
@@ -781,10 +785,10 @@ def test_an_angle_logged_through_a_drive_pll_is_read_as_one(motor0):
         fine = tt[0] + ts / every * np.arange(tt.size * every)
         moved.append(dict(lg, theta=odrive_pll(fine, CubicSpline(tt, lg["theta_true"])(fine), 1000.0, every)))
     found = identify(moved, t.motor)
-    est = found.info["angle_pll"]
+    est = found.angle_pll
     assert est["searched"] and est["natural_frequency_rad_s"] == pytest.approx(1000.0, rel=0.1)
     assert est["damping"] == 1.0 and "PLL estimate of natural frequency" in pll_text(est)
-    as_logged = identify(moved, t.motor, angle_pll=None)
+    as_logged = identify(moved, t.motor, RotaryIdentifyOptions(angle_pll=None))
     e_found = identification_errors(found.model, t)["cogging_rel"]
     e_logged = identification_errors(as_logged.model, t)["cogging_rel"]
     assert e_found <= min(e_logged / 3, 0.05)
@@ -794,22 +798,24 @@ def test_an_angle_logged_through_a_drive_pll_is_read_as_one(motor0):
 
     th = 2 * np.pi * np.arange(4096) / 4096
     rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
-    same = dict(extra_orders=False, ridge=found.info["ridge"], current_delay=found.info["current_delay"]["samples"],
-                current_lag=lag_of(found.info["current_delay"]), time_lines=found.info["time_lines"]["hz"])
-    read = identify(moved, t.motor, angle_pll=(est["natural_frequency_rad_s"], est["damping"]), **same)
-    raw = identify(moved, t.motor, angle_pll=None, **same)
+    same = RotaryIdentifyOptions(extra_orders=False, ridge=found.ridge,
+                                 current_delay=found.current_delay["samples"],
+                                 current_lag=lag_of(found.current_delay),
+                                 time_lines=found.time_lines["hz"])
+    read = identify(moved, t.motor, replace(same, angle_pll=(est["natural_frequency_rad_s"], est["damping"])))
+    raw = identify(moved, t.motor, replace(same, angle_pll=None))
     move = rms(raw.model.cogging(th) - read.model.cogging(th)) / rms(read.model.cogging(th))
     # both fits solve the same normal equations but the angle: float64 rounding of the solves, far below 1e-6
-    assert read.info["standard_error"]["cogging"]["pll_bias"] == pytest.approx(PLL_UNCERTAINTY * move, rel=1e-6)
-    assert read.info["standard_error"]["cogging"]["pll_bias"] > 0.01
+    assert read.standard_error["cogging"]["pll_bias"] == pytest.approx(PLL_UNCERTAINTY * move, rel=1e-6)
+    assert read.standard_error["cogging"]["pll_bias"] > 0.01
     plain = identify(logs, t.motor)
-    assert plain.info["standard_error"]["cogging"]["pll_bias"] == 0.0
-    assert plain.info["angle_pll"] == {"natural_frequency_rad_s": None, "damping": None, "searched": False}
+    assert plain.standard_error["cogging"]["pll_bias"] == 0.0
+    assert plain.angle_pll == {"natural_frequency_rad_s": None, "damping": None, "searched": False}
     q = 2 * np.pi / t.encoder_counts
     rng = np.random.default_rng(3)
     noisy = identify([dict(lg, theta=lg["theta"] + 0.4 * q * rng.standard_normal(len(lg["theta"]))) for lg in logs],
                      t.motor)
-    assert noisy.info["angle_pll"]["searched"] and noisy.info["angle_pll"]["natural_frequency_rad_s"] is None
+    assert noisy.angle_pll["searched"] and noisy.angle_pll["natural_frequency_rad_s"] is None
 
 
 def test_a_current_sensors_mains_pickup_is_found_and_fitted_beside_the_maps(motor0):
@@ -824,19 +830,19 @@ def test_a_current_sensors_mains_pickup_is_found_and_fitted_beside_the_maps(moto
     amp = 0.01 * t.motor.current_limit
     picked = with_sensor_pickup(t, refs, amp, 50.0)
     clean = identify(logs, t.motor)
-    assert clean.info["time_lines"]["searched"] and clean.info["time_lines"]["hz"] == []
+    assert clean.time_lines["searched"] and clean.time_lines["hz"] == []
     found = identify(picked, t.motor)
-    lines = found.info["time_lines"]
+    lines = found.time_lines
     longest = max(lg["t"].size for lg in logs) * t.motor.sample_time
     assert len(lines["hz"]) == 1 and abs(lines["hz"][0] - 50.0) <= 0.1 / longest
     assert lines["amplitude_A"][0] == pytest.approx(amp, rel=0.10)
     th = 2 * np.pi * np.arange(4096) / 4096
     rms = lambda x: float(np.sqrt(np.mean(np.square(x))))  # noqa: E731
-    se = clean.info["standard_error"]
+    se = clean.standard_error
     assert rms(found.model.cogging(th) - clean.model.cogging(th)) <= 2 * se["cogging"]["rms_error"]
     assert rms(found.model.ripple(th) - clean.model.ripple(th)) <= 2 * se["ripple"]["rms_error"]
-    blind = identify(picked, t.motor, time_lines=())
-    assert blind.info["time_lines"] == {"hz": [], "searched": False}
+    blind = identify(picked, t.motor, RotaryIdentifyOptions(time_lines=()))
+    assert blind.time_lines == {"hz": [], "searched": False}
     assert rms(blind.model.cogging(th) - clean.model.cogging(th)) > 5 * se["cogging"]["rms_error"]
 
 
@@ -854,7 +860,8 @@ def test_a_line_in_the_logged_current_leaves_the_feedforward_as_without_it(motor
     amp = 0.01 * t.motor.current_limit
     hum = [dict(lg, iq_1=lg["iq_1"] + amp * np.sin(2 * np.pi * 50.0 * lg["t"] + rng.uniform(0, 2 * np.pi)))
            for lg in logs]
-    a, b = fit_mechanics(logs, t.motor, time_lines=(50.0,)), fit_mechanics(hum, t.motor, time_lines=(50.0,))
+    fifty = RotaryIdentifyOptions(time_lines=(50.0,))
+    a, b = fit_mechanics(logs, t.motor, fifty), fit_mechanics(hum, t.motor, fifty)
     for k in a:
         assert b[k] == pytest.approx(a[k], rel=1e-7, abs=1e-7 * abs(a["coulomb"]))
     assert abs(fit_mechanics(hum, t.motor)["coulomb"] - a["coulomb"]) > 1e-3 * abs(a["coulomb"])
@@ -892,7 +899,8 @@ def test_current_noise_beside_the_angle_leaves_the_loops_current_out():
     q-current's sixth difference alone counts as noise (more than twice the twin's); less what the logged angle
     predicts of it, the estimate is within 15 % of the twin's noise (0.97-1.11 times it over zoo seeds 0 and 1), and
     a log whose angle carries no encoder noise reads the same as the difference alone."""
-    from pgcomm.rotary.experiment import RotarySettings, _tuned_drive, running_log
+    from pgcomm.rotary.experiment import _tuned_drive, running_log
+    from pgcomm.settings import RotarySettings
     from pgcomm.rotary.readings import current_noise, current_noise_beside_angle
 
     truth = draw_rotary(1, 4)

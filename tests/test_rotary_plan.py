@@ -442,7 +442,8 @@ def test_a_script_refuses_another_drives_plan(tmp_path, capsys):
 def test_plan_data_sizes_the_next_round_from_the_identification(tmp_path):
     """The zoo's 9N6P running logs (5 s): the next round's time is what ``pgcomm identify``'s standard errors ask for
     on the same logs, at the period the logs show, with the dither from the identified J/k0."""
-    from pgcomm.rotary.zoo import draw_rotary, write_rotary_motor, write_running_logs
+    from pgcomm.io.rotary_zoo import write_rotary_motor, write_running_logs
+    from pgcomm.rotary.zoo import draw_rotary
 
     truth = draw_rotary(0, 0)
     write_rotary_motor(truth, tmp_path / "m")

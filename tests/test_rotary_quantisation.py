@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from pgcomm.rotary import identify as ri
+from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary import regression as rr
 from pgcomm.rotary.quantisation import acceleration_noise, angle_noise, encoder_step
 
@@ -95,13 +96,13 @@ def test_the_correction_takes_the_encoder_noise_out_of_the_inertia():
     t = dataclasses.replace(t, encoder_counts=2**15, control_per_log=1)
     logs = drive_log_mix(t, seed=0)["const"]
     truth = t.inertia / t.k0
-    plain = ri.identify(logs, t.motor, encoder_step=None, extra_orders=False)
-    fixed = ri.identify(logs, t.motor, extra_orders=False)
-    clean = ri.identify([dict(lg, theta=lg["theta_true"]) for lg in logs], t.motor, encoder_step=None,
-                        extra_orders=False)
-    qi = fixed.info["quantisation"]
+    plain = ri.identify(logs, t.motor, RotaryIdentifyOptions(encoder_step=None, extra_orders=False))
+    fixed = ri.identify(logs, t.motor, RotaryIdentifyOptions(extra_orders=False))
+    clean = ri.identify([dict(lg, theta=lg["theta_true"]) for lg in logs], t.motor,
+                        RotaryIdentifyOptions(encoder_step=None, extra_orders=False))
+    qi = fixed.quantisation
     assert qi["counts_per_revolution"] == [2**15] and qi["logs_on_lattice"] == qi["logs"] == len(logs)
-    assert clean.info["quantisation"]["encoder_step_rad"] is None
+    assert clean.quantisation["encoder_step_rad"] is None
     err_plain = abs(plain.model.inertia_ratio - truth)
     assert plain.model.inertia_ratio < truth and err_plain > 0.05 * truth  # the attenuation this test is about
     assert abs(fixed.model.inertia_ratio - truth) <= err_plain / 3
@@ -110,8 +111,8 @@ def test_the_correction_takes_the_encoder_noise_out_of_the_inertia():
     shift = qi["inertia_ratio_shift"]
     assert plain.model.inertia_ratio - fixed.model.inertia_ratio < shift < 0.0
     for name in ("cogging", "ripple"):
-        assert fixed.info["standard_error"][name]["quantisation_bias"] > 0.0
-        assert plain.info["standard_error"][name]["quantisation_bias"] == 0.0
+        assert fixed.standard_error[name]["quantisation_bias"] > 0.0
+        assert plain.standard_error[name]["quantisation_bias"] == 0.0
 
 
 def test_the_corrected_fit_is_the_dense_solve_of_the_corrected_normal_equations():

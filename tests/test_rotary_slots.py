@@ -79,7 +79,7 @@ def test_identify_without_slots_gives_the_same_table(tmp_path):
     res = json.loads((tmp_path / "without" / "results.json").read_text())
     assert res["motor"]["slots"] == 9 and res["slots_detected"]["cogging_fundamental"] == 18
     # the zoo's drive logs snapshots: counted again on the current read smooth, 1/(2K) of a sample late
-    from pgcomm.rotary.zoo import read_truth
+    from pgcomm.io.rotary_zoo import read_truth
 
     k = read_truth(folder / "truth.json").control_per_log
     assert k > 1 and res["slots_detected"]["counted_after_reading"] is True
@@ -124,7 +124,7 @@ def test_slots_are_counted_with_a_time_periodic_disturbance_fitted(tmp_path):
 
     from pgcomm.cli import main
     from pgcomm.export.angle_table import read_angle_table
-    from pgcomm.rotary.zoo import write_rotary_motor
+    from pgcomm.io.rotary_zoo import write_rotary_motor
 
     t = draw_rotary(0, 5)
     m = t.motor

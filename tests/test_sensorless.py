@@ -151,7 +151,7 @@ def twin_run():
     from dataclasses import replace
 
     from pgcomm import experiment
-    from pgcomm.io.setup import build_setup
+    from pgcomm.setup import build_setup
     from pgcomm.settings import ExperimentConfig
     from pgcomm.reproduce import quick_config
 

@@ -17,7 +17,7 @@ import pytest
 
 from pgcomm.cli import main
 from pgcomm.errors import DataError
-from pgcomm.io.setup import build_setup
+from pgcomm.setup import build_setup
 from pgcomm.settings import ExperimentConfig
 from pgcomm.io.logs import Log, read_log, write_log
 from pgcomm.io.model import load_model

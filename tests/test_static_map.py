@@ -10,7 +10,8 @@ import pytest
 
 from pgcomm.errors import DataError
 from pgcomm.rotary.model import Fourier, RotaryModel
-from pgcomm.rotary.static_map import compare, index_offset, is_static_map, read_static_map
+from pgcomm.io.static_map import is_static_map, read_static_map
+from pgcomm.rotary.static_map import compare, index_offset
 
 COUNTS = 8192
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import pgcomm  # noqa: F401  (enables float64)
-from pgcomm.io.setup import build_setup
-from pgcomm.settings import load_experiment
+from pgcomm.setup import build_setup
+from pgcomm.io.config import load_experiment
 from pgcomm.forcemap import ForceMapPlant
 from pgcomm.io.forcemap import load_forcemap
 from pgcomm.io.config import load_motor

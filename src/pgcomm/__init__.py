@@ -38,8 +38,8 @@ _PUBLIC = {
     "load_forcemap": ("pgcomm.io.forcemap", "load_forcemap"),
     # experiment settings, set-up, the whole experiment
     "ExperimentConfig": ("pgcomm.settings", "ExperimentConfig"),
-    "load_experiment": ("pgcomm.settings", "load_experiment"),
-    "build_setup": ("pgcomm.io.setup", "build_setup"),
+    "load_experiment": ("pgcomm.io.config", "load_experiment"),
+    "build_setup": ("pgcomm.setup", "build_setup"),
     "run_experiment": ("pgcomm.reproduce", "run"),
     # the rig: plan, logs, calibration, identification
     "make_plan": ("pgcomm.plan", "make_plan"),
@@ -52,6 +52,10 @@ _PUBLIC = {
     "identify_pgnn": ("pgcomm.identify", "identify"),
     "IdentifyOptions": ("pgcomm.identify.options", "IdentifyOptions"),
     "identify_spline": ("pgcomm.identify.spline", "identify_spline"),
+    # a rotary motor from its drive's logs (pgcomm identify --motor rotary.toml), with its settings
+    "identify_rotary_logs": ("pgcomm.rotary.from_logs", "identify_from_logs"),
+    "RotaryIdentifyOptions": ("pgcomm.settings", "RotaryIdentifyOptions"),
+    "load_rotary_motor": ("pgcomm.io.config", "load_rotary_motor"),
     # models and laws
     "CombinedModel": ("pgcomm.models", "CombinedModel"),
     "SplineModel": ("pgcomm.spline_model", "SplineModel"),

@@ -13,14 +13,14 @@ the compiled code, and so every number, is the same.
 from __future__ import annotations
 
 import gc
+import ctypes
+import sys
 
 __all__ = ["release_compiled_programs", "trim_heap"]
 
 
 def trim_heap() -> None:
     """Hand the heap the process has freed back to the system (glibc only; elsewhere nothing happens)."""
-    import ctypes
-
     try:
         ctypes.CDLL("libc.so.6").malloc_trim(0)
     except (OSError, AttributeError):  # not glibc: the heap stays with the process
@@ -33,8 +33,6 @@ def release_compiled_programs() -> None:
     Call between independent steps of a run, never inside a loop that reuses a program (it would be
     compiled again on every pass).
     """
-    import sys
-
     jax = sys.modules.get("jax")  # not loaded: no programs to drop (and no reason to load it)
     if jax is not None:
         jax.clear_caches()

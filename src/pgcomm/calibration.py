@@ -48,6 +48,8 @@ import scipy.linalg
 
 from pgcomm.errors import DataError
 from pgcomm.interp import hat_basis
+from pgcomm.data import active_coil_set, log_currents, velocity_from_positions
+from pgcomm.sensorless import AccelerationFilter, filter_windows, filtered_acceleration, window_starts
 
 
 @dataclass(frozen=True)
@@ -128,8 +130,6 @@ def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset
     n1 = fy1.shape[0]
     sensorless = method == "sensorless"
     if sensorless:
-        from pgcomm.data import velocity_from_positions
-
         labels = (np.arange(y.shape[0]) >= n1).astype(int)
         v = velocity_from_positions(y, sample_time, labels)
     else:
@@ -226,8 +226,6 @@ def _sensorless_coefficients(y, v, fs, labels, keep, lo, hi, sample_time, mass, 
                              block):
     """``(ĉ_1, ĉ_2, cov)`` of method ``"sensorless"``: the ``"offset"`` columns and ``ẏ``, filtered, against
     ``m ÿ_f`` (``block``: noise-block label per sample, for the covariance)."""
-    from pgcomm.sensorless import AccelerationFilter, filter_windows, filtered_acceleration, window_starts
-
     if not (mass is not None and mass > 0):
         raise DataError(f"calibration without a force sensor needs the moving mass (kg), got {mass!r}")
     if not pole_pitch:
@@ -309,8 +307,6 @@ def calibrate_from_logs(logs, motor, method: str = "offset", n_bins: int = 40) -
         DataError: missing columns, no or several active coil sets in a log, a coil set without
             exactly one log of each sign of ``Δ``, or ``|Δ|`` that differs between the two logs.
     """
-    from pgcomm.data import active_coil_set, log_currents
-
     mass = None
     if method == "sensorless":
         if motor.mass is None:

@@ -34,6 +34,7 @@ import numpy as np
 
 from pgcomm._pytree import pytree_dataclass, static_field
 from pgcomm.motor import Motor, commutation_phase, ideal_gain_phases, star_reduce, star_to_phases
+from pgcomm.protocols import Plant
 
 #: Inverse of the per-coil-set copper-loss metric ``Q = [[2, 1], [1, 2]]``.
 _QINV_PHASE = np.array([[2.0, -1.0], [-1.0, 2.0]]) / 3.0
@@ -400,7 +401,7 @@ class ModelLaw:
         return jnp.where(ok[..., None, None], i, 0.0)
 
 
-def oracle_law(plant, current_limit: float | None = None) -> ModelLaw:
+def oracle_law(plant: Plant, current_limit: float | None = None) -> ModelLaw:
     """The oracle: the exact inverse of everything the plant knows, fed its true state.
 
     ``i = K(y)^† (F* - F_cog(y) - F_dir(y, v))`` with the plant's true gain, cogging and

@@ -101,8 +101,8 @@ def fit_cogging_table(y, residual, entries: int = 2000, y_range=None, smooth: fl
         entries: table size ``M``; y_range: grid ends (m), default the data's range.
         smooth: weight of the second-difference penalty (dimensionless).
     """
-    from scipy.sparse import coo_matrix, diags, vstack
-    from scipy.sparse.linalg import lsqr
+    from scipy.sparse import coo_matrix, diags, vstack  # start-up cost: SciPy loads only when this runs
+    from scipy.sparse.linalg import lsqr  # start-up cost: SciPy loads only when this runs
 
     y = np.asarray(y, float)
     lo, hi = (float(y.min()), float(y.max())) if y_range is None else y_range

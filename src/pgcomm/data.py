@@ -200,7 +200,7 @@ def velocity_from_positions(y, sample_time: float, segments=None, window: float 
     Returns:
         ``(N,)`` velocity (m/s).
     """
-    from scipy.signal import savgol_filter
+    from scipy.signal import savgol_filter  # start-up cost: SciPy loads only when this runs
 
     y = np.asarray(y, dtype=float)
     if not sample_time > 0:

@@ -39,13 +39,16 @@ against its own time axis.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+import os
+from collections import Counter
 
 import numpy as np
 
 from pgcomm.errors import DataError
 from pgcomm.metrics import DIRECTIONS, RunningMse, tracking_mse
+from pgcomm import sensorless as sl
 
 __all__ = ["LogEvaluation", "evaluate_log", "evaluate_logs", "evaluation_results", 
            "format_table", "require_desired_force", "missing_desired_force", "reconstruct_force", "ReconstructedForce",
@@ -92,7 +95,7 @@ def _force_program():
     """The compiled ``(model, y, currents, v) -> model.force(y, currents, v)`` (made on first use: loading JAX
     is left to the logs that are evaluated with a model)."""
     if not _FORCE:
-        import jax
+        import jax  # start-up cost: JAX loads only when this runs
 
         _FORCE.append(jax.jit(lambda model, y, currents, v: model.force(y, currents, v)))
     return _FORCE[0]
@@ -131,7 +134,7 @@ class ReconstructedForce:
 
     def filtered(self, columns) -> np.ndarray:
         """Raw columns ``(N,)``/``(N, k)`` filtered as the force (:func:`pgcomm.sensorless.filter_windows`)."""
-        from pgcomm.sensorless import filter_windows
+        from pgcomm.sensorless import filter_windows  # start-up cost: loads JAX only when this runs
 
         return filter_windows(self.filt, self.starts, columns)
 
@@ -156,8 +159,7 @@ def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedF
     Raises:
         DataError: no window in which the translator moves (names the log).
     """
-    from pgcomm import sensorless as sl
-    from pgcomm.data import CoilSetData, velocity_from_positions
+    from pgcomm.data import CoilSetData, velocity_from_positions  # start-up cost: loads JAX only when this runs
 
     ts = log.sample_time
     y = log["y"]
@@ -225,9 +227,6 @@ def log_names(files) -> list[str]:
     Returns:
         ``(n,)`` names, in the order of ``files``.
     """
-    import os
-    from collections import Counter
-
     paths = [Path(os.path.abspath(str(f))) for f in files]
     stems = [p.parent / p.stem for p in paths]
     # files that differ only in their extension keep it; a file given twice is no clash
@@ -454,7 +453,7 @@ def _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch
               commutation_mse=_mse_y_only(None if rc.error is None else float(np.mean(rc.error ** 2))),
               tracking_mse=None if e is None else tracking_mse(e), notes=tuple(notes), reconstructed=rc)
     if model is not None:
-        from pgcomm.models import warn_outside_training_range
+        from pgcomm.models import warn_outside_training_range  # start-up cost: loads JAX only when this runs
 
         source = _currents_source(log, model, motor)
         fy_hat = np.empty(log.n_samples)
@@ -480,15 +479,15 @@ def _currents_source(log, model, motor) -> str:
 
 def _currents(log, motor) -> np.ndarray:
     """Star currents ``(N, L, 2)`` (A) of a log (or of a block of its rows): logged, or from the drive inputs."""
-    from pgcomm.data import log_currents
+    from pgcomm.data import log_currents  # start-up cost: loads JAX only when this runs
 
     return np.asarray(log_currents(log, motor))
 
 
 def _model_fit(log, model, motor, lowpass_hz) -> dict:
     """``model_error``, ``model_mse``, ``currents``, ``range_warning`` of one log, block by block."""
-    from pgcomm.data import velocity_from_positions
-    from pgcomm.models import warn_outside_training_range
+    from pgcomm.data import velocity_from_positions  # start-up cost: loads JAX only when this runs
+    from pgcomm.models import warn_outside_training_range  # start-up cost: loads JAX only when this runs
 
     source = _currents_source(log, model, motor)
     y = log["y"]
@@ -512,8 +511,6 @@ def evaluate_logs(logs, lowpass_hz: float = 50.0, model=None, motor=None, mechan
     for a log without a force sensor, with a model its currents (or drive inputs and ``motor``)
     and coil sets.
     """
-    from dataclasses import replace
-
     logs = list(logs)
     for log in logs:  # refuse before any work: a bad last log should not cost the first ones' time
         _check_inputs(log, model, motor, mechanics)

@@ -10,7 +10,7 @@ feedforward per law (:func:`tune_feedforward`), closed-loop runs (:func:`run_law
 metrics (:func:`run_metrics`). The CLI commands and :mod:`pgcomm.reproduce` use them.
 
 Where the pieces are: the settings schema is :mod:`pgcomm.settings`, the set-up and its checks
-:mod:`pgcomm.setup`, reading one from files :mod:`pgcomm.io.setup`, and the drives' sensorless
+:mod:`pgcomm.setup` (also reading one from files), and the drives' sensorless
 anti-cogging table :mod:`pgcomm.sensorless_table`.
 """
 
@@ -20,17 +20,23 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import jax
 
 from pgcomm import trajectory
 from pgcomm.calibration import CalibrationResult, calibrate
 from pgcomm.control import Feedforward, identify_feedforward
 from pgcomm.data import CoilSetData, generate_datasets
-from pgcomm.identify import identify_all
+from pgcomm.identify import identify, identify_all
 from pgcomm.metrics import commutation_mse, tracking_mse
 from pgcomm.models import CombinedModel
 from pgcomm.seeds import stream_seed
-from pgcomm.setup import Setup, sensorless_mass
+from pgcomm.setup import build_setup, sensorless_mass, Setup
 from pgcomm.simulate import SimResult, simulate_many
+from pgcomm.identify.mechanics import identify_mechanics
+from pgcomm.identify.spline import identify_spline, SplineOptions
+from pgcomm.io.config import load_experiment
+from pgcomm.io.logs import write_datasets
+from pgcomm.sensorless import sensorless_data, with_classical_rows
 
 __all__ = ["data_generation_reference", "single_velocity_reference", "generate", "run_calibration",
            "tune_feedforward", "run_laws", "run_metrics", "calibration_results", "identify_models",
@@ -120,8 +126,6 @@ def run_laws(setup: Setup, laws: list, reference, feedforwards: list, seeds) -> 
 
     ``reference`` is one reference for all laws or a list with one per law.
     """
-    import jax
-
     refs = list(reference) if isinstance(reference, (list, tuple)) else [reference] * len(laws)
     groups: dict = {}
     for j, law in enumerate(laws):
@@ -173,8 +177,6 @@ def identify_sensorless_models(setup: Setup, data: list[CoilSetData], k, zeta, s
     Returns:
         ``(CombinedModel, [IdentifyResult])``; each result's ``mechanics`` holds the friction.
     """
-    from pgcomm.sensorless import sensorless_data, with_classical_rows
-
     ic = setup.config.identification
     motor = setup.motor
     mass = sensorless_mass(setup)
@@ -208,9 +210,6 @@ def identify_spline_models(setup: Setup, data: list[CoilSetData], progress=None)
         table's ``v_ε`` of ``[identification] direction_velocity``, and
         :func:`pgcomm.identify.mechanics.identify_mechanics` on the model's force.
     """
-    from pgcomm.identify.mechanics import identify_mechanics
-    from pgcomm.identify.spline import SplineOptions, identify_spline
-
     ic, motor = setup.config.identification, setup.motor
     fit = identify_spline(data, motor.pole_pitch, SplineOptions(direction_velocity=ic.direction_velocity), progress)
     mech = identify_mechanics(data, fit.model, motor.sample_time, motor.pole_pitch, ic.direction_velocity)
@@ -227,8 +226,6 @@ def identify_direction_models(setup: Setup, data: list[CoilSetData], start_model
     Returns:
         ``(CombinedModel, [IdentifyResult])``.
     """
-    from pgcomm.identify import identify
-
     ic = setup.config.identification
     res = []
     for l, (d, m0) in enumerate(zip(data, start_models)):
@@ -281,10 +278,6 @@ def write_production_logs(folder, seed: int = 0) -> list[Path]:
     Returns:
         the ``2 L`` log paths.
     """
-    from pgcomm.io.logs import write_datasets
-    from pgcomm.io.setup import build_setup
-    from pgcomm.settings import load_experiment
-
     folder = Path(folder)
     setup = build_setup(load_experiment(folder / "config.toml"), forcemap_path=folder / "plant.csv",
                         motor_path=folder / "motor.toml")

@@ -33,6 +33,7 @@ from pgcomm.errors import DataError
 from pgcomm.interp import interp_linear
 from pgcomm.motor import star_reduce
 from pgcomm.plant import plant_force, zeros3
+from pgcomm.protocols import Plant
 
 __all__ = ["ForceMapPlant", "check_in_range"]
 
@@ -107,7 +108,7 @@ class ForceMapPlant:
         return cls(jnp.asarray(y), jnp.asarray(g), jnp.asarray(c), uniform=uniform, source=str(source))
 
     @classmethod
-    def from_plant(cls, plant, y, source: str = "sampled plant") -> "ForceMapPlant":
+    def from_plant(cls, plant: Plant, y, source: str = "sampled plant") -> "ForceMapPlant":
         """Sample another plant's ``gain_phases`` and ``cogging`` at positions ``y`` (m, ``(M,)``)."""
         y = np.asarray(y, dtype=np.float64)
         gain, cog = _sample_plant(plant, jnp.asarray(y))
@@ -157,7 +158,7 @@ class ForceMapPlant:
         return (y >= self.y_grid[0]) & (y <= self.y_grid[-1])
 
 
-def check_in_range(plant, y, where: str) -> None:
+def check_in_range(plant: Plant, y, where: str) -> None:
     """Raise :class:`DataError` if any position in ``y`` lies outside ``plant.y_range``.
 
     Host-side companion of :meth:`ForceMapPlant.in_range` (a jitted loop cannot

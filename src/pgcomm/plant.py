@@ -1,4 +1,4 @@
-"""The electromagnetic truth a simulation runs against: the plant interface.
+"""The electromagnetic truth a simulation runs against: the plant interface (:class:`pgcomm.protocols.Plant`).
 
 A plant is a pytree with these methods (all vectorised over a leading shape ``S``
 and jittable):
@@ -24,9 +24,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from pgcomm.motor import PHASE_OFFSETS, total_force
+from pgcomm.protocols import Plant
 
 
-def plant_force(plant, y, currents, v=None):
+def plant_force(plant: Plant, y, currents, v=None):
     """``F = Σ_l K^l(y) i^l + F_cog(y) + F_dir(y, v)`` for any plant.
 
     Args:
@@ -40,7 +41,7 @@ def plant_force(plant, y, currents, v=None):
     return f if v is None else f + plant.direction_force(y, v)
 
 
-def static_force(plant, y, currents):
+def static_force(plant: Plant, y, currents):
     """Static part ``Σ_l K^l(y) i^l + F_cog(y)`` (no direction-dependent term), ``S + (3,)``."""
     return total_force(plant.gain(y), currents) + plant.cogging(y)
 
@@ -53,7 +54,7 @@ def zeros3(y):
 _gain_phases_jit = jax.jit(lambda plant, y: plant.gain_phases(y))
 
 
-def fundamental(plant, pole_pitch: float, y_range, n: int = 20001):
+def fundamental(plant: Plant, pole_pitch: float, y_range, n: int = 20001):
     """True fundamental ``(k^l, ζ^l)`` per coil set of any plant: what calibration should recover.
 
     Parasitic effects (field drift, phase drift, winding imbalance, magnet tolerances) shift

@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
 import numpy as np
+import jax.numpy as jnp
 
 from pgcomm import experiment
 from pgcomm._memory import release_compiled_programs
@@ -46,6 +47,8 @@ from pgcomm.setup import Setup, check_reference, sensorless_mass, simulated_mass
 from pgcomm.identify import IdentifyResult
 from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se, reducible_share
 from pgcomm.models import CombinedModel
+from pgcomm.protocols import ForceModel, Plant
+from pgcomm.progress import Progress
 
 ROWS = ("original", "classical", "physics", "pgnn", "pgnn_direction", "spline", "pgnn_sensorless", "cogging_table",
         "cogging_table_sensorless", "harmonic_cogging", "oracle")
@@ -66,7 +69,7 @@ PAPER = {
 }
 
 
-def model_error(model, plant, y_range, n: int = 2001) -> dict:
+def model_error(model: ForceModel, plant: Plant, y_range, n: int = 2001) -> dict:
     """RMS error of a model's gain and cogging against the plant's truth over ``y_range`` (m).
 
     Args:
@@ -81,8 +84,6 @@ def model_error(model, plant, y_range, n: int = 2001) -> dict:
         the mean over positions and coil sets of the model's driving-force gain amplitude over the
         truth's, ``|K̂_y(y)| / |K_y(y)|`` (both current columns; 1.08 = the model's gain 8 % high).
     """
-    import jax.numpy as jnp
-
     y = jnp.linspace(y_range[0], y_range[1], n)
     g_hat, c_hat = (np.asarray(a) for a in gain_and_cogging(model, y))
     g, c = (np.asarray(a) for a in gain_and_cogging(plant, y))
@@ -464,8 +465,6 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
         extra_reference: an optional :class:`~pgcomm.trajectory.Reference` evaluated as ``"user"``.
         progress: a :class:`pgcomm.progress.Progress` (default: silent).
     """
-    from pgcomm.progress import Progress
-
     progress = progress or Progress(enabled=False)
     # the run simulates the translator, so its mass is known: a motor description without one takes it (said)
     setup, mass_source = simulated_mass(setup)

@@ -55,6 +55,7 @@ import numpy as np
 from pgcomm.data import CoilSetData, split_indices
 from pgcomm.errors import DataError
 from pgcomm.interp import hat_basis
+from pgcomm.models import physics_from_ideal
 
 #: Window length in pole pitches travelled at the fast speed ``v_95`` (see the module docstring).
 WINDOW_POLE_SHARE = 0.1
@@ -412,8 +413,6 @@ def with_classical_rows(model, k: float, zeta: float, mu: float, lever_arm: floa
     with the calibrated ``k`` (N/A), ``ζ`` (rad), nominal ``μ`` (-) and lever arm (m)
     (:func:`pgcomm.models.physics_from_ideal`): no network, cogging, harmonic or direction part.
     """
-    from pgcomm.models import physics_from_ideal
-
     a, b = physics_from_ideal(model.pole_pitch, k, zeta, mu, lever_arm)
 
     def y_row_only(w, axis=-1):  # output columns / rows are the directions [Fy, Fx, Tz]

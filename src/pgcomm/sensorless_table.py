@@ -10,6 +10,7 @@ classical law and fits the table (:func:`pgcomm.compensation.fit_effort_table`).
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from pgcomm.control import Feedforward
 from pgcomm.errors import ConfigError
 from pgcomm.experiment import run_laws
 from pgcomm.setup import Setup, check_reference
+from pgcomm.compensation import fit_effort_table
 
 __all__ = ["EFFORT_SPEED_FRACTION", "loop_settling_time", "sensorless_cogging_table", "effort_reference"]
 
@@ -82,10 +84,6 @@ def sensorless_cogging_table(setup: Setup, classical_law, feedforward: Feedforwa
         ConfigError: a speed that is not > 0, a reference outside the plant, or a stroke too short
             to leave settled samples in both directions at the same positions.
     """
-    import time
-
-    from pgcomm.compensation import fit_effort_table
-
     t0 = time.perf_counter()
     ref, speed, pos, neg, settle = effort_reference(setup, speed)
     lo, hi = setup.config.reference.span

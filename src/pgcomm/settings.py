@@ -1,6 +1,6 @@
 """Experiment settings: the schema of an experiment config TOML (frozen dataclasses).
 
-An experiment config is a TOML file (read by :func:`load_experiment`) whose tables map onto
+An experiment config is a TOML file (read by :func:`pgcomm.io.config.load_experiment`) whose tables map onto
 :class:`ExperimentConfig`::
 
     sample_time = 0.001        # s
@@ -14,24 +14,27 @@ An experiment config is a TOML file (read by :func:`load_experiment`) whose tabl
     [calibration]              # k0 (N/A), zeta0 (rad), delta (rad), iterations, tol, method, n_bins
     [identification]           # gain_widths, cog_widths, activation, regularisation, starts, ...
     [evaluation]               # lowpass_hz, cogging_table_entries, harmonics
+    [rotary]                   # a rotary motor's identification: RotaryIdentifyOptions, e.g. current_filter = 0.08
+    [rotary_experiment]        # pgcomm reproduce on a rotary motor: RotarySettings, [rotary_experiment.standstill]
 
 Unknown keys are refused with the closest valid name. Every field carries its range, unit and
 a hint in its metadata (:func:`pgcomm.io.config.load_dataclass` reads them for the messages).
-Resolving the settings against a plant is :mod:`pgcomm.setup` and :mod:`pgcomm.io.setup`.
+Resolving the settings against a plant, and reading a set-up from files, is :mod:`pgcomm.setup`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from pgcomm.control import PID
 from pgcomm.mechanics import Mechanics
 from pgcomm.sensors import Sensors
 from pgcomm.twin import TwinParams
+from pgcomm.identify.options import IdentifyOptions
 
 __all__ = ["ControllerConfig", "ReferenceConfig", "CalibrationConfig", "IdentificationConfig", "EvaluationConfig",
-           "ExperimentConfig", "load_experiment"]
+           "StandstillPlan", "RotarySettings", "RotaryIdentifyOptions", "ExperimentConfig"]
 
 
 @dataclass(frozen=True)
@@ -143,8 +146,6 @@ class IdentificationConfig:
             changes: fields of :class:`~pgcomm.identify.options.IdentifyOptions` that differ from the
                 settings for one call (e.g. ``direction=True`` for the direction row).
         """
-        from pgcomm.identify.options import IdentifyOptions
-
         fields = dict(gain_widths=self.gain_widths, cog_widths=self.cog_widths,
                       gain_width_candidates=self.gain_width_candidates, activation=self.activation,
                       regularisation=self.regularisation, ridge_output=self.ridge_output, starts=self.starts,
@@ -164,6 +165,215 @@ class EvaluationConfig:
 
 
 @dataclass(frozen=True)
+class StandstillPlan:
+    """A standstill sweep: ``points`` angles per revolution, ``settle`` and ``average`` samples per angle."""
+
+    points: int = field(default=3600, metadata={"range": (16, 10_000_000), "hint": "angles per revolution"})
+    settle: int = field(default=30, metadata={"range": (0, 1_000_000), "hint": "samples to settle at each angle"})
+    average: int = field(default=20, metadata={"range": (1, 1_000_000), "hint": "samples averaged at each angle"})
+
+    def duration(self, sample_time: float) -> float:
+        """Seconds the sweep takes on the rig (both directions)."""
+        return 2 * self.points * (self.settle + self.average) * sample_time
+
+
+@dataclass(frozen=True)
+class RotarySettings:
+    """Sizes of the rotary experiment.
+
+    Attributes:
+        revolutions: revolutions per running-log segment (two speeds, both directions).
+        speed_shares: mean speeds of the segments as shares of the alias guard's speed limit.
+        dither_hz: frequencies of the q-current dither the drive injects in the running logs (Hz). The twin has no
+            mains pickup; on a rig keep them a few hertz off the mains' harmonics, where a pickup within a natural bin
+            of a dither cannot be told from it (:mod:`pgcomm.rotary.time_lines`).
+        dither_share: dither amplitude as a share of the current limit (at most; less where the
+            speed swing would exceed ``swing`` of the mean speed).
+        swing: largest speed swing the dither may cause (share of the mean speed).
+        standstill: the sweep (points, settle, average).
+        eval_share: evaluation speed as a share of the speed limit.
+        eval_revolutions: revolutions per direction of each evaluation run.
+        log_budget_share: the running logs may take at most this share of the standstill sweep's rig
+            time: while the identification's standard error says the cogging or the ripple is not
+            resolved (within :data:`pgcomm.rotary.identify.RESOLVED_SHARE` of its RMS with probability
+            :data:`~pgcomm.rotary.identify.RESOLVED_CONFIDENCE`), more rounds of the
+            same references are recorded, as many as the standard error asks for and the budget allows
+            (what an engineer at the rig does: log until the map is resolved, then stop).
+        stop_when_resolved: stop logging as soon as both maps are resolved (``True``), or record the whole
+            budget (``False``, the default): a map resolved to 5 % RMS can still miss an order outside the
+            basis that the screening would find in a longer log, and a low one costs the speed loop more than
+            its share of the RMS (a low outside order left unseen can cost the law most of its gain over the
+            standstill table in the speed loop).
+    """
+
+    revolutions: float = field(default=2.0, metadata={"range": (0.01, 1e4), "unit": "rev"})
+    speed_shares: tuple[float, ...] = field(default=(0.3, 0.5), metadata={"range": (1e-3, 1.0),
+                                                                         "hint": "shares of the speed limit"})
+    dither_hz: tuple[float, ...] = field(default=(61.0, 83.0, 107.0), metadata={"range": (0.0, 1e5), "unit": "Hz"})
+    dither_share: float = field(default=0.5, metadata={"range": (0.0, 1.0), "hint": "a share of the current limit"})
+    swing: float = field(default=0.8, metadata={"range": (0.0, 1.0), "hint": "a share of the mean speed"})
+    standstill: StandstillPlan = field(default_factory=StandstillPlan)
+    eval_share: float = field(default=0.5, metadata={"range": (1e-3, 1.0), "hint": "a share of the speed limit"})
+    eval_revolutions: float = field(default=1.0, metadata={"range": (0.01, 1e4), "unit": "rev"})
+    log_budget_share: float = field(default=0.5, metadata={"range": (0.0, 100.0),
+                                                           "hint": "a share of the standstill sweep's rig time"})
+    stop_when_resolved: bool = False
+
+    def __post_init__(self):
+        for name in ("speed_shares", "dither_hz"):
+            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
+        if not self.speed_shares:
+            raise ValueError("speed_shares = []: give at least one running speed, e.g. [0.3, 0.5]")
+
+
+#: What :class:`RotaryIdentifyOptions` reads from the logs when told ``"detect"``.
+DETECT = "detect"
+
+
+@dataclass(frozen=True)
+class RotaryIdentifyOptions:
+    """How :func:`pgcomm.rotary.identify.identify` reads a rotary motor's running logs: the ``[rotary]`` table of an
+    experiment TOML, or built in Python and passed whole.
+
+    Every reading of the logs is ``"detect"`` by default (found from the logs, each a search over tens of fits); a
+    value fixes it, as :meth:`pgcomm.rotary.identify.RotaryIdentification.reading` reports it, to read more logs
+    of the same drive the same way without searching again. TOML has no null: where ``None`` is a value, write
+    ``"none"`` (``current_lag``: ``"held"``).
+
+    Attributes:
+        orders: harmonics per revolution of the cogging, ripple and direction maps, three arrays of integers
+            (default ``None``: from the motor's slots and poles, :meth:`pgcomm.rotary.regression.Orders.for_motor`).
+            An :class:`~pgcomm.rotary.regression.Orders` is taken as it is.
+        torque_sensor: identify from a ``torque`` column (N·m) instead of the motion.
+        min_samples_per_period: the alias guard: samples per period of the highest modelled order (``None``:
+            :data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD`).
+        taps: the acceleration filter's Hann window length, samples (``None``:
+            :data:`pgcomm.rotary.regression.FILTER_TAPS`).
+        ridge: a fixed relative ridge weight instead of the one validated on held-out time blocks (``None``).
+        extra_orders: let the logs add cogging and ripple orders outside ``orders``.
+        encoder_step: the encoder's step (rad) for the quantisation correction of the acceleration, ``"detect"``
+            (from each log's angle) or ``None`` (no correction).
+        current_delay: samples (an integer) by which the logged q-current lags the current that acted, or
+            ``"detect"``.
+        angle_pll: ``(ω_n rad/s, ζ)`` (``ζ`` 1 when left out) of the drive's PLL whose estimate the logged angle is,
+            ``None`` for the encoder's own angle, or ``"detect"``.
+        time_lines: frequencies (Hz) of time-periodic disturbances to fit beside the maps, ``()`` for none, or
+            ``"detect"``.
+        back_emf: read the logged q-voltage (``vq_1``) where every log has it (ripple check, back-EMF constant).
+        current_lag: the logged current between samples: ``None`` held, a lag in samples (``|L| ≤ 0.5``) of the
+            smooth curve through the samples, or ``"detect"``.
+        current_noise: the logged current's white noise (A) the fit corrects for, ``None`` for no correction, or
+            ``"detect"``.
+        current_filter: the time constant (s, 0 to 10; ``0`` for none) of the drive's first-order report filter, or
+            ``"detect"``.
+        pin: maps to pin whatever the logs' information on them: ``"ripple"``, ``"direction"``.
+
+    Raises:
+        ValueError: one line naming the option and the value expected (the TOML loader prefixes the file and table).
+    """
+
+    orders: tuple[tuple[int, ...], ...] | None = None
+    torque_sensor: bool = False
+    min_samples_per_period: float | None = field(default=None, metadata={"range": (1.0, 1e3),
+                                                                         "hint": "samples per period"})
+    taps: int | None = field(default=None, metadata={"range": (2, 10_000), "hint": "samples"})
+    ridge: float | None = field(default=None, metadata={"range": (0.0, 1e6)})
+    extra_orders: bool = True
+    encoder_step: float | str | None = DETECT
+    current_delay: int | str = DETECT
+    angle_pll: tuple[float, ...] | str | None = DETECT
+    time_lines: tuple[float, ...] | str = DETECT
+    back_emf: bool = True
+    current_lag: float | str | None = DETECT
+    current_noise: float | str | None = DETECT
+    current_filter: float | str = DETECT
+    pin: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        def put(name, value):
+            object.__setattr__(self, name, value)
+
+        def word(name, value, kind, *words):
+            # the words a TOML file writes for None or for "detect"
+            if isinstance(value, str):
+                w = value.strip().lower()
+                if w not in words:
+                    raise ValueError(f"{name} = {value!r}: expected {' or '.join(map(repr, words))}, or {kind}")
+                return w
+            return value
+
+        if self.orders is not None:
+            o = self.orders
+            maps = (o.cogging, o.ripple, o.direction) if hasattr(o, "cogging") else tuple(o)
+            if len(maps) != 3:
+                raise ValueError(f"orders: {len(maps)} arrays, expected 3 (cogging, ripple, direction)")
+            put("orders", tuple(tuple(int(h) for h in m) for m in maps))
+            if any(h < 0 for m in self.orders for h in m):
+                raise ValueError("orders: harmonics per revolution are integers >= 0")
+        if self.min_samples_per_period is not None and not 1.0 <= self.min_samples_per_period <= 1e3:
+            raise ValueError(f"min_samples_per_period = {self.min_samples_per_period}: expected 1 to 1000 samples")
+        if self.taps is not None and not 2 <= self.taps <= 10_000:
+            raise ValueError(f"taps = {self.taps}: expected 2 to 10000 samples")
+        step = word("encoder_step", self.encoder_step, "a step in rad", DETECT, "none")
+        put("encoder_step", None if step == "none" else step)
+        if not (self.encoder_step in (None, DETECT) or (isinstance(self.encoder_step, (int, float))
+                                                        and 0 < self.encoder_step < math.pi)):
+            raise ValueError(f"encoder_step = {self.encoder_step}: the encoder's step in rad (above 0), "
+                             "\"detect\" or \"none\"")
+        delay = word("current_delay", self.current_delay, "an integer number of samples", DETECT)
+        if delay != DETECT and (isinstance(delay, bool) or not isinstance(delay, int)):
+            raise ValueError(f"current_delay = {delay!r}: an integer number of samples, e.g. 1, or \"detect\"")
+        put("current_delay", delay)
+        pll = word("angle_pll", self.angle_pll, "[rad/s, damping]", DETECT, "none")
+        if pll == "none":
+            pll = None
+        elif pll != DETECT and pll is not None:
+            pll = tuple(float(v) for v in (pll if isinstance(pll, (tuple, list)) else (pll,)))
+            pll = pll + (1.0,) if len(pll) == 1 else pll
+            if len(pll) != 2 or not all(math.isfinite(v) and v > 0 for v in pll):
+                raise ValueError(f"angle_pll = {list(pll)}: a natural frequency in rad/s and optionally a damping, "
+                                 "both positive (e.g. [1000.0, 0.707]), \"detect\" or \"none\"")
+        put("angle_pll", pll)
+        lines = word("time_lines", self.time_lines, "frequencies in Hz", DETECT, "none")
+        if lines == "none":
+            lines = ()
+        elif lines != DETECT:
+            lines = tuple(float(f) for f in lines)
+            if not all(math.isfinite(f) and f > 0 for f in lines):
+                raise ValueError(f"time_lines = {list(lines)}: frequencies in Hz, positive, \"detect\" or \"none\"")
+        put("time_lines", lines)
+        lag = word("current_lag", self.current_lag, "a lag in samples", DETECT, "held")
+        lag = None if lag == "held" else lag
+        if lag not in (None, DETECT) and not (math.isfinite(lag) and abs(lag) <= 0.5):
+            raise ValueError(f"current_lag = {lag}: \"held\", or a lag in samples between -0.5 and 0.5 (1/(2K) for K "
+                             "control cycles per logged sample), or \"detect\"")
+        put("current_lag", None if lag is None else lag if lag == DETECT else float(lag))
+        noise = word("current_noise", self.current_noise, "a noise in A", DETECT, "none")
+        noise = None if noise == "none" else noise
+        if noise not in (None, DETECT) and not (math.isfinite(noise) and noise >= 0):
+            raise ValueError(f"current_noise = {noise}: the logged current's noise in A (a standard deviation, "
+                             ">= 0), \"detect\" or \"none\"")
+        put("current_noise", noise if noise in (None, DETECT) else float(noise))
+        tau = word("current_filter", self.current_filter, "a time constant in s", DETECT, "none")
+        tau = 0.0 if tau == "none" else tau
+        if tau != DETECT and not (math.isfinite(tau) and 0 <= tau <= 10):
+            raise ValueError(f"current_filter = {tau}: the report filter's time constant in s (0 to 10), "
+                             "\"detect\" or \"none\"")
+        put("current_filter", tau if tau == DETECT else float(tau))
+        put("pin", tuple(self.pin))
+        unknown = [m for m in self.pin if m not in ("ripple", "direction")]
+        if unknown:
+            raise ValueError(f"pin = {list(self.pin)}: maps to pin are \"ripple\" and \"direction\"")
+
+    def with_reading(self, reading) -> "RotaryIdentifyOptions":
+        """These options with the logs' reading fixed as an identification found it
+        (:meth:`pgcomm.rotary.identify.RotaryIdentification.reading`): the current's delay and lag, the angle's PLL,
+        the time-periodic disturbances. The report filter and the current's noise stay as they are."""
+        return replace(self, current_delay=reading.current_delay, current_lag=reading.current_lag,
+                       angle_pll=reading.angle_pll, time_lines=reading.time_lines)
+
+
+@dataclass(frozen=True)
 class ExperimentConfig:
     """Everything an experiment needs besides the plant itself (SI units)."""
 
@@ -177,6 +387,8 @@ class ExperimentConfig:
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
     identification: IdentificationConfig = field(default_factory=IdentificationConfig)
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
+    rotary: RotaryIdentifyOptions = field(default_factory=RotaryIdentifyOptions)
+    rotary_experiment: RotarySettings = field(default_factory=RotarySettings)
 
     def __post_init__(self):
         if not 1e-6 <= self.sample_time <= 0.1:
@@ -193,12 +405,3 @@ class ExperimentConfig:
             raise ValueError(f"[controller] bandwidth_hz = {bw:g} Hz: expected above 0 and at most a tenth of the "
                              f"Nyquist frequency ({nyquist / 10:g} Hz at sample_time = {self.sample_time:g} s); "
                              "a faster loop is unstable")
-
-
-def load_experiment(path) -> ExperimentConfig:
-    """Read an experiment TOML into :class:`ExperimentConfig` (unknown keys refused, by
-    :func:`pgcomm.io.config.load_dataclass`)."""
-    from pgcomm.io.config import load_dataclass, load_toml
-
-    return load_dataclass(ExperimentConfig, load_toml(path), str(path))
-

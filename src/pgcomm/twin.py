@@ -51,6 +51,8 @@ import numpy as np
 
 from pgcomm._pytree import pytree_dataclass, static_field
 from pgcomm.motor import PHASE_OFFSETS, Motor
+from pgcomm.mechanics import Mechanics
+from pgcomm.plant import fundamental, plant_force
 
 
 @dataclass(frozen=True)
@@ -110,11 +112,9 @@ class TwinParams:
 
         ``mass`` (kg) defaults to the twin's default mechanics (:class:`pgcomm.mechanics.Mechanics`,
         30 kg): on the built-in twin the moving mass is known, so identification without a force
-        sensor needs no motor file. :func:`pgcomm.io.setup.build_setup` passes the configured
+        sensor needs no motor file. :func:`pgcomm.setup.build_setup` passes the configured
         ``[mechanics] mass``.
         """
-        from pgcomm.mechanics import Mechanics
-
         return Motor(pole_pitch=self.pole_pitch, lever_arms=self.lever_arms, k=k_hat, zeta=zeta_hat,
                      mu=self.mu if mu_hat is None else mu_hat, sample_time=sample_time,
                      current_limit=current_limit, mass=Mechanics().mass if mass is None else mass)
@@ -279,8 +279,6 @@ class TwinPlant:
     def force(self, y, currents, v=None):
         """``S + (3,)`` total force (N, N, N·m) for star currents ``S + (L, 2)`` (A) at velocity ``v`` (m/s;
         ``None``: without the direction-dependent force)."""
-        from pgcomm.plant import plant_force
-
         return plant_force(self, y, currents, v)
 
     def in_range(self, y):
@@ -299,8 +297,6 @@ def true_fundamental(params: TwinParams, stroke=(-0.1, 0.1), n: int = 20001):
     Returns:
         ``(k (L,), zeta (L,))``.
     """
-    from pgcomm.plant import fundamental
-
     return fundamental(params.plant(), params.pole_pitch, stroke, n)
 
 

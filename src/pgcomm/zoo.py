@@ -79,7 +79,7 @@ import numpy as np
 from pgcomm._pytree import pytree_dataclass, static_field
 from pgcomm.motor import PHASE_OFFSETS, Motor, star_reduce
 from pgcomm.setup import reference_span
-from pgcomm.plant import plant_force
+from pgcomm.plant import fundamental, plant_force
 
 __all__ = [
     "EFFECTS",
@@ -96,6 +96,10 @@ __all__ = [
 ]
 
 from pgcomm.defaults import MAX_MOTORS  # noqa: E402  (re-exported)
+from pgcomm.forcemap import ForceMapPlant
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.io.config import motor_to_toml
+from pgcomm.io.forcemap import load_forcemap, write_forcemap
 
 #: Parasitic effects a zoo motor may have (each absent with some probability).
 EFFECTS = ("imbalance", "field", "end_effects", "harmonics", "out_of_plane", "magnets", "cable", "cogging",
@@ -385,8 +389,6 @@ class ZooMotor:
 
     def forcemap(self, source: str = "zoo motor"):
         """The motor as a :class:`pgcomm.forcemap.ForceMapPlant` on :meth:`grid` (no direction force)."""
-        from pgcomm.forcemap import ForceMapPlant
-
         y = self.grid()
         return ForceMapPlant.from_arrays(y, self.gain_phases(y), self.cogging(y), source=source)
 
@@ -740,11 +742,6 @@ def write_motor(motor: ZooMotor, folder) -> Path:
     Returns:
         the folder as a :class:`Path`.
     """
-    from pgcomm.io.forcemap import load_forcemap, write_forcemap
-    from pgcomm.io.atomic import atomic_write_text
-    from pgcomm.io.config import motor_to_toml
-    from pgcomm.plant import fundamental
-
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     y = motor.grid()

@@ -111,8 +111,9 @@ def motor_from_args(args):
 
 def setup_from_args(args):
     """The :class:`pgcomm.setup.Setup` of ``--config``, ``--plant`` and ``--motor``."""
-    from pgcomm.io.setup import build_setup
-    from pgcomm.settings import ExperimentConfig, load_experiment
+    from pgcomm.setup import build_setup
+    from pgcomm.io.config import load_experiment
+    from pgcomm.settings import ExperimentConfig
 
     config_path = args.config
     if config_path is None and args.plant is not None and (Path(args.plant).parent / "config.toml").is_file():

@@ -28,7 +28,8 @@ def _run_logs(args, out: Path, progress) -> None:
     from pgcomm import plots
     from pgcomm.calibration import calibrate_from_logs, convergence
     from pgcomm.errors import ConfigError
-    from pgcomm.settings import ExperimentConfig, load_experiment
+    from pgcomm.io.config import load_experiment
+    from pgcomm.settings import ExperimentConfig
     from pgcomm.io.config import write_motor
     from pgcomm.io.plan import check_log_plans
     from pgcomm.io.results import write_results

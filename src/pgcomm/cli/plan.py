@@ -50,7 +50,8 @@ def plan_from_args(args):
     """
     from dataclasses import replace
 
-    from pgcomm.settings import ExperimentConfig, load_experiment
+    from pgcomm.io.config import load_experiment
+    from pgcomm.settings import ExperimentConfig
     from pgcomm.plan import make_plan, reference_settings
 
     force_sensor = not args.no_force_sensor

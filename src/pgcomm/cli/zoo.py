@@ -74,7 +74,8 @@ def run(args, out: Path, progress) -> None:
 def _run_rotary(args, out: Path, progress, n: int) -> None:
     """``--kind rotary``: ``out/motor_NN/motor.toml`` + ``truth.json`` (+ ``logs/run{k}.csv`` and
     ``sweep/sweep.csv``, a slow standstill sweep for ``pgcomm identify --sweep``)."""
-    from pgcomm.rotary.zoo import draw_rotary, write_rotary_motor, write_running_logs, write_sweep_log
+    from pgcomm.io.rotary_zoo import write_rotary_motor, write_running_logs, write_sweep_log
+    from pgcomm.rotary.zoo import draw_rotary
     from pgcomm.zoo import motor_folder_name
 
     for i in range(1, n + 1):

@@ -45,6 +45,7 @@ from pgcomm.export.drive_common import (
     round_trip,
     unit_factor,
 )
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["ENTRIES", "SOURCES", "AkdTable", "build_akd", "write_akd", "read_akd", "akd_apply"]
 
@@ -103,12 +104,12 @@ class AkdTable:
         """Length (rad or m) the 8192 entries cover."""
         return 2.0 * math.pi if self.kind == "rotary" else float(self.high - self.low)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": ENTRIES, "unit": "A", "range_m": None if self.low is None else [self.low, self.high],
                 "limit_A": self.limit, "conversion": self.conversion,
-                "resolution": None if self.resolution is None else self.resolution.as_dict(),
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": None if self.resolution is None else self.resolution.to_dict(),
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "sources": [s.text() for s in SOURCES], "assumptions": list(ASSUMED)}
 
 
@@ -165,8 +166,6 @@ def akd_script(tab: AkdTable, provenance=()) -> str:
 
 def write_akd(tab: AkdTable, path, provenance=()) -> AkdTable:
     """Write the keyword script atomically, read it back and check it (returns ``tab`` with its round trip)."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, akd_script(tab, provenance))
     back = read_akd(path)
     return replace(tab, round_trip=round_trip(back["values"], tab.meant, float32_bound(tab.meant), str(path), "A"))

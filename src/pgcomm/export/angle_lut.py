@@ -40,6 +40,8 @@ from pgcomm.export.angle_table import (
     reconstruction_error,
     resample_periodic,
 )
+from pgcomm import __version__
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["AngleLut", "build_angle_lut", "angle_lut_header", "write_angle_lut", "angle_lut_values",
            "interpolate_periodic", "c_entry_coordinate", "c_limit", "c_current_tail"]
@@ -70,10 +72,10 @@ class AngleLut:
         """Entries ``N``."""
         return int(self.values.size)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": self.n, "precision": self.precision, "current_limit_A": self.current_limit,
-                "error": self.error.as_dict(), "clipped_entries": self.clipped,
+                "error": self.error.to_dict(), "clipped_entries": self.clipped,
                 "bytes": self.n * (8 if self.precision == "double" else 4)}
 
 
@@ -182,8 +184,7 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
         limit_source: where the limit (or its absence) came from, for the comment block.
         provenance: further comment lines (the input table's own ``#`` lines, the command).
     """
-    from pgcomm import __version__
-    from pgcomm.export.c import _DOUBLE, _SINGLE, _m, check_c_name
+    from pgcomm.export.c import _DOUBLE, _SINGLE, _m, check_c_name  # start-up cost: loads JAX only when this runs
 
     check_c_name(name)
     num = _SINGLE if lut.precision == "single" else _DOUBLE
@@ -229,7 +230,7 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
             "        *iq = 0;\n        return 2;\n    }\n",
             "    *iq = iq_star + c;\n",
             *c_current_tail(U, "iq", lut.current_limit is not None, guard)]
-    from pgcomm.export.c import ieee_finite
+    from pgcomm.export.c import ieee_finite  # start-up cost: loads JAX only when this runs
 
     return ieee_finite("".join(out), name, lut.precision == "single")
 
@@ -237,7 +238,5 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
 def write_angle_lut(lut: AngleLut, path, name: str = "pgcomm_angle_lut", limit_source: str | None = None,
                     provenance=()) -> Path:
     """Write :func:`angle_lut_header` to ``path`` atomically."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, angle_lut_header(lut, name, limit_source, provenance))
     return Path(path)

@@ -33,6 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from pgcomm.errors import DataError
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.io.config import closest_hint
 
 __all__ = [
     "AngleTable", "TableError", "read_angle_table", "write_angle_table", "resample_periodic",
@@ -93,7 +95,7 @@ class TableError:
     max: float
     theta_max: float
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """``{"rms_A", "max_A", "theta_max_rad"}`` for results.json."""
         return {"rms_A": self.rms, "max_A": self.max, "theta_max_rad": self.theta_max}
 
@@ -178,8 +180,6 @@ def read_angle_table(path) -> AngleTable:
             header = cells
             for want, unit in (("angle", "rad"), ("iq", "A")):
                 if want not in header:
-                    from pgcomm.io.config import closest_hint
-
                     raise DataError(f"{src} line {lineno}: no column '{want}' ({unit}) in the header "
                                     f"{header}{closest_hint(want, header)}; a table has columns angle (rad, "
                                     "mechanical) and iq (A)")
@@ -272,8 +272,6 @@ def write_angle_table(path, table: AngleTable, comments=()) -> Path:
     ``comments`` (default: the table's own) say where the table came from; units are added, and the
     table's current limit when it has one.
     """
-    from pgcomm.io.atomic import atomic_write_text
-
     lines = [f"# {' '.join(str(c).split())}" for c in (comments or table.comments)]
     if table.current_limit is not None:
         lines.append(f"# {_LIMIT_PREFIX} {table.current_limit:.9g} A")

@@ -33,6 +33,7 @@ import numpy as np
 from pgcomm.errors import ConfigError, DataError
 from pgcomm.export.compensation import fourier_coefficients
 from pgcomm.export.drive_common import RoundTrip, Source, error_of, f32, header, round_trip, unit_factor
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["MAX_HARMONICS", "MAX_ORDER", "SOURCES", "BeckhoffTable", "build_beckhoff", "write_beckhoff",
            "read_beckhoff", "beckhoff_apply", "harmonic_sum"]
@@ -111,14 +112,14 @@ class BeckhoffTable:
     conversion: str = ""
     round_trip: RoundTrip | None = None
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"harmonics": [{"n": int(n), "phi_deg": float(p), "r": float(a)}
                               for n, p, a in zip(self.orders, self.phi, self.r)],
                 "unit": self.unit, "period": self.period, "gain": self.gain, "dropped_rms": self.dropped,
                 "limit": self.limit, "conversion": self.conversion,
-                "resolution": None if self.resolution is None else self.resolution.as_dict(),
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": None if self.resolution is None else self.resolution.to_dict(),
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "sources": [s.text() for s in SOURCES], "assumptions": list(ASSUMED)}
 
 
@@ -205,8 +206,6 @@ def beckhoff_list(tab: BeckhoffTable, provenance=()) -> str:
 
 def write_beckhoff(tab: BeckhoffTable, path, provenance=()) -> BeckhoffTable:
     """Write the list atomically, read it back and compare the sums on a grid over one period."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, beckhoff_list(tab, provenance))
     back = read_beckhoff(path)
     x = tab.period * np.arange(4096) / 4096

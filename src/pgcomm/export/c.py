@@ -85,6 +85,11 @@ from pathlib import Path
 import numpy as np
 
 from pgcomm.commutation import DEFAULT_DAMPING, DEFAULT_DET_MIN
+from pgcomm import __version__
+from pgcomm.control import Feedforward
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.io.model import feedforward_from_metadata
+from pgcomm.spline_model import SplineModel
 
 __all__ = ["c_source", "write_c", "check_c_name", "PRECISIONS"]
 
@@ -213,7 +218,6 @@ def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadat
         raise ValueError(f"current_limit must be a positive number of amperes or None, got {current_limit}")
     if not (det_min > 0 and damping >= 0):
         raise ValueError(f"need det_min > 0 and damping >= 0, got {det_min}, {damping}")
-    from pgcomm.spline_model import SplineModel
 
     gen = _SplineGen if isinstance(model, SplineModel) else _Gen
     g = gen(model, name, _SINGLE if precision == "single" else _DOUBLE, metadata or {}, drive,
@@ -236,8 +240,6 @@ def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double",
     Returns:
         ``[path_of_header, path_of_source]``.
     """
-    from pgcomm.io.atomic import atomic_write_text
-
     header, source = c_source(model, name, precision, metadata, drive, current_limit, det_min, damping, mechanics,
                               limit_source, drive_source)
     out = Path(out_dir)
@@ -290,15 +292,12 @@ def _feedforward_of(mechanics):
     """
     if mechanics is None:
         return None
-    from pgcomm.control import Feedforward
 
     if isinstance(mechanics, Feedforward):
         ff = mechanics
     elif hasattr(mechanics, "feedforward") and callable(mechanics.feedforward):  # MechanicsFit
         ff = mechanics.feedforward()
     elif isinstance(mechanics, dict):
-        from pgcomm.io.model import feedforward_from_metadata
-
         ff = feedforward_from_metadata(mechanics)
         if ff is None:
             raise ValueError(f"mechanics {sorted(mechanics)} hold no mass and viscous friction")
@@ -329,8 +328,6 @@ class _Gen:
     """Builds the C texts of one model (private; see :func:`c_source`)."""
 
     def __init__(self, model, name, num: _Num, metadata, drive, current_limit, det_min, damping, ff=None):
-        from pgcomm import __version__
-
         self.ff = ff  # pgcomm.control.Feedforward to export beside the law, or None
         self.limit_source = self.drive_source = None  # said in the comment block when set (c_source)
         self.m, self.name, self.num, self.meta = model, name, num, metadata

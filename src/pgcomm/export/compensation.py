@@ -30,6 +30,9 @@ from typing import Callable
 import numpy as np
 
 from pgcomm.errors import ConfigError, DataError
+from pgcomm.export.angle_table import resample_periodic
+from pgcomm.rotary.law import MIN_GAIN
+from pgcomm.rotary.model import harmonic_rows
 
 __all__ = ["Compensation", "from_angle_table", "from_rotary_model", "from_linear_model", "force_limit",
            "drive_force_constant", "trig_eval", "fourier_coefficients", "check_compensation"]
@@ -107,8 +110,6 @@ class Compensation:
         """``(m,)`` values at ``span[0] + length · j / m`` (one period for rotary; the stroke without its end)."""
         x = self.span[0] + self.length * np.arange(int(m)) / int(m)
         if self.table is not None and direction is None:
-            from pgcomm.export.angle_table import resample_periodic
-
             v = resample_periodic(self.table, int(m))
             return np.clip(v, -self.limit, self.limit) if self.limit is not None else v
         return self.values(x, direction)
@@ -126,7 +127,6 @@ def trig_eval(iq, theta) -> np.ndarray:
     th = np.asarray(theta, dtype=float)
     flat = th.ravel()
     out = np.empty(flat.size)
-    from pgcomm.rotary.model import harmonic_rows
 
     orders = np.arange(c.size)
     for s in range(0, flat.size, 4096):  # chunks: (orders x points) rows stay small
@@ -162,8 +162,6 @@ def from_rotary_model(model, limit: float | None = None, limit_source: str = "no
 
     The gain ``1 + r`` is kept at or above :data:`pgcomm.rotary.law.MIN_GAIN`, as the law keeps it.
     """
-    from pgcomm.rotary.law import MIN_GAIN
-
     def fn(x, s):
         g = np.maximum(model.gain(x), MIN_GAIN)
         if s is None:
@@ -199,9 +197,9 @@ def from_linear_model(model, k_hat, zeta_hat, current_limit: float | None = None
         ConfigError: the model has no training range (a table needs an extent) or the drive's commutation makes
             too little force somewhere on it (:data:`pgcomm.export.lut.MIN_DRIVE_GAIN`).
     """
-    import jax.numpy as jnp
+    import jax.numpy as jnp  # start-up cost: JAX loads only when this runs
 
-    from pgcomm.export.lut import _cog_y, _drive, drive_gain
+    from pgcomm.export.lut import _cog_y, _drive, drive_gain  # start-up cost: loads JAX only when this runs
 
     if model.training_range is None:
         raise ConfigError(f"{source}: the model has no training range, so a drive table has no extent")
@@ -209,7 +207,7 @@ def from_linear_model(model, k_hat, zeta_hat, current_limit: float | None = None
     k_hat, zeta_hat = _drive(model, k_hat, zeta_hat)
     probe = np.linspace(lo, hi, 2001)
     g = drive_gain(model, probe, k_hat, zeta_hat)
-    from pgcomm.export.lut import MIN_DRIVE_GAIN
+    from pgcomm.export.lut import MIN_DRIVE_GAIN  # start-up cost: loads JAX only when this runs
 
     if not np.min(g) >= MIN_DRIVE_GAIN:
         j = int(np.argmin(g))

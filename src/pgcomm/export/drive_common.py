@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.errors import ConfigError, DataError
+from pgcomm import __version__
 
 __all__ = ["Source", "RoundTrip", "round_trip", "header", "f32", "fmt32", "float32_bound", "unit_factor",
            "periodic_linear", "TableError", "error_of", "FINE"]
@@ -47,7 +48,7 @@ class TableError:
     max: float
     where: float
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """``{"rms", "max", "at"}``."""
         return {"rms": self.rms, "max": self.max, "at": self.where}
 
@@ -73,7 +74,7 @@ class RoundTrip:
     bound: float
     unit: str
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """For results.json."""
         return {"max": self.max, "rms": self.rms, "bound": self.bound, "unit": self.unit}
 
@@ -157,8 +158,6 @@ def periodic_linear(values, u) -> np.ndarray:
 def header(title: str, sources, documented, assumed, checks, provenance=(), prefix: str = "# ",
            width: int = 110) -> str:
     """The comment block every drive file starts with (module docstring), each line prefixed."""
-    from pgcomm import __version__
-
     def wrap(text: str, indent: str) -> list[str]:
         words, lines, cur = " ".join(str(text).split()).split(" "), [], ""
         for w in words:

@@ -31,6 +31,16 @@ import time
 from pathlib import Path
 
 from pgcomm.errors import ConfigError, DataError
+from pgcomm.export import akd, beckhoff, compensation as cs, ioni, moog, sinamics, summit
+from pgcomm.export.angle_lut import build_angle_lut, write_angle_lut
+from pgcomm.export.angle_table import check_within_limit, read_angle_table
+from pgcomm.export.drive_common import parse_pair
+from pgcomm.export.moteus import build_moteus, write_moteus
+from pgcomm.export.odrive import ASSUMPTIONS, build_odrive, WORKAROUNDS, write_odrive
+from pgcomm.export.options import c_name, drive_commutation, entries_name_limit, fmt_values, limit_text, \
+    parse_current_limit
+from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
+from pgcomm.io.results import write_results
 
 __all__ = ["TABLE_FORMATS", "DRIVE_FORMATS", "LINEAR_FORMATS", "add_drive_options", "export_drive",
            "export_rotary_law"]
@@ -104,8 +114,6 @@ def _is_rotary_model(path) -> bool:
 def _limit(args, recorded, source_text, what):
     """``(limit A or None, source)`` from --current-limit, else the input's record; neither: one line (every table
     format needs a limit, as :mod:`pgcomm.cli.export` says)."""
-    from pgcomm.export.options import parse_current_limit
-
     limit, given = parse_current_limit(args.current_limit)
     if given:
         return limit, "--current-limit" if limit is not None else "turned off with --current-limit none"
@@ -118,16 +126,12 @@ def _limit(args, recorded, source_text, what):
 def _source(args):
     """The :class:`~pgcomm.export.compensation.Compensation` of ``--table`` or ``--model`` and the torque
     constant a rotary model records."""
-    from pgcomm.export import compensation as cs
-
     if args.table is not None and args.model is not None:
         raise ConfigError(f"--format {args.format}: give --table TABLE.csv or --model MODEL.json, not both")
     if args.table is None and args.model is None:
         raise ConfigError(f"--format {args.format} exports a compensation: give --table TABLE.csv (angle rad, iq A, one "
                           "revolution) or --model MODEL.json (a rotary or linear model file)")
     if args.table is not None:
-        from pgcomm.export.angle_table import check_within_limit, read_angle_table
-
         table = read_angle_table(args.table)
         limit, src = _limit(args, table.current_limit, f"{args.table} (# current_limit, the motor description's)",
                             f"{args.table}: the table")
@@ -136,7 +140,7 @@ def _source(args):
         check_within_limit(table, limit, slack, src)
         return cs.from_angle_table(table, args.pole_pairs, limit, src), None, table
     if _is_rotary_model(args.model):
-        from pgcomm.io.model import load_rotary_model
+        from pgcomm.io.model import load_rotary_model  # start-up cost: loads JAX only when this runs
 
         model = load_rotary_model(args.model)
         limit, src = _limit(args, model.info.get("current_limit"), "from the model file",
@@ -145,8 +149,7 @@ def _source(args):
     if args.format not in LINEAR_FORMATS:
         raise ConfigError(f"{args.model} is a linear model; --format {args.format} holds a table over a rotor's "
                           f"revolution (linear motors: --format {', '.join(LINEAR_FORMATS)})")
-    from pgcomm.export.options import drive_commutation, fmt_values
-    from pgcomm.io.model import current_limit_of, load_model
+    from pgcomm.io.model import current_limit_of, load_model  # start-up cost: loads JAX only when this runs
 
     model, document = load_model(args.model)
     limit, src = _limit(args, current_limit_of(document, args.model), "from the model file",
@@ -160,10 +163,6 @@ def _source(args):
 
 def export_drive(args, out: Path, progress, t0: float) -> None:
     """``--format moteus|odrive|c-angle|sinamics|akd|moog|beckhoff|summit|ioni`` (module docstring)."""
-    from pgcomm.export import compensation as cs
-    from pgcomm.export.options import c_name
-    from pgcomm.io.results import write_results
-
     if args.format == "c-angle" and args.model is not None:
         raise ConfigError("--format c-angle exports --table, not --model (a rotary model's whole law: --format c-rotary)")
     if args.entries is not None and not 8 <= args.entries <= 1 << 20:
@@ -210,8 +209,6 @@ def _limit_text(limit, source) -> str:
 
 
 def _moteus(args, comp, out, name):
-    from pgcomm.export.moteus import build_moteus, write_moteus
-
     mt = build_moteus(comp, scale=args.scale)
     path = write_moteus(mt, out / f"{name}.cfg")
     t, i = mt.total, mt.interpolation
@@ -224,12 +221,10 @@ def _moteus(args, comp, out, name):
              "applies in the position family of modes only (position, zero velocity, stay within bounds): command "
              "torque through position mode with kp = kd = 0",
              f"load with: python -m moteus.moteus_tool --target ID --write-config {path.name}, then conf write"]
-    return path, mt.as_dict(), lines
+    return path, mt.to_dict(), lines
 
 
 def _odrive(args, comp, k_t, out, name, provenance):
-    from pgcomm.export.odrive import ASSUMPTIONS, WORKAROUNDS, build_odrive, write_odrive
-
     if k_t is None:
         raise ConfigError("--format odrive needs --torque-constant NM_PER_A, the ODrive's "
                           "motor.config.torque_constant (its cogging_map is in N m: entry = k_t x iq_comp)")
@@ -243,26 +238,21 @@ def _odrive(args, comp, k_t, out, name, provenance):
              "(odrive-interface.yaml exposes only get_anticogging_value). Ways around it:",
              *(f"  - {w}" for w in WORKAROUNDS),
              "assumes: " + "; ".join(ASSUMPTIONS[:3])]
-    return path, om.as_dict(), lines
+    return path, om.to_dict(), lines
 
 
 def _c_angle(args, table, comp, out, name, provenance):
-    from pgcomm.export.angle_lut import build_angle_lut, write_angle_lut
-
     lut = build_angle_lut(table, args.entries, args.precision, current_limit=comp.limit)
     path = write_angle_lut(lut, out / f"{name}.h", name, comp.limit_source, provenance)
     e = lut.error
     lines = [f"C lookup {name}: {lut.n} entries ({args.precision}), periodic linear interpolation vs the input table: "
              f"RMS {e.rms:.3g} A, max {e.max:.3g} A; current limit {_limit_text(comp.limit, comp.limit_source)}"
              + (f"; {lut.clipped} entries clipped" if lut.clipped else "")]
-    return path, lut.as_dict(), lines
+    return path, lut.to_dict(), lines
 
 
 def _industrial(args, comp, k_t, out, name, provenance):
     """SINAMICS, AKD, Moog, Beckhoff, Summit, IONI: build, write, read back; the printed lines."""
-    from pgcomm.export import akd, beckhoff, ioni, moog, sinamics, summit
-    from pgcomm.export.drive_common import parse_pair
-
     f = args.format
     path = out / f"{name}.txt"
     if f == "sinamics":
@@ -311,22 +301,18 @@ def _industrial(args, comp, k_t, out, name, provenance):
     lines = [f"{TITLES[f]}: {what}; limit {limit}",
              f"what the drive applies vs the compensation (between entries, on the model's span): {res} {unit}",
              tab.round_trip.line(), "assumes: " + "; ".join(assumed), LOAD[f]]
-    return path, tab.as_dict(), lines
+    return path, tab.to_dict(), lines
 
 
 def export_rotary_law(args, out, progress, t0) -> None:
     """``--format c-rotary --model MODEL.json``: the whole rotary law as C99 (:mod:`pgcomm.export.rotary_law`)."""
-    from pgcomm.export.options import entries_name_limit, limit_text
-    from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
-    from pgcomm.io.results import write_results
-
     if args.model is None:
         raise ConfigError("--format c-rotary exports a rotary model file: give --model MODEL.json (pgcomm identify "
                           "on a rotary motor)")
     if args.table is not None:
         raise ConfigError("--format c-rotary exports --model, not --table (a table's formats: "
                           f"{', '.join(TABLE_FORMATS)})")
-    from pgcomm.io.model import load_rotary_model
+    from pgcomm.io.model import load_rotary_model  # start-up cost: loads JAX only when this runs
 
     name, limit, limit_given = entries_name_limit(args)
     model = load_rotary_model(args.model)
@@ -348,11 +334,11 @@ def export_rotary_law(args, out, progress, t0) -> None:
                                 [f"model file {args.model} ({model.info.get('motor', 'rotary motor')})"])
     results = {"command": "export", "format": "c-rotary", "model": str(args.model), "name": name,
                "current_limit": limit, "current_limit_source": limit_source, "files": [path.name],
-               "c_rotary": tables.as_dict(), "runtime_s": time.perf_counter() - t0}
+               "c_rotary": tables.to_dict(), "runtime_s": time.perf_counter() - t0}
     write_results(out / "results.json", results)
     if not args.quiet:
         e = tables.errors
-        print(f"C law {name}: {tables.n} entries per map ({args.precision}, {tables.as_dict()['bytes']} bytes); "
+        print(f"C law {name}: {tables.n} entries per map ({args.precision}, {tables.to_dict()['bytes']} bytes); "
               f"interpolation max: cogging {e['cogging']['max']:.3g} A, drag {e['direction']['max']:.3g} A, gain "
               f"{e['gain']['max']:.3g}; the law vs the model's: max {e['law']['max']:.3g} A; current limit "
               f"{limit_text(limit, limit_source)}")

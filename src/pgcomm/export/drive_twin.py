@@ -29,6 +29,10 @@ import numpy as np
 
 from pgcomm._pytree import pytree_dataclass, static_field
 from pgcomm.commutation import ClassicalLaw
+from pgcomm.export import akd, beckhoff, ioni, moog, sinamics, summit
+from pgcomm.export.moteus import MoteusTable
+from pgcomm.export.odrive import odrive_apply, OdriveMap
+from pgcomm.rotary.model import Fourier, RotaryModel
 
 __all__ = ["DriveTableLaw", "HarmonicDriveLaw", "linear_law", "rotary_law", "RPM", "M_PER_MIN"]
 
@@ -134,8 +138,6 @@ def linear_law(tab, base: ClassicalLaw, newton_per_unit: float = 1.0, hysteresis
         newton_per_unit: N per table unit (the force constant for AKD/Moog tables in A).
         hysteresis: SINAMICS ``p5256`` (m/min) when it has two tables; default ``tab.hysteresis``.
     """
-    from pgcomm.export import akd, beckhoff, moog, sinamics
-
     f = jnp.asarray
     none = (f(0.0), f(0.0))
     if isinstance(tab, beckhoff.BeckhoffTable):
@@ -167,11 +169,7 @@ def rotary_law(tab, ff=(0.0, 0.0, 0.0), pole_pairs: int = 1, hysteresis_rpm: flo
         pole_pairs: ``p`` (the law's maps need it).
         hysteresis_rpm: SINAMICS ``p5256`` (rpm) when it has two tables; default ``tab.hysteresis``.
     """
-    from pgcomm.export import akd, beckhoff, ioni, moog, sinamics, summit
-    from pgcomm.export.moteus import MoteusTable
-    from pgcomm.export.odrive import OdriveMap, odrive_apply
-    from pgcomm.rotary.model import Fourier, RotaryModel
-    from pgcomm.rotary.twin import LawParams
+    from pgcomm.rotary.twin import LawParams  # start-up cost: loads SciPy only when this runs
 
     zero = RotaryModel.zero(pole_pairs)
     kw = dict(ff_a=ff[0], ff_b=ff[1], ff_d=ff[2])

@@ -33,6 +33,8 @@ import numpy as np
 from pgcomm.errors import ConfigError, DataError
 from pgcomm.export.compensation import fourier_coefficients
 from pgcomm.export.drive_common import RoundTrip, Source, error_of, f32, header, round_trip, unit_factor
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.rotary.law import MIN_GAIN
 
 __all__ = ["SOURCE", "Sinusoid", "IoniTable", "build_ioni", "write_ioni", "read_ioni", "ioni_apply"]
 
@@ -91,16 +93,16 @@ class IoniTable:
     limit: float | None = None
     round_trip: RoundTrip | None = None
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         def s(x):
             return None if x is None else {"N": x.n, "amplitude": x.amplitude, "phase_deg": math.degrees(x.phase)}
 
         return {"pole_pairs": self.pole_pairs, "TRF1_TRA1": s(self.cogging), "TRF2_TRA2": s(self.ripple),
                 "limit_A": self.limit,
-                "resolution": None if self.resolution is None else self.resolution.as_dict(),
-                "ripple_resolution": None if self.ripple_resolution is None else self.ripple_resolution.as_dict(),
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": None if self.resolution is None else self.resolution.to_dict(),
+                "ripple_resolution": None if self.ripple_resolution is None else self.ripple_resolution.to_dict(),
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "source": SOURCE.text(), "assumptions": list(ASSUMED)}
 
 
@@ -135,8 +137,6 @@ def build_ioni(comp, pole_pairs: int | None = None) -> IoniTable:
     cog = _largest(comp.grid(SAMPLES), p)
     rip = None
     if comp.ripple is not None:
-        from pgcomm.rotary.law import MIN_GAIN
-
         rip = _largest(1.0 / np.maximum(1.0 + comp.ripple(theta), MIN_GAIN) - 1.0, p)
     if cog is not None and comp.limit is not None and cog.amplitude > comp.limit:
         cog = replace(cog, amplitude=float(comp.limit))
@@ -149,8 +149,6 @@ def build_ioni(comp, pole_pairs: int | None = None) -> IoniTable:
     res = error_of(ioni_apply(tab, xf, 0.0), comp.values(xf), xf)
     rres = None
     if comp.ripple is not None:
-        from pgcomm.rotary.law import MIN_GAIN
-
         want = 1.0 / np.maximum(1.0 + comp.ripple(xf), MIN_GAIN)
         rres = error_of(ioni_apply(tab, xf, 1.0) - ioni_apply(tab, xf, 0.0), want, xf)
     return replace(tab, resolution=res, ripple_resolution=rres)
@@ -190,8 +188,6 @@ def ioni_list(tab: IoniTable, provenance=()) -> str:
 
 def write_ioni(tab: IoniTable, path, provenance=()) -> IoniTable:
     """Write the settings atomically, read them back and compare both waveforms over one electrical revolution."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, ioni_list(tab, provenance))
     back = read_ioni(path)
     te = 2.0 * math.pi * np.arange(1024) / 1024

@@ -21,6 +21,8 @@ from pgcomm.export.options import (
     limit_text as _limit_text,
     parse_current_limit,
 )
+from pgcomm.export.drive_export import TABLE_FORMATS
+from pgcomm.io.results import write_results
 
 __all__ = ["DEFAULT_F_MAX", "f_max_from_metadata", "export_law"]
 
@@ -54,9 +56,7 @@ def f_max_from_metadata(metadata) -> float | None:
 
 def export_law(args, out: Path, progress, t0: float) -> None:
     """``--format c|lut --model MODEL``: the law as C or lookup tables; writes ``results.json``."""
-    from pgcomm.export.drive_export import TABLE_FORMATS
-    from pgcomm.io.model import current_limit_of, load_model
-    from pgcomm.io.results import write_results
+    from pgcomm.io.model import current_limit_of, load_model  # start-up cost: loads JAX only when this runs
 
     if args.model is None:
         raise ConfigError(f"--format {args.format} exports a model file: give --model MODEL.json")
@@ -96,7 +96,7 @@ def export_law(args, out: Path, progress, t0: float) -> None:
 
 
 def _export_c(args, out, progress, model, metadata, name, results, limit, limit_source, drive):
-    from pgcomm.export.c import write_c
+    from pgcomm.export.c import write_c  # start-up cost: loads JAX only when this runs
 
     meta = {**metadata, "source": str(args.model)}
     # the drive's constants are embedded only when known (given or recorded), not the fit's
@@ -132,7 +132,7 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
         lut_error,
         write_cogging_table,
         write_lut,
-    )
+    )  # start-up cost: loads JAX only when this runs
 
     if model.training_range is None:
         raise ConfigError(f"{args.model}: the model has no training range, so the table has no extent")
@@ -142,7 +142,7 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
         source = "training data (model metadata)"
         if f_max is None:
             f_max, source = DEFAULT_F_MAX, "default (no training force in the model's metadata)"
-    from pgcomm.export.lut import MAX_ROWS
+    from pgcomm.export.lut import MAX_ROWS  # start-up cost: loads JAX only when this runs
 
     lo, hi = model.training_range
     if (hi - lo) / args.resolution > MAX_ROWS:
@@ -207,6 +207,7 @@ def _check_table_error(args, model, document, lut, err, f_max, limit, progress) 
     """Refuse a table whose worst-case Fy error exceeds the model's own standard error or the table's float32
     rounding, whichever is larger (:func:`pgcomm.export.lut.table_error_bound`), naming the coarsest spacing that
     would do (:func:`pgcomm.export.lut.coarsest_resolution_within`). Returns the bound ``(N, what it is)``."""
+    # start-up cost: loads JAX only when this runs
     from pgcomm.export.lut import coarsest_resolution_within, grid_rows, table_error_bound
 
     bound, what = table_error_bound(model, document, f_max)

@@ -101,6 +101,10 @@ __all__ = [
 ]
 
 from pgcomm.defaults import DEFAULT_RESOLUTION  # noqa: E402  (re-exported)
+from pgcomm import __version__
+from pgcomm.export.c import _m, _SINGLE, check_c_name, ieee_finite
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.io.tables import read_csv_columns, read_csv_header
 
 #: Fx and Tz of the test forces relative to |Fy| = f_max.
 SIDE_FRACTION = 0.05
@@ -519,9 +523,6 @@ def write_lut(lut: Lut, out_dir, name: str = "pgcomm_lut", limit_source: str | N
     Returns:
         ``[csv_path, header_path]``.
     """
-    from pgcomm.export.c import check_c_name
-    from pgcomm.io.atomic import atomic_write_text
-
     check_c_name(name)
     header = lut_header(lut, name, limit_source)
     buf = io.StringIO()
@@ -571,8 +572,6 @@ def read_lut(path, current_limit: float | None = None) -> Lut:
     Raises:
         DataError: missing/misnamed columns, non-numbers, NaN/inf, non-uniform ``y``.
     """
-    from pgcomm.io.tables import read_csv_columns, read_csv_header
-
     path = Path(path)
     head = read_csv_header(path)
     n_p = len(head) - 4
@@ -599,8 +598,6 @@ def read_lut(path, current_limit: float | None = None) -> Lut:
 
 def _c_rows(a: np.ndarray, indent: str) -> str:
     """Nested C initializer of float32 literals (one innermost row per line)."""
-    from pgcomm.export.c import _SINGLE
-
     def rec(x, depth):
         if x.ndim == 1:
             return "{" + ", ".join(_SINGLE.lit(v) for v in x) + "}"
@@ -631,9 +628,6 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut", limit_source: str | None = No
         limit_source: where the limit (or its absence) came from, written after it in the comment
             block (e.g. ``"from the model file"``); ``None``: not said.
     """
-    from pgcomm import __version__
-    from pgcomm.export.c import _SINGLE, _m, check_c_name
-
     check_c_name(name)
     U, L, lit = name.upper(), lut.n_coil_sets, _SINGLE.lit
     guard = f"{U}_H_INCLUDED"
@@ -718,7 +712,6 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut", limit_source: str | None = No
     text = "".join(out)
     text = text.replace(f"#ifndef {guard}\n#define {guard}\n\n", f"#ifndef {guard}\n#define {guard}\n\n"
                         "#include <math.h>\n\n", 1)
-    from pgcomm.export.c import ieee_finite
 
     return ieee_finite(text, name, single=True)
 
@@ -939,8 +932,6 @@ def write_cogging_table(table: CoggingTable, out_dir, name: str = "pgcomm_coggin
     ``numpy.loadtxt(path, delimiter=",", skiprows=len(comments) + 1)`` counts them. ``None``: a plain
     CSV, header first.
     """
-    from pgcomm.io.atomic import atomic_write_text
-
     buf = io.StringIO()
     for line in comments or ():
         buf.write("# " + " ".join(str(line).split()) + "\n")

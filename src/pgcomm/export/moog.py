@@ -47,6 +47,7 @@ from pgcomm.export.drive_common import (
     round_trip,
     unit_factor,
 )
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["SIZES", "SOURCE", "MoogTable", "build_moog", "write_moog", "read_moog", "moog_apply", "fade"]
 
@@ -109,13 +110,13 @@ class MoogTable:
         """250 or 4000."""
         return int(self.values.size)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": self.size, "unit": "A", "pos_start_m": self.start, "pos_delta_m": self.delta,
                 "fade_out_rpm": None if self.fade is None else list(self.fade), "limit_A": self.limit,
                 "conversion": self.conversion,
-                "resolution": None if self.resolution is None else self.resolution.as_dict(),
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": None if self.resolution is None else self.resolution.to_dict(),
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "source": SOURCE.text(), "assumptions": list(ASSUMED)}
 
 
@@ -187,8 +188,6 @@ def moog_script(tab: MoogTable, provenance=()) -> str:
 
 def write_moog(tab: MoogTable, path, provenance=()) -> MoogTable:
     """Write the listing atomically, read it back and check it."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, moog_script(tab, provenance))
     back = read_moog(path)
     return replace(tab, round_trip=round_trip(back["values"], tab.meant, float32_bound(tab.meant), str(path), "A"))

@@ -67,7 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pgcomm.errors import DataError
+from pgcomm.errors import ConfigError, DataError
 from pgcomm.export.angle_table import (
     AngleTable,
     TableError,
@@ -75,6 +75,8 @@ from pgcomm.export.angle_table import (
     linear_on_grid,
     reconstruction_error,
 )
+from pgcomm.export.compensation import Compensation, from_angle_table
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["ENTRIES", "LSB_MAX", "MoteusTable", "build_moteus", "moteus_lines", "write_moteus", "read_moteus",
            "moteus_current", "moteus_apply", "CITATION"]
@@ -128,11 +130,11 @@ class MoteusTable:
     current_limit: float | None = None
     assumptions: tuple = field(default=ASSUMPTIONS)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json (A)."""
         return {"entries": ENTRIES, "scale_A_per_lsb": self.scale, "quantisation_max_A": self.quantisation,
                 "quantisation_rms_A": self.quantisation_rms, "quantisation_bound_A": 0.5 * self.scale,
-                "interpolation": self.interpolation.as_dict(), "total": self.total.as_dict(),
+                "interpolation": self.interpolation.to_dict(), "total": self.total.to_dict(),
                 "clipped_entries": self.clipped, "current_limit_A": self.current_limit,
                 "citation": CITATION, "assumptions": list(self.assumptions)}
 
@@ -154,9 +156,6 @@ def build_moteus(table, current_limit: float | None = None, scale: float | None 
     Raises:
         ConfigError: a ``scale`` that is not positive, or so small that an entry would overflow int8.
     """
-    from pgcomm.errors import ConfigError
-    from pgcomm.export.compensation import Compensation, from_angle_table
-
     comp = table if isinstance(table, Compensation) else from_angle_table(table)
     if not comp.rotary:
         raise ConfigError("moteus holds a table over the rotor's revolution; a linear model has none")
@@ -223,8 +222,6 @@ def moteus_lines(mt: MoteusTable) -> list[str]:
 def write_moteus(mt: MoteusTable, path) -> Path:
     """Write the ``conf set`` lines to ``path`` atomically; load with ``python -m moteus.moteus_tool
     --target N --write-config FILE``, then ``conf write`` to keep them."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, "\n".join(moteus_lines(mt)) + "\n")
     return Path(path)
 

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +71,8 @@ from pgcomm.export.angle_table import (
     fine_grid_size,
     reconstruction_error,
 )
+from pgcomm.export.compensation import Compensation, from_angle_table
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["ENTRIES", "OdriveMap", "build_odrive", "odrive_document", "write_odrive", "read_odrive",
            "odrive_current", "odrive_apply", "CITATION", "FORMAT", "WORKAROUNDS"]
@@ -132,10 +134,10 @@ class OdriveMap:
         """``(3600,)`` the entries as q current (A): ``torque / torque_constant``."""
         return self.torque.astype(np.float64) / self.torque_constant
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json (A, N·m)."""
         return {"entries": ENTRIES, "torque_constant_Nm_per_A": self.torque_constant,
-                "positive_positions": self.positive.as_dict(), "negative_positions": self.negative.as_dict(),
+                "positive_positions": self.positive.to_dict(), "negative_positions": self.negative.to_dict(),
                 "clipped_entries": self.clipped, "current_limit_A": self.current_limit,
                 "loadable_by_stock_firmware": False, "ways_around": list(WORKAROUNDS), "citation": CITATION,
                 "assumptions": list(ASSUMPTIONS)}
@@ -169,10 +171,6 @@ def build_odrive(table, torque_constant: float, current_limit: float | None = No
     Raises:
         ValueError: a torque constant that is not a positive finite number.
     """
-    from dataclasses import replace
-
-    from pgcomm.export.compensation import Compensation, from_angle_table
-
     if not (isinstance(torque_constant, (int, float)) and math.isfinite(torque_constant) and torque_constant > 0):
         raise ValueError(f"torque constant {torque_constant!r} must be a positive number of N m/A")
     comp = table if isinstance(table, Compensation) else from_angle_table(table)
@@ -223,15 +221,13 @@ def odrive_document(om: OdriveMap, provenance=()) -> dict:
         "citation": CITATION,
         "assumptions": list(ASSUMPTIONS),
         "provenance": list(provenance),
-        "error_A": {"positive_positions": om.positive.as_dict(), "negative_positions": om.negative.as_dict()},
+        "error_A": {"positive_positions": om.positive.to_dict(), "negative_positions": om.negative.to_dict()},
         "cogging_map": [float("%.9g" % v) for v in om.torque],
     }
 
 
 def write_odrive(om: OdriveMap, path, provenance=()) -> Path:
     """Write :func:`odrive_document` to ``path`` atomically."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, json.dumps(odrive_document(om, provenance), indent=1) + "\n")
     return Path(path)
 

@@ -8,8 +8,10 @@ option.
 from __future__ import annotations
 
 import math
+import numpy as np
 
 from pgcomm.errors import ConfigError
+from pgcomm.io.config import _plausible
 
 #: ``--name`` when not given; the drive tables default to ``pgcomm_<format>``.
 DEFAULT_NAMES = {"c": "pgcomm_law", "lut": "pgcomm_lut", "c-angle": "pgcomm_angle_lut",
@@ -45,10 +47,6 @@ def parse_per_coil_set(text: str | None, option: str, key: str, n_coil_sets: int
     ``key`` is ``"k"`` (N/A, positive) or ``"zeta"`` (rad); values outside the motor TOML's plausible
     range (:data:`pgcomm.io.config.PLAUSIBLE`, e.g. a ``zeta`` in degrees) are refused with a hint.
     """
-    import numpy as np
-
-    from pgcomm.io.config import _plausible
-
     if text is None:
         return None
     parts = [t.strip() for t in text.split(",")]
@@ -77,8 +75,8 @@ def drive_commutation(args, model, metadata) -> dict:
         ``{"k_hat": (L,), "zeta_hat": (L,), "source": str, "given": bool}``; ``given`` is true when the
         values are the user's or the model file's (not the fit to the model's fundamental).
     """
-    from pgcomm.export.lut import classical_parameters
-    from pgcomm.io.model import drive_of
+    from pgcomm.export.lut import classical_parameters  # start-up cost: loads JAX only when this runs
+    from pgcomm.io.model import drive_of  # start-up cost: loads JAX only when this runs
 
     L = model.n_coil_sets
     k = parse_per_coil_set(args.drive_k, "--drive-k", "k", L)
@@ -117,7 +115,7 @@ def entries_name_limit(args) -> tuple[str, float | None, bool]:
 
 def c_name(args) -> str:
     """``--name`` (default per format), checked as a C identifier prefix."""
-    from pgcomm.export.c import check_c_name
+    from pgcomm.export.c import check_c_name  # start-up cost: loads JAX only when this runs
 
     name = args.name or DEFAULT_NAMES.get(args.format, f"pgcomm_{args.format.replace('-', '_')}")
     try:

@@ -33,6 +33,8 @@ import numpy as np
 from pgcomm.export.angle_lut import c_current_tail, c_entry_coordinate, interpolate_periodic
 from pgcomm.rotary.law import MIN_GAIN, iq_command
 from pgcomm.rotary.model import RotaryModel
+from pgcomm import __version__
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["RotaryLawTables", "build_rotary_law", "default_entries", "rotary_law_values", "rotary_law_header",
            "write_rotary_law", "SAMPLES_PER_PERIOD"]
@@ -70,7 +72,7 @@ class RotaryLawTables:
         """Entries ``N``."""
         return int(self.cogging.size)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": self.n, "precision": self.precision, "current_limit_A": self.current_limit,
                 "errors": self.errors, "bytes": 3 * self.n * (8 if self.precision == "double" else 4)}
@@ -162,8 +164,7 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
         limit_source: where the limit (or its absence) came from, for the comment block.
         provenance: further comment lines (the model file, the command).
     """
-    from pgcomm import __version__
-    from pgcomm.export.c import _DOUBLE, _SINGLE, _m, check_c_name
+    from pgcomm.export.c import _DOUBLE, _SINGLE, _m, check_c_name  # start-up cost: loads JAX only when this runs
 
     check_c_name(name)
     num = _SINGLE if tables.precision == "single" else _DOUBLE
@@ -216,7 +217,7 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
             "    sg = (s > 0) ? 1 : ((s < 0) ? -1 : 0);\n",
             "    *iq = (demand - c + d * sg) / g;\n",
             *c_current_tail(U, "iq", tables.current_limit is not None, guard)]
-    from pgcomm.export.c import ieee_finite
+    from pgcomm.export.c import ieee_finite  # start-up cost: loads JAX only when this runs
 
     return ieee_finite("".join(out), name, tables.precision == "single")
 
@@ -224,7 +225,5 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
 def write_rotary_law(tables: RotaryLawTables, path, name: str = "pgcomm_rotary_law", limit_source: str | None = None,
                      provenance=()) -> Path:
     """Write :func:`rotary_law_header` to ``path`` atomically."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, rotary_law_header(tables, name, limit_source, provenance))
     return Path(path)

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +56,7 @@ from pgcomm.export.drive_common import (
     round_trip,
     unit_factor,
 )
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["ENTRIES", "SOURCE", "SinamicsTable", "build_sinamics", "write_sinamics", "read_sinamics",
            "sinamics_apply", "select_direction", "entry_positions"]
@@ -122,12 +123,12 @@ class SinamicsTable:
         """1 or 2 tables."""
         return 2 if "forward" in self.tables else 1
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": ENTRIES, "tables": self.directions, "unit": self.unit, "p5253": self.factor,
                 "period": self.period, "p5256": self.hysteresis, "limit": self.limit, "conversion": self.conversion,
-                "resolution": {k: v.as_dict() for k, v in self.resolution.items()},
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": {k: v.to_dict() for k, v in self.resolution.items()},
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "source": SOURCE.text(), "assumptions": list(ASSUMED)}
 
 
@@ -251,10 +252,6 @@ def sinamics_script(tab: SinamicsTable, provenance=()) -> str:
 def write_sinamics(tab: SinamicsTable, path, provenance=()) -> SinamicsTable:
     """Write the script atomically, read it back (:func:`read_sinamics`) and check it; returns ``tab`` with its
     :class:`~pgcomm.export.drive_common.RoundTrip`."""
-    from dataclasses import replace
-
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, sinamics_script(tab, provenance))
     back = read_sinamics(path)
     read = np.concatenate([back["p5260"]] + ([back["p5261"]] if tab.directions == 2 else []))

@@ -41,6 +41,7 @@ from pgcomm.export.drive_common import (
     round_trip,
     unit_factor,
 )
+from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["MAX_ENTRIES", "SOURCES", "SummitTable", "build_summit", "write_summit", "read_summit", "summit_apply"]
 
@@ -89,11 +90,11 @@ class SummitTable:
         """Entries ``N``."""
         return int(self.values.size)
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Figures for results.json."""
         return {"entries": self.n, "unit": "A", "pole_pairs": self.pole_pairs, "limit_A": self.limit,
-                "resolution": None if self.resolution is None else self.resolution.as_dict(),
-                "round_trip": None if self.round_trip is None else self.round_trip.as_dict(),
+                "resolution": None if self.resolution is None else self.resolution.to_dict(),
+                "round_trip": None if self.round_trip is None else self.round_trip.to_dict(),
                 "sources": [s.text() for s in SOURCES], "assumptions": list(ASSUMED)}
 
 
@@ -150,8 +151,6 @@ def summit_list(tab: SummitTable, provenance=()) -> str:
 
 def write_summit(tab: SummitTable, path, provenance=()) -> SummitTable:
     """Write the list atomically, read it back and check it."""
-    from pgcomm.io.atomic import atomic_write_text
-
     atomic_write_text(path, summit_list(tab, provenance))
     back = read_summit(path)
     return replace(tab, round_trip=round_trip(back, tab.meant, float32_bound(tab.meant), str(path), "A"))

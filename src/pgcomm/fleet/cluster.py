@@ -9,12 +9,16 @@ import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+import sys
+from distributed import as_completed
 
 
 from pgcomm.defaults import DEFAULT_OUTLIER_Z
 from pgcomm.fleet.motor import _FAILED, _failed_row, find_motors, is_finished, process_motor
 from pgcomm.fleet.qa import fleet_rows
 from pgcomm.fleet.report import write_fleet_table
+import pgcomm
+from pgcomm.io.atomic import atomic_write_text
 
 #: Environment of a worker process: XLA and BLAS/OpenMP on one thread each (one task per worker).
 WORKER_ENV = {
@@ -56,15 +60,12 @@ class WorkerSetup(_WorkerPluginBase):
 
     def setup(self, worker=None):
         """Runs once on each worker (and on workers that join later)."""
-        import sys
-
         pinned = "jax" not in sys.modules
         if pinned:
             for k, v in WORKER_ENV.items():
                 os.environ.setdefault(k, v)
-        import jax
+        import jax  # start-up cost: JAX loads only when this runs
 
-        import pgcomm  # noqa: F401  (x64, cpu)
 
         if self.cache_dir:
             jax.config.update("jax_compilation_cache_dir", self.cache_dir)
@@ -119,8 +120,6 @@ def run_fleet(client, data_dir, out_dir, redo: bool = False, seed: int = 0, outl
         :class:`FleetRun`. ``OUT/fleet.parquet``, ``fleet.csv``, ``fleet.html`` and ``fleet.json``
         are (re)written from every motor's state, also after Ctrl-C.
     """
-    from distributed import as_completed
-
     t0 = time.perf_counter()
     motors = find_motors(data_dir)
     out_dir = Path(out_dir)
@@ -156,7 +155,6 @@ def run_fleet(client, data_dir, out_dir, redo: bool = False, seed: int = 0, outl
         run.seconds = time.perf_counter() - t0
         rows = fleet_rows(out_dir, names)
         write_fleet_table(out_dir, rows, outlier_z)
-        from pgcomm.io.atomic import atomic_write_text
 
         atomic_write_text(out_dir / "fleet.json", json.dumps(
             {"motors": names, "skipped": run.skipped, "submitted": run.submitted, "failed": run.failed,
@@ -165,8 +163,6 @@ def run_fleet(client, data_dir, out_dir, redo: bool = False, seed: int = 0, outl
 
 
 def _record_failure(out_dir: Path, rec: dict) -> None:
-    from pgcomm.io.atomic import atomic_write_text
-
     (out_dir / _FAILED).mkdir(exist_ok=True)
     atomic_write_text(out_dir / _FAILED / f"{rec['motor']}.json", json.dumps(rec, indent=1) + "\n")
 

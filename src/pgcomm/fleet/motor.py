@@ -14,6 +14,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+from pgcomm import __version__
+from pgcomm._memory import release_compiled_programs
+from pgcomm.errors import DataError, PgcommError
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.io.config import load_experiment, load_motor
+from pgcomm.io.logs import read_logs
+from pgcomm.io.results import write_results
 
 #: Columns of ``fleet.parquet`` / ``fleet.csv`` (one row per motor × coil set; a failed motor has one
 #: row with ``coil_set`` empty). ``k`` (N/A), ``zeta`` (rad): calibrated; ``cost_*``: Algorithm 2's
@@ -44,8 +51,6 @@ def find_motors(data_dir) -> list[Path]:
     Raises:
         DataError: ``data_dir`` is not a directory or holds no motor folder.
     """
-    from pgcomm.errors import DataError
-
     data_dir = Path(data_dir)
     if not data_dir.is_dir():
         raise DataError(f"--data {data_dir}: not a directory")
@@ -81,8 +86,6 @@ def process_motor(folder, out_dir, seed: int = 0) -> dict:
         ``{"motor", "status" ("ok"/"failed"), "error", "rows", "seconds", "host", "pid", "task_index"}``;
         ``task_index`` counts the tasks this worker process ran (1 = its first, which pays JAX's compile).
     """
-    from pgcomm.errors import PgcommError
-
     folder, out_dir = Path(folder), Path(out_dir)
     name = folder.name
     _TASKS["n"] += 1
@@ -99,7 +102,6 @@ def process_motor(folder, out_dir, seed: int = 0) -> dict:
         record = {**info, "status": "failed", "error": error, "rows": [_failed_row(name, error)],
                   "seconds": time.perf_counter() - t0}
         failed.parent.mkdir(exist_ok=True)
-        from pgcomm.io.atomic import atomic_write_text
 
         atomic_write_text(failed, json.dumps(record, indent=1) + "\n")
         return record
@@ -107,7 +109,6 @@ def process_motor(folder, out_dir, seed: int = 0) -> dict:
         shutil.rmtree(stage, ignore_errors=True)
         raise
     record = {**info, "status": "ok", "error": None, "rows": rows, "seconds": time.perf_counter() - t0}
-    from pgcomm.io.atomic import atomic_write_text
 
     atomic_write_text(stage / ROWS_FILE, json.dumps(record, indent=1) + "\n")
     target = out_dir / name
@@ -145,22 +146,19 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     Raises:
         PgcommError: bad or missing input, no excitation (one line naming the file).
     """
-    import jax.numpy as jnp
+    import jax.numpy as jnp  # start-up cost: JAX loads only when this runs
 
-    from pgcomm import __version__
-    from pgcomm._memory import release_compiled_programs
-    from pgcomm.calibration import calibrate_from_logs
-    from pgcomm.data import coil_set_data_from_logs
-    from pgcomm.evaluation import evaluate_logs, evaluation_results
+    from pgcomm.calibration import calibrate_from_logs  # start-up cost: loads JAX, SciPy only when this runs
+    from pgcomm.data import coil_set_data_from_logs  # start-up cost: loads JAX only when this runs
+    from pgcomm.evaluation import evaluate_logs, evaluation_results  # start-up cost: loads SciPy only when this runs
+    # start-up cost: loads JAX, SciPy only when this runs
     from pgcomm.experiment import identification_results, identify_models
-    from pgcomm.settings import ExperimentConfig, load_experiment
-    from pgcomm.setup import Setup
-    from pgcomm.export.c import write_c
+    from pgcomm.settings import ExperimentConfig  # start-up cost: loads JAX only when this runs
+    from pgcomm.setup import Setup  # start-up cost: loads JAX only when this runs
+    from pgcomm.export.c import write_c  # start-up cost: loads JAX only when this runs
+    # start-up cost: loads JAX only when this runs
     from pgcomm.export.lut import build_cogging_table, build_lut, write_cogging_table, write_lut
-    from pgcomm.io.config import load_motor
-    from pgcomm.io.logs import read_logs
-    from pgcomm.io.model import drive_metadata, save_model
-    from pgcomm.io.results import write_results
+    from pgcomm.io.model import drive_metadata, save_model  # start-up cost: loads JAX only when this runs
 
     folder, out = Path(folder), Path(out)
     t0 = time.perf_counter()

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import base64
 import html
-import io
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +13,7 @@ import numpy as np
 from pgcomm.defaults import DEFAULT_OUTLIER_Z
 from pgcomm.fleet.motor import COLUMNS, QA_QUANTITIES
 from pgcomm.fleet.qa import flag_outliers
+from pgcomm.io.atomic import atomic_path, atomic_write_text
 
 _LABELS = {"k": "k (N/A)", "zeta": "zeta (rad)", "cogging_pp": "cogging amplitude, peak-to-peak in y (N)",
            "improvement": "improvement cost_physics / cost_pgnn (-)"}
@@ -25,12 +25,8 @@ def write_fleet_html(path, rows, threshold: float = DEFAULT_OUTLIER_Z) -> Path:
     Returns:
         ``path``.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from pgcomm.io.atomic import atomic_write_text
+    # start-up cost: Matplotlib loads when the page is drawn, not in every fleet worker that imports pgcomm.fleet
+    from pgcomm.plots import plot_quantity_histogram, png_bytes
 
     flags = flag_outliers(rows, threshold)
     ok = [r for r in rows if r.get("status") == "ok"]
@@ -43,22 +39,10 @@ def write_fleet_html(path, rows, threshold: float = DEFAULT_OUTLIER_Z) -> Path:
     for q in QA_QUANTITIES:
         x = np.array([np.nan if r.get(q) is None else r[q] for r in ok], dtype=float)
         x = x[np.isfinite(x)]
-        fig, ax = plt.subplots(figsize=(6, 3))
-        if x.size:
-            ax.hist(x, bins=max(5, min(40, int(np.sqrt(x.size)) * 2)), color="0.6")
-            for f in flags:
-                if f["quantity"] == q:
-                    ax.axvline(f["value"], color="C3", lw=1)
-        ax.set_xlabel(_LABELS[q])
-        ax.set_ylabel("coil sets")
-        n_out = sum(f["quantity"] == q for f in flags)
-        ax.set_title(f"{q}: {x.size} values, {n_out} outlier(s) (red)")
-        fig.tight_layout()
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=90)
-        plt.close(fig)
+        out = [f["value"] for f in flags if f["quantity"] == q]
+        fig = plot_quantity_histogram(x, out, _LABELS[q], f"{q}: {x.size} values, {len(out)} outlier(s) (red)")
         parts.append(f"<h2>{esc(_LABELS[q])}</h2><img src='data:image/png;base64,"
-                     f"{base64.b64encode(buf.getvalue()).decode()}'>")
+                     f"{base64.b64encode(png_bytes(fig)).decode()}'>")
     parts.append("<h2>Outliers: which motor is unlike the others, and in what</h2>")
     if flags:
         parts.append("<table border='1' cellpadding='3'><tr><th>motor</th><th>coil set</th><th>quantity</th>"
@@ -87,11 +71,9 @@ def write_fleet_table(out_dir, rows, threshold: float = DEFAULT_OUTLIER_Z) -> li
     Returns:
         the three paths.
     """
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-    import pyarrow.parquet as pq
-
-    from pgcomm.io.atomic import atomic_path
+    import pyarrow as pa  # start-up cost: PyArrow loads only when this runs
+    import pyarrow.csv as pacsv  # start-up cost: PyArrow loads only when this runs
+    import pyarrow.parquet as pq  # start-up cost: PyArrow loads only when this runs
 
     out_dir = Path(out_dir)
     types = {"motor": pa.string(), "coil_set": pa.int64(), "status": pa.string(), "error": pa.string()}

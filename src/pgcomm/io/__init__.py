@@ -14,6 +14,9 @@ Modules:
 * :mod:`pgcomm.io.config`: TOML loading, generic dataclass loader, motor and experiment configs;
 * :mod:`pgcomm.io.model`: model files (JSON + npz), the one validated loader;
 * :mod:`pgcomm.io.results`: results.json with dotted keys;
+* :mod:`pgcomm.io.rotary_zoo`: a rotary zoo motor's folder (``motor.toml``, ``truth.json``, the drive's logs);
+* :mod:`pgcomm.io.static_map`: a drive's own static cogging map;
+* :mod:`pgcomm.io.plan`, :mod:`pgcomm.io.rotary_plan`: a rig plan's files;
 * :mod:`pgcomm.io.atomic`: write-to-temporary-then-rename helpers.
 """
 

@@ -39,8 +39,8 @@ files is a unit of the wrong magnitude (a pole pitch of 30 "m" that was meant
 in mm). Unknown keys are refused with the closest valid key: a misspelt
 optional key must not silently fall back to its default.
 
-:func:`load_dataclass` does the same for any (nested) frozen dataclass schema,
-e.g. experiment configs defined elsewhere.
+:func:`load_dataclass` does the same for any (nested) frozen dataclass schema:
+:func:`load_experiment` reads an experiment config (:mod:`pgcomm.settings`) with it.
 """
 
 from __future__ import annotations
@@ -56,6 +56,8 @@ from pathlib import Path
 
 from pgcomm.errors import ConfigError
 from pgcomm.io.atomic import atomic_write_text
+from pgcomm.rotary.model import cogging_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.rotary.motor import RotaryMotor
 
 __all__ = [
     "closest_match",
@@ -383,6 +385,21 @@ def load_dataclass(cls, table: dict, where: str):
     return _load(cls, table, _Where.parse(where))
 
 
+def load_experiment(path):
+    """Read an experiment TOML into :class:`pgcomm.settings.ExperimentConfig` (unknown keys refused, by
+    :func:`load_dataclass`): the linear experiment's tables, ``[rotary]`` (a rotary motor's identification,
+    :class:`pgcomm.settings.RotaryIdentifyOptions`) and ``[rotary_experiment]``
+    (:class:`pgcomm.settings.RotarySettings`).
+
+    Raises:
+        ConfigError: one line naming the file, table and key.
+    """
+    # start-up cost: the settings hold the twin's parameters (JAX); reading a motor or a log loads none
+    from pgcomm.settings import ExperimentConfig
+
+    return load_dataclass(ExperimentConfig, load_toml(path), str(path))
+
+
 # --------------------------------------------------------------------------- motor
 
 #: Plausibility ranges of motor-config values: key -> (lo, hi, unit). They catch
@@ -510,6 +527,7 @@ def load_motor(path) -> Motor:
     zeta = _per_coil_set(nominal, "zeta", w, n)
     mu = _number(nominal, "mu", w, required=False)
     kwargs = {} if mu is None else {"mu": mu}
+    # start-up cost: loads JAX only when this runs
     from pgcomm.motor import Motor  # here: reading a log or a setting needs no JAX
 
     return Motor(
@@ -644,8 +662,6 @@ def load_rotary_motor(path):
             non-integer pole-pair/slot/count number, an implausible value (wrong unit), or
             ``slots``/``pole_pairs`` that make no three-phase motor.
     """
-    from pgcomm.rotary.motor import RotaryMotor
-
     file = str(path)
     doc = load_toml(path)
     if _kind(doc, file) != "rotary":
@@ -691,8 +707,6 @@ def load_rotary_motor(path):
 def _check_rotary_orders(vals: dict, file: str) -> None:
     """Refuse a slot/pole combination whose model reaches beyond :data:`MAX_ROTARY_ORDER` (each value may be in its
     range, their least common multiple not)."""
-    from pgcomm.rotary.model import cogging_orders, fundamental_cogging_order, ripple_orders
-
     p, q = vals["pole_pairs"], vals.get("slots")
     if q is not None and int(cogging_orders(q, p).max()) > MAX_ROTARY_ORDER:
         lcm = fundamental_cogging_order(q, p)

@@ -9,7 +9,7 @@ Log format (DESIGN, "Formats"): one row per controller sample, columns
   the motion, ``pgcomm identify --no-force-sensor``); a log with only some of them is refused;
 * per coil set ``l = 1..L`` the star currents ``ia_{l}``, ``ib_{l}`` (A), or the drive inputs
   ``Fy_ref_{l}`` (N), ``delta_{l}`` (rad), or the q/d-axis currents ``iq_{l}``, ``id_{l}`` (A) of a
-  field-oriented drive in its own electrical frame (:mod:`pgcomm.drive_frame`: the paper's drive
+  field-oriented drive in its own electrical frame (the q axis along the force, the paper's drive
   inputs seen from that drive; ``id_{l}`` may be absent — a drive holding ``i_d* = 0`` often does
   not log it — and is then taken as 0 A by :meth:`Log.dq_currents`, noted in :attr:`Log.notes`;
   an ``id_{l}`` without ``iq_{l}`` is refused), or several of these forms. Sign convention of
@@ -95,6 +95,7 @@ from pgcomm.errors import ConfigError, DataError
 from pgcomm.io.atomic import atomic_path
 from pgcomm.io.config import closest_hint, list_names, load_toml
 from pgcomm.io.tables import read_table
+from pgcomm.io.angles import check_glitches, unwrap_angle
 
 __all__ = [
     "Log",
@@ -454,7 +455,7 @@ class Log:
         """q/d-axis currents ``(N, L, 2)`` = ``[iq_l, id_l]`` (A) in the drive's frame, or ``None`` if a coil set has no ``iq_l``.
 
         A coil set without ``id_l`` gets ``id = 0`` (a field-oriented drive holding ``i_d* = 0``;
-        :func:`read_log` says so in :attr:`notes`). Convert with :mod:`pgcomm.drive_frame`.
+        :func:`read_log` says so in :attr:`notes`).
         """
         n = self.n_coil_sets
         if n == 0 or not all(f"iq_{l}" in self.columns for l in range(1, n + 1)):
@@ -527,7 +528,7 @@ def write_log(path, log: Log) -> None:
     Raises:
         ConfigError: unsupported suffix or unwritable column name.
     """
-    import pyarrow as pa
+    import pyarrow as pa  # start-up cost: PyArrow loads only when this runs
 
     path = Path(path)
     suffix = path.suffix.lower()
@@ -536,7 +537,7 @@ def write_log(path, log: Log) -> None:
     names, arrays = _ordered(log)
     table = pa.table(dict(zip(names, arrays)))
     if suffix == ".csv":
-        import pyarrow.csv as pacsv
+        import pyarrow.csv as pacsv  # start-up cost: PyArrow loads only when this runs
 
         with atomic_path(path) as tmp:
             with pa.OSFile(str(tmp), "wb") as sink:
@@ -544,7 +545,7 @@ def write_log(path, log: Log) -> None:
                 sink.write((",".join(names) + "\n").encode())
                 pacsv.write_csv(table, sink, write_options=pacsv.WriteOptions(include_header=False))
     else:
-        import pyarrow.parquet as pq
+        import pyarrow.parquet as pq  # start-up cost: PyArrow loads only when this runs
 
         table = table.replace_schema_metadata({b"pgcomm.sample_time": repr(log.sample_time).encode()})
         with atomic_path(path) as tmp:
@@ -841,8 +842,6 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
             raise DataError(f"{src} {kind} {lab('velocity')}: unit '{vunit}' is linear but the log is a rotary "
                             "motor's (it has 'theta'); give rad/s, deg/s, rev/s or rpm")
     if rotary:
-        from pgcomm.io.angles import check_glitches, unwrap_angle
-
         steps = np.diff(cols["t"]) if gap_rows or not uniform else ts  # the motion over a step is that of its time
         cols["theta"], angle_wraps = unwrap_angle(cols["theta"], steps, cols.get("velocity"), src, lab("theta"))
         check_glitches(cols["theta"], steps, src, lab("theta"))

@@ -70,6 +70,11 @@ import pgcomm
 from pgcomm.errors import DataError, PgcommError
 from pgcomm.io.atomic import atomic_open, atomic_write_text
 from pgcomm.models import MLP, CombinedModel, activation_fn
+from pgcomm.control import Feedforward
+from pgcomm.io.config import _plausible, ROTARY_PLAUSIBLE
+from pgcomm.rotary.law import MIN_GAIN
+from pgcomm.rotary.model import Fourier, RotaryModel
+from pgcomm.spline_model import SplineModel
 
 #: Schema identifier written to every PGNN model file (:class:`CombinedModel`).
 SCHEMA = "pgcomm-model/2"
@@ -122,8 +127,6 @@ def save_model(path, model, metadata: dict | None = None,
         TypeError: another model type, or mechanics with a PGNN model.
         ValueError: bad ``identification``, non-finite or non-uniform spline tables or mechanics.
     """
-    from pgcomm.spline_model import SplineModel
-
     if identification not in IDENTIFICATION_MODES:
         raise ValueError(f"identification must be one of {IDENTIFICATION_MODES}, got {identification!r}")
     if isinstance(model, SplineModel):
@@ -522,8 +525,6 @@ def _check_plausible(json_path: Path, pole_pitch: float, v_eps, y_min, y_max) ->
     Raises:
         ConfigError: one line naming the file and the key.
     """
-    from pgcomm.io.config import _plausible
-
     where = str(json_path)
     _plausible(pole_pitch, "pole_pitch", where)
     lo, hi = DIRECTION_VELOCITY_RANGE
@@ -539,8 +540,6 @@ def _check_plausible(json_path: Path, pole_pitch: float, v_eps, y_min, y_max) ->
 
 def _load_spline(json_path: Path, document: dict):
     """:func:`load_model` for a schema ``/3`` document (header already parsed)."""
-    from pgcomm.spline_model import SplineModel
-
     if document.get("family") != "spline":
         raise DataError(f"{json_path}: schema {SPLINE_SCHEMA!r} needs \"family\": \"spline\", "
                         f"found {document.get('family')!r}")
@@ -613,8 +612,6 @@ def _load_spline(json_path: Path, document: dict):
             raise DataError(f"{json_path}: training_range needs {n_l} values per bound")
     _check_plausible(json_path, pole_pitch, v_eps, y_min, y_max)
     if mech_hdr is not None:
-        from pgcomm.io.config import _plausible
-
         _plausible(mech_scalars["mass"], "mass", str(json_path), "mechanics mass")
         if not mech_scalars["viscous"] >= 0:
             raise DataError(f"{json_path}: mechanics viscous = {mech_scalars['viscous']!r} N s/m: expected >= 0")
@@ -655,8 +652,6 @@ def feedforward_from_metadata(metadata):
     Raises:
         DataError: mechanics present but incomplete or not finite (one line).
     """
-    from pgcomm.control import Feedforward
-
     if not isinstance(metadata, dict):
         return None
     mech = metadata.get("mechanics")
@@ -717,7 +712,6 @@ def current_limit_of(document, path) -> float | None:
         return None
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
         raise DataError(f"{path}: metadata current_limit = {v!r} is not a positive peak phase current in A")
-    from pgcomm.io.config import _plausible
 
     return _plausible(float(v), "current_limit", str(path), "metadata current_limit")
 
@@ -752,7 +746,6 @@ def drive_of(document, path, n_coil_sets: int):
     if not (np.all(np.isfinite(k)) and np.all(np.isfinite(z)) and np.all(k > 0)):
         raise DataError(f"{path}: metadata drive: k_hat {k.tolist()} N/A must be positive and zeta_hat "
                         f"{z.tolist()} rad finite")
-    from pgcomm.io.config import _plausible
 
     for l in range(n_coil_sets):
         _plausible(float(k[l]), "k", str(path), f"metadata drive k_hat[{l}]")
@@ -791,10 +784,6 @@ def rotary_model_from_dict(doc, path):
     Raises:
         DataError: the problem, on one line.
     """
-    from pgcomm.io.config import ROTARY_PLAUSIBLE
-    from pgcomm.rotary.law import MIN_GAIN
-    from pgcomm.rotary.model import Fourier, RotaryModel
-
     if not isinstance(doc, dict) or doc.get("schema") != ROTARY_SCHEMA:
         what = doc.get("schema") if isinstance(doc, dict) else None
         raise DataError(f"{path}: not a rotary model (schema {what!r}, expected {ROTARY_SCHEMA!r}: the model.json of "

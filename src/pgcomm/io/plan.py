@@ -37,6 +37,7 @@ from pgcomm.io.atomic import atomic_write_text
 from pgcomm.io.config import load_motor, write_motor
 from pgcomm.io.logs import Log, write_log
 from pgcomm.plan import Experiment, Plan, log_columns
+from pgcomm.io.references import read_reference
 
 __all__ = ["SCHEMA", "LOG_SCHEMA", "write_plan", "read_plan", "plan_to_dict", "plan_markdown", "plan_id",
            "log_identity", "identity_path", "write_log_identity", "read_log_identity", "check_log_plans"]
@@ -178,8 +179,6 @@ def read_plan(path) -> Plan:
     Raises:
         ConfigError: a missing or inconsistent file, naming it.
     """
-    from pgcomm.io.references import read_reference
-
     p = Path(path)
     folder = p if p.is_dir() else p.parent
     doc_path = folder / "plan.json"

@@ -155,7 +155,7 @@ def read_table(path, wanted=None, group: str | None = None, source: str | None =
         raw, file_ts = _read_parquet(p, src, wanted)
         found = list(raw)
     elif suffix == ".mat":
-        import h5py
+        import h5py  # start-up cost: h5py loads only when this runs
 
         if h5py.is_hdf5(p):  # MATLAB v7.3 files are HDF5
             raw, found = _read_hdf5(p, src, wanted, group, "variable")
@@ -280,8 +280,8 @@ def read_csv_columns(path, source: str | None = None, strict=None) -> dict[str, 
     Returns:
         dict of 1-D float64 arrays of equal length (possibly 0).
     """
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
+    import pyarrow as pa  # start-up cost: PyArrow loads only when this runs
+    import pyarrow.csv as pacsv  # start-up cost: PyArrow loads only when this runs
 
     src = source or str(path)
     strict = strict or (lambda name: True)
@@ -358,8 +358,8 @@ def _count_lines(path) -> int:
 
 def _arrow_column(col, name: str, src: str, strict: bool):
     """A pyarrow column as float64, or ``None`` for an ignored non-numeric extra column."""
-    import pyarrow as pa
-    import pyarrow.compute as pc
+    import pyarrow as pa  # start-up cost: PyArrow loads only when this runs
+    import pyarrow.compute as pc  # start-up cost: PyArrow loads only when this runs
 
     t = col.type
     if pa.types.is_dictionary(t):
@@ -390,8 +390,8 @@ def _arrow_column(col, name: str, src: str, strict: bool):
 
 
 def _read_parquet(path, src: str, strict) -> tuple[dict, float | None]:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+    import pyarrow as pa  # start-up cost: PyArrow loads only when this runs
+    import pyarrow.parquet as pq  # start-up cost: PyArrow loads only when this runs
 
     try:
         pf = pq.ParquetFile(path)
@@ -445,7 +445,7 @@ _MAT_BYTES = {"double": 8, "single": 4, "int8": 1, "uint8": 1, "int16": 2, "uint
 
 
 def _read_mat_v5(path, src: str, wanted, group: str | None) -> tuple[dict, list[str]]:
-    import scipy.io as sio
+    import scipy.io as sio  # start-up cost: SciPy loads only when this runs
 
     try:
         info = sio.whosmat(str(path))
@@ -489,7 +489,7 @@ def _check_mat_sizes(path, src: str, info) -> None:
 def _loadmat(path, src: str, names: list[str]) -> dict:
     """:func:`scipy.io.loadmat` of the variables ``names``; a damaged variable (cut short, dimensions that do not
     match its data) is a :class:`DataError` naming it."""
-    import scipy.io as sio
+    import scipy.io as sio  # start-up cost: SciPy loads only when this runs
 
     try:
         return sio.loadmat(str(path), variable_names=names, simplify_cells=True)
@@ -518,7 +518,7 @@ _HDF5_SKIP = ("#refs#", "#subsystem#")
 
 
 def _read_hdf5(path, src: str, wanted, group: str | None, what: str) -> tuple[dict, list[str]]:
-    import h5py
+    import h5py  # start-up cost: h5py loads only when this runs
 
     try:
         f = h5py.File(path, "r")
@@ -572,7 +572,7 @@ def _check_dataset(ds, name: str, src: str, what: str, file_size: int) -> None:
     ``1/MAX_EXPANSION`` of them. Compact, external and virtual layouts and other filters are left to
     :func:`check_budget`.
     """
-    import h5py
+    import h5py  # start-up cost: h5py loads only when this runs
 
     declared = int(ds.size) * int(ds.dtype.itemsize)
     if declared == 0:

@@ -411,7 +411,7 @@ OFFSET_EVIDENCE = 3.0
 
 
 def offset_text(info: dict) -> str | None:
-    """One line on the drive's offset error the d-voltage gives (``info["back_emf"]`` of
+    """One line on the drive's offset error the d-voltage gives (``back_emf`` of
     :func:`pgcomm.rotary.identify.identify`), or ``None`` without a d-voltage read."""
     off = (info or {}).get("offset_error")
     if not off:

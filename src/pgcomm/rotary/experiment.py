@@ -25,7 +25,8 @@ running-log table with the standstill table against the sweep's noise.
 **How long to log.** After the first round of running logs, the identification's standard errors
 (time-block sandwich, :func:`pgcomm.rotary.identify.identify`) say whether the cogging and the
 ripple are resolved to 5 % of their RMS and how much longer the logs would have to be. By default the
-rounds fill :attr:`RotarySettings.log_budget_share` of the sweep's time (:attr:`RotarySettings.stop_when_resolved`
+rounds fill :attr:`~pgcomm.settings.RotarySettings.log_budget_share` of the sweep's time
+(:attr:`~pgcomm.settings.RotarySettings.stop_when_resolved`
 says why); with ``stop_when_resolved`` more rounds are recorded only while a map is unresolved and they
 fit the budget, the need estimated again after every batch (the standard error of a short log is itself
 uncertain). The
@@ -40,19 +41,22 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from pgcomm.seeds import stream_seed
 from pgcomm.rotary.identify import fit_mechanics, identify, map_text, resolution_verdict
+from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.readings import delay_text, lag_of
 from pgcomm.rotary.regression import Orders, max_speed
 from pgcomm.rotary.model import RotaryModel
-from pgcomm.rotary.standstill import StandstillPlan, run_standstill
+from pgcomm.rotary.standstill import run_standstill, sweep_reference
 from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, breakaway_current, default_gains, simulate
+from pgcomm.settings import RotarySettings, StandstillPlan
+from pgcomm.progress import Progress
 
-__all__ = ["RotarySettings", "running_references", "running_log", "record_running_logs", "RunningLogs",
+__all__ = ["running_references", "running_log", "record_running_logs", "RunningLogs",
            "drive_log_mix", "tracking_references", "closed_loop", "run", "identification_errors", "ROWS",
            "quick_settings", "stall_log"]
 
@@ -65,47 +69,6 @@ AGREEMENT_FACTOR = 1.5
 #: identification's alias guard, :data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD`, is looser: it
 #: only has to integrate the torque along the path, not cancel it).
 EVAL_MIN_SAMPLES_PER_PERIOD = 8.0
-
-
-@dataclass(frozen=True)
-class RotarySettings:
-    """Sizes of the rotary experiment.
-
-    Attributes:
-        revolutions: revolutions per running-log segment (two speeds, both directions).
-        speed_shares: mean speeds of the segments as shares of the alias guard's speed limit.
-        dither_hz: frequencies of the q-current dither the drive injects in the running logs (Hz). The twin has no
-            mains pickup; on a rig keep them a few hertz off the mains' harmonics, where a pickup within a natural bin
-            of a dither cannot be told from it (:mod:`pgcomm.rotary.time_lines`).
-        dither_share: dither amplitude as a share of the current limit (at most; less where the
-            speed swing would exceed ``swing`` of the mean speed).
-        swing: largest speed swing the dither may cause (share of the mean speed).
-        standstill: the sweep (points, settle, average).
-        eval_share: evaluation speed as a share of the speed limit.
-        eval_revolutions: revolutions per direction of each evaluation run.
-        log_budget_share: the running logs may take at most this share of the standstill sweep's rig
-            time: while the identification's standard error says the cogging or the ripple is not
-            resolved (within :data:`pgcomm.rotary.identify.RESOLVED_SHARE` of its RMS with probability
-            :data:`~pgcomm.rotary.identify.RESOLVED_CONFIDENCE`), more rounds of the
-            same references are recorded, as many as the standard error asks for and the budget allows
-            (what an engineer at the rig does: log until the map is resolved, then stop).
-        stop_when_resolved: stop logging as soon as both maps are resolved (``True``), or record the whole
-            budget (``False``, the default): a map resolved to 5 % RMS can still miss an order outside the
-            basis that the screening would find in a longer log, and a low one costs the speed loop more than
-            its share of the RMS (a low outside order left unseen can cost the law most of its gain over the
-            standstill table in the speed loop).
-    """
-
-    revolutions: float = 2.0
-    speed_shares: tuple = (0.3, 0.5)
-    dither_hz: tuple = (61.0, 83.0, 107.0)
-    dither_share: float = 0.5
-    swing: float = 0.8
-    standstill: StandstillPlan = StandstillPlan()
-    eval_share: float = 0.5
-    eval_revolutions: float = 1.0
-    log_budget_share: float = 0.5
-    stop_when_resolved: bool = False
 
 
 def quick_settings() -> RotarySettings:
@@ -228,8 +191,6 @@ def drive_log_mix(truth: RotaryTruth, seed: int = 0) -> dict:
     Returns:
         ``{"const": [log, ...], "accel": [...], "sweep": [log]}``, logs as :func:`pgcomm.rotary.twin.simulate`'s.
     """
-    from pgcomm.rotary.standstill import sweep_reference
-
     m = truth.motor
     ts = m.sample_time
     a = truth.inertia / truth.k0
@@ -356,11 +317,9 @@ def record_running_logs(truth: RotaryTruth, settings: RotarySettings = RotarySet
         progress: :class:`pgcomm.progress.Progress` or ``None``.
 
     Returns:
-        :class:`RunningLogs`; its identification's ``info`` has ``rounds``, ``first_round_standard_error``,
+        :class:`RunningLogs`; its identification has ``rounds``, ``first_round_standard_error``,
         ``log_budget_s`` (s) and the ``current_delay`` read on the first round.
     """
-    from pgcomm.progress import Progress
-
     progress = progress or Progress(enabled=False)
     motor = truth.motor
     ts = motor.sample_time
@@ -378,23 +337,23 @@ def record_running_logs(truth: RotaryTruth, settings: RotarySettings = RotarySet
     with progress.stage("running logs (speed loop, two speeds, both directions, q-current dither)"):
         record([0])
     with progress.stage("identification from the running logs (no torque sensor)"):
-        ident = identify(logs, motor, orders)
+        ident = identify(logs, motor, RotaryIdentifyOptions(orders=orders))
         # the current's timing is the drive's: detected once, kept for the longer logs
-        delay = ident.info["current_delay"]["samples"]
-        lag = lag_of(ident.info["current_delay"])
+        delay = ident.current_delay["samples"]
+        lag = lag_of(ident.current_delay)
         rounds, max_rounds = 1, max(1, math.floor(budget / round_seconds))
-        first = {k: dict(ident.info["standard_error"][k]) for k in ("cogging", "ripple")}
-        first_timing = dict(ident.info["current_delay"])
+        first = {k: dict(ident.standard_error[k]) for k in ("cogging", "ripple")}
+        first_timing = dict(ident.current_delay)
         progress.info(delay_text(first_timing))
         if not settings.stop_when_resolved and max_rounds > 1:
             progress.info(f"recording the rest of the budget: {max_rounds - 1} more round(s) ({budget:.0f} s)")
             record(range(1, max_rounds))
             rounds = max_rounds
-            ident = identify(logs, motor, orders, current_delay=delay, current_lag=lag)
+            ident = identify(logs, motor, RotaryIdentifyOptions(orders=orders, current_delay=delay, current_lag=lag))
         # log until both maps are resolved or the budget is spent; the standard error of a short log is itself
         # uncertain, so the need is re-estimated after every batch rather than trusted from the first round
         while rounds < max_rounds:
-            se = ident.info["standard_error"]
+            se = ident.standard_error
             need = max(se["cogging"]["log_time_factor_to_resolve"], se["ripple"]["log_time_factor_to_resolve"])
             if need <= 1.0:
                 break
@@ -407,11 +366,9 @@ def record_running_logs(truth: RotaryTruth, settings: RotarySettings = RotarySet
                           f"of logs: recording {more} more round(s) (budget {budget:.0f} s)")
             record(range(rounds, rounds + more))
             rounds += more
-            ident = identify(logs, motor, orders, current_delay=delay, current_lag=lag)
-        ident.info["rounds"] = rounds
-        ident.info["first_round_standard_error"] = first
-        ident.info["log_budget_s"] = budget
-        ident.info["current_delay"] = {**first_timing, "samples": delay}
+            ident = identify(logs, motor, RotaryIdentifyOptions(orders=orders, current_delay=delay, current_lag=lag))
+        ident = replace(ident, rounds=rounds, first_round_standard_error=first, log_budget_s=budget,
+                        current_delay={**first_timing, "samples": delay})
     return RunningLogs(logs, ident, rounds, round_seconds, delay, lag)
 
 
@@ -458,8 +415,6 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         ``reducible_share``, ``tracking_ratio_model_over_standstill``, ``timing`` and the models
         (``models``: the identified and true :class:`RotaryModel`, the standstill table).
     """
-    from pgcomm.progress import Progress
-
     progress = progress or Progress(enabled=False)
     t_start = time.perf_counter()
     motor = truth.motor
@@ -468,13 +423,14 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
     logs, ident, run_seconds = rec.logs, rec.identification, rec.seconds
     delay, lag = rec.delay, rec.lag
     with progress.stage("mechanics from the running logs (inertia ratio, friction)"):
-        mech = fit_mechanics(logs, motor, orders, current_delay=delay, time_lines=ident.info["time_lines"]["hz"],
-                             current_lag=lag, current_filter=ident.info["current_filter"]["tau_s"])
+        mech = fit_mechanics(logs, motor, RotaryIdentifyOptions(
+            orders=orders, current_delay=delay, current_lag=lag, time_lines=ident.time_lines["hz"],
+            current_filter=ident.current_filter["tau_s"]))
         errs = identification_errors(ident.model, truth)
         progress.info(f"cogging error {100 * errs['cogging_rel']:.1f} %, ripple error {100 * errs['ripple_rel']:.1f} "
-                      f"% of the truth's RMS; ridge {ident.info['ridge']:.0e}")
+                      f"% of the truth's RMS; ridge {ident.ridge:.0e}")
         for name in ("cogging", "ripple"):
-            se = ident.info["standard_error"][name]
+            se = ident.standard_error[name]
             progress.info(map_text(name, se, run_seconds))
     with progress.stage(f"standstill sweep ({settings.standstill.points} angles, both directions)"):
         t0 = time.perf_counter()
@@ -511,7 +467,7 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         "motor": {**motor.to_dict(), "name": motor.name, "cogging_fundamental": motor.cogging_fundamental,
                   "k0_true": truth.k0, "inertia_ratio_true": truth.inertia / truth.k0,
                   "control_per_log": truth.control_per_log},
-        "identification": {**ident.info, "errors": errs, "mechanics_fit": mech},
+        "identification": {**ident.to_dict(), "errors": errs, "mechanics_fit": mech},
         "standstill": {"points": n_pts, "seconds": sweep.seconds, "noise_A": sweep.noise,
                        "simulation_seconds": sweep_sim, "agreement": agreement},
         "timing": {"running_logs_s": run_seconds, "standstill_s": sweep.seconds,

@@ -23,9 +23,10 @@ T_cog(θ)`` sample by sample, no filter; gives ``k0`` (N·m/A), the ripple and t
 
 from __future__ import annotations
 
+import copy
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -35,42 +36,158 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
 from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _with_pll, _with_report, \
-    apply_reading, current_noise_beside_angle, lag_of, unfiltered
-from pgcomm.rotary.regression import DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, RIDGE_GRID, \
-    Orders, information_shares, \
-    _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, _map_gram, _map_standard_error, \
-    _prepare, _quantisation_correction, _significant_extra_orders
+    apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
+from pgcomm.rotary.regression import _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, \
+    _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
+    DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID
 from pgcomm.rotary.time_lines import _time_lines
+from pgcomm.settings import RotaryIdentifyOptions
+from pgcomm.rotary.law import MIN_GAIN
 
-__all__ = ["identify", "fit_mechanics", "check_plausible", "resolution_verdict", "RESOLVED_SHARE",
-           "RESOLVED_CONFIDENCE", "RotaryIdentification"]
+__all__ = ["identify", "fit_mechanics", "orders_of", "Reading", "check_plausible", "resolution_verdict", "share_text",
+           "RESOLVED_SHARE", "RESOLVED_CONFIDENCE", "RotaryIdentification"]
 
 
-@dataclass
+@dataclass(frozen=True)
+class Reading:
+    """How :func:`identify` read a drive's logs (:meth:`RotaryIdentification.reading`), for
+    :meth:`pgcomm.settings.RotaryIdentifyOptions.with_reading`.
+
+    Attributes:
+        current_delay: samples by which the logged q-current lags the current that acted.
+        current_lag: the smooth current's lag between samples (samples), or ``None``: held.
+        angle_pll: ``(ω_n rad/s, ζ)`` of the drive's PLL whose estimate the logged angle is, or ``None``.
+        time_lines: frequencies (Hz) of the time-periodic disturbances fitted.
+    """
+
+    current_delay: int
+    current_lag: float | None
+    angle_pll: tuple[float, float] | None
+    time_lines: tuple[float, ...]
+
+
+#: The fields of :class:`RotaryIdentification` an identification from running logs fills, in ``results.json``'s order.
+_RUNNING_KEYS = ("windows", "windows_used", "windows_refused_alias", "windows_refused_slow", "speed_limit_rad_s",
+                 "min_samples_per_period", "highest_order", "filter_taps", "unknowns", "ridge", "ridge_chosen_by",
+                 "validation_curve", "orders_added", "orders_screened", "cost_A2", "inertia_ratio", "standard_error",
+                 "quantisation", "current_delay", "angle_pll", "current_filter", "information_share", "drive_orders",
+                 "pinned", "time_lines", "back_emf", "current_noise_A", "current_noise_from",
+                 "current_noise_correction", "seconds")
+#: ... and those written only when set: the alias guard's note, and what a rotary experiment's rounds of logs add.
+_OPTIONAL_KEYS = ("note", "rounds", "first_round_standard_error", "log_budget_s")
+#: ... and an identification with a torque sensor.
+_TORQUE_KEYS = ("k0", "cost_Nm2", "seconds")
+
+
+@dataclass(frozen=True)
 class RotaryIdentification:
-    """Result of :func:`identify`: the model plus what was used and chosen.
+    """Result of :func:`identify`: the model, each map's standard error and verdict, and how the logs were read.
+
+    A result is data: :meth:`to_dict` (``results.json``'s ``identification``, keys in ``docs/results.md``) computes
+    nothing and returns a copy. The sections that are reports of their own (``standard_error`` per map,
+    ``current_delay``, ``angle_pll``, ``current_filter``, ``time_lines``, ``back_emf``, ``quantisation``, the current's
+    noise) are JSON-ready dicts as their modules write them (:mod:`pgcomm.rotary.readings`,
+    :mod:`pgcomm.rotary.time_lines`, :mod:`pgcomm.rotary.back_emf`); :func:`map_text` and the ``*_text`` functions
+    read them.
 
     Attributes:
         model: :class:`RotaryModel` (current units).
-        info: windows used/refused (alias guard, slow), ridge choice, validation curve, costs, seconds.
+        seconds: the identification's wall time (s).
+        torque_sensor: identified from a ``torque`` column; then ``k0`` (N·m/A) and ``cost_Nm2`` (N²·m²) are set and
+            the running-log fields are ``None``.
+        windows, windows_used, windows_refused_alias, windows_refused_slow: filter windows in all, used, refused by
+            the alias guard (faster than ``speed_limit_rad_s``), refused as too slow.
+        min_samples_per_period, highest_order, filter_taps, unknowns: the alias guard, the highest modelled order, the
+            filter's taps, the fit's unknowns.
+        ridge, ridge_chosen_by, validation_curve: the relative ridge weight, how it was chosen, held-out cost per
+            candidate (A²).
+        orders_added, orders_screened: orders outside the basis the logs added (per map), whether they were screened.
+        cost_A2, inertia_ratio: the fit's cost (A²) and ``J/k0`` (A·s²/rad).
+        standard_error: per map (``cogging``, ``ripple``, ``direction``) its standard error and verdict
+            (:func:`resolution_verdict`).
+        quantisation, current_delay, angle_pll, current_filter, time_lines, back_emf: the encoder's correction and the
+            logs' reading (:mod:`pgcomm.rotary.readings`, :mod:`pgcomm.rotary.time_lines`), the q-voltage's check
+            (:mod:`pgcomm.rotary.back_emf`; ``None`` without a voltage).
+        information_share, pinned, drive_orders: each map's information beyond the angle's, the maps pinned, the
+            cogging at the drive's own orders.
+        current_noise_A, current_noise_from, current_noise_correction: the logged current's noise (A), where it was
+            read, the fit's correction for it.
+        note: the alias guard's refusals in words, where it refused windows.
+        rounds, first_round_standard_error, log_budget_s: set by a rotary experiment that logs in rounds
+            (:func:`pgcomm.rotary.experiment.record_running_logs`).
     """
 
     model: RotaryModel
-    info: dict = field(default_factory=dict)
+    seconds: float
+    torque_sensor: bool = False
+    k0: float | None = None
+    cost_Nm2: float | None = None
+    windows: int | None = None
+    windows_used: int | None = None
+    windows_refused_alias: int | None = None
+    windows_refused_slow: int | None = None
+    speed_limit_rad_s: float | None = None
+    min_samples_per_period: float | None = None
+    highest_order: int | None = None
+    filter_taps: int | None = None
+    unknowns: int | None = None
+    ridge: float | None = None
+    ridge_chosen_by: str | None = None
+    validation_curve: dict | None = None
+    orders_added: dict | None = None
+    orders_screened: bool | None = None
+    cost_A2: float | None = None
+    inertia_ratio: float | None = None
+    standard_error: dict | None = None
+    quantisation: dict | None = None
+    current_delay: dict | None = None
+    angle_pll: dict | None = None
+    current_filter: dict | None = None
+    information_share: dict | None = None
+    drive_orders: dict | None = None
+    pinned: list | None = None
+    time_lines: dict | None = None
+    back_emf: dict | None = None
+    current_noise_A: float | None = None
+    current_noise_from: str | None = None
+    current_noise_correction: dict | None = None
+    note: str | None = None
+    rounds: int | None = None
+    first_round_standard_error: dict | None = None
+    log_budget_s: float | None = None
 
-    def reading(self) -> dict:
-        """How the logs were read, as the keyword arguments of :func:`identify` (and :func:`fit_mechanics`) that
-        read more logs of the same drive the same way without searching again: ``current_delay`` (samples),
-        ``current_lag`` (samples, ``None`` held), ``angle_pll`` (``(ω_n rad/s, ζ)`` or ``None``) and ``time_lines``
-        (Hz). The search tries tens of readings, each a fit of all the logs: most of an identification's time."""
-        if "current_delay" not in self.info:
+    def to_dict(self) -> dict:
+        """``results.json``'s ``identification``: the fields as JSON-ready data (a deep copy; the torque sensor's
+        fields alone for an identification with one)."""
+        if self.torque_sensor:
+            keys = _TORQUE_KEYS
+        else:
+            keys = _RUNNING_KEYS + tuple(k for k in _OPTIONAL_KEYS if getattr(self, k) is not None)
+        return copy.deepcopy({k: getattr(self, k) for k in keys})
+
+    def reading(self) -> Reading:
+        """How the logs were read (:class:`Reading`), to read more logs of the same drive the same way without
+        searching again: ``identify(logs, motor, options.with_reading(result.reading()))``. The search tries tens of
+        readings, each a fit of all the logs: most of an identification's time."""
+        if self.torque_sensor:
             raise ValueError("an identification with a torque sensor reads no current's timing and no angle's PLL")
-        timing, pll = self.info["current_delay"], self.info["angle_pll"]
+        timing, pll = self.current_delay, self.angle_pll
         w = pll["natural_frequency_rad_s"]
-        return {"current_delay": int(timing["samples"]),
-                "current_lag": None if timing["held"] else float(timing["lag"]),
-                "angle_pll": None if w is None else (float(w), float(pll["damping"])),
-                "time_lines": [float(f) for f in self.info["time_lines"]["hz"]]}
+        return Reading(current_delay=int(timing["samples"]),
+                       current_lag=None if timing["held"] else float(timing["lag"]),
+                       angle_pll=None if w is None else (float(w), float(pll["damping"])),
+                       time_lines=tuple(float(f) for f in self.time_lines["hz"]))
+
+
+def _guard(options: RotaryIdentifyOptions) -> tuple[float, int]:
+    """The alias guard's samples per period and the filter's taps of ``options`` (the regression's defaults)."""
+    return (MIN_SAMPLES_PER_PERIOD if options.min_samples_per_period is None else options.min_samples_per_period,
+            FILTER_TAPS if options.taps is None else options.taps)
+
+
+def _as_logged(value, logged):
+    """An option's value, or ``logged`` (the log as written) where it is left at ``"detect"``."""
+    return logged if isinstance(value, str) else value
 
 
 def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect",
@@ -83,54 +200,27 @@ def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: 
     return {k: np.concatenate([c[k] for c in parts]) for k in parts[0]}, counts, v_limit, ts
 
 
-def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_sensor: bool = False,
-             min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
-             ridge: float | None = None, extra_orders: bool = True, encoder_step="detect",
-             current_delay="detect", angle_pll="detect", time_lines="detect",
-             back_emf: bool = True, current_lag="detect", current_noise="detect",
-             current_filter="detect", pin: tuple = ()) -> RotaryIdentification:
+def identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions | None = None) -> RotaryIdentification:
     """Identify cogging, torque-constant ripple, the direction-dependent torque and friction.
 
     Args:
         logs: sequence of dict-like logs with columns ``t`` (s), ``theta`` (rad, multi-turn),
-            ``iq_1`` (or ``iq``, A), and ``torque`` (N·m) for ``torque_sensor``; each ``(N_i,)``.
+            ``iq_1`` (or ``iq``, A), and ``torque`` (N·m) for a torque sensor; each ``(N_i,)``.
         motor: :class:`RotaryMotor` (pole pairs and slots set the orders; ``sample_time`` is used
             when a log has no ``t``).
-        orders: harmonics of the maps (default :meth:`Orders.for_motor`).
-        torque_sensor: identify from the ``torque`` column instead of the motion.
-        min_samples_per_period: the alias guard (:mod:`pgcomm.rotary.regression`).
-        taps: Hann window length (samples).
-        ridge: fixed relative ridge weight instead of the validated choice.
-        extra_orders: let the data add cogging and ripple orders outside ``orders``
-            (:mod:`pgcomm.rotary.regression`, "Orders the basis does not have").
-        encoder_step: the encoder's step (rad) for the quantisation correction of the acceleration
-            (:mod:`pgcomm.rotary.quantisation`); ``"detect"`` reads it from each log's angle, ``None`` turns
-            the correction off.
-        current_delay: samples by which the logged q-current lags the current that acted over each sample (an
-            int), or ``"detect"`` (:mod:`pgcomm.rotary.readings`, "The current's timing").
-        angle_pll: ``(ω_n rad/s, ζ)`` of the PLL whose estimate the logged angle is, ``None`` for the encoder's own
-            angle, or ``"detect"``: tried when no logged angle sits on an encoder's lattice
-            (:mod:`pgcomm.rotary.readings`, "The angle's estimate").
-        time_lines: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a cosine and a sine per
-            log each), ``()`` for none, or ``"detect"`` (:mod:`pgcomm.rotary.time_lines`).
-        back_emf: where every log has the drive's q-voltage (``vq_1``, V), measure the ripple, the back-EMF constant
-            and the resistance in it too, and check the ripple against the currents' (:mod:`pgcomm.rotary.back_emf`;
-            results key ``back_emf``); ``False`` leaves the voltage unread. The model is the currents' either way.
-        current_lag: the logged current between two samples: ``None`` held from each sample to the next (a drive
-            that controls at its log rate), a number: the smooth curve through the samples, that many samples late (a
-            drive that controls faster and logs snapshots: ``1/(2K)`` at ``K`` control cycles per logged sample), or
-            ``"detect"`` (:mod:`pgcomm.rotary.readings`, "The current's timing"; results ``info["current_delay"]``'s
-            ``held`` and ``lag``).
-        current_noise: the logged current's white noise (A, standard deviation) that the fit corrects for
-            (:mod:`pgcomm.rotary.regression`, "The current's noise"), ``None`` for no correction, or ``"detect"``:
-            from the logged d-current where every log has one, else from the q-current's own less what the logged angle
-            predicts of it (results ``info["current_noise_correction"]``; the verdict counts what the correction may
-            leave, ``current_noise_bias``).
-        current_filter: the time constant (s) of a first-order filter through which the drive reports the current
-            (``0`` for none), or ``"detect"`` (:mod:`pgcomm.rotary.readings`, "A filtered report"; results
-            ``info["current_filter"]``).
-        pin: maps to pin whatever the logs' information on them (``"ripple"``, ``"direction"``); a fit whose ripple is
-            not a motor's (:func:`check_plausible`) is repeated with the ripple pinned, and says so.
+        options: :class:`pgcomm.settings.RotaryIdentifyOptions` (default: every reading of the logs detected):
+            the orders (default :meth:`Orders.for_motor`), a torque sensor, the alias guard
+            (:mod:`pgcomm.rotary.regression`), the filter's taps, a fixed ridge, orders outside the basis
+            (:mod:`pgcomm.rotary.regression`, "Orders the basis does not have"), the encoder's step for the
+            quantisation correction (:mod:`pgcomm.rotary.quantisation`), the current's delay and form between samples
+            (:mod:`pgcomm.rotary.readings`, "The current's timing"), a drive PLL's angle (:mod:`pgcomm.rotary.readings`,
+            "The angle's estimate"), time-periodic disturbances (:mod:`pgcomm.rotary.time_lines`), the q-voltage's
+            back-EMF (:mod:`pgcomm.rotary.back_emf`; results key ``back_emf``; the model is the currents' either way),
+            the current's noise (:mod:`pgcomm.rotary.regression`, "The current's noise": from the logged d-current
+            where every log has one, else from the q-current's own less what the logged angle predicts of it; the
+            verdict counts what the correction may leave), a report filter (:mod:`pgcomm.rotary.readings`, "A filtered
+            report") and maps to pin. A fit whose ripple is not a motor's (:func:`check_plausible`) is repeated with
+            the ripple pinned, and says so.
 
     Returns:
         :class:`RotaryIdentification`; ``model.k_t`` is ``k0`` with a torque sensor, else the
@@ -140,9 +230,15 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         DataError: missing/non-finite columns, non-uniform ``t``.
         ExcitationError: no usable window (all too fast for the alias guard or at standstill).
     """
+    options = options or RotaryIdentifyOptions()
+    min_samples_per_period, taps = _guard(options)
+    ridge, extra_orders, encoder_step = options.ridge, options.extra_orders, options.encoder_step
+    current_delay, angle_pll, time_lines = options.current_delay, options.angle_pll, options.time_lines
+    back_emf, current_lag, current_noise = options.back_emf, options.current_lag, options.current_noise
+    current_filter, pin = options.current_filter, options.pin
     t0 = time.perf_counter()
-    orders = orders0 = orders or Orders.for_motor(motor)
-    if torque_sensor:
+    orders = orders_of(options, motor)
+    if options.torque_sensor:
         return check_plausible(_identify_torque(logs, motor, orders, t0))
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
     n_windows = sum(p.starts.size for p in prepared)
@@ -232,39 +328,34 @@ def identify(logs, motor: RotaryMotor, orders: Orders | None = None, *, torque_s
         fixed = [fit["bias"], fit["quantisation_shift"], reading[layout.keep], fit["current_shift"]]
         voltage_info = _voltage_check(fit, fixed, (blind or {}).get("ripple"), logs, motor, final, layout, ts,
                                       timing["samples"], pll)
-    info = {"windows": counts["windows"], "windows_used": int(n_windows), "windows_refused_alias": counts["alias"],
-            "windows_refused_slow": counts["slow"], "speed_limit_rad_s": v_limit,
-            "min_samples_per_period": float(min_samples_per_period), "highest_order": orders.highest,
-            "filter_taps": int(taps), "unknowns": n_unknowns, "ridge": fit["ridge"],
-            "ridge_chosen_by": "validation on held-out time blocks" if ridge is None else "given",
-            "validation_curve": {f"{l:.0e}": c for l, c in zip(RIDGE_GRID, fit["curve"])},
-            "orders_added": {k: v.tolist() for k, v in added.items()},
-            "orders_screened": screen is not None,
-            "cost_A2": fit["cost"], "inertia_ratio": float(beta[0]), "standard_error": standard_error,
-            "quantisation": _quantisation_info(prepared, fit), "current_delay": timing, "angle_pll": estimate,
-            "current_filter": report, "information_share": shares, "drive_orders": drive,
-            "pinned": sorted(pinned),
-            "time_lines": lines_info, "back_emf": voltage_info,
-            **noise_info, "current_noise_correction": {**correction, **fit["current_noise"]},
-            "seconds": time.perf_counter() - t0}
-    if counts["alias"]:
-        info["note"] = (f"{counts['alias']} of {counts['windows']} windows refused: faster than "
-                        f"{v_limit:.3g} rad/s, where order {orders.highest} has fewer than "
-                        f"{min_samples_per_period:g} samples per period")
+    result = RotaryIdentification(
+        model, windows=counts["windows"], windows_used=int(n_windows), windows_refused_alias=counts["alias"],
+        windows_refused_slow=counts["slow"], speed_limit_rad_s=v_limit,
+        min_samples_per_period=float(min_samples_per_period), highest_order=orders.highest, filter_taps=int(taps),
+        unknowns=n_unknowns, ridge=fit["ridge"],
+        ridge_chosen_by="validation on held-out time blocks" if ridge is None else "given",
+        validation_curve={f"{l:.0e}": c for l, c in zip(RIDGE_GRID, fit["curve"])},
+        orders_added={k: v.tolist() for k, v in added.items()}, orders_screened=screen is not None,
+        cost_A2=fit["cost"], inertia_ratio=float(beta[0]), standard_error=standard_error,
+        quantisation=_quantisation_info(prepared, fit), current_delay=timing, angle_pll=estimate,
+        current_filter=report, information_share=shares, drive_orders=drive, pinned=sorted(pinned),
+        time_lines=lines_info, back_emf=voltage_info, current_noise_A=noise_info["current_noise_A"],
+        current_noise_from=noise_info["current_noise_from"],
+        current_noise_correction={**correction, **fit["current_noise"]},
+        note=(f"{counts['alias']} of {counts['windows']} windows refused: faster than {v_limit:.3g} rad/s, where order "
+              f"{orders.highest} has fewer than {min_samples_per_period:g} samples per period")
+        if counts["alias"] else None,
+        seconds=time.perf_counter() - t0)
     try:
-        return check_plausible(RotaryIdentification(model, info))
+        return check_plausible(result)
     except ExcitationError as e:
         if "ripple" in pinned:
             raise
         # the logs carry some information on the ripple, but not enough for a motor's: the cogging is what they
         # determine, the ripple is pinned as where they carry none
-        again = identify(logs, motor, orders0, torque_sensor=False, min_samples_per_period=min_samples_per_period,
-                         taps=taps, ridge=ridge, extra_orders=extra_orders, encoder_step=encoder_step,
-                         current_delay=current_delay, angle_pll=angle_pll, time_lines=time_lines, back_emf=back_emf,
-                         current_lag=current_lag, current_noise=current_noise, current_filter=current_filter,
-                         pin=(*pin, "ripple"))
-        again.info["standard_error"]["ripple"]["implausible_fit"] = str(e)
-        return again
+        again = identify(logs, motor, replace(options, pin=(*pin, "ripple")))
+        ripple = {**again.standard_error["ripple"], "implausible_fit": str(e)}
+        return replace(again, standard_error={**again.standard_error, "ripple": ripple})
 
 
 def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Orders, layout: _Layout, ts: float,
@@ -372,17 +463,15 @@ def check_plausible(result: RotaryIdentification) -> RotaryIdentification:
     Raises:
         ExcitationError: the ripple's peak, where, and how many windows the fit had.
     """
-    from pgcomm.rotary.law import MIN_GAIN
-
     th = 2 * math.pi * np.arange(4096) / 4096
     r = result.model.ripple(th)
     j = int(np.argmax(np.abs(r)))
     if not np.isfinite(r[j]) or abs(r[j]) > 1.0 - MIN_GAIN:
-        used = result.info.get("windows_used")
+        used = result.windows_used
         raise ExcitationError(
             f"the identified torque constant varies by {100 * r[j]:+.0f} % of its mean at {th[j]:.3f} rad (a motor's "
             f"ripple is a few per cent; the law refuses below {100 * MIN_GAIN:.0f} %): the logs do not determine the "
-            "model" + (f" ({used} of {result.info.get('windows')} filter windows used)" if used is not None else "")
+            "model" + (f" ({used} of {result.windows} filter windows used)" if used is not None else "")
             + "; log at steady speeds in both directions with a q-current dither that keeps the speed's sign")
     return result
 
@@ -505,7 +594,7 @@ _DETERMINING_EXPERIMENT = {
 
 
 def _pinned_entry(name: str, share: float) -> dict:
-    """A map's ``info["standard_error"]`` entry where the logs do not determine it
+    """A map's ``standard_error`` entry where the logs do not determine it
     (:func:`pgcomm.rotary.regression.information_shares`): pinned (the ripple at zero; the direction map folded into
     the cogging, which then holds the logs' direction's sum of both), with the experiment that would determine it."""
     how = "pinned at zero" if name == "ripple" else "folded into the cogging (the logs' one direction)"
@@ -515,7 +604,7 @@ def _pinned_entry(name: str, share: float) -> dict:
 
 
 def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
-    """One phrase for a map's entry of ``info["standard_error"]`` (:func:`_standard_errors`): ``"resolved"``, or
+    """One phrase for a map's entry of ``standard_error`` (:func:`_standard_errors`): ``"resolved"``, or
     why not and what would help (and the entry's ``excitation_hint``, the ripple's: more q-current variation):
     longer logs of the same kind when the noise part is too large (with
     ``log_seconds``, the seconds of running log so far, also the total it would take; with the noise part at
@@ -567,31 +656,40 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
             f"would resolve it{hint}")
 
 
+def share_text(x: float) -> str:
+    """A share as per cent with two significant digits, or "under 0.1 %"."""
+    return "under 0.1 %" if x < 1e-3 else f"{100 * x:.2g} %"
+
+
 def map_text(name: str, entry: dict, log_seconds: float | None = None) -> str:
-    """One line on a map's entry of ``info["standard_error"]``: its standard error and :func:`resolution_verdict`, or
+    """One line on a map's entry of ``standard_error``: its standard error and :func:`resolution_verdict`, or
     only the verdict for a map the logs do not determine."""
     if entry.get("determined") is False:
         return f"{name}: {resolution_verdict(entry, log_seconds)}"
     return f"{name}: standard error {100 * entry['relative']:.1f} % of its RMS, {resolution_verdict(entry, log_seconds)}"
 
 
-def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
-                  min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD, taps: int = FILTER_TAPS,
-                  encoder_step="detect", current_delay: int = 0, angle_pll=None, time_lines=(),
-                  current_lag=None, current_filter: float = 0.0) -> dict:
+def fit_mechanics(logs, motor: RotaryMotor, options: RotaryIdentifyOptions | None = None) -> dict:
     """The feedforward a drive user tunes: ``i_q ≈ (J/k0) θ̈ + b ω + d0 sign(ω)`` fitted on the same
     windows as :func:`identify`, without any position dependence, with the same correction for the encoder's
-    quantisation (:mod:`pgcomm.rotary.quantisation`; ``encoder_step`` as in :func:`identify`), the current
-    shifted by ``current_delay`` samples and read held (``current_lag`` ``None``) or smooth with that lag between
-    samples after the report filter ``current_filter`` (s) is taken out, the angle read through ``angle_pll`` and the time-periodic disturbances ``time_lines`` (Hz) fitted beside
-    (the ones :func:`identify` reports: ``info["current_delay"]``'s ``samples``, and ``lag`` where not ``held``,
-    ``info["angle_pll"]``'s natural frequency and damping, ``info["time_lines"]["hz"]``; a mains pickup left unfitted
-    moves the Coulomb term by tens of per cent and can turn the viscous term's sign).
+    quantisation (:mod:`pgcomm.rotary.quantisation`; ``encoder_step`` as in :func:`identify`), the logs read as
+    ``options`` say: the current shifted by ``current_delay`` samples and read held (``current_lag`` ``None``) or
+    smooth with that lag between samples after the report filter ``current_filter`` (s) is taken out, the angle read
+    through ``angle_pll`` and the time-periodic disturbances ``time_lines`` (Hz) fitted beside. It searches nothing: a
+    reading left at ``"detect"`` is read as logged (no delay, held, the encoder's angle, no lines, no filter); give
+    the one :func:`identify` found (``options.with_reading(result.reading())`` and its ``current_filter``): a mains
+    pickup left unfitted moves the Coulomb term by tens of per cent and can turn the viscous term's sign.
 
     Returns:
         ``{"inertia_ratio": A·s²/rad, "viscous": A·s/rad, "coulomb": A}``.
     """
-    orders = orders or Orders.for_motor(motor)
+    options = options or RotaryIdentifyOptions()
+    orders = orders_of(options, motor)
+    min_samples_per_period, taps = _guard(options)
+    encoder_step = options.encoder_step
+    current_delay, current_lag = _as_logged(options.current_delay, 0), _as_logged(options.current_lag, None)
+    angle_pll, current_filter = _as_logged(options.angle_pll, None), _as_logged(options.current_filter, 0.0)
+    time_lines = _as_logged(options.time_lines, ())
     lines = tuple(float(f) for f in time_lines or ())
     d, _, _, _ = _design(logs, motor, orders, min_samples_per_period, taps, encoder_step, current_delay, angle_pll,
                          lines, current_lag, current_filter)
@@ -605,8 +703,6 @@ def fit_mechanics(logs, motor: RotaryMotor, orders: Orders | None = None,
 
 
 def _identify_torque(logs, motor, orders, t0) -> RotaryIdentification:
-    from pgcomm.rotary.regression import _require_current
-
     _require_current(logs, motor.sample_time)
     ys, xs = [], []
     for i, log in enumerate(logs):
@@ -631,5 +727,5 @@ def _identify_torque(logs, motor, orders, t0) -> RotaryIdentification:
     model = RotaryModel(motor.pole_pairs, Fourier.from_vector(orders.cogging, beta[1 + nr:] / k0),
                         Fourier.from_vector(orders.ripple, beta[1:1 + nr] / k0), Fourier.zeros([0]), k_t=k0,
                         info={"method": "torque sensor"})
-    return RotaryIdentification(model, {"k0": k0, "cost_Nm2": float(np.mean((y - X @ beta) ** 2)),
-                                        "seconds": time.perf_counter() - t0})
+    return RotaryIdentification(model, seconds=time.perf_counter() - t0, torque_sensor=True, k0=k0,
+                                cost_Nm2=float(np.mean((y - X @ beta) ** 2)))

@@ -63,6 +63,7 @@ import numpy as np
 from pgcomm.errors import ConfigError, DataError
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import MIN_SAMPLES_PER_PERIOD, Orders, max_speed
+from pgcomm.rotary.slots import count_slots, MAX_ORDER
 
 __all__ = ["RotaryPlanSettings", "Run", "RotaryPlan", "FirstRound", "DRIVES", "DRIVE_COLUMNS", "DITHER_MAX_HZ",
            "highest_order", "segment_speeds", "first_round_cruise", "dither_frequencies", "dither_amplitudes",
@@ -217,7 +218,7 @@ class FirstRound:
         sample_time: the median step of their time stamps (s): the rate the host reached.
         inertia_ratio: ``|J/k0|`` identified (A·s²/rad).
         slots: the slot count read from the logs where the motor TOML lacked it, else ``None``.
-        standard_error: the identification's ``info["standard_error"]`` (per map: ``relative``, ``resolved``,
+        standard_error: the identification's ``standard_error`` (per map: ``relative``, ``resolved``,
             ``log_time_factor_to_resolve``, ...).
         verdicts: per map of :data:`MAPS`, :func:`pgcomm.rotary.identify.resolution_verdict`'s phrase.
     """
@@ -285,8 +286,6 @@ def highest_order(motor: RotaryMotor) -> int:
     """The highest order per revolution the identification models (:meth:`Orders.for_motor`), or, without the slot
     count, :data:`pgcomm.rotary.slots.MAX_ORDER` (the highest the slot count's detection examines)."""
     if motor.slots is None:
-        from pgcomm.rotary.slots import MAX_ORDER
-
         return int(MAX_ORDER)
     return Orders.for_motor(motor).highest
 
@@ -577,15 +576,13 @@ def read_first_round(data, motor: RotaryMotor) -> FirstRound:
     Raises:
         DataError, ExcitationError: as the identification (logs that never move, no usable window, ...).
     """
-    from pgcomm.rotary.identify import identify, resolution_verdict
+    from pgcomm.rotary.identify import identify, resolution_verdict  # start-up cost: loads JAX only when this runs
 
     slots = None
     if motor.slots is None:
-        from pgcomm.rotary.slots import count_slots
-
         slots, _ = count_slots(data, motor)
         motor = replace(motor, slots=int(slots))
-    res = identify(data, motor, Orders.for_motor(motor))
+    res = identify(data, motor)
     seconds = 0.0
     steps = []
     for d in data:
@@ -593,7 +590,7 @@ def read_first_round(data, motor: RotaryMotor) -> FirstRound:
         step = np.diff(t)
         steps.append(step)
         seconds += float(t[-1] - t[0]) + float(np.median(step))
-    se = res.info["standard_error"]
+    se = res.standard_error
     return FirstRound(seconds, float(np.median(np.concatenate(steps))), abs(float(res.model.inertia_ratio)),
                       None if slots is None else int(slots), se,
                       {m: resolution_verdict(se[m], seconds) for m in MAPS if m in se})

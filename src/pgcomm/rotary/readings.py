@@ -48,6 +48,7 @@ from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _basis_costs, \
     _evidence, _prepare
+from pgcomm.settings import RotaryIdentifyOptions
 
 #: Delays (samples) of the logged q-current behind the current that acted over each sample that
 #: :func:`identify` tries (:func:`_current_delay`): drives sample the current and the encoder at different
@@ -548,20 +549,30 @@ def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, a
     return estimate, timing
 
 
-def detect_reading(logs, motor: RotaryMotor, orders: Orders | None = None, *, current_delay="detect",
-                   angle_pll="detect", encoder_step="detect", min_samples_per_period: float = MIN_SAMPLES_PER_PERIOD,
-                   taps: int = FILTER_TAPS, current_lag="detect") -> tuple[dict, dict]:
-    """How :func:`~pgcomm.rotary.identify.identify` would read ``logs`` (the angle's PLL and the current's delay, module
-    docstring), without
-    the identification: e.g. to read the logs before counting the slots from them (a late current or a PLL's angle
-    hides the cogging's orders).
+def detect_reading(logs, motor: RotaryMotor, options: RotaryIdentifyOptions | None = None) -> tuple[dict, dict]:
+    """How :func:`~pgcomm.rotary.identify.identify` would read ``logs`` with ``options`` (the angle's PLL and the
+    current's delay and form, module docstring; the orders, the alias guard, the filter's taps and the encoder's step as
+    it takes them), without the identification: e.g. to read the logs before counting the slots from them (a late
+    current or a PLL's angle hides the cogging's orders).
 
     Returns:
-        ``(angle_pll, current_delay)``: the entries :func:`identify` reports in its ``info``.
+        ``(angle_pll, current_delay)``: the entries :func:`identify` reports
+        (:class:`~pgcomm.rotary.identify.RotaryIdentification`).
     """
-    orders = orders or Orders.for_motor(motor)
-    prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
-    return _reading(prepared, orders, taps, encoder_step, current_delay, angle_pll, current_lag)
+    options = options or RotaryIdentifyOptions()
+    orders = orders_of(options, motor)
+    samples = MIN_SAMPLES_PER_PERIOD if options.min_samples_per_period is None else options.min_samples_per_period
+    taps = FILTER_TAPS if options.taps is None else options.taps
+    prepared, _, _, _ = _prepare(logs, motor, orders, samples, taps, options.encoder_step)
+    return _reading(prepared, orders, taps, options.encoder_step, options.current_delay, options.angle_pll,
+                    options.current_lag)
+
+
+def orders_of(options: RotaryIdentifyOptions, motor: RotaryMotor) -> Orders:
+    """The maps' orders ``options`` give, or the motor's (:meth:`Orders.for_motor`) where they give none."""
+    if options.orders is None:
+        return Orders.for_motor(motor)
+    return Orders(*(np.asarray(o, int) for o in options.orders))
 
 
 def apply_reading(log: dict, current_delay: int, angle_pll, sample_time: float) -> dict:
@@ -585,13 +596,13 @@ def _times(ratio: float) -> str:
 
 
 def lag_of(timing: dict):
-    """The ``current_lag`` that reads the logs as ``timing`` (``info["current_delay"]``) says: ``None`` held, else the
+    """The ``current_lag`` that reads the logs as ``timing`` (``current_delay``) says: ``None`` held, else the
     smooth curve's lag (samples)."""
     return None if not timing or timing.get("held", True) else float(timing.get("lag", 0.0))
 
 
 def delay_text(timing: dict) -> str | None:
-    """One sentence on the logged current's timing (``info["current_delay"]`` of
+    """One sentence on the logged current's timing (``current_delay`` of
     :func:`pgcomm.rotary.identify.identify`), or ``None`` when it was given rather than detected."""
     if not timing or not timing.get("detected"):
         return None
@@ -619,7 +630,7 @@ def delay_text(timing: dict) -> str | None:
 
 
 def pll_text(estimate: dict) -> str | None:
-    """One sentence on how the logged angle was read (``info["angle_pll"]`` of :func:`identify`), or ``None`` when
+    """One sentence on how the logged angle was read (``angle_pll`` of :func:`identify`), or ``None`` when
     nothing was searched or given."""
     if not estimate:
         return None

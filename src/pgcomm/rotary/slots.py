@@ -31,11 +31,18 @@ resolve, whichever ``Q`` was taken.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from pgcomm.errors import ExcitationError
-from pgcomm.rotary.model import cogging_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.rotary.model import cogging_orders, direction_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.rotary.motor import RotaryMotor
+from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
+from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, Orders, \
+    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders
+from pgcomm.rotary.time_lines import detect_time_lines
+from pgcomm.settings import RotaryIdentifyOptions
 
 __all__ = ["detect_slots", "count_slots", "MAX_SLOTS", "MAX_ORDER"]
 
@@ -53,8 +60,6 @@ def _highest_order(logs, sample_time: float) -> int:
     """The highest order with :data:`~pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period at the
     90th percentile of the logs' speed at speed (the samples above the slow share of each log's 95th percentile),
     at most :data:`MAX_ORDER`: nine in ten samples pass the identification's alias guard."""
-    from pgcomm.rotary.regression import MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, _log_arrays
-
     steps = []  # rad per sample, at speed
     for i, log in enumerate(logs):
         _, th, _, _, _ = _log_arrays(log, i, sample_time)
@@ -93,11 +98,6 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
     Raises:
         ExcitationError: the logs show no slot count's fundamental (or are too slow or fast to say).
     """
-    from pgcomm.rotary.regression import (EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _fit,
-                                          _Layout, _prepare, _significant_extra_orders)
-    from pgcomm.rotary.model import direction_orders
-    from pgcomm.rotary.motor import RotaryMotor
-
     p = int(pole_pairs)
     top = _highest_order(logs, sample_time)
     if top < 2 * p:
@@ -168,15 +168,10 @@ def count_slots(logs, motor, *, current_delay="detect", angle_pll="detect", curr
         fitted) and ``read_with`` (``current_delay`` samples, ``current_lag`` samples or ``None`` for held,
         ``angle_pll_rad_s`` or ``None``).
     """
-    from dataclasses import replace
-
-    from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
-    from pgcomm.rotary.time_lines import detect_time_lines
-
     p, ts = motor.pole_pairs, motor.sample_time
     q, info = detect_slots(logs, p, ts)
-    est, timing = detect_reading(logs, replace(motor, slots=q), current_delay=current_delay, angle_pll=angle_pll,
-                                 current_lag=current_lag)
+    est, timing = detect_reading(logs, replace(motor, slots=q), RotaryIdentifyOptions(
+        current_delay=current_delay, angle_pll=angle_pll, current_lag=current_lag))
     pll = None if est["natural_frequency_rad_s"] is None else (est["natural_frequency_rad_s"], est["damping"])
     lag = lag_of(timing)
     read, counted = logs, False

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, simulate
+from pgcomm.settings import StandstillPlan
+from pgcomm.errors import DataError
 
 __all__ = ["StandstillPlan", "StandstillTable", "staircase", "run_standstill", "table_from_log", "SweepTable",
            "table_from_sweep", "sweep_reference", "MIN_SAMPLES_PER_BIN"]
@@ -27,19 +29,6 @@ MIN_SAMPLES_PER_BIN = 10
 #: Most revolutions a sweep may travel in one direction: a drive's standstill sweep turns about one each way (a few
 #: passes at most); an angle in degrees read as radians travels 57 times as far, one in encoder counts thousands.
 MAX_SWEEP_REVOLUTIONS = 20.0
-
-
-@dataclass(frozen=True)
-class StandstillPlan:
-    """A standstill sweep: ``points`` angles per revolution, ``settle`` and ``average`` samples per angle."""
-
-    points: int = 3600
-    settle: int = 30
-    average: int = 20
-
-    def duration(self, sample_time: float) -> float:
-        """Seconds the sweep takes on the rig (both directions)."""
-        return 2 * self.points * (self.settle + self.average) * sample_time
 
 
 @dataclass
@@ -155,8 +144,6 @@ def table_from_sweep(theta, iq, sample_time: float, points: int | None = None,
         DataError: fewer than 64 bins' worth of samples, no motion in one of the directions, or more than
             :data:`MAX_SWEEP_REVOLUTIONS` in one (an angle in degrees or counts read as radians).
     """
-    from pgcomm.errors import DataError
-
     th = np.asarray(theta, float)
     i = np.asarray(iq, float)
     k = max(1, int(round(trend_seconds / sample_time / 2)))

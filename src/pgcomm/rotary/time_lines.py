@@ -88,7 +88,7 @@ def _current_lines(prepared, hz: float, taps: int) -> np.ndarray:
     the maps); fitted jointly with the dither's line, its share is the pickup's own.
     A dither one natural bin off is not separated (a 60 Hz line beside a 61 Hz dither in 1 s logs, module docstring).
     """
-    from scipy.stats import gamma
+    from scipy.stats import gamma  # start-up cost: SciPy loads only when this runs
 
     none = Orders(np.zeros(0, int), np.zeros(0, int), np.zeros(0, int))
     stride = max(1, taps // 2)
@@ -137,7 +137,7 @@ def _line_spectrum(residuals, stride: int, ts: float):
         frequencies in the longest log, and the highest frequency (Hz) at which every log's noise floor has its whole
         window (half of it short of the Nyquist frequency of the shortest log's bins).
     """
-    from scipy.ndimage import median_filter
+    from scipy.ndimage import median_filter  # start-up cost: SciPy loads only when this runs
 
     lengths = [int(r.max()) // stride + 1 for r, _ in residuals]
     n = 1 << int(math.ceil(math.log2(LINE_PADDING * max(lengths))))
@@ -181,7 +181,7 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
         peaks set aside, and each peak's amplitude fitted beside the maps over the logged current's own line there
         (median over the logs that show it; under :data:`LINE_CURRENT_SHARE` it is the current's own).
     """
-    from scipy.stats import chi2, gamma
+    from scipy.stats import chi2, gamma  # start-up cost: SciPy loads only when this runs
 
     stride = max(1, taps // 2)
     ts = float(np.median([p.ts for p in prepared]))
@@ -272,7 +272,7 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
         if e > float(chi2.isf(LINE_EVIDENCE_LEVEL, max(dof, 1))):
             # the spectrum's peak is good to a few hundredths of a bin; over a log of many periods the phase needs
             # better: the frequency whose fit leaves the least, within a natural bin of the peak
-            from scipy.optimize import minimize_scalar
+            from scipy.optimize import minimize_scalar  # start-up cost: SciPy loads only when this runs
 
             step = rate / (2 * independent)
             best = minimize_scalar(lambda x: _basis_cost(prepared, _Layout.of(cur, tuple(found) + (x,), logs), taps)[0],
@@ -307,7 +307,7 @@ def detect_time_lines(logs, motor: RotaryMotor, orders: Orders | None = None, *,
     (a pickup at two speeds spreads over orders the basis does not have).
 
     Returns:
-        the entry :func:`identify` reports as ``info["time_lines"]`` (without the amplitudes).
+        the entry :func:`identify` reports as ``time_lines`` (without the amplitudes).
     """
     orders = orders or Orders.for_motor(motor)
     prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps, current_lag=current_lag)
@@ -315,7 +315,7 @@ def detect_time_lines(logs, motor: RotaryMotor, orders: Orders | None = None, *,
 
 
 def lines_text(lines: dict) -> str | None:
-    """One sentence on the time-periodic disturbances (``info["time_lines"]`` of :func:`identify`), or ``None`` when
+    """One sentence on the time-periodic disturbances (``time_lines`` of :func:`identify`), or ``None`` when
     none was searched or given."""
     if not lines or not (lines.get("searched") or lines.get("hz")):
         return None

@@ -35,20 +35,24 @@ that moves between power-ups (by half a revolution or an electrical period, or n
 
 from __future__ import annotations
 
-import json
 import math
-from pathlib import Path
+from dataclasses import replace
 
 import numpy as np
 
 from pgcomm.rotary.model import Fourier, RotaryModel, cogging_orders, direction_orders, fundamental_cogging_order, \
     ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
-from pgcomm.rotary.twin import RotaryTruth
+from pgcomm.rotary.experiment import running_references, stall_log
+from pgcomm.settings import RotarySettings
+from pgcomm.rotary.regression import Orders
+from pgcomm.rotary.standstill import sweep_reference
+from pgcomm.rotary.twin import LawParams, RotaryTruth, default_gains, simulate
 from pgcomm.rotary.winding import draw_winding
+from pgcomm.errors import ConfigError
 
 __all__ = ["COMBINATIONS", "CONTROL_RATE_HZ", "draw_control_per_log", "draw_rotary", "default_truth", "truth_from_model",
-           "truth_from_identification", "write_rotary_motor", "read_truth", "MAX_MOTORS", "draw_drive_habits",
+           "truth_from_identification", "running_logs", "sweep_log", "MAX_MOTORS", "draw_drive_habits",
            "REAL_DRIVE_RANGES"]
 
 #: (slots, pole pairs) of common concentrated-winding motors: 9N6P, 12N8P, 12N10P, 12N14P, 18N16P,
@@ -221,8 +225,6 @@ def draw_rotary(seed: int, index: int, control_per_log: int | None = None, real_
     them; ``control_per_log`` gives the drive's control cycles per logged sample instead of drawing them (1: a drive
     that controls at its log rate). ``real_drive``: with a real drive's and host's habits
     (:func:`draw_drive_habits`), from a stream of their own too: the same motor and drive as without them."""
-    from dataclasses import replace
-
     rng = np.random.default_rng([int(seed), int(index), 0x70])
     if index < len(COMBINATIONS):
         q, p = COMBINATIONS[index]
@@ -240,8 +242,6 @@ def draw_rotary(seed: int, index: int, control_per_log: int | None = None, real_
 def _with_winding(truth: RotaryTruth, rng) -> RotaryTruth:
     """``truth`` with a winding drawn from its own stream (:func:`pgcomm.rotary.winding.draw_winding`), so the
     mechanical and magnetic draws stay those of a zoo without voltages."""
-    from dataclasses import replace
-
     return replace(truth, winding=draw_winding(rng, truth.k_t, truth.current_noise))
 
 
@@ -252,22 +252,9 @@ def default_truth(motor: RotaryMotor, seed: int = 0) -> RotaryTruth:
     t = draw_truth(rng, motor.slots, motor.pole_pairs, k_t=motor.k_t, current_limit=motor.current_limit,
                    inertia=motor.inertia, sample_time=motor.sample_time)
     counts = motor.encoder_counts or t.encoder_counts
-    from dataclasses import replace
     k = motor.control_per_log or draw_control_per_log(np.random.default_rng([int(seed), 0x75]), motor.sample_time)
     return replace(_with_winding(replace(t, motor=motor, encoder_counts=int(counts)),
                                  np.random.default_rng([int(seed), 0x73])), control_per_log=k)
-
-
-def write_rotary_motor(truth: RotaryTruth, folder) -> Path:
-    """Write ``folder/motor.toml`` (kind = "rotary", the user's view) and ``folder/truth.json``."""
-    from pgcomm.io.atomic import atomic_write_text
-    from pgcomm.io.config import rotary_motor_to_toml
-
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(folder / "motor.toml", rotary_motor_to_toml(truth.motor))
-    atomic_write_text(folder / "truth.json", json.dumps(truth.to_dict(), indent=1) + "\n")
-    return folder
 
 
 def truth_from_model(model: RotaryModel, motor: RotaryMotor, *, current_noise: float, encoder_counts: int | None = None,
@@ -293,10 +280,6 @@ def truth_from_model(model: RotaryModel, motor: RotaryMotor, *, current_noise: f
     Raises:
         ConfigError: the model has no ``k_t`` or no ``inertia_ratio``.
     """
-    from dataclasses import replace
-
-    from pgcomm.errors import ConfigError
-
     if not model.k_t or not model.inertia_ratio or model.inertia_ratio <= 0:
         raise ConfigError("the model has no " + ("torque constant k0 (log vq_1, or give k_t in the motor TOML)"
                                                  if not model.k_t else "positive J/k0 (identify it from running logs)"))
@@ -339,10 +322,6 @@ def truth_from_identification(model: RotaryModel, identification: dict, motor: R
         ConfigError: no ``current_noise_A`` (an identification by an older pgcomm), or what :func:`truth_from_model`
             refuses.
     """
-    from dataclasses import replace
-
-    from pgcomm.errors import ConfigError
-
     if identification.get("current_noise_A") is None:
         raise ConfigError("the identification has no current_noise_A (identified by an older pgcomm: identify again)")
     back_emf = identification.get("back_emf") or {}
@@ -362,77 +341,35 @@ def truth_from_identification(model: RotaryModel, identification: dict, motor: R
     return replace(truth, control_per_log=int(k))
 
 
-def read_truth(path) -> RotaryTruth:
-    """A ``truth.json`` written by :func:`write_rotary_motor`."""
-    from pgcomm.errors import DataError
-
-    try:
-        with open(path, encoding="utf-8") as f:
-            return RotaryTruth.from_dict(json.load(f))
-    except FileNotFoundError:
-        raise DataError(f"{path}: file not found") from None
-    except (ValueError, KeyError, TypeError) as e:
-        raise DataError(f"{path}: not a rotary truth file ({' '.join(str(e).split())})") from None
-
-
-#: The power-up of the zoo's standstill sweep (:func:`write_sweep_log`): another day than the running logs'
+#: The power-up of the zoo's standstill sweep (:func:`sweep_log`): another day than the running logs'
 #: (power_up 0), so on a truth whose index moves (:attr:`RotaryTruth.power_up_offsets`) its angle zero may differ.
 SWEEP_POWER_UP = 1
 
 
-def write_running_logs(truth: RotaryTruth, folder, seed: int = 0, stall: bool = False) -> list:
-    """Simulate the running logs of :func:`pgcomm.rotary.experiment.running_references` and write them as
-    CSV (``t, theta, velocity, iq_1, id_1, vq_1, vd_1``: what a drive records, with the host's stamps as they come
-    where the truth has a host's habits) to ``folder/run{k}.csv``, in power-up 0. ``stall``: also
-    ``folder/stall.csv``, a low-speed run in a speed loop too soft for the cogging, which stalls about halfway
-    (:func:`pgcomm.rotary.experiment.stall_log`)."""
-    from pgcomm.rotary.experiment import RotarySettings, running_references, stall_log
-    from pgcomm.rotary.regression import Orders
-    from pgcomm.rotary.twin import LawParams, default_gains, simulate
+def running_logs(truth: RotaryTruth, seed: int = 0, stall: bool = False) -> list[tuple[str, dict]]:
+    """Simulate the running logs of :func:`pgcomm.rotary.experiment.running_references` in power-up 0: what a drive
+    records (``t, theta, velocity, iq_1, id_1, vq_1, vd_1``, with the host's stamps as they come where the truth has a
+    host's habits), each ``(N,)``. ``stall``: also a low-speed run in a speed loop too soft for the cogging, which
+    stalls about halfway (:func:`pgcomm.rotary.experiment.stall_log`).
 
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    Returns:
+        ``[(name, log), ...]``: ``run1``, ``run2``, ... (and ``stall``), each log a dict of columns.
+    """
     a = truth.inertia / truth.k0
     refs = running_references(truth.motor, a, RotarySettings(), Orders.for_motor(truth.motor))
-    names = []
-    for k, ref in enumerate(refs, start=1):
-        log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(a), seed=seed * 1000 + k,
-                       host=True)
-        path = folder / f"run{k}.csv"
-        _write_drive_log(path, log)
-        names.append(path.name)
+    logs = [(f"run{k}", simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(a),
+                                 seed=seed * 1000 + k, host=True))
+            for k, ref in enumerate(refs, start=1)]
     if stall:
-        path = folder / "stall.csv"
-        _write_drive_log(path, stall_log(truth, seed=seed * 1000 + 998))
-        names.append(path.name)
-    return names
+        logs.append(("stall", stall_log(truth, seed=seed * 1000 + 998)))
+    return logs
 
 
-def write_sweep_log(truth: RotaryTruth, folder, seed: int = 0, revolution_seconds: float = 60.0) -> Path:
+def sweep_log(truth: RotaryTruth, seed: int = 0, revolution_seconds: float = 60.0) -> dict:
     """Simulate a slow position sweep in both directions (:func:`pgcomm.rotary.standstill.sweep_reference`,
-    classical law, the drive's tuned gains) and write it as ``folder/sweep.csv`` (``t, theta, velocity, iq_1,
-    id_1, vq_1, vd_1``): the drives' calibration run, for ``pgcomm identify --sweep``. Recorded in power_up
-    :data:`SWEEP_POWER_UP`: where the truth's index moves, its angle zero is
-    :func:`pgcomm.rotary.twin.power_up_offset` of it, not the running logs'."""
-    from pgcomm.rotary.standstill import sweep_reference
-    from pgcomm.rotary.twin import LawParams, default_gains, simulate
-
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    classical law, the drive's tuned gains): the drives' calibration run, for ``pgcomm identify --sweep``; columns as
+    :func:`running_logs`'. Recorded in power_up :data:`SWEEP_POWER_UP`: where the truth's index moves, its angle zero
+    is :func:`pgcomm.rotary.twin.power_up_offset` of it, not the running logs'."""
     ref = sweep_reference(truth.motor.sample_time, revolution_seconds)
-    log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(truth.inertia / truth.k0),
-                   seed=seed * 1000 + 999, host=True, power_up=SWEEP_POWER_UP)
-    path = folder / "sweep.csv"
-    _write_drive_log(path, log)
-    return path
-
-
-def _write_drive_log(path: Path, log: dict) -> None:
-    """Write what a drive records of a twin's run as CSV: ``t, theta, velocity, iq_1, id_1`` and ``vq_1``, ``vd_1``
-    (V) when the twin has a winding. The stamps as they are (a host's: non-uniform), to 12 digits."""
-    from pgcomm.io.atomic import atomic_open
-
-    cols = [c for c in ("t", "theta", "velocity", "iq_1", "id_1", "vq_1", "vd_1") if c in log]
-    with atomic_open(path) as f:
-        f.write(",".join(cols) + "\n")
-        np.savetxt(f, np.column_stack([log[c] for c in cols]), delimiter=",", fmt="%.12g")
+    return simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(truth.inertia / truth.k0),
+                    seed=seed * 1000 + 999, host=True, power_up=SWEEP_POWER_UP)

@@ -1,7 +1,7 @@
 """Self-contained HTML report of a rotary run (``pgcomm reproduce`` or ``pgcomm identify`` on a rotary motor).
 
 Every number is read from the run's ``results.json`` dict (keys in ``docs/results.md``); the figures are
-embedded as base64 PNG with the style of the linear report (:mod:`pgcomm.report`). Units: angles in
+embedded as base64 PNG with the style of the linear report (:mod:`pgcomm.report.linear`). Units: angles in
 rad, speeds in rad/s, currents in A; the maps in current units (cogging and direction term as an
 equivalent q-current, the ripple relative).
 """
@@ -11,13 +11,14 @@ from __future__ import annotations
 import html
 from pathlib import Path
 
-from pgcomm.report import CSS, figure_html
-from pgcomm.rotary.identify import resolution_verdict
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.report.page import CSS, figure_html
+from pgcomm.rotary.identify import resolution_verdict, share_text
 from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.readings import delay_text, pll_text
 from pgcomm.rotary.time_lines import lines_text
 
-__all__ = ["write_rotary_report", "ROW_DESCRIPTIONS", "share_text"]
+__all__ = ["write_rotary_report", "ROW_DESCRIPTIONS"]
 
 #: One line per row of ``reproduce``'s table.
 ROW_DESCRIPTIONS = {
@@ -36,11 +37,6 @@ def _g(x, digits: int = 3, unit: str = "") -> str:
 
 def _pct(x) -> str:
     return "–" if x is None else f"{100 * x:.1f} %"
-
-
-def share_text(x: float) -> str:
-    """A share as per cent with two significant digits, or "under 0.1 %"."""
-    return "under 0.1 %" if x < 1e-3 else f"{100 * x:.2g} %"
 
 
 def _identification_html(r: dict) -> str:
@@ -185,8 +181,6 @@ def write_rotary_report(path, results: dict, figures: dict, *, version: str = ""
     Returns:
         ``path``.
     """
-    from pgcomm.io.atomic import atomic_write_text
-
     motor = results.get("motor", {})
     name = motor.get("name") or f"{motor.get('slots', '?')}N{2 * int(motor.get('pole_pairs', 0))}P"
     command = results.get("command", "reproduce")

@@ -10,10 +10,13 @@ LaTeX label), and every figure has a caption of its own (:func:`figure_captions`
 
 from __future__ import annotations
 
-import base64
 import html
 from pathlib import Path
+import jax.numpy as jnp
+import numpy as np
 
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.report.page import CSS, figure_html
 from pgcomm.reproduce import PAPER, ReproduceResult
 
 #: The paper's tables and figures the report refers to, by number and content.
@@ -60,34 +63,8 @@ def _fmt(x, digits: int = 3, unit: str = "") -> str:
     return f"{x:.{digits}g}" + (f" {unit}" if unit else "")
 
 
-#: The reports' style sheet (this report and :mod:`pgcomm.rotary.report`).
-CSS = """body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
-table { border-collapse: collapse; margin: 1em 0; }
-th, td { border: 1px solid #bbb; padding: 4px 8px; text-align: right; }
-th { font-size: 90%; }
-td.desc { text-align: left; font-size: 90%; color: #555; min-width: 16em; }
-tr.rec { background: #e8f5e9; }
-figure { margin: 1.5em 0; } img { max-width: 100%; }
-figcaption { font-size: 90%; color: #555; }
-"""
-
-
-def figure_html(path: Path, caption: str) -> str:
-    """A PNG embedded as base64 in a ``<figure>`` with its caption (the report opens anywhere)."""
-    return _img(Path(path), caption)
-
-
-def _img(path: Path, caption: str) -> str:
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return (f'<figure><img src="data:image/png;base64,{data}" alt="{html.escape(caption)}">'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
-
-
 def _plant_direction_force(result: ReproduceResult) -> float:
     """Mean magnitude (N) of the plant's direction-dependent force in y over the reference's span (0 on a force map)."""
-    import jax.numpy as jnp
-    import numpy as np
-
     y = jnp.linspace(*result.setup.config.reference.span, 501)
     return float(np.mean(np.abs(np.asarray(result.setup.plant.direction_force(y, jnp.ones_like(y)))[:, 0])))
 
@@ -282,8 +259,6 @@ def write_report(path: Path, result: ReproduceResult, figures: dict, *, version:
         figures: caption -> PNG path, in display order.
         version: package version for the header; runtime_s: wall time of the command (s).
     """
-    from pgcomm.io.atomic import atomic_write_text
-
     results = result.to_dict()
     cm, tm = result.commutation_mse, result.tracking_mse
     share = result.reducible_share()
@@ -330,7 +305,7 @@ def write_report(path: Path, result: ReproduceResult, figures: dict, *, version:
         f"<td>{_fmt(c.get('cost_y_pgnn'))}</td><td>{_fmt(c.get('cost_y_pgnn_direction'))}</td>"
         f"<td>{c['seconds']:.1f}</td></tr>" for c in ident["coil_sets"])
     sentences = "".join(f"<li>{html.escape(t)}</li>" for t in comparison_sentences(result))
-    figs = "".join(_img(Path(p), cap) for cap, p in figures.items())
+    figs = "".join(figure_html(Path(p), cap) for cap, p in figures.items())
     plant = "the built-in twin" if results.get("plant") == "twin" else f"the force map {results.get('plant')}"
     doc = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>pgcomm reproduce — {html.escape(plant)}</title>

@@ -1,34 +1,18 @@
-"""Figures. Each function takes results and returns a Matplotlib figure; saving is separate.
-
-Matplotlib runs with the non-interactive Agg backend (no display needed).
-"""
+"""Figures of a linear motor's runs, data, calibration, identification and logs (:mod:`pgcomm.plots`)."""
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from pgcomm.excitation import problem_runs  # noqa: E402
-from pgcomm.metrics import lowpass  # noqa: E402
+from pgcomm.excitation import problem_runs
+from pgcomm.metrics import lowpass
+from pgcomm.plots.figure import plt
 
 #: One colour per comparison row, stable across figures.
 ROW_COLORS = {"original": "#9e9e9e", "classical": "#d62728", "physics": "#ff7f0e", "pgnn": "#1f77b4",
               "pgnn_direction": "#17becf", "spline": "#2ca02c", "pgnn_sensorless": "#9467bd", "cogging_table": "#8c564b",
               "cogging_table_sensorless": "#bcbd22", "harmonic_cogging": "#e377c2", "oracle": "#000000"}
 _DIR_LABEL = ("$F_y - F_y^*$ [N]", "$F_x - F_x^*$ [N]", "$T_z - T_z^*$ [N m]")
-
-
-def save(fig, path) -> None:
-    """Save ``fig`` as PNG at ``path`` (atomically) and close it."""
-    from pgcomm.io.atomic import atomic_path
-
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
-    plt.close(fig)
 
 
 def plot_run(result, lowpass_hz: float = 50.0, title: str = ""):

@@ -1,0 +1,247 @@
+"""``pgcomm identify`` on a rotary motor (``--motor`` with ``kind = "rotary"``): parse, read, write.
+
+The logs (``--data``: ``t``, ``theta``, ``iq_1`` through the column mapping; a ``torque`` column in every log means a
+torque sensor) are identified by :func:`pgcomm.rotary.from_logs.identify_from_logs` (the Python API of this command):
+cogging, torque-constant ripple and the direction-dependent torque over the revolution, in current units, with each
+map's standard error and whether the logs resolve it. The reading options come from ``--config``'s ``[rotary]`` table
+(:class:`pgcomm.settings.RotaryIdentifyOptions`), a flag taking its value's place. This module writes ``model.json``,
+``compensation.csv`` (the table ``pgcomm export --format moteus|odrive|c-angle`` reads, with the motor's current
+limit), ``results.json``, ``identify_rotary.png`` (:func:`pgcomm.plots.plot_rotary_maps`) and ``report.html``
+(:mod:`pgcomm.report.rotary`); ``--sweep`` adds ``standstill_table.csv``.
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import math
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from pgcomm.errors import ConfigError, DataError
+from pgcomm.export.angle_table import make_table, write_angle_table
+from pgcomm.io.atomic import atomic_write_text
+from pgcomm.io.config import load_experiment, load_rotary_motor
+from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs, with_encoder_counts
+from pgcomm.io.results import write_results
+from pgcomm.io.static_map import is_static_map, read_static_map
+from pgcomm.plots import plot_rotary_maps, save
+from pgcomm.report.rotary import write_rotary_report
+from pgcomm.rotary.from_logs import identify_from_logs
+from pgcomm.settings import RotaryIdentifyOptions
+
+
+def _reading_options(args):
+    """``--current-delay``, ``--angle-pll`` and ``--current-lag`` as :func:`pgcomm.rotary.identify.identify` takes them
+    (``"detect"`` when left out); one line naming the option on a bad value."""
+    delay = "detect"
+    if args.current_delay is not None:
+        try:
+            delay = int(args.current_delay)
+        except ValueError:
+            raise ConfigError(f"--current-delay {args.current_delay}: an integer number of samples, e.g. 1") from None
+    pll = "detect"
+    if args.angle_pll is not None:
+        if args.angle_pll.strip().lower() == "none":
+            pll = None
+        else:
+            parts = args.angle_pll.split(",")
+            try:
+                w, z = float(parts[0]), float(parts[1]) if len(parts) > 1 else 1.0
+            except ValueError:
+                w = z = float("nan")
+            if len(parts) > 2 or not (math.isfinite(w) and w > 0 and math.isfinite(z) and z > 0):
+                raise ConfigError(f"--angle-pll {args.angle_pll}: a natural frequency in rad/s and optionally a "
+                                  "damping, both positive (e.g. 1000 or 1000,0.707), or none")
+            pll = (w, z)
+    lag = "detect"
+    if getattr(args, "current_lag", None) is not None:
+        if args.current_lag.strip().lower() == "held":
+            lag = None
+        else:
+            try:
+                lag = float(args.current_lag)
+            except ValueError:
+                lag = float("nan")
+            if not (math.isfinite(lag) and abs(lag) <= 0.5):
+                raise ConfigError(f"--current-lag {args.current_lag}: held, or a lag in samples between -0.5 and 0.5 "
+                                  "(1/(2K) for K control cycles per logged sample, e.g. 0.0625)")
+    return delay, pll, lag
+
+
+def _current_filter_option(args):
+    """``--current-filter`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out, ``0.0``
+    for none); one line naming the option on a bad value."""
+    text = getattr(args, "current_filter", None)
+    if text is None:
+        return "detect"
+    if text.strip().lower() == "none":
+        return 0.0
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and 0 <= value <= 10):
+        raise ConfigError(f"--current-filter {text}: the report filter's time constant in s (0 to 10), or none")
+    return value
+
+
+def _current_noise_option(args):
+    """``--current-noise`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out); one line
+    naming the option on a bad value."""
+    text = getattr(args, "current_noise", None)
+    if text is None:
+        return "detect"
+    if text.strip().lower() == "none":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and value >= 0):
+        raise ConfigError(f"--current-noise {text}: the logged current's noise in A (a standard deviation, >= 0), "
+                          "or none")
+    return value
+
+
+def _time_lines_option(args):
+    """``--time-lines`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out); one line
+    naming the option on a bad value."""
+    text = getattr(args, "time_lines", None)
+    if text is None:
+        return "detect"
+    if text.strip().lower() == "none":
+        return ()
+    try:
+        hz = [float(x) for x in text.split(",")]
+    except ValueError:
+        hz = [float("nan")]
+    if not all(math.isfinite(f) and f > 0 for f in hz):
+        raise ConfigError(f"--time-lines {text}: frequencies in Hz, positive, comma-separated (e.g. 50 or 50,100), "
+                          "or none")
+    return tuple(hz)
+
+
+def _rotary_options(args):
+    """The :class:`pgcomm.settings.RotaryIdentifyOptions` of ``--config``'s ``[rotary]`` table (defaults without
+    one), with the reading options given on the command line in their place."""
+    options = load_experiment(args.config).rotary if args.config else RotaryIdentifyOptions()
+    delay, pll, lag = _reading_options(args)
+    given = {"current_delay": (args.current_delay, delay), "angle_pll": (args.angle_pll, pll),
+             "current_lag": (getattr(args, "current_lag", None), lag),
+             "time_lines": (getattr(args, "time_lines", None), _time_lines_option(args)),
+             "current_noise": (getattr(args, "current_noise", None), _current_noise_option(args)),
+             "current_filter": (getattr(args, "current_filter", None), _current_filter_option(args))}
+    return replace(options, **{k: value for k, (text, value) in given.items() if text is not None})
+
+
+def run_rotary(args, out: Path, progress, t0: float) -> None:
+    """``pgcomm identify --motor rotary.toml --data LOG...`` (module docstring)."""
+    if getattr(args, "plant", None):
+        raise ConfigError(f"--plant: not used with a rotary motor (--motor {args.motor} has kind = \"rotary\")")
+    if args.family != "pgnn":
+        raise ConfigError(f"--family {args.family}: a rotary motor's model is a Fourier series on the circle; "
+                          "leave --family out")
+    if not args.data:
+        raise ConfigError(f"--data: a rotary motor ({args.motor}) is identified from its drive's running logs "
+                          "(t, theta, iq_1); the rotary twin writes some with pgcomm zoo --kind rotary --logs")
+    motor = load_rotary_motor(args.motor)
+    options = _rotary_options(args)
+    with progress.stage(f"read {len(args.data)} log pattern(s)"):
+        mapping = with_encoder_counts(load_column_mapping(args.columns) if args.columns else None, motor)
+        logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED, gaps=True,
+                         stamps=True)
+        for lg in logs:
+            if not lg.is_rotary:
+                raise DataError(f"{lg.source}: a linear motor's log (it has 'y'), but --motor {args.motor} is rotary; "
+                                "a rotary log has the mechanical angle 'theta' in place of 'y'")
+            if "iq_1" not in lg.columns:
+                raise DataError(f"{lg.source}: no q-axis current 'iq_1' (map the drive's q-current column to iq_1 "
+                                "in --columns); rotary identification reads the current in the drive's frame")
+        n_samples = sum(lg.n_samples for lg in logs)
+        progress.info(f"{len(logs)} log(s), {n_samples} samples, {n_samples * logs[0].sample_time:.0f} s")
+        for lg in logs:
+            for note in lg.notes:
+                progress.info(f"{lg.source}: {note}")
+    torque_sensor = (options.torque_sensor or all("torque" in lg.columns for lg in logs)) and not args.no_force_sensor
+    options = replace(options, torque_sensor=torque_sensor)
+    # --sweep: the drive's own static maps, and a logged sweep (the rest)
+    sweeps = args.sweep or []
+    maps = [p for pat in sweeps for p in sorted(glob.glob(pat)) or [pat] if is_static_map(p)]
+    static_maps = [read_static_map(p, motor.encoder_counts) for p in maps]
+    sweep_logs = _sweep_logs([p for p in sweeps if p not in maps], args.sample_time, mapping)
+    found = identify_from_logs(logs, motor, options, sweep_logs=sweep_logs, static_maps=static_maps,
+                               progress=progress, started=t0)
+    results, motor, model, sweep = found.to_dict(), found.motor, found.model, found.sweep
+    written = ["model.json", "compensation.csv", "results.json", "identify_rotary.png", "report.html"]
+    if sweep is not None and found.sweep_comparison["table_written"]:
+        written.insert(2, "standstill_table.csv")
+    with progress.stage(", ".join(written)):
+        atomic_write_text(out / "model.json", json.dumps(model.to_dict(), indent=1) + "\n")
+        write_angle_table(out / "compensation.csv",
+                          make_table(found.table, "model from running logs", current_limit=motor.current_limit),
+                          comments=(f"pgcomm rotary model of {motor.name}, identified {found.how} from "
+                                    f"{len(logs)} log(s); forward and reverse averaged",))
+        if "standstill_table.csv" in written:
+            write_angle_table(out / "standstill_table.csv",
+                              make_table(sweep.table, "standstill sweep", current_limit=motor.current_limit),
+                              comments=(f"the drives' table of {motor.name} from the logged sweep "
+                                        f"{', '.join(found.sweep_comparison['logs'])}: forward and reverse bin "
+                                        "averages, their mean",))
+        write_results(out / "results.json", results)
+        save(plot_rotary_maps(model, found.identification, motor.name, sweep=sweep), out / "identify_rotary.png")
+        write_rotary_report(out / "report.html", results, {
+            "The identified maps over one revolution with their standard error as a band: the compensating q "
+            "current (cogging and direction term, forward and reverse and their mean, the table that is "
+            "exported), the torque-constant ripple, and the direction-dependent torque.":
+                out / "identify_rotary.png"}, version=results["version"])
+    if not args.quiet:
+        _summary(args, found, results, written, time.perf_counter() - t0)
+
+
+def _sweep_logs(paths, sample_time, mapping) -> list:
+    """The logged sweep's pieces (``t``, ``theta``, ``iq_1``), read as the running logs are."""
+    if not paths:
+        return []
+    logs = read_logs(paths, sample_time=sample_time, columns=mapping, required=ROTARY_REQUIRED)
+    for lg in logs:
+        if not lg.is_rotary or "iq_1" not in lg.columns:
+            raise DataError(f"{lg.source}: a sweep log needs 'theta' and 'iq_1' (map the drive's columns in --columns)")
+    return logs
+
+
+def _summary(args, found, results: dict, written: list, seconds: float) -> None:
+    """What ``identify`` found on a rotary motor, in a few lines on standard output."""
+    motor, logs = found.motor, found.logs
+    refused = found.identification.windows_refused_alias
+    print(f"rotary {motor.name}: identified {found.how} from {len(logs)} log(s)"
+          + (f"; {refused} windows refused as too fast for the encoder-sampled cogging" if refused else ""))
+    table = results["table"]
+    nm = table.get("rms_Nm")
+    print(f"compensation table: {table['rms_A']:.3g} A RMS, {table['peak_A']:.3g} A peak ({table['entries']} entries)"
+          + (f"; {nm:.3g} N·m RMS with {table['torque_constant_from']}" if nm else ""))
+    voltage = results["identification"].get("back_emf") or {}
+    si = results.get("in_SI")
+    if si and si["inertia_kg_m2"] is not None:
+        ratio = voltage.get("ratio_to_motor_k_t")
+        aligned = voltage.get("offset_error") if voltage.get("consistent") else None
+        print(f"in SI (k0 = {si['torque_constant_Nm_per_A']:.4g} N·m/A"
+              + (f", {ratio:.3f}x the motor description's k_t" if ratio is not None else "")
+              + (f"; along the magnets' axis {aligned['k_t_aligned']:.4g} N·m/A"
+                 + (f", {aligned['ratio_to_motor_k_t']:.3f}x" if "ratio_to_motor_k_t" in aligned else "")
+                 if aligned else "")
+              + f"): moment of inertia {si['inertia_kg_m2']:.4g} kg·m², Coulomb friction {si['coulomb_Nm']:.3g} "
+              f"N·m, viscous {si['viscous_Nm_s_per_rad']:.3g} N·m·s/rad")
+    if found.sweep is not None:
+        sw = results["standstill_sweep"]
+        print(f"standstill sweep: model minus sweep table {sw['rms_model_minus_sweep_A']:.3g} A RMS, "
+              f"{sw['rms_model_minus_sweep_A'] / sw['expected_rms_difference_A']:.2f}x what the two noises give "
+              f"({'within' if sw['within_noise'] else 'NOT within'} the noise); the sweep took "
+              f"{sw['seconds']:.0f} s, the running logs {found.samples * motor.sample_time:.0f} s")
+    print(f"wrote {args.out}/{', '.join(written)} ({seconds:.0f} s)")
+    if (si or {}).get("inertia_kg_m2"):
+        # reproduce builds the twin from the TOML, which needs the slot count (read here if it was not there)
+        print("preview the law against the drive's table on this motor: "
+              + (f"add slots = {motor.slots} to {args.motor}, then " if found.slots_detected is not None else "")
+              + f"pgcomm reproduce --motor {args.motor} --truth {args.out}/model.json --quick --out preview")
