@@ -57,8 +57,8 @@ class SimResult:
         t: (N,) s; r: (N,) reference (m); y: (N,) true position (m); y_meas: (N,) encoder (m);
         e: (N,) tracking error ``r - y`` (m); f_star: (N, 3) desired force;
         f_meas: (N, 3) measured force (with sensor noise); f_true: (N, 3) generated force;
-        currents: (N, L, 2) star currents (A); sample_time: s; drive: the :class:`Motor` whose
-        ``k̂``, ``ζ̂`` define the drive inputs :attr:`drive_fy`, :attr:`drive_delta`.
+        currents: (N, L, 2) star currents (A); sample_time: s;
+        drive: the :class:`Motor` whose ``k̂``, ``ζ̂`` define the drive inputs ``drive_fy``, ``drive_delta``.
     """
 
     t: np.ndarray
