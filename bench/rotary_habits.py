@@ -11,9 +11,10 @@ Groups (:mod:`pgcomm.rotary.twin`, "A real drive's habits"):
 * ``none``: the zoo motor without any habit (the plain zoo);
 * ``all``: every habit as drawn;
 * ``no host clock``: all but the host's clock (rows stamped at the drive's control cycles, no jitter or gaps);
-* ``no report filter``, ``no PLL``, ``no current sensors``: all but that one.
+* ``no report filter``, ``no PLL``, ``no current sensors``: all but that one;
+* ``host clock only``: the host's clock and nothing else.
 
-Usage: ``python bench/rotary_habits.py [--seed 0] [--motors 0 1] [--rounds 1]``. About a minute per motor and
+Usage: ``python bench/rotary_habits.py [--seed 0] [--motors 0 1] [--rounds 1] [--groups "host clock only,all"]``. About a minute per motor and
 group on 2 cores.
 """
 
@@ -31,6 +32,8 @@ HOST = dict(host_jitter=0.0, host_gaps=0.0, stamp_noise=0.0)
 GROUPS = {
     "all": {},
     "no host clock": HOST,
+    "host clock only": dict(report_filter=0.0, pll_bandwidth=0.0, sensor_offset=(0.0, 0.0), sensor_gain=(0.0, 0.0),
+                            deadtime_error=0.0, deadtime_width=0.0),
     "no report filter": dict(report_filter=0.0),
     "no PLL": dict(pll_bandwidth=0.0),
     "no current sensors": dict(sensor_offset=(0.0, 0.0), sensor_gain=(0.0, 0.0), deadtime_error=0.0,
@@ -43,6 +46,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--motors", type=int, nargs="+", default=[0])
     ap.add_argument("--rounds", type=int, default=1, help="rounds of running logs (each one of every reference)")
+    ap.add_argument("--groups", default=None, help="comma-separated groups to run (default: all)")
     args = ap.parse_args(argv)
     if args.rounds < 1:
         print("rotary_habits: --rounds must be at least 1", file=sys.stderr)
@@ -63,6 +67,13 @@ def main(argv=None) -> int:
         drawn = draw_rotary(args.seed, index, real_drive=True)
         twins = {"none": draw_rotary(args.seed, index, drawn.control_per_log)}
         twins.update({name: replace(drawn, **off) for name, off in GROUPS.items()})
+        if args.groups:
+            wanted = [g.strip() for g in args.groups.split(",")]
+            unknown = [g for g in wanted if g not in twins]
+            if unknown:
+                print(f"rotary_habits: --groups {', '.join(unknown)}: not one of {', '.join(twins)}", file=sys.stderr)
+                return 2
+            twins = {name: twins[name] for name in wanted}
         for name, truth in twins.items():
             t0 = time.perf_counter()
             orders, a_nom, gains, classical = _tuned_drive(truth)
