@@ -43,6 +43,7 @@ from dataclasses import replace
 
 import numpy as np
 from scipy.interpolate import CubicSpline
+from scipy.optimize import minimize
 
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
@@ -269,14 +270,12 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
     """The filter's ``τ`` (and the smooth current's lag, ``refine_lag``) refined together, by Nelder–Mead on the basis
     fit's cost from the grid's values: the two trade off (a filter lags the current as a lag does), so each refined
     under the other's grid value stops short of both."""
-    from scipy.optimize import minimize
-
     d, lag0, tau0 = timing["samples"], lag_of(timing), report["tau_s"]
 
     def f(x):
         tau = tau0 * math.exp(x[0])  # relative steps: the cost's scale in τ is τ itself
-        lag = None if not refine_lag else float(np.clip(x[1], -0.5, 0.5))
-        return _basis_cost(_with_delay(_with_report(prepared, tau), d, lag if refine_lag else lag0), layout, taps)[0]
+        lag = float(np.clip(x[1], -0.5, 0.5)) if refine_lag else lag0
+        return _basis_cost(_with_delay(_with_report(prepared, tau), d, lag), layout, taps)[0]
 
     x0 = np.array([0.0, lag0] if refine_lag else [0.0])
     step = np.diag([0.1, 0.1] if refine_lag else [0.1])
