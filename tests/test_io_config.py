@@ -282,8 +282,9 @@ def test_rotary_options_take_the_orders_and_the_reading_of_an_identification():
     for name in ("cogging", "ripple", "direction"):
         assert np.array_equal(getattr(back, name), getattr(orders, name))
     assert np.array_equal(orders_of(RotaryIdentifyOptions(), motor).cogging, orders.cogging)
-    read = Reading(current_delay=1, current_lag=0.0625, angle_pll=(800.0, 0.7), time_lines=(50.0,))
+    read = Reading(current_delay=1, current_lag=0.0625, angle_pll=(800.0, 0.7), time_lines=(50.0,),
+                   current_filter=0.02)
     fixed = opts.with_reading(read)
     assert (fixed.current_delay, fixed.current_lag, fixed.angle_pll, fixed.time_lines) == (1, 0.0625, (800.0, 0.7),
                                                                                           (50.0,))
-    assert fixed.current_filter == 0.05 and fixed.current_noise == "detect" and fixed.orders == opts.orders
+    assert fixed.current_filter == 0.02 and fixed.current_noise == "detect" and fixed.orders == opts.orders

@@ -202,6 +202,7 @@ def test_the_reading_found_reads_the_logs_again_without_a_search(motor0_fast, mo
     assert read.current_lag is not None and read.current_lag == res.current_delay["lag"]
     again = identify(logs, t.motor, RotaryIdentifyOptions().with_reading(read))
     assert not again.angle_pll["searched"] and not again.time_lines["searched"]
+    assert again.current_filter["cost_by_tau"] is None  # the report filter given, not searched
     assert again.current_delay["detected"] is False
     assert again.reading() == read
     for name in ("cogging", "ripple", "direction"):

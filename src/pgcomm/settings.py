@@ -368,9 +368,11 @@ class RotaryIdentifyOptions:
     def with_reading(self, reading) -> "RotaryIdentifyOptions":
         """These options with the logs' reading fixed as an identification found it
         (:meth:`pgcomm.rotary.identify.RotaryIdentification.reading`): the current's delay and lag, the angle's PLL,
-        the time-periodic disturbances. The report filter and the current's noise stay as they are."""
+        the time-periodic disturbances and the report filter. The current's noise stays as it is (it is read from
+        the logs at hand)."""
         return replace(self, current_delay=reading.current_delay, current_lag=reading.current_lag,
-                       angle_pll=reading.angle_pll, time_lines=reading.time_lines)
+                       angle_pll=reading.angle_pll, time_lines=reading.time_lines,
+                       current_filter=reading.current_filter)
 
 
 @dataclass(frozen=True)

@@ -19,9 +19,14 @@ __all__ = ["plt", "save", "png_bytes"]
 
 
 def save(fig, path) -> None:
-    """Save ``fig`` as PNG at ``path`` (atomically) and close it."""
+    """Save ``fig`` as PNG at ``path`` (atomically) and close it.
+
+    Every figure lays itself out (``tight_layout``) where it is drawn, so the page is saved as laid out:
+    ``bbox_inches="tight"`` would draw each figure twice (once to measure it), which doubled the time a run
+    spends on its figures.
+    """
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
+        fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
 
 

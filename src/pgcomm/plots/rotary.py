@@ -56,6 +56,7 @@ def plot_rotary_maps(model, identification, motor_name: str, n: int = 3600, swee
         a.legend(fontsize=7, loc="upper right")
     ax[-1].set_xlabel("mechanical angle θ [rad]")
     fig.suptitle(f"rotary {motor_name}: maps identified from running logs")
+    fig.tight_layout()
     return fig
 
 
@@ -95,4 +96,5 @@ def plot_rotary_run(table, model, truth_model, tracking_mse: dict, motor_name: s
     ax[2].set_ylabel("tracking MSE / classical")
     ax[2].legend(fontsize=8)
     fig.suptitle(f"rotary {motor_name}: identification and tracking")
+    fig.tight_layout()
     return fig

@@ -167,8 +167,7 @@ def identify_from_logs(logs, motor: RotaryMotor, options: RotaryIdentifyOptions 
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
         res = identify(data, motor, options)
         # the feedforward read as the identification read the logs, its report filter taken out too
-        mech = None if torque_sensor else fit_mechanics(data, motor, replace(
-            options.with_reading(res.reading()), current_filter=res.current_filter["tau_s"]))
+        mech = None if torque_sensor else fit_mechanics(data, motor, options.with_reading(res.reading()))
         _tell(res, motor, progress)
     model = replace(res.model, info={**res.model.info, "motor": motor.name, "current_limit": motor.current_limit,
                                      "logs": [lg.source for lg in logs]})

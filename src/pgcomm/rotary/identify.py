@@ -58,12 +58,15 @@ class Reading:
         current_lag: the smooth current's lag between samples (samples), or ``None``: held.
         angle_pll: ``(ω_n rad/s, ζ)`` of the drive's PLL whose estimate the logged angle is, or ``None``.
         time_lines: frequencies (Hz) of the time-periodic disturbances fitted.
+        current_filter: time constant (s) of the drive's first-order report filter taken out of the logged current;
+            ``0.0``: the current read as logged.
     """
 
     current_delay: int
     current_lag: float | None
     angle_pll: tuple[float, float] | None
     time_lines: tuple[float, ...]
+    current_filter: float = 0.0
 
 
 #: The fields of :class:`RotaryIdentification` an identification from running logs fills, in ``results.json``'s order.
@@ -176,7 +179,8 @@ class RotaryIdentification:
         return Reading(current_delay=int(timing["samples"]),
                        current_lag=None if timing["held"] else float(timing["lag"]),
                        angle_pll=None if w is None else (float(w), float(pll["damping"])),
-                       time_lines=tuple(float(f) for f in self.time_lines["hz"]))
+                       time_lines=tuple(float(f) for f in self.time_lines["hz"]),
+                       current_filter=float(self.current_filter["tau_s"]))
 
 
 def _guard(options: RotaryIdentifyOptions) -> tuple[float, int]:
