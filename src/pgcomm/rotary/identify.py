@@ -39,7 +39,7 @@ from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _wit
     apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
 from pgcomm.rotary.regression import _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, \
     _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
-    DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID
+    angle_parts_kept, DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID
 from pgcomm.rotary.time_lines import _time_lines
 from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.law import MIN_GAIN
@@ -235,6 +235,13 @@ def identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions | None = N
         ExcitationError: no usable window (all too fast for the alias guard or at standstill).
     """
     options = options or RotaryIdentifyOptions()
+    # the reading search and the fits pass over the same logs tens of times: the angle's columns are built once
+    with angle_parts_kept():
+        return _identify(logs, motor, options)
+
+
+def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> RotaryIdentification:
+    """:func:`identify` with its options given."""
     min_samples_per_period, taps = _guard(options)
     ridge, extra_orders, encoder_step = options.ridge, options.extra_orders, options.encoder_step
     current_delay, angle_pll, time_lines = options.current_delay, options.angle_pll, options.time_lines

@@ -73,6 +73,7 @@ structured model. The rows are built a chunk of windows at a time and reduced to
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -480,6 +481,128 @@ def _chunks(prepared, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS, blo
         yield chunks[0]
 
 
+def _angle_part(p, pos: int, k: int, chunk: int, span: int, union, cols, g, g_tri, block_seconds: float,
+                need_phi_r: bool) -> dict:
+    """What chunk ``k`` of log ``p`` (:class:`_Prepared`) puts in :func:`_reading_chunks`' rows that depends on the angle
+    alone (not on the current's reading): ``common`` (the rows' acceleration, cogging, direction and drag columns,
+    signs, blocks, noise), the ripple's columns before the current multiplies them (``a_rh``, ``b_rh``
+    ``(n_int, 2 n_r)``; ``phi_r`` at the nodes where a smooth current is read) and the chunk's real intervals
+    (``steps``)."""
+    st = p.starts[k:k + chunk]
+    lo, hi = int(st[0]), int(st[-1]) + span
+    loc = st - lo
+    th, sgn = p.theta[lo:hi], p.sgn[lo:hi]
+    n_int = hi - lo - 1
+    steps = None if p.t is None else _Steps.of(p.t, lo, hi)
+    if steps is None:
+        acc = (th[2:] - 2 * th[1:-1] + th[:-2]) / p.ts**2  # acc[i-1] at sample i
+        path = _path_angles(_extended(p.theta, lo, hi), n_int)
+        t_rows = st * p.ts
+    else:
+        # the divided difference over the two real intervals around each sample (module docstring)
+        tt = p.t[lo:hi]
+        acc = ((th[2:] - th[1:-1]) / (tt[2:] - tt[1:-1]) - (th[1:-1] - th[:-2]) / (tt[1:-1] - tt[:-2])) \
+            / (0.5 * (tt[2:] - tt[:-2]))
+        path = _at_nodes(_extended(p.theta, lo, hi), n_int, steps.at(_GL_NODES))
+        t_rows = p.t[st] - p.t[0]
+    # the sample at j weighs interval j-1 (held iq[j-1]) rising and interval j (iq[j]) falling
+    # the three maps share orders (the slot and pole multiples): their columns in one call
+    phi = _node_columns(path, union)
+    a_0, b_0 = _weights_at_nodes(phi)
+    a_u, b_u = _rise_fall(a_0, b_0, steps)
+    a_c, b_c = a_u[:, cols["cogging"]], b_u[:, cols["cogging"]]
+    a_d, b_d = a_u[:, cols["direction"]], b_u[:, cols["direction"]]
+    sg_i = sgn[:n_int, None]
+    common = {"row": st, "log": np.full(st.size, pos), "acc": _filt(acc, loc, g),
+              "cog": _filt(a_c, loc, g) + _filt(b_c, loc + 1, g),
+              "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
+              "visc": _filt(p.w[lo:hi], loc, g_tri),
+              "sgn": sgn[loc + span // 2],
+              "block": np.floor(t_rows / block_seconds).astype(np.int64) + 100003 * p.index,
+              "acc_noise": np.full(st.size, p.acc_noise)}
+    # the ripple's columns are scaled with the current that multiplies them (current_rows)
+    return {"common": common, "a_rh": a_0[:, cols["ripple"]], "b_rh": b_0[:, cols["ripple"]],
+            "phi_r": np.ascontiguousarray(phi[cols["ripple"]]) if need_phi_r else None, "steps": steps}
+
+
+class _AngleParts:
+    """The angle's part of :func:`_reading_chunks`' rows (:func:`_angle_part`), kept while an identification runs
+    (:func:`angle_parts_kept`).
+
+    The search for how the logs were read fits the same logs tens of times under different readings of the
+    current; the angle, and so the Fourier columns along the rotor's path (most of a pass's time), is the same in
+    most of them. A part is found again by the log it belongs to (the very angle, windows, time and speed arrays,
+    held here so that no other array can take their place) and the chunk's key; parts are dropped oldest first
+    beyond :attr:`budget` bytes, so minutes of logs fall back to computing each pass afresh.
+    """
+
+    def __init__(self, budget: int):
+        self.budget = budget
+        self.depth = 0
+        self._parts: dict = {}
+        self._bytes = 0
+
+    def _key(self, p, key):
+        return (id(p.theta), id(p.starts), id(p.t), id(p.w), id(p.sgn), p.index, p.ts, p.acc_noise) + key
+
+    def get(self, p, key):
+        """The part kept for chunk ``key`` of log ``p``, or ``None`` (also outside :func:`angle_parts_kept`)."""
+        if not self.depth:
+            return None
+        k = self._key(p, key)
+        hit = self._parts.pop(k, None)
+        if hit is None:
+            return None
+        self._parts[k] = hit  # the most recently used last: the oldest go first
+        held = hit[0]
+        return hit[1] if held[0] is p.theta and held[1] is p.starts and held[2] is p.t else None
+
+    def put(self, p, key, part) -> None:
+        """Keep ``part`` for chunk ``key`` of log ``p`` (inside :func:`angle_parts_kept`, within the budget)."""
+        if not self.depth:
+            return
+        size = _nbytes(part)
+        if size > self.budget:
+            return
+        while self._parts and self._bytes + size > self.budget:
+            self._bytes -= self._parts.pop(next(iter(self._parts)))[2]
+        self._parts[self._key(p, key)] = ((p.theta, p.starts, p.t, p.w, p.sgn), part, size)
+        self._bytes += size
+
+    def clear(self) -> None:
+        self._parts.clear()
+        self._bytes = 0
+
+
+def _nbytes(part) -> int:
+    total = 0
+    for v in part.values():
+        if isinstance(v, np.ndarray):
+            total += v.nbytes
+        elif isinstance(v, dict):
+            total += _nbytes(v)
+    return total
+
+
+#: The angle parts kept while an identification runs: 256 MB at most (about three minutes of 1 kHz logs on a basis
+#: of a hundred orders).
+_ANGLE_PARTS = _AngleParts(256 * 2**20)
+
+
+@contextmanager
+def angle_parts_kept():
+    """Keep the angle's part of the regression's rows between passes over the same logs inside this block
+    (:class:`_AngleParts`), and drop them when it ends. Nested blocks share the outer one's parts."""
+    _ANGLE_PARTS.depth += 1
+    try:
+        yield
+    finally:
+        _ANGLE_PARTS.depth -= 1
+        if not _ANGLE_PARTS.depth:
+            _ANGLE_PARTS.clear()
+
+
+
 def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS,
                     block_seconds: float = BLOCK_SECONDS, lines=(), probes: bool = False):
     """:func:`_chunks` for several readings of the same logs' current (each a list of :class:`_Prepared` as
@@ -525,45 +648,22 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
             y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
         return y, _filt(a_r, loc, g) + _filt(b_r, loc + 1, g)
 
+    col_key = b"/".join(cols[name].tobytes() for name in ("cogging", "ripple", "direction"))
     for pos, p in enumerate(first):
         # the probe currents (below), once per log: probe k is 1 on the samples k, k + P, ... (bool: a byte a sample)
         probe_x = ((np.arange(p.theta.size) % n_probes)[None, :] == np.arange(n_probes)[:, None]) if probes else None
+        need_phi_r = any(r[pos].lag is not None for r in readings)
         for k in range(0, p.starts.size, chunk):
-            st = p.starts[k:k + chunk]
+            key = (pos, k, chunk, span, taps, block_seconds, union.tobytes(), col_key, need_phi_r)
+            part = _ANGLE_PARTS.get(p, key)
+            if part is None:
+                part = _angle_part(p, pos, k, chunk, span, union, cols, g, g_tri, block_seconds, need_phi_r)
+                _ANGLE_PARTS.put(p, key, part)
+            common, a_rh, b_rh, phi_r, steps = part["common"], part["a_rh"], part["b_rh"], part["phi_r"], part["steps"]
+            st = common["row"]
             lo, hi = int(st[0]), int(st[-1]) + span
             loc = st - lo
-            th, sgn = p.theta[lo:hi], p.sgn[lo:hi]
             n_int = hi - lo - 1
-            steps = None if p.t is None else _Steps.of(p.t, lo, hi)
-            if steps is None:
-                acc = (th[2:] - 2 * th[1:-1] + th[:-2]) / p.ts**2  # acc[i-1] at sample i
-                path = _path_angles(_extended(p.theta, lo, hi), n_int)
-                t_rows = st * p.ts
-            else:
-                # the divided difference over the two real intervals around each sample (module docstring)
-                tt = p.t[lo:hi]
-                acc = ((th[2:] - th[1:-1]) / (tt[2:] - tt[1:-1]) - (th[1:-1] - th[:-2]) / (tt[1:-1] - tt[:-2])) \
-                    / (0.5 * (tt[2:] - tt[:-2]))
-                path = _at_nodes(_extended(p.theta, lo, hi), n_int, steps.at(_GL_NODES))
-                t_rows = p.t[st] - p.t[0]
-            # the sample at j weighs interval j-1 (held iq[j-1]) rising and interval j (iq[j]) falling
-            # the three maps share orders (the slot and pole multiples): their columns in one call
-            phi = _node_columns(path, union)
-            a_0, b_0 = _weights_at_nodes(phi)
-            a_u, b_u = _rise_fall(a_0, b_0, steps)
-            a_c, b_c = a_u[:, cols["cogging"]], b_u[:, cols["cogging"]]
-            a_d, b_d = a_u[:, cols["direction"]], b_u[:, cols["direction"]]
-            # the ripple's columns are scaled with the current that multiplies them (current_rows)
-            a_rh, b_rh = a_0[:, cols["ripple"]], b_0[:, cols["ripple"]]
-            phi_r = phi[cols["ripple"]] if any(r[pos].lag is not None for r in readings) else None
-            sg_i = sgn[:n_int, None]
-            common = {"row": st, "log": np.full(st.size, pos), "acc": _filt(acc, loc, g),
-                      "cog": _filt(a_c, loc, g) + _filt(b_c, loc + 1, g),
-                      "dir": _filt(sg_i * a_d, loc, g) + _filt(sg_i * b_d, loc + 1, g),
-                      "visc": _filt(p.w[lo:hi], loc, g_tri),
-                      "sgn": sgn[loc + span // 2],
-                      "block": np.floor(t_rows / block_seconds).astype(np.int64) + 100003 * p.index,
-                      "acc_noise": np.full(st.size, p.acc_noise)}
             held_line = None
             out = []
             for r in readings:
