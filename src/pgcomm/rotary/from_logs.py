@@ -41,6 +41,7 @@ from pgcomm.rotary.identify import RotaryIdentification, drive_text, fit_mechani
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.readings import delay_text, filter_text, pll_text
+from pgcomm.rotary.host_clock import host_clock_text
 from pgcomm.rotary.slots import count_slots
 from pgcomm.rotary.standstill import SweepTable, table_from_sweep
 from pgcomm.rotary.static_map import compare, text
@@ -240,7 +241,7 @@ def _tell(res: RotaryIdentification, motor: RotaryMotor, progress: Progress) -> 
     sign of ``J/k0``, the encoder's correction, each map's standard error and verdict."""
     for line in (filter_text(res.current_filter), drive_text(res.drive_orders, motor.pole_pairs),
                  pll_text(res.angle_pll or {}), delay_text(res.current_delay or {}), lines_text(res.time_lines),
-                 voltage_text(res.back_emf), offset_text(res.back_emf)):
+                 voltage_text(res.back_emf), offset_text(res.back_emf), host_clock_text(res.host_clock)):
         if line:
             progress.info(line)
     if (res.model.inertia_ratio or 0.0) < 0.0:

@@ -41,6 +41,7 @@ from pgcomm.rotary.regression import _chunks, _fit, _full, _Layout, _line_column
     _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
     angle_parts_kept, DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID
 from pgcomm.rotary.time_lines import _time_lines
+from pgcomm.rotary.host_clock import weigh
 from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.law import MIN_GAIN
 
@@ -75,7 +76,7 @@ _RUNNING_KEYS = ("windows", "windows_used", "windows_refused_alias", "windows_re
                  "validation_curve", "orders_added", "orders_screened", "cost_A2", "inertia_ratio", "standard_error",
                  "quantisation", "current_delay", "angle_pll", "current_filter", "information_share", "drive_orders",
                  "pinned", "time_lines", "back_emf", "current_noise_A", "current_noise_from",
-                 "current_noise_correction", "seconds")
+                 "current_noise_correction", "host_clock", "seconds")
 #: ... and those written only when set: the alias guard's note, and what a rotary experiment's rounds of logs add.
 _OPTIONAL_KEYS = ("note", "rounds", "first_round_standard_error", "log_budget_s")
 #: ... and an identification with a torque sensor.
@@ -115,6 +116,8 @@ class RotaryIdentification:
             cogging at the drive's own orders.
         current_noise_A, current_noise_from, current_noise_correction: the logged current's noise (A), where it was
             read, the fit's correction for it.
+        host_clock: the logged angle's timing noise (µs) and whether the rows were weighted for it
+            (:func:`pgcomm.rotary.host_clock.weigh`).
         note: the alias guard's refusals in words, where it refused windows.
         rounds, first_round_standard_error, log_budget_s: set by a rotary experiment that logs in rounds
             (:func:`pgcomm.rotary.experiment.record_running_logs`).
@@ -154,6 +157,7 @@ class RotaryIdentification:
     current_noise_A: float | None = None
     current_noise_from: str | None = None
     current_noise_correction: dict | None = None
+    host_clock: dict | None = None
     note: str | None = None
     rounds: int | None = None
     first_round_standard_error: dict | None = None
@@ -258,6 +262,9 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     shares = information_shares(prepared, orders, taps)
     pinned = {name: share for name, share in shares.items() if share < DETERMINED_SHARE or name in pin}
     orders = replace(orders, **{name: np.zeros(0, int) for name in pinned})
+    # a host's clock makes the angle's noise grow with the speed: the rows weighted for it before the logs are read, so
+    # that the reading's search, the fit, its validation and its standard errors all see the same weighted rows
+    prepared, host = weigh(prepared, orders, taps)
     estimate, timing, report = read_logs(prepared, orders, taps, encoder_step, current_delay, angle_pll, current_lag,
                                          current_filter)
 
@@ -352,7 +359,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
         current_filter=report, information_share=shares, drive_orders=drive, pinned=sorted(pinned),
         time_lines=lines_info, back_emf=voltage_info, current_noise_A=noise_info["current_noise_A"],
         current_noise_from=noise_info["current_noise_from"],
-        current_noise_correction={**correction, **fit["current_noise"]},
+        current_noise_correction={**correction, **fit["current_noise"]}, host_clock=host,
         note=(f"{counts['alias']} of {counts['windows']} windows refused: faster than {v_limit:.3g} rad/s, where order "
               f"{orders.highest} has fewer than {min_samples_per_period:g} samples per period")
         if counts["alias"] else None,

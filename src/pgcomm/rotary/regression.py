@@ -313,6 +313,9 @@ class _Prepared:
     lag: float | None = None
     #: The log's time stamps where they are not uniform (:func:`_log_time`), else ``None``.
     t: np.ndarray | None = None
+    #: ``(N,)`` the weight of the row centred on each sample (:mod:`pgcomm.rotary.host_clock`: a speed-dependent
+    #: angle noise), or ``None``: every row weighs 1.
+    weight: np.ndarray | None = None
 
 
 def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect",
@@ -664,16 +667,30 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
             lo, hi = int(st[0]), int(st[-1]) + span
             loc = st - lo
             n_int = hi - lo - 1
+            root = None
+            if p.weight is not None:
+                # generalised least squares (module docstring, "Weighted rows"): every row and its target scaled by
+                # the square root of its weight here, after the kept angle part (which holds no weight), so that every
+                # consumer sees the same weighted problem
+                w_rows = p.weight[st + span // 2]
+                root = np.sqrt(w_rows)
+                common = dict(common)
+                for name in ("acc", "visc"):
+                    common[name] = common[name] * root
+                for name in ("cog", "dir"):
+                    common[name] = common[name] * root[:, None]
+                common["acc_noise"] = common["acc_noise"] * w_rows
             held_line = None
             out = []
             for r in readings:
                 q = r[pos]
                 ch = dict(common)
-                ch["y"], ch["rip"] = current_rows(q.iq, q.lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh)
+                ch["y"], ch["rip"] = _weighed(current_rows(q.iq, q.lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh), root)
                 if probes:
                     # the rows' sensitivity to each logged current sample: P is the samples one row reads, so no
                     # row reads two of a probe's samples and each probe's rows hold one sample's part of every row
-                    ch["noise_rows"] = [current_rows(x, q.lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh) for x in probe_x]
+                    ch["noise_rows"] = [_weighed(current_rows(x, q.lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh), root)
+                                        for x in probe_x]
                 if lines:
                     if q.lag is None:
                         if held_line is None:
@@ -696,8 +713,19 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
                         rise, fall = _rise_fall(np.einsum("knc,n->kc", cs, _GL_WEIGHTS * _GL_NODES),
                                                 np.einsum("knc,n->kc", cs, _GL_WEIGHTS * (1.0 - _GL_NODES)), steps)
                         ch["line"] = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
+                    if root is not None:
+                        ch["line"] = ch["line"] * root[:, None]
                 out.append(ch)
             yield out
+
+
+def _weighed(rows, root):
+    """``(y, rip)`` of :func:`_reading_chunks`' rows scaled by the rows' root weights ``root`` ``(J,)`` (or as they
+    are where ``None``)."""
+    if root is None:
+        return rows
+    y, rip = rows
+    return y * root, rip * root[:, None]
 
 
 @dataclass
