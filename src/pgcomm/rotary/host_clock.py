@@ -28,9 +28,10 @@ binned by ``A_j`` the same way, give ``e² ≈ c0 + c1 A_j`` (``c1`` near ``(J/k
 what the model leaves). The rows then enter the regression with weights ``w_j = 1 / (c0 + c1 A_j)`` (normalised to
 a mean of 1), a feasible generalised least squares. Only where the speed-dependent part matters: ``b`` resolved
 (:data:`RESOLVED_SIGMAS` standard errors), the timing noise at the fast rows at least the angle's other noise
-(``b ω_95² ≥ a``), and the predicted residual variance at the fastest rows at least :data:`WEIGHT_SPREAD` times that
+(``b ω_95² ≥ a``) and a clock's (``σ_t`` at least :data:`MIN_TIMING_SHARE` of the median step), and the predicted residual variance at the fastest rows at least :data:`WEIGHT_SPREAD` times that
 at the slowest (below it generalised least squares gains little over ordinary); otherwise every weight is 1 and
-the fit is unchanged.
+the fit is unchanged. The squared residuals must also grow with ``A_j`` at least as ``J/k0`` says they should, within
+:data:`C1_FACTOR`.
 """
 
 from __future__ import annotations
@@ -59,6 +60,14 @@ RESOLVED_SIGMAS = 3.0
 #: Rows are weighted only when the predicted residual variance at the fastest rows (95th percentile of ``A_j``) is at
 #: least this many times that at the slowest (5th): below it generalised least squares gains little over ordinary.
 WEIGHT_SPREAD = 2.0
+#: The residuals' growth with the predicted acceleration noise, ``c1``, must be at least ``(J/k0)²`` over this factor
+#: (the angle's noise reaches the rows through ``J/k0``): a growth far below it is not the angle's noise (logs without
+#: noise, whose residuals are the kernel's error). Only a lower bound: the same noise in the acceleration regressor
+#: pulls the first fit's ``J/k0`` towards zero (2.4-fold at 40 µs on a 30 rad/s log).
+C1_FACTOR = 4.0
+#: A timing noise below this share of the log's median step is not a clock's (a host stamps to a microsecond or
+#: better, a drive's own clock exactly): what the differences then read is the motion's own, and no row is weighted.
+MIN_TIMING_SHARE = 1e-3
 #: Fewest values in a bin.
 MIN_BIN = 10
 #: A bin's standard error counts as at least this share of the bins' median (:func:`speed_noise_fit`).
@@ -180,7 +189,7 @@ def _centre(taps: int) -> int:
     return (taps + 2) // 2
 
 
-def row_weights(prepared, rows, residuals, fit: dict, taps: int) -> dict:
+def row_weights(prepared, rows, residuals, fit: dict, taps: int, inertia_ratio: float | None = None) -> dict:
     """The rows' weights ``w_j = 1 / (c0 + c1 A_j)`` (module docstring), per log and sample.
 
     Args:
@@ -189,6 +198,7 @@ def row_weights(prepared, rows, residuals, fit: dict, taps: int) -> dict:
             ``(J_i,)`` (A), :func:`pgcomm.rotary.regression._residuals`.
         fit: :func:`speed_noise_fit` of the logs' angle.
         taps: the acceleration filter's taps.
+        inertia_ratio: ``J/k0`` of the first fit (A·s²/rad): ``c1`` must reach its square over :data:`C1_FACTOR`.
 
     Returns:
         ``{"weights": [ (N_i,) per-sample weights or None ], "weighted": bool, "c0_A2", "c1", "spread", "reason"}``:
@@ -196,7 +206,8 @@ def row_weights(prepared, rows, residuals, fit: dict, taps: int) -> dict:
         95th percentile of the rows over that at the 5th.
     """
     out = {"weights": [None] * len(prepared), "weighted": False, "c0_A2": None, "c1": None, "spread": 1.0}
-    if fit is None or not fit["resolved"]:
+    if fit is None or not fit["resolved"] or fit["sigma_t_s"] < MIN_TIMING_SHARE * float(np.median([p.ts for p in
+                                                                                                     prepared])):
         return {**out, "reason": "no timing noise resolved in the angle"}
     if fit["timing_s2"] * fit["speed95_rad_s"] ** 2 < fit["floor_rad2"]:
         return {**out, "reason": "the timing noise stays below the angle's other noise at these speeds"}
@@ -228,6 +239,9 @@ def row_weights(prepared, rows, residuals, fit: dict, taps: int) -> dict:
     out.update(c0_A2=float(c0), c1=float(c1), spread=float(spread))
     if not c["resolved"]:
         return {**out, "reason": "the residuals do not grow with the predicted noise"}
+    if inertia_ratio is not None and c1 < inertia_ratio**2 / C1_FACTOR:
+        return {**out, "reason": f"the residuals grow with the predicted noise {c1 / max(inertia_ratio**2, 1e-300):.3g} "
+                                 "times as (J/k0)² says: not the angle's noise"}
     if spread < WEIGHT_SPREAD:
         return {**out, "reason": f"the residuals' variance varies less than {WEIGHT_SPREAD:g}-fold over the rows"}
     # the floor: the slowest rows' variance (c0 = 0 would weigh a row by its angle's rounding alone)
@@ -251,19 +265,21 @@ def weigh(prepared, orders, taps: int) -> tuple[list, dict]:
     """
     bins = [angle_noise_bins(np.arange(p.theta.size) * p.ts if p.t is None else p.t, p.theta) for p in prepared]
     fit = speed_noise_fit(bins)
+    step = float(np.median([p.ts for p in prepared]))
     per_log = [speed_noise_fit(b) for b in bins]
     info = {"sigma_t_us": None if fit is None else 1e6 * fit["sigma_t_s"],
             "sigma_t_se_us": None if fit is None or not math.isfinite(fit["timing_se_s2"]) or fit["timing_s2"] <= 0
             else 1e6 * fit["timing_se_s2"] / (2.0 * fit["sigma_t_s"]),
-            "floor_rad2": None if fit is None else fit["floor_rad2"], "resolved": bool(fit and fit["resolved"]),
+            "floor_rad2": None if fit is None else fit["floor_rad2"],
+            "resolved": bool(fit and fit["resolved"] and fit["sigma_t_s"] >= MIN_TIMING_SHARE * step),
             "per_log_sigma_t_us": [None if f is None else 1e6 * f["sigma_t_s"] for f in per_log]}
-    if fit is None or not fit["resolved"] or fit["timing_s2"] * fit["speed95_rad_s"] ** 2 < fit["floor_rad2"]:
+    if not info["resolved"] or fit["timing_s2"] * fit["speed95_rad_s"] ** 2 < fit["floor_rad2"]:
         found = row_weights(prepared, [], [], fit, taps)
     else:
         layout = _Layout.of(orders)
         beta = _basis_fit(prepared, layout, taps)[0]
         res = _residuals(prepared, layout, taps, beta)
-        found = row_weights(prepared, [r for r, _ in res], [e for _, e in res], fit, taps)
+        found = row_weights(prepared, [r for r, _ in res], [e for _, e in res], fit, taps, float(beta[0]))
     weights = found.pop("weights")
     info.update(found)
     if info["weighted"]:

@@ -1,0 +1,97 @@
+"""The host's clock in a logged angle: the speed-dependent noise read from the angle alone against a known timing
+noise, and the rows weighted for it against the unweighted fit on a rotor of known cogging (tests/_rotor.py)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import _rotor
+import pgcomm.rotary.identify as identify_module
+from pgcomm.rotary.host_clock import DIFFERENCE_ORDER, angle_noise_bins, speed_noise_fit
+from pgcomm.rotary.identify import identify
+from test_real_logs import FIXED, MOTOR, cogging_error
+
+
+def _overlap(order: int) -> float:
+    return math.comb(4 * order, 2 * order) / math.comb(2 * order, order) ** 2
+
+
+def _ramp_log(n: int, sigma_t: float, floor: float, seed: int):
+    """An angle of known motion (a speed ramp from 2 to 30 rad/s and a 1 mrad, 80 Hz dither) on log-normally jittered
+    stamps, read at instants that miss their stamps by a normal ``sigma_t`` (s), plus a white angle noise ``floor``
+    (rad): ``var_θ(ω) = floor² + sigma_t² ω²``."""
+    rng = np.random.default_rng(seed)
+    t = np.concatenate([[0.0], np.cumsum(1e-3 * np.exp(0.2 * rng.standard_normal(n - 1)))])
+    instant = t + sigma_t * rng.standard_normal(n)
+    duration = t[-1]
+    w0, w1 = 2.0, 30.0
+
+    def angle(x):
+        return w0 * x + 0.5 * (w1 - w0) / duration * x * x + 1e-3 * np.sin(2 * np.pi * 80.0 * x)
+
+    return t, angle(instant) + floor * rng.standard_normal(n)
+
+
+def test_timing_noise_is_read_from_the_angle_alone():
+    """A 40 µs timing noise on jittered stamps, beside a 10 µrad white floor, under a dither the sixth difference must
+    cancel: ``σ_t`` within four standard errors of the squared sixth differences' mean over the log's windows (the
+    overlapping windows' correlation counted), ``b`` within four of its own reported standard errors."""
+    n, sigma_t, floor = 20000, 40e-6, 1e-5
+    t, theta = _ramp_log(n, sigma_t, floor, seed=3)
+    fit = speed_noise_fit(angle_noise_bins(t, theta))
+    # b rests mostly on the faster half of the windows: its relative SE is about sqrt(2 C / (n/2)), doubled for the
+    # floor fitted beside it; σ_t's relative error is half of b's
+    rel_b = 2.0 * math.sqrt(2.0 * _overlap(DIFFERENCE_ORDER) / (n / 2))
+    assert fit["resolved"]
+    assert fit["sigma_t_s"] == pytest.approx(sigma_t, rel=4 * rel_b / 2)
+    assert abs(fit["timing_s2"] - sigma_t**2) <= 4 * fit["timing_se_s2"]
+    assert fit["timing_se_s2"] <= 2 * rel_b * sigma_t**2  # the reported SE is no looser than the count says
+
+
+def test_exact_stamps_give_no_timing_noise():
+    """The same motion read at its stamps (non-uniform, exact): the timing noise is not resolved, or stays far below
+    the floor at the fastest speed."""
+    t, theta = _ramp_log(20000, 0.0, 1e-5, seed=4)
+    fit = speed_noise_fit(angle_noise_bins(t, theta))
+    assert not fit["resolved"] or fit["timing_s2"] * fit["speed95_rad_s"] ** 2 < 0.1 * fit["floor_rad2"]
+
+
+def _host_stamped(sigma_t: float, seed: int) -> list:
+    """Three logs of the known rotor (30, −5 and 5 rad/s, jittered steps) whose rows are stamped ``sigma_t`` (normal,
+    clipped at 3σ) off the instants their angle and current are of, with a 10 mA current noise."""
+    rng = np.random.default_rng(seed)
+    logs = []
+    for speed, s in ((30.0, 1), (-5.0, 2), (5.0, 3)):
+        lg = _rotor.run(3.0, speed=speed, jitter=0.5, seed=s)
+        miss = np.clip(rng.standard_normal(lg["t"].size), -3.0, 3.0) * sigma_t
+        logs.append({**lg, "t": lg["t"] + miss, "iq_1": lg["iq_1"] + 0.01 * rng.standard_normal(lg["t"].size)})
+    return logs
+
+
+def test_weighted_rows_cut_the_cogging_error_of_host_stamped_logs(monkeypatch):
+    """With a 40 µs stamp error the fast log's rows carry far more noise than the slow logs': weighted, the cogging
+    comes within three of its standard errors of the truth and at least a quarter closer than unweighted; the timing
+    noise found is the clipped normal's std (0.9866 σ) within a tenth."""
+    sigma_t = 40e-6
+    logs = _host_stamped(sigma_t, seed=5)
+    options = replace(FIXED, current_filter=0.0)
+    weighted = identify(logs, MOTOR, options)
+    host = weighted.host_clock
+    assert host["weighted"], host
+    assert host["sigma_t_us"] == pytest.approx(0.9866 * sigma_t * 1e6, rel=0.1)
+    e_w, se_w = cogging_error(weighted.model), weighted.standard_error["cogging"]["relative"]
+    assert e_w < 3 * se_w, (e_w, se_w)
+    monkeypatch.setattr(identify_module, "weigh", lambda prepared, orders, taps: (prepared, None))
+    e_u = cogging_error(identify(logs, MOTOR, options).model)
+    assert e_w < 0.75 * e_u, (e_w, e_u)
+
+
+def test_exact_stamps_leave_every_row_at_weight_one():
+    """Jittered but exact stamps: no timing noise is found and the fit is the unweighted one."""
+    logs = [_rotor.run(2.0, speed=20.0, jitter=0.5, seed=1), _rotor.run(2.0, speed=-15.0, jitter=0.5, seed=2)]
+    res = identify(logs, MOTOR, replace(FIXED, current_filter=0.0))
+    assert not res.host_clock["weighted"], res.host_clock
