@@ -53,6 +53,12 @@ the sum over rows and logged samples of ``a_j a_jᵀ``, ``a_j`` the part of a ro
 loop commands from the encoder's noise (real current, which the logged angle predicts:
 :func:`pgcomm.rotary.readings.current_noise_beside_angle`).
 
+**Weighted rows.** Where a host's clock makes the logged angle's noise grow with the speed, the rows carry
+weights (:mod:`pgcomm.rotary.host_clock`, :attr:`_Prepared.weight`): every row's target and columns, the current-noise
+probes' and the lines' alike, are scaled by the square root of its weight where the rows are made
+(:func:`_reading_chunks`), and the acceleration's encoder noise by the weight, so that the fit, its validation, its
+corrections, its standard errors, the screening and the readings' search all solve the same generalised least squares.
+
 **Regularisation.** A ridge on the Fourier coefficients (columns scaled to unit RMS; the
 mechanical columns ``J/k0``, ``b`` and the Coulomb term are not penalised), its weight chosen
 by validation on held-out **time blocks** (every ``VALIDATION_EVERY``-th block of about one
