@@ -288,13 +288,15 @@ def weigh(prepared, orders, taps: int) -> tuple[list, dict]:
 
 
 def host_clock_text(info: dict | None) -> str | None:
-    """One line on the angle's timing noise and whether the rows were weighted (``host_clock`` of
-    :func:`pgcomm.rotary.identify.identify`), or ``None`` where none was found."""
-    if not info or not info.get("resolved"):
+    """One line on the angle's timing noise where the rows were weighted for it (``host_clock`` of
+    :func:`pgcomm.rotary.identify.identify`), else ``None``.
+
+    An angle noise that grows with the speed is a timing noise only where the fit's residuals grow with it too (the
+    weighting's test): on slow logs the encoder's rounding turns white as the rotor passes a count per sample and
+    grows with the speed as well, so the figure alone is not said."""
+    if not info or not info.get("resolved") or not info.get("weighted"):
         return None
     sigma = f"{info['sigma_t_us']:.3g} µs" + (f" (± {info['sigma_t_se_us']:.2g})" if info.get("sigma_t_se_us") else "")
-    if info["weighted"]:
-        return (f"the logged angle carries a timing noise of {sigma} (the host's clock: each row is the drive's state "
-                f"at an instant a little before its stamp), an angle noise that grows with the speed: the rows are "
-                f"weighted by their predicted noise (the fastest {info['spread']:.3g} times the slowest's variance)")
-    return f"the logged angle carries a timing noise of {sigma}; the rows are not weighted: {info['reason']}"
+    return (f"the logged angle carries a timing noise of {sigma} (the host's clock: each row is the drive's state "
+            f"at an instant a little before its stamp), an angle noise that grows with the speed: the rows are "
+            f"weighted by their predicted noise (the fastest {info['spread']:.3g} times the slowest's variance)")
