@@ -210,11 +210,14 @@ def test_a_drive_pll_angle_and_a_late_current_through_the_column_mapping(tmp_pat
     w, z = ident["angle_pll"]["natural_frequency_rad_s"], ident["angle_pll"]["damping"]
     timing = ident["current_delay"]
     lag = "held" if timing["held"] else repr(timing["lag"])
+    tau = ident["current_filter"]["tau_s"]
     assert main(["identify", "--motor", str(zoo / "motor.toml"), "--data", *map(str, made), "--columns",
                  str(tmp_path / "map.toml"), "--out", str(given), "--quiet", "--current-delay", "1",
-                 "--current-lag", lag, "--angle-pll", f"{w!r},{z!r}"]) == 0
+                 "--current-lag", lag, "--angle-pll", f"{w!r},{z!r}",
+                 "--current-filter", repr(tau) if tau > 0 else "none"]) == 0
     again = json.loads((given / "results.json").read_text())["identification"]
     assert again["angle_pll"]["searched"] is False and again["current_delay"]["detected"] is False
+    assert again["current_filter"]["cost_by_tau"] is None
     np.testing.assert_allclose(read_angle_table(given / "compensation.csv").iq, table.iq, rtol=0,
                                atol=1e-9 * np.max(np.abs(table.iq)))
 
