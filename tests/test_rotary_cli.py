@@ -357,12 +357,36 @@ def test_bad_input_one_line_no_output(tmp_path, zoo, capsys, case, match):
 def test_sweep_log_gives_the_drives_table_and_agrees_with_the_model(tmp_path, zoo):
     """``--sweep``: the drives' table from the zoo's logged slow sweep (a revolution each way) is within 3x
     its own noise estimate of the truth, the running-log model's table agrees with it within the two noises
-    (the same factor as the twin's comparison), and the table exports like the model's."""
+    (the same factor as the twin's comparison), and the table exports like the model's. A drive's static map given
+    beside it (the truth's table with white noise of a tenth of its RMS, the index half a revolution away): its
+    error is read back within what its sampling and the model's own error allow, and the combined table is the
+    model's and the map's, index removed, each weighed by its error."""
     from pgcomm.rotary.experiment import AGREEMENT_FACTOR
 
+    n = 512
+    ref = read_truth(zoo / "truth.json").model().table(n)
+    sigma_s = 0.1 * float(np.sqrt(np.mean(ref**2)))
+    noise = np.random.default_rng(4).standard_normal(n)
+    noise = sigma_s * (noise - noise.mean()) / noise.std()
+    np.savetxt(tmp_path / "map.csv", np.column_stack([2 * np.pi * np.arange(n) / n, np.roll(ref + noise, -n // 2)]),
+               delimiter=",", header="angle,iq", comments="", fmt="%.17g")
     out = _identify(tmp_path, zoo / "motor.toml", sorted((zoo / "logs").glob("*.csv")),
-                    ["--sweep", str(zoo / "sweep" / "sweep.csv")])
+                    ["--sweep", str(zoo / "sweep" / "sweep.csv"), "--sweep", str(tmp_path / "map.csv")])
     res = json.loads((out / "results.json").read_text())
+    (found,) = res["static_maps"]
+    both = found["combined"]
+    assert found["index_offset"]["shift"] == n // 2 and both["file"] == "combined_map.csv"
+    ours = RotaryModel.from_dict(json.loads((out / "model.json").read_text())).table(n)
+    e_m = float(np.sqrt(np.mean((ours - ref) ** 2)))
+    se = both["model_rms_error_A"]
+    tol = 4 * (sigma_s**2 * math.sqrt(2 / n) + 2 * sigma_s * e_m / math.sqrt(n)) + abs(e_m**2 - se**2)
+    assert abs(both["static_rms_error_A"] ** 2 - sigma_s**2) <= tol
+    w = both["weight_static"]
+    assert w == pytest.approx(se**2 / (se**2 + both["static_rms_error_A"] ** 2), rel=1e-12)
+    centred = lambda x: x - x.mean()  # noqa: E731
+    combined = read_angle_table(out / "combined_map.csv")
+    np.testing.assert_allclose(combined.iq, ours + w * (centred(ref + noise) - centred(ours)), rtol=0,
+                               atol=1e-9 * np.max(np.abs(ref)))
     sw = res["standstill_sweep"]
     assert sw["coverage"] == 1.0 and sw["table_written"] and sw["within_noise"]
     assert sw["rms_model_minus_sweep_A"] <= AGREEMENT_FACTOR * sw["expected_rms_difference_A"]

@@ -71,3 +71,46 @@ def test_counts_need_encoder_counts_and_one_revolution(tmp_path):
         read_static_map(write(tmp_path, rows), 512)
     with pytest.raises(DataError, match="no position column"):
         read_static_map(write(tmp_path, rows, header="pos,Iq_A"), COUNTS)
+
+
+@pytest.mark.parametrize("ratio", [0.1, 1.0, 10.0])
+def test_combined_table_weighs_the_map_by_its_error(ratio):
+    """A model off the truth by a known table error ``σ_m`` (RMS) and a static map of the truth with white noise of
+    ``σ_s = ratio σ_m``, half a revolution away and offset: the map's error is read back within four of its sampling
+    standard deviations (the noise's sample variance and its cross term with the model's error over ``n`` points),
+    the map's weight is ``σ_m² / (σ_m² + σ_s²)`` within what that error allows, and the combined table is closer to the
+    truth than either where both count (``ratio`` 1: ``1/√2`` of either, within the same sampling)."""
+    from pgcomm.rotary.static_map import StaticMap, combine
+
+    n = 512
+    # order 3 beside the multiples of 7: a map of period 2π/7 alone would match itself at shifts 512/7 apart
+    orders = np.array([3, 7, 14, 28, 84])
+    coef = np.array([[0.2, 0.1], [0.9 * math.cos(0.4), -0.9 * math.sin(0.4)], [0.0, 0.3],
+                     [0.5 * math.cos(1.0), -0.5 * math.sin(1.0)], [0.1, 0.0]])
+
+    def model(c):
+        return RotaryModel(7, cogging=Fourier(orders, c), ripple=Fourier.zeros([]), direction=Fourier.zeros([]),
+                           viscous=0.0, inertia_ratio=1e-3)
+
+    truth = model(coef)
+    ident = model(coef + 0.02 * np.random.default_rng(1).standard_normal(coef.shape))
+    ref = truth.table(n)
+    sigma_m = float(np.sqrt(np.mean((ident.table(n) - ref) ** 2)))
+    sigma_s = ratio * sigma_m
+    noise = np.random.default_rng(2).standard_normal(n)
+    noise = sigma_s * (noise - noise.mean()) / noise.std()
+    th = 2 * math.pi * np.arange(n) / n
+    static = StaticMap(th, np.roll(ref + noise, -256) + 0.3, 1, "map.csv")
+    found = compare(static, ident, independent=2 * 84)
+    assert found["index_offset"]["shift"] == 256
+    both = combine(static, ident, found, sigma_m)
+    tol_var = 4 * (sigma_s**2 * math.sqrt(2 / n) + 2 * sigma_m * sigma_s / math.sqrt(n))
+    assert abs(both["static_rms_error_A"] ** 2 - sigma_s**2) <= tol_var
+    w = sigma_m**2 / (sigma_m**2 + sigma_s**2)
+    dw = tol_var * sigma_m**2 / (sigma_m**2 + max(sigma_s**2 - tol_var, 0.0)) ** 2  # |dw/dσ_s²| at its smallest
+    assert abs(both["weight_static"] - w) <= dw
+    err = float(np.sqrt(np.mean((both["iq"] - ref) ** 2)))
+    best = sigma_m * sigma_s / math.sqrt(sigma_m**2 + sigma_s**2)
+    assert err <= best + math.sqrt(tol_var)
+    if ratio == 1.0:
+        assert err < 0.8 * min(sigma_m, sigma_s)

@@ -45,7 +45,7 @@ def configure(p) -> None:
                    help="model family: pgnn (the paper's, default) or spline (the fundamental's coefficients, "
                         "cogging and direction force tabulated along the stroke, knots by cross-validation; the "
                         "file also carries the mass, viscous friction and Coulomb table for the feedforward)")
-    p.add_argument("--sweep", nargs="+", metavar="LOG",
+    p.add_argument("--sweep", nargs="+", action="extend", metavar="LOG",
                    help="rotary motors: a logged slow position sweep in both directions (t, theta, iq_1), the "
                         "drives' own calibration: its table is computed, compared with the identified model's "
                         "against both noises, and written as standstill_table.csv; or the drive's own static map "

@@ -28,7 +28,8 @@ with the model's. The result (:class:`LogsIdentification`) is data; the files ar
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -44,7 +45,7 @@ from pgcomm.rotary.readings import delay_text, filter_text, pll_text
 from pgcomm.rotary.host_clock import host_clock_text
 from pgcomm.rotary.slots import count_slots
 from pgcomm.rotary.standstill import SweepTable, table_from_sweep
-from pgcomm.rotary.static_map import compare, text
+from pgcomm.rotary.static_map import combine, compare, text
 from pgcomm.rotary.time_lines import lines_text
 from pgcomm.settings import RotaryIdentifyOptions
 
@@ -71,12 +72,16 @@ class LogsIdentification:
             constant is known.
         in_si: the model in SI (torque constant, cogging RMS, friction, inertia) or ``None``.
         slots_detected: how the slot count was read from the logs, or ``None``.
-        static_maps: per static map, its comparison (:func:`pgcomm.rotary.static_map.compare`).
+        static_maps: per static map, its comparison (:func:`pgcomm.rotary.static_map.compare`) and, under
+            ``combined``, how it was combined with the identified table (:func:`pgcomm.rotary.static_map.combine`:
+            the map's weight, both errors, the file).
         sweep: the logged standstill sweep's table (:class:`~pgcomm.rotary.standstill.SweepTable`) or ``None``;
             sweep_comparison: its agreement with the model's table, or ``None``.
         k_t_ratios: the back-EMF's torque constant over the description's ``k_t`` (``"back_emf"``) and along the
             magnets' axis (``"aligned"``), where both are known.
         runtime_s: seconds from ``started`` to the result.
+        combined_tables: per static map, ``(file name, (n,) A)``: the identified table and the map as one table
+            (:func:`pgcomm.rotary.static_map.combine`), on the map's ``n`` angles ``2π j / n``.
     """
 
     motor: RotaryMotor
@@ -95,6 +100,7 @@ class LogsIdentification:
     sweep_comparison: dict | None
     k_t_ratios: dict
     runtime_s: float
+    combined_tables: list = field(default_factory=list)
 
     @property
     def how(self) -> str:
@@ -175,9 +181,22 @@ def identify_from_logs(logs, motor: RotaryMotor, options: RotaryIdentifyOptions 
     static = []
     # the maps' independent values: the cogging's highest order resolved, a sine and a cosine each
     independent = 2 * int(np.max(model.cogging.orders, initial=1))
-    for found in (compare(m, model, independent) for m in static_maps):
-        static.append(found)
+    combined_tables = []
+    model_error = ((res.standard_error or {}).get("cogging") or {}).get("rms_error")
+    for m in static_maps:
+        found = compare(m, model, independent)
         progress.info(text(found))
+        if model_error is not None:
+            both = combine(m, model, found, model_error)
+            name = f"combined_{Path(m.source).stem}.csv"
+            if any(name == used for used, _ in combined_tables):  # two maps of one name in different folders
+                name = f"combined_{Path(m.source).stem}_{len(combined_tables) + 1}.csv"
+            combined_tables.append((name, both.pop("iq")))
+            found["combined"] = {**both, "file": name}
+            progress.info(f"{name}: the identified table and {Path(m.source).name} as one table, the map weighing "
+                          f"{100 * both['weight_static']:.0f} % (its error {both['static_rms_error_A']:.3g} A RMS "
+                          f"against the table's {both['model_rms_error_A']:.3g} A)")
+        static.append(found)
     sweep = sweep_comparison = None
     if sweep_logs:
         with progress.stage(f"the drives' table from the standstill sweep ({len(sweep_logs)} log(s))"):
@@ -213,7 +232,8 @@ def identify_from_logs(logs, motor: RotaryMotor, options: RotaryIdentifyOptions 
                               logs=[lg.source for lg in logs], samples=sum(lg.n_samples for lg in logs),
                               torque_sensor=torque_sensor, table=table, table_summary=summary, in_si=in_si,
                               slots_detected=slots_detected, static_maps=static, sweep=sweep,
-                              sweep_comparison=sweep_comparison, k_t_ratios=ratios, runtime_s=runtime)
+                              sweep_comparison=sweep_comparison, k_t_ratios=ratios, runtime_s=runtime,
+                              combined_tables=combined_tables)
 
 
 def _segments(logs, torque_sensor: bool, progress: Progress) -> list[dict]:

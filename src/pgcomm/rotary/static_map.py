@@ -1,5 +1,5 @@
 """A drive's own static cogging map as data (read by :mod:`pgcomm.io.static_map`): find the index offset between its
-power-up and the logs', and compare it with the table identified from running logs.
+power-up and the logs', compare it with the table identified from running logs, and combine the two.
 
 **What a static map measures.** A drive calibrates its anti-cogging table by holding the rotor at each angle in
 position control and recording the q-current that holds it: the cogging, the drive's own current-measurement
@@ -15,6 +15,15 @@ real ODrive it moved by half a revolution between power-ups. Comparing misaligne
 offset is found by circular cross-correlation and removed where it fits clearly better than none: the Fisher
 ``z = atanh(r)`` of the best shift exceeds that of no shift by three standard errors ``1/√(n − 3)``, ``n`` the map's
 independent values (:func:`index_offset`).
+
+**Both as one table.** The identified table and a static map measure the same cogging with errors of their own: the
+table's is its standard error (``σ_m``, the RMS over the revolution), the map's (``σ_s``) is not stated by the drive.
+Their difference, offsets and index removed, has a mean square ``σ_m² + σ_s²`` where the two errors are
+independent, so ``σ_s² = max(mean((m − s)²) − σ_m², 0)``; the combined table is the inverse-variance mean
+``m + w (s − m)`` with ``w = σ_m² / (σ_m² + σ_s²)`` the map's weight (its offset is the identified table's: a
+one-direction map's holds friction). Whatever the two disagree on beyond the table's own error is taken as the map's
+error: a repeatable drive's map (``σ_s`` below ``σ_m``) carries the combination, a map the logs contradict does not
+(:func:`combine`).
 """
 
 from __future__ import annotations
@@ -102,6 +111,31 @@ def compare(static: StaticMap, model, independent: int) -> dict:
     return {"source": static.source, "points": int(n), "directions": static.directions, "index_offset": off,
             "correlation": correlation(ours, aligned),
             "rms_difference_share": float(np.sqrt(np.mean(diff ** 2)) / rms) if rms > 0 else math.inf}
+
+
+def combine(static: StaticMap, model, found: dict, model_rms_error: float) -> dict:
+    """The identified table and a drive's static map as one table, each weighed by its error (module docstring).
+
+    Args:
+        static: :class:`StaticMap`; found: its :func:`compare` (the index offset it removed is removed here too).
+        model: :class:`pgcomm.rotary.model.RotaryModel`.
+        model_rms_error: the identified cogging's standard error, RMS over the revolution (A;
+            ``identification.standard_error.cogging.rms_error``).
+
+    Returns:
+        ``{"iq": (n,) A on θ_j = 2π j / n, n the map's points, "weight_static", "static_rms_error_A",
+        "model_rms_error_A"}``.
+    """
+    n = static.theta.size
+    grid = 2 * math.pi * np.arange(n) / n
+    aligned = np.roll(np.interp(grid, static.theta, static.iq, period=2 * math.pi), found["index_offset"]["shift"])
+    ours = model.table(n)
+    var_model = float(model_rms_error) ** 2
+    var_static = max(float(np.mean((_centred(ours) - _centred(aligned)) ** 2)) - var_model, 0.0)
+    # both errors zero (a noise-free model and a map that agrees with it): either table, the mean of both
+    w = var_model / (var_model + var_static) if var_model + var_static > 0 else 0.5
+    return {"iq": ours + w * (_centred(aligned) - _centred(ours)), "weight_static": float(w),
+            "static_rms_error_A": math.sqrt(var_static), "model_rms_error_A": math.sqrt(var_model)}
 
 
 def text(found: dict) -> str:
