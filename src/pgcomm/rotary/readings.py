@@ -48,7 +48,7 @@ from scipy.optimize import minimize
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _basis_costs, \
-    _evidence, _prepare
+    _evidence, _prepare, _ANGLE_PARTS
 from pgcomm.settings import RotaryIdentifyOptions
 
 #: Delays (samples) of the logged q-current behind the current that acted over each sample that
@@ -417,7 +417,10 @@ def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: floa
 def _with_pll(prepared, pll) -> list:
     if pll is None:
         return prepared
-    return [replace(p, theta=pll_corrected(p.theta, p.ts, *pll)) for p in prepared]
+    # the same corrected angle for the same reading: the search tries each PLL several times, and the fit's angle parts
+    # are kept per angle array (pgcomm.rotary.regression.angle_parts_kept)
+    return [replace(p, theta=_ANGLE_PARTS.derived(p.theta, ("pll", p.ts, *pll),
+                                                  lambda p=p: pll_corrected(p.theta, p.ts, *pll))) for p in prepared]
 
 
 def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()) -> dict:

@@ -549,6 +549,7 @@ class _AngleParts:
         self.budget = budget
         self.depth = 0
         self._parts: dict = {}
+        self._derived: dict = {}
         self._bytes = 0
 
     def _key(self, p, key):
@@ -578,8 +579,20 @@ class _AngleParts:
         self._parts[self._key(p, key)] = ((p.theta, p.starts, p.t, p.w, p.sgn), part, size)
         self._bytes += size
 
+    def derived(self, source: np.ndarray, key, make):
+        """``make()``, an array derived from ``source`` alone (e.g. the angle a PLL reading corrects), the same array
+        object each time inside :func:`angle_parts_kept`: the parts built on it are then found again."""
+        if not self.depth:
+            return make()
+        k = (id(source),) + tuple(key)
+        hit = self._derived.get(k)
+        if hit is None or hit[0] is not source:
+            hit = self._derived[k] = (source, make())
+        return hit[1]
+
     def clear(self) -> None:
         self._parts.clear()
+        self._derived.clear()
         self._bytes = 0
 
 
