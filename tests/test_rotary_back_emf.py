@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
 
@@ -19,6 +20,15 @@ from pgcomm.rotary.twin import LawParams, default_gains, simulate
 from pgcomm.rotary.winding import BACK_EMF_FACTOR, Winding, d_voltage, deadtime_q, logged_dq, phase_saturation_dq, \
     q_voltage
 from pgcomm.rotary.zoo import draw_rotary
+
+
+@functools.lru_cache(maxsize=2)
+def _identified(index: int):
+    """Zoo motor ``index`` with its winding, its logs (:func:`_logs`) and their identification: one per motor for the
+    module's tests of the q- and d-voltages."""
+    t = draw_rotary(0, index)
+    logs = _logs(t)
+    return t, logs, identify(logs, t.motor)
 
 
 def _logs(truth, settings=RotarySettings(), seed=1):
@@ -152,10 +162,8 @@ def test_identify_checks_the_ripple_against_the_voltage_and_reads_k0(index):
     its standard errors, the resistance within 10 %, and the voltage's ripple agrees with the currents'. A voltage
     whose ripple is not the torque's (an extra 5 % of order 2p in the back-EMF, as a saliency would add) is
     called inconsistent. The model is the currents' either way, to the digit."""
-    t = draw_rotary(0, index)
-    logs = _logs(t)
+    t, logs, res = _identified(index)
     assert has_voltage(logs)
-    res = identify(logs, t.motor)
     bare = identify(logs, t.motor, RotaryIdentifyOptions(back_emf=False))
     v = res.back_emf
     assert bare.back_emf is None
@@ -169,7 +177,8 @@ def test_identify_checks_the_ripple_against_the_voltage_and_reads_k0(index):
     kappa = BACK_EMF_FACTOR * t.k0
     bad = [dict(log, vq_1=log["vq_1"] + 0.05 * kappa * log["omega_true"] * np.cos(2 * p * log["theta_true"]))
            for log in logs]
-    w = identify(bad, t.motor).back_emf
+    # the currents as they were: read as the first identification read them
+    w = identify(bad, t.motor, RotaryIdentifyOptions().with_reading(res.reading())).back_emf
     assert not w["consistent"], w
     assert "differs from the currents" in voltage_text(w)
 
@@ -235,10 +244,9 @@ def test_identify_reads_the_drives_offset_error_from_the_d_voltage(index):
     drive's) and the torque constant along the magnets' axis within four of their standard errors. Set the drive's
     offset to the one it reports (the twin's drive frame turned by δ̂, the magnets where they were), the logs give an
     offset error within four standard errors of zero, k0 = k_t, and the line says the offset is on the axis."""
-    t = draw_rotary(0, index)
-    logs = _logs(t)
+    t, logs, res = _identified(index)
     assert has_d_voltage(logs)
-    off = identify(logs, t.motor).back_emf["offset_error"]
+    off = res.back_emf["offset_error"]
     assert abs(off["delta"] - t.offset_error) < 4 * off["delta_se"], (off, t.offset_error)
     assert abs(off["k_t_aligned"] - t.k_t) < 4 * off["k_t_aligned_se"]
     assert "ahead of the drive's" in offset_text({"offset_error": off})

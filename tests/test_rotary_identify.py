@@ -627,7 +627,11 @@ def test_noise_free_identification_at_three_samples_per_period():
     refs = running_references(t.motor, a, quick_settings(), orders)
     logs = [simulate(t, r, LawParams.classical(t.motor.pole_pairs), default_gains(a), seed=k)
             for k, r in enumerate(refs)]
-    res = identify(logs, t.motor)
+    # the logs read as the twin writes them (the drive's snapshot current: smooth, 1/(2K) of a sample late; the
+    # encoder's own angle): what is tested is the regression's kernel, not the reading's search
+    read = RotaryIdentifyOptions(current_delay=0, current_lag=0.5 / t.control_per_log, angle_pll=None,
+                                 time_lines=(), current_filter=0.0)
+    res = identify(logs, t.motor, read)
     assert res.min_samples_per_period == 3.0
     assert res.windows_refused_alias < 0.2 * res.windows
     assert identification_errors(res.model, t)["cogging_rel"] <= 0.005
@@ -729,9 +733,11 @@ def test_the_log_mix_a_drive_user_has_gives_the_cogging_and_an_honest_ripple_ver
     assert e["cogging_rel"] <= 0.05 and se["cogging"]["resolved"]
     assert e["ripple_rel"] > 0.05 and not se["ripple"]["resolved"]
     assert "dither" in resolution_verdict(se["ripple"]) and "excitation_hint" not in se["cogging"]
-    accel = identify(logs["const"] + logs["accel"], t.motor)
+    # more logs of the same drive, read as the first were (what is tested is what they add, not the reading)
+    read = RotaryIdentifyOptions().with_reading(const.reading())
+    accel = identify(logs["const"] + logs["accel"], t.motor, read)
     assert accel.standard_error["ripple"]["relative"] <= 0.5 * se["ripple"]["relative"]
-    every = identify(logs["const"] + logs["accel"] + logs["sweep"], t.motor)
+    every = identify(logs["const"] + logs["accel"] + logs["sweep"], t.motor, read)
     assert identification_errors(every.model, t)["cogging_rel"] <= 0.05
     for k, v in every.orders_added.items():
         assert set(v) <= set(accel.orders_added[k]), (k, v)
