@@ -427,3 +427,36 @@ def test_large_csv_single_copy(tmp_path):
     log = read_log(tmp_path / "big.csv")
     for k in cols:
         assert _bitwise_equal(log[k], cols[k]), k
+
+
+def test_host_stamps_are_resampled_for_a_reader_that_needs_a_uniform_grid(tmp_path):
+    """A linear log stamped by a host (steps 0.4-1.9 ms around 1 ms) whose columns are straight lines in time: with
+    ``resample=True`` every column is on a uniform grid of the median step, equal to the line there (linear
+    interpolation is exact on a line, to rounding), with a note; a step over ``GAP_STEPS`` median steps is refused
+    with its row; without the flag the log is refused as before."""
+    from pgcomm.io.logs import GAP_STEPS
+
+    rng = np.random.default_rng(7)
+    steps = 1e-3 * rng.uniform(0.4, 1.9, 2000)
+    t = np.concatenate([[0.0], np.cumsum(steps)])
+    cols = {"t": t, "y": 0.01 + 0.02 * t, "Fy": -3.0 + 40.0 * t, "Fx": 0.5 * t, "Tz": np.zeros(t.size),
+            "ia_1": 1.0 + 2.0 * t, "ib_1": -1.0 + 0.5 * t}
+    p = _write_csv(tmp_path / "host.csv", cols)
+    with pytest.raises(DataError, match=r"host.csv row \d+ column 't': time step changes"):
+        read_log(p)
+    lg = read_log(p, resample=True)
+    step = float(np.median(steps))
+    assert lg.sample_time == pytest.approx(step, rel=1e-12)
+    tg = lg.columns["t"]
+    np.testing.assert_allclose(np.diff(tg), step, rtol=1e-9)
+    assert tg[0] == t[0] and tg[-1] <= t[-1] < tg[-1] + step
+    for name in ("y", "Fy", "Fx", "ia_1", "ib_1"):
+        c0 = cols[name][0]
+        slope = (cols[name][-1] - c0) / t[-1]
+        np.testing.assert_allclose(lg.columns[name], c0 + slope * tg, rtol=0, atol=1e-12 * (abs(c0) + abs(slope)))
+    assert any("resampled to a uniform grid" in note for note in lg.notes)
+    t_gap = t.copy()
+    t_gap[1001:] += (GAP_STEPS + 1) * step
+    p = _write_csv(tmp_path / "gap.csv", {**cols, "t": t_gap})
+    with pytest.raises(DataError, match=r"gap.csv row 1002 column .t.: a gap of .* ms after t = .* \(split the log there\)"):
+        read_log(p, resample=True)

@@ -90,12 +90,19 @@ def require_data(args) -> None:
         raise ConfigError("--data: give at least one log file or glob (CSV, Parquet, .mat, HDF5)")
 
 
-def read_data_logs(args):
-    """Logs named by ``--data`` (with ``--columns`` and ``--sample-time``): list of :class:`pgcomm.io.logs.Log`."""
+def read_data_logs(args, progress=None):
+    """Logs named by ``--data`` (with ``--columns`` and ``--sample-time``): list of :class:`pgcomm.io.logs.Log`; each
+    log's notes (how its time was read) said on ``progress``."""
     from pgcomm.io.logs import load_column_mapping, read_logs
 
     mapping = load_column_mapping(args.columns) if args.columns else None
-    return read_logs(args.data, sample_time=args.sample_time, columns=mapping)
+    # a host's time stamps: resampled to a uniform grid (the linear identification's filters need one), with a note
+    logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, resample=True)
+    if progress is not None:
+        for lg in logs:
+            for note in lg.notes:
+                progress.info(f"{lg.source}: {note}")
+    return logs
 
 
 def motor_from_args(args):

@@ -45,7 +45,7 @@ def _run_logs(args, out: Path, progress) -> None:
     if method == "sensorless" and motor.mass is None:
         raise ConfigError(f"--motor {args.motor}: key 'mass' missing: calibration without a force sensor needs the "
                           "moving mass of the translator (kg); add e.g. mass = 30.0 at the top of the motor TOML")
-    logs = read_data_logs(args)
+    logs = read_data_logs(args, progress)
     # the drive values the logs were recorded at must be --motor's: another round's would give a wrong k
     notes = check_log_plans(logs, motor, f"--motor {args.motor}" if args.motor else "the twin's nominal motor")
     if not args.quiet:

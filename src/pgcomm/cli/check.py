@@ -55,7 +55,7 @@ def run(args, out, progress) -> None:
         check_out(args.report_dir, args.overwrite, input_paths(args))  # before the work: a bad --out fails at once
     motor = motor_from_args(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
-        logs = read_data_logs(args)
+        logs = read_data_logs(args, progress)
         progress.info(f"{len(logs)} log(s), {sum(lg.n_samples for lg in logs)} samples")
     with progress.stage("excitation per coil set and position bin"):
         report = excitation.excitation_report(logs, motor, n_bins=n_bins, y_range=args.range)

@@ -124,7 +124,7 @@ def run(args, out: Path, progress) -> None:
     logs = None
     if args.data:
         with progress.stage(f"read {len(args.data)} log pattern(s)"):
-            logs = read_data_logs(args)
+            logs = read_data_logs(args, progress)
             progress.info(f"{len(logs)} log(s), {sum(lg.n_samples for lg in logs)} samples")
         without = [lg.source for lg in logs if not lg.has_force]
         if without and not sensorless:

@@ -2,7 +2,8 @@
 
 Log format (DESIGN, "Formats"): one row per controller sample, columns
 
-* ``t`` (s), uniformly sampled; may be absent if the sample time is given;
+* ``t`` (s), uniformly sampled (a host's stamps: kept as recorded or resampled where a reader asks,
+  :func:`read_log`'s ``stamps`` and ``resample``); may be absent if the sample time is given;
 * ``y`` (m): position;
 * ``Fy``, ``Fx`` (N), ``Tz`` (N·m): measured force, all three or none: a log without them
   is a log of a rig without a force sensor (:attr:`Log.has_force`; identification then uses
@@ -590,7 +591,7 @@ def _first_bad(a: np.ndarray) -> int | None:
 
 
 def read_log(path, sample_time: float | None = None, columns=None, required=REQUIRED, min_coil_sets: int = 1,
-             gaps: bool = False, stamps: bool = False) -> Log:
+             gaps: bool = False, stamps: bool = False, resample: bool = False) -> Log:
     """Read and validate one log file.
 
     Args:
@@ -609,6 +610,10 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
             ``sample_time`` the median step), split where a step exceeds :data:`GAP_STEPS` median steps
             (:attr:`Log.gaps`); only stamps that repeat or go back are refused. For readers that use the real
             intervals (the rotary identification); otherwise non-uniform time is refused.
+        resample: non-uniform time stamps (a host's clock) are interpolated, every column linearly, onto a uniform
+            grid of their median step (or ``sample_time`` where given), with a note; a step over :data:`GAP_STEPS`
+            median steps is refused with its row. For readers that need a uniform grid (the linear motor's
+            commands).
 
     Returns:
         :class:`Log` whose columns use log-format names and SI units; it always
@@ -773,6 +778,26 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
                 grid = idx
                 est = float(np.polyfit(grid, t, 1)[0])
                 dev = t - (t[0] + est * grid)
+        if resample and not stamps and np.max(np.abs(dev)) > TIME_JITTER * est:
+            # a host's stamps for a reader that needs a uniform grid: every column interpolated onto the grid of the
+            # median step (or the sample time given); across a long gap nothing is known, so that is refused
+            step = given_ts if given_ts is not None else float(np.median(dt))
+            long = np.flatnonzero(dt > GAP_STEPS * step)
+            if long.size:
+                i = int(long[0])
+                raise DataError(f"{src} row {i + 2} {kind} {lab('t')}: a gap of {dt[i] * 1e3:.4g} ms after t = "
+                                f"{t[i]:.9g} s, over {GAP_STEPS:g} times the median step of {step * 1e3:.4g} ms: no "
+                                "uniform grid is made across it (split the log there)")
+            grid = np.arange(int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1, dtype=float)
+            t_grid = t[0] + step * grid
+            notes.append(f"t: non-uniform time stamps (steps {dt.min() * 1e3:.3g} to {dt.max() * 1e3:.3g} ms around "
+                         f"{np.median(dt) * 1e3:.3g} ms), every column resampled to a uniform grid of {step * 1e3:.6g} "
+                         "ms (linear interpolation)")
+            for name in cols:
+                if name != "t":
+                    cols[name] = np.interp(t_grid, t, cols[name])
+            cols["t"] = t = t_grid
+            n, est, dev = t.size, step, np.zeros(t.size)
         if stamps and np.max(np.abs(dev)) > TIME_JITTER * est:
             # a host's stamps: kept as recorded (the rotary regression integrates over the real intervals); a step
             # long against the median splits the log, since the state across it is not known
@@ -859,7 +884,7 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
 
 
 def read_logs(patterns, sample_time: float | None = None, columns=None, required=REQUIRED, min_coil_sets: int = 1,
-              gaps: bool = False, stamps: bool = False) -> list[Log]:
+              gaps: bool = False, stamps: bool = False, resample: bool = False) -> list[Log]:
     """Read several logs given as file names or glob patterns.
 
     Each pattern is expanded with :func:`glob.glob` (sorted; ``**`` recursive);
@@ -884,4 +909,4 @@ def read_logs(patterns, sample_time: float | None = None, columns=None, required
                 files.append(m)
     if not files:
         raise DataError("no log files given")
-    return [read_log(f, sample_time, mapping, required, min_coil_sets, gaps, stamps) for f in files]
+    return [read_log(f, sample_time, mapping, required, min_coil_sets, gaps, stamps, resample) for f in files]
