@@ -10,7 +10,9 @@ Per zoo motor (its drive at the zoo's control rate), best of ``--repeat``:
 * **twin**: :func:`pgcomm.rotary.twin.simulate` on the quick running logs, seconds per second of log;
 * **identify**: :func:`pgcomm.rotary.identify.identify` on those logs with the reading searched, and again with the
   reading it found handed back (:meth:`~pgcomm.rotary.identify.RotaryIdentification.reading`): seconds per second of
-  log each, and the search's share.
+  log each, and the search's share;
+* **kept x**: the searched identification with the angle's parts of the rows built afresh on every pass (the
+  baseline, :class:`pgcomm.rotary.regression._AngleParts` with no budget) over the same with them kept: the ratio.
 """
 
 from __future__ import annotations
@@ -46,12 +48,13 @@ def main(argv=None) -> int:
     from pgcomm.rotary.identify import identify
     from pgcomm.settings import RotaryIdentifyOptions
     from pgcomm.rotary.model import harmonic_rows
+    from pgcomm.rotary import regression
     from pgcomm.rotary.regression import Orders
     from pgcomm.rotary.twin import LawParams, default_gains, simulate
     from pgcomm.rotary.zoo import draw_rotary
 
     print(f"{'#':>2} {'motor':7s} {'K':>3s} {'orders':>6s} {'columns x':>9s} {'max diff':>9s} {'log s':>6s} "
-          f"{'twin s/s':>9s} {'ident s/s':>10s} {'read s/s':>9s} {'search':>7s}")
+          f"{'twin s/s':>9s} {'ident s/s':>10s} {'read s/s':>9s} {'search':>7s} {'kept x':>7s}")
     for idx in (int(k) for k in args.motors.split(",")):
         t = draw_rotary(args.seed, idx)
         orders = Orders.for_motor(t.motor)
@@ -75,10 +78,15 @@ def main(argv=None) -> int:
         t_id, res = _best(lambda: identify(logs, t.motor), args.repeat)
         read = res.reading()
         t_read, _ = _best(lambda: identify(logs, t.motor, RotaryIdentifyOptions().with_reading(read)), args.repeat)
+        budget, regression._ANGLE_PARTS.budget = regression._ANGLE_PARTS.budget, 0
+        try:
+            t_fresh, _ = _best(lambda: identify(logs, t.motor), args.repeat)
+        finally:
+            regression._ANGLE_PARTS.budget = budget
         name = f"{t.motor.slots}N{2 * t.motor.pole_pairs}P"
         print(f"{idx:>2} {name:7s} {t.control_per_log:>3d} {union.size:>6d} {t_closed / t_rows:>9.1f} {diff:>9.1e} "
               f"{secs:>6.1f} {t_twin / secs:>9.3f} {t_id / secs:>10.3f} {t_read / secs:>9.3f} "
-              f"{1 - t_read / t_id:>7.0%}", flush=True)
+              f"{1 - t_read / t_id:>7.0%} {t_fresh / t_id:>7.2f}", flush=True)
     return 0
 
 
