@@ -62,7 +62,8 @@ def test_identify_rotary_logs_recovers_the_cogging(tmp_path, zoo):
     # the report shows the run's own numbers (a rig's logs: no truth column) and embeds the figure
     page = (out / "report.html").read_text()
     assert f"{res['table']['entries']} entries" in page and "data:image/png;base64," in page
-    assert f"{100 * se['cogging']['relative']:.1f} %" in page and "truth" not in page
+    text = re.sub(r"data:image/[a-z]+;base64,[A-Za-z0-9+/=]+", "", page)  # base64 spells any word now and then
+    assert f"{100 * se['cogging']['relative']:.1f} %" in page and "truth" not in text
     # the encoder's step is read from the logged angle (a CSV round trip keeps its lattice) and reported
     quant = res["identification"]["quantisation"]
     assert quant["counts_per_revolution"] == [truth.encoder_counts] and quant["logs_on_lattice"] == quant["logs"]
