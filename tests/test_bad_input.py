@@ -365,7 +365,7 @@ def test_out_refused(tmp_path, capsys, files):
 
 
 def test_out_overwrite_replaces_the_whole_folder_and_creates_parents(tmp_path):
-    from pgcomm.cli._common import staged_output
+    from pgcomm.cli._output import staged_output
 
     out = tmp_path / "a" / "b" / "out"
     with staged_output(out) as tmp:

@@ -2,7 +2,7 @@
 
 User errors (bad files, bad options) print one line ``pgcomm: error: ...`` and exit
 with code 2, without a traceback; outputs are staged in a temporary directory and
-moved into ``--out`` only when the command succeeds (:func:`pgcomm.cli._common.staged_output`),
+moved into ``--out`` only when the command succeeds (:func:`pgcomm.cli._output.staged_output`),
 so a failed run leaves no half-written files.
 
 Each command module has ``HELP`` (one line), ``configure(parser)`` (its options) and
@@ -27,7 +27,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
 from pgcomm.cli import calibrate, check, evaluate, export, fleet, identify, inspect, plan, reproduce, simulate, zoo
-from pgcomm.cli._common import input_paths, staged_output, user_error_line
+from pgcomm.cli._common import user_error_line
+from pgcomm.cli._output import input_paths, staged_output
 from pgcomm.errors import PgcommError
 
 #: Every subcommand in the order ``pgcomm --help`` lists them: name -> command module.

@@ -12,8 +12,9 @@ import math
 import sys
 import time
 
-from pgcomm.cli._common import add_common_options, add_data_options, add_out_option, check_out, add_motor_option, \
-    input_paths, motor_from_args, read_data_logs, require_data, staged_output
+from pgcomm.cli._common import add_common_options, add_data_options, add_out_option, add_motor_option, \
+    motor_from_args, read_data_logs, require_data
+from pgcomm.cli._output import check_out, input_paths, staged_output
 from pgcomm.errors import ConfigError
 
 HELP = ("Check that logs persistently excite the model (paper's Remark): both signs of Delta, "

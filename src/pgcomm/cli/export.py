@@ -5,7 +5,7 @@
 ``NAME_cogging.csv`` (:mod:`pgcomm.export.lut`) and measures their worst-case force error
 on the model. Both write ``results.json``. A model file that fails validation is refused
 by the loader (one line, exit code 2, nothing written: the output is staged by
-:func:`pgcomm.cli._common.staged_output`).
+:func:`pgcomm.cli._output.staged_output`).
 
 Current limit. Every format applies a peak phase current limit (A) by default: the model file's
 (``pgcomm identify`` stores the motor description's ``current_limit``;

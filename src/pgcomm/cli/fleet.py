@@ -15,7 +15,8 @@ import sys
 import time
 from pathlib import Path
 
-from pgcomm.cli._common import refuse_working_folder, seed_value
+from pgcomm.cli._common import seed_value
+from pgcomm.cli._output import refuse_working_folder
 from pgcomm.errors import ConfigError, PgcommError
 
 HELP = ("Run a fleet of motors (one folder each: logs/*.csv, motor.toml, optional config.toml) on Dask: "
