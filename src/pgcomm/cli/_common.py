@@ -71,6 +71,43 @@ def add_reference_options(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--reference-sample-time", type=float, help="sample time (s) of --reference if it has no t")
 
 
+#: The reading options of a rotary motor's logs on the command line: destination -> how its text reads (an
+#: ``"integer"``, a ``"number"`` or comma-separated ``"numbers"``; the words none, held and detect pass as written).
+#: Each is the :class:`pgcomm.settings.RotaryIdentifyOptions` field of the same name, which checks the value.
+ROTARY_READING = {"current_delay": "integer", "current_lag": "number", "angle_pll": "numbers",
+                  "current_noise": "number", "current_filter": "number", "time_lines": "numbers"}
+
+
+def add_rotary_reading_options(p: argparse.ArgumentParser) -> None:
+    """``--current-delay``, ``--current-lag``, ``--angle-pll``, ``--current-noise``, ``--current-filter`` and
+    ``--time-lines``: how a rotary drive's logs are read (:data:`ROTARY_READING`), each in place of ``--config``'s
+    ``[rotary]`` key of the same name."""
+    p.add_argument("--current-delay", metavar="N",
+                   help="rotary motors: samples by which the logged q-current lags the current that acted over each "
+                        "sample (an integer; default: detected, the fit repeated with the current shifted by -2..2)")
+    p.add_argument("--current-lag", metavar="L|held",
+                   help="rotary motors: how the logged q-current runs between samples: held (the drive controls at its "
+                        "log rate) or L, the smooth curve through the samples L samples late (a drive that controls K "
+                        "times per logged sample: 1/(2K), e.g. 0.0625 for an 8 kHz loop logged at 1 kHz); default: "
+                        "detected")
+    p.add_argument("--angle-pll", metavar="W[,ZETA]",
+                   help="rotary motors: the logged angle is a drive's PLL estimate of natural frequency W rad/s "
+                        "(damping ZETA, default 1; ODrive's encoder bandwidth), or 'none' for the encoder's own "
+                        "angle (default: detected when no logged angle sits on an encoder's lattice)")
+    p.add_argument("--current-noise", metavar="A|none",
+                   help="rotary motors: the logged q-current's white noise (A, standard deviation) that the fit "
+                        "corrects for, or 'none' (default: read from the logged d-current id_1 where every log has "
+                        "it, else from the q-current's own less what the logged angle predicts of it)")
+    p.add_argument("--current-filter", metavar="S|none",
+                   help="rotary motors: the time constant (s) of the first-order filter through which the drive "
+                        "reports the q-current, or 'none' (default: detected; a real ODrive's report lags by about "
+                        "0.08 s)")
+    p.add_argument("--time-lines", metavar="HZ[,HZ...]",
+                   help="rotary motors: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a "
+                        "current sensor's mains pickup, a fan, a resonance), or 'none' (default: detected as lines at "
+                        "one frequency in the residuals of logs at two speeds)")
+
+
 def motor_is_rotary(args) -> bool:
     """Whether ``--motor`` declares ``kind = "rotary"`` (the rotary pipeline then runs)."""
     if not getattr(args, "motor", None):
