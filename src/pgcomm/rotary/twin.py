@@ -76,7 +76,7 @@ from scipy.signal import lfilter
 
 from pgcomm.rotary.model import Fourier, RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
-from pgcomm.rotary.winding import Winding, d_voltage, logged_dq, q_voltage
+from pgcomm.rotary.winding import BackEmf, Winding, d_voltage, logged_dq, q_voltage
 
 __all__ = ["RotaryTruth", "Gains", "LawParams", "Reference", "simulate", "default_gains", "VELOCITY_CUTOFF_HZ",
            "SUBSTEPS", "HOLD_ADVANCE", "drive_current_error", "breakaway_current", "host_instants", "power_up_offset",
@@ -205,6 +205,11 @@ class RotaryTruth:
     def k0(self) -> float:
         """Mean effective torque constant seen from the drive frame: ``k_t cos δ`` (N·m/A)."""
         return self.k_t * math.cos(self.offset_error)
+
+    @property
+    def back_emf(self) -> BackEmf:
+        """The magnets' field as the winding meets it in the drive's frame (:class:`pgcomm.rotary.winding.BackEmf`)."""
+        return BackEmf(self.k_t, self.offset_error, self.ripple, self.motor.pole_pairs, self.motor.commutation_offset)
 
     def model(self, drive: bool = True) -> RotaryModel:
         """The truth in current units (:class:`RotaryModel`): what an ideal identification returns.
@@ -811,12 +816,12 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         di = np.gradient(outs[7], tc)[idx] if outs[7].size > 1 else np.zeros(rows)
         # drawn after the currents' noise, so a twin with a winding logs the same currents as one without
         v_noise = rng.standard_normal(rows)
-        log["vq_1"] = (q_voltage(w, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th_f, om_f, i_flow, tc,
-                                 0.0, slope=di) - w.loop_gain * (iq - rep) + w.voltage_noise * v_noise)
+        emf = truth.back_emf
+        log["vq_1"] = (q_voltage(w, emf, th_f, om_f, i_flow, tc, slope=di) - w.loop_gain * (iq - rep)
+                       + w.voltage_noise * v_noise)
         # drawn after the q-voltage's, which is then the same as a twin's that logs no d-voltage
         v_noise = rng.standard_normal(rows)
-        log["vd_1"] = (d_voltage(w, truth.k_t, truth.offset_error, truth.ripple, m.pole_pairs, m.commutation_offset,
-                                 th_f, om_f, i_flow, 0.0) - w.loop_gain * idd + w.voltage_noise * v_noise)
+        log["vd_1"] = d_voltage(w, emf, th_f, om_f, i_flow) - w.loop_gain * idd + w.voltage_noise * v_noise
         if w.voltage_lag:
             log["vd_1"], log["vq_1"] = logged_dq(log["vd_1"], log["vq_1"], m.pole_pairs, om_f, w.voltage_lag)
     return log
