@@ -52,7 +52,8 @@ from pgcomm.rotary.readings import delay_text, lag_of
 from pgcomm.rotary.regression import Orders, max_speed
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import run_standstill, sweep_reference
-from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, breakaway_current, default_gains, simulate
+from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, Start, breakaway_current, default_gains, \
+    simulate
 from pgcomm.settings import RotarySettings, StandstillPlan
 from pgcomm.progress import Progress
 
@@ -176,7 +177,7 @@ def stall_log(truth: RotaryTruth, seed: int = 0, seconds: float = 10.0, directio
     start = float(np.random.default_rng([int(seed), 0x57A7]).uniform(0.0, 2 * math.pi))
     ref = Reference(start + ts * np.cumsum(om), om, np.gradient(om, ts), "speed")
     log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), Gains(0.0, 0.0, 0.0, kpv, 0.0),
-                   seed=seed, host=True, power_up=power_up)
+                   seed=seed, host=True, start=Start(power_up=power_up))
     log["stall_speed"] = s * w_b
     return log
 
