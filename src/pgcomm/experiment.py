@@ -97,10 +97,10 @@ def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first
             progress.info(f"pass {it}: k = {np.array2string(k, precision=3)} N/A, "
                           f"zeta = {np.array2string(zeta, precision=4)} rad")
 
-    cal = calibrate(gen, np.asarray(setup.motor.k), np.asarray(setup.motor.zeta), delta=cc.delta,
-                    iterations=cc.iterations, tol=cc.tol, method="sensorless" if sensorless else cc.method,
-                    n_bins=cc.n_bins, progress=report, pole_pitch=setup.motor.pole_pitch,
-                    mass=sensorless_mass(setup) if sensorless else None)
+    cal = calibrate(gen, np.asarray(setup.motor.k), np.asarray(setup.motor.zeta),
+                    cc.options(method="sensorless") if sensorless else cc.options(),
+                    pole_pitch=setup.motor.pole_pitch, mass=sensorless_mass(setup) if sensorless else None,
+                    progress=report)
     return cal, last["data"]
 
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from pgcomm.calibration import CalibrationOptions
 from pgcomm.control import PID
 from pgcomm.mechanics import Mechanics
 from pgcomm.sensors import Sensors
@@ -95,6 +96,18 @@ class CalibrationConfig:
             raise ValueError(f"n_bins = {self.n_bins}: need at least 1 offset bin (default 40)")
         if not 0 < abs(self.delta) <= math.pi / 4 + 1e-12:
             raise ValueError(f"delta = {self.delta} rad: expected 0 < |delta| <= pi/4 (paper: for safety)")
+
+    def options(self, **changes) -> CalibrationOptions:
+        """These settings as the :class:`~pgcomm.calibration.CalibrationOptions` of Algorithm 1.
+
+        Args:
+            changes: fields of :class:`~pgcomm.calibration.CalibrationOptions` that differ from the settings for one
+                call (e.g. ``method="sensorless"`` without a force sensor).
+        """
+        fields = dict(method=self.method, n_bins=self.n_bins, delta=self.delta, iterations=self.iterations,
+                      tol=self.tol)
+        fields.update(changes)
+        return CalibrationOptions(**fields)
 
 
 @dataclass(frozen=True)
