@@ -28,7 +28,8 @@ def run_experiments(k_hat, zeta_hat):
     return generate_datasets(plant, drive, reference)
 
 
-result = calibrate(run_experiments, motor.k, motor.zeta, CalibrationOptions(iterations=2), pole_pitch=motor.pole_pitch)
+result = calibrate(run_experiments, motor.k, motor.zeta, CalibrationOptions(iterations=2),
+                   pole_pitch=motor.pole_pitch)
 
 # %%
 # The twin knows its true fundamental (the least-squares ``k, ζ`` of its gain over the stroke), so

@@ -10,6 +10,7 @@ import pytest
 from pgcomm import trajectory
 from pgcomm.calibration import CalibrationOptions, calibrate, calibrate_from_datasets, fit_coefficients, update
 from pgcomm.data import generate_datasets
+from pgcomm.simulate import ClosedLoop
 from pgcomm.errors import DataError
 from pgcomm.sensors import Sensors
 from pgcomm.twin import DEFAULT_TWIN
@@ -125,7 +126,7 @@ def plant0():
 
 @pytest.fixture(scope="module")
 def datasets0(plant0, drive0, reference):
-    return generate_datasets(plant0, drive0, reference, delta=DELTA, sensors=NO_NOISE)
+    return generate_datasets(plant0, drive0, reference, delta=DELTA, loop=ClosedLoop(sensors=NO_NOISE))
 
 
 def test_datasets_layout(datasets0, drive0):
@@ -177,7 +178,7 @@ def test_calibrate_iterates_on_twin_and_stops(plant0, drive0, reference):
     def generate(k_hat, zeta_hat):
         calls.append((k_hat.copy(), zeta_hat.copy()))
         return generate_datasets(plant0, drive0.with_nominal(k=k_hat, zeta=zeta_hat), reference, delta=DELTA,
-                                 sensors=NO_NOISE)
+                                 loop=ClosedLoop(sensors=NO_NOISE))
 
     res = calibrate(generate, np.full(3, K0), np.full(3, ZETA0),
                     CalibrationOptions(delta=DELTA, iterations=5, tol=1e-6, method="paper"))

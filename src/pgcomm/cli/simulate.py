@@ -55,8 +55,7 @@ def _run_plan(args, out: Path, progress) -> None:
     check_reference(setup, plan.reference, f"--plan {args.plan}")
     n = len(plan.experiments)
     with progress.stage(f"{n} experiments of the plan on {setup.plant_name} ({plan.duration:.1f} s each)"):
-        runs = generate_datasets(setup.plant, drive, plan.reference, delta=plan.delta, pid=setup.pid,
-                                 mechanics=setup.config.mechanics, sensors=setup.config.sensors, seed=args.seed)
+        runs = generate_datasets(setup.plant, drive, plan.reference, delta=plan.delta, loop=setup.loop, seed=args.seed)
     by_key = {(ds.coil_set, ds.delta > 0): ds.result for pair in runs for ds in pair}
     force_cols = () if plan.force_sensor else ("Fy", "Fx", "Tz")
     summary = {}
