@@ -47,7 +47,7 @@ def _truth(seed=3):
     """A PGNN of the extended class: ideal physics, random small networks, harmonics and a direction term."""
     key = jax.random.PRNGKey(seed)
     a, b = physics_from_ideal(D_M, 61.3, -0.54, 0.05, 0.005)
-    m = CoilSetModel.init(key, a, b, D_M, 0.0, 0.1, (2,), (3,), harmonics=True, direction=True,
+    m = CoilSetModel.init(key, CoilSetModel.physics(a, b, D_M, 0.0, 0.1), (2,), (3,), harmonics=True, direction=True,
                           direction_velocity=V_EPS)
     rng = np.random.default_rng(seed)
     scale = np.array([1.0, 0.1, 0.01])
@@ -126,8 +126,8 @@ def test_proposition1_with_extra_columns_matches_lstsq(truth, data):
 def test_jacobian_with_direction_term_matches_finite_differences(truth, data):
     sub = data.take(slice(None, None, 4))
     a, b = idf.fit_physics(sub, D_M)
-    model = CoilSetModel.init(jax.random.PRNGKey(7), a, b, D_M, 0.0, 0.1, (2,), (3,), harmonics=True,
-                              direction=True, direction_velocity=V_EPS)
+    model = CoilSetModel.init(jax.random.PRNGKey(7), CoilSetModel.physics(a, b, D_M, 0.0, 0.1), (2,), (3,),
+                              harmonics=True, direction=True, direction_velocity=V_EPS)
     star = idf.theta_phy(a, b)
     f, jtj, jtr, _ = idf.projected_normal_equations(model, sub, theta_phy_star=star)
     flat = np.asarray(idf.hidden_vector(model))

@@ -27,7 +27,7 @@ def _pgnn(seed=0):
     models = []
     for l, (z, d) in enumerate(((-0.54, -0.065), (-0.55, 0.005), (-0.55, 0.075))):
         a, b = physics_from_ideal(D_M, K, z, 0.05, d)
-        m = CoilSetModel.init(jax.random.PRNGKey(seed + l), a, b, D_M, 0.0, 0.1, y_min=-0.1, y_max=0.1)
+        m = CoilSetModel.init(jax.random.PRNGKey(seed + l), CoilSetModel.physics(a, b, D_M, 0.0, 0.1, -0.1, 0.1))
         # output layers large enough that the networks dominate far outside the range
         m = m.with_outputs(a, b, [(jnp.full((2, 3), 5.0), jnp.zeros(3))] * 2, (jnp.full((16, 3), 3.0), jnp.zeros(3)))
         models.append(m)

@@ -256,9 +256,8 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
     lam12 = lambda_diagonal(o.regularisation)
 
     keys = jax.random.split(jax.random.PRNGKey(seed), o.starts)
-    models0 = [CoilSetModel.init(kk, a_phy, b_phy, pole_pitch, y_center, y_scale, o.gain_widths, o.cog_widths,
-                                 o.activation, y_lo, y_hi, o.harmonics, o.direction, o.direction_velocity)
-               for kk in keys]
+    models0 = [CoilSetModel.init(kk, physics, o.gain_widths, o.cog_widths, o.activation, o.harmonics, o.direction,
+                                 o.direction_velocity) for kk in keys]
     template = models0[0]
     flats = jnp.stack([hidden_vector(mm) for mm in models0])
     if start_from is not None:
