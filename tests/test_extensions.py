@@ -190,7 +190,7 @@ def test_c_export_with_velocity_matches_python(cc, tmp_path, truth):
     import _c_harness as c_harness
     from test_export_c import samples
 
-    from pgcomm.export.c import write_c
+    from pgcomm.export.c import CLawOptions, write_c
 
     L = 2
     # a second coil set at another lever arm: with both at the same lever arm the Tz row is nearly
@@ -198,7 +198,7 @@ def test_c_export_with_velocity_matches_python(cc, tmp_path, truth):
     a2, b2 = physics_from_ideal(D_M, 61.6, -0.55, 0.05, 0.075)
     model = CombinedModel.from_coil_sets([truth, dataclasses.replace(truth, A=jnp.asarray(a2), B=jnp.asarray(b2),
                                                                      C=truth.C * 0.5)])
-    write_c(model, tmp_path, name="law")
+    write_c(model, tmp_path, CLawOptions("law"))
     exe = c_harness.compile_law(cc, tmp_path, "law")
     y, f, k_hat, zeta_hat = samples(L, n=2000)
     v = np.random.default_rng(3).uniform(-0.005, 0.005, y.size)  # through the smooth sign's transition

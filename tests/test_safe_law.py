@@ -101,11 +101,11 @@ def test_c_law_is_safe_and_agrees_with_model_law(cc, tmp_path, rng, kind, precis
     within the limit on every phase; codes 0 inside, 1 held at the end, 2 non-finite (zero currents); the
     currents those of ModelLaw; the drive inputs in the convention and giving the currents back."""
     from pgcomm.commutation import drive_currents
-    from pgcomm.export.c import write_c
+    from pgcomm.export.c import CLawOptions, write_c
 
     model = _pgnn() if kind == "pgnn" else _spline(rng)
     L = model.n_coil_sets
-    write_c(model, tmp_path, name="law", precision=precision, current_limit=LIMIT)
+    write_c(model, tmp_path, CLawOptions("law", precision, LIMIT))
     exe = c_harness.compile_law(cc, tmp_path, "law")
     y, f, v = _fuzz_inputs(rng, 8000)
     k_hat = K * rng.uniform(0.9, 1.1, (y.size, L))

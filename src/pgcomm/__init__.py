@@ -68,6 +68,7 @@ _PUBLIC = {
     "ModelLaw": ("pgcomm.commutation", "ModelLaw"),
     # deployment
     "write_c": ("pgcomm.export.c", "write_c"),
+    "CLawOptions": ("pgcomm.export.c", "CLawOptions"),
     "build_lut": ("pgcomm.export.lut", "build_lut"),
     # the interfaces
     "ForceModel": ("pgcomm.protocols", "ForceModel"),

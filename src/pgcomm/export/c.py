@@ -91,7 +91,7 @@ from pgcomm.io.atomic import atomic_write_text
 from pgcomm.io.model import feedforward_from_metadata
 from pgcomm.spline_model import SplineModel
 
-__all__ = ["c_source", "write_c", "check_c_name", "PRECISIONS"]
+__all__ = ["CLawOptions", "c_source", "write_c", "check_c_name", "PRECISIONS"]
 
 #: Accepted ``precision`` values.
 PRECISIONS = ("double", "single")
@@ -176,29 +176,58 @@ def ieee_finite(text: str, name: str, single: bool) -> str:
     return head + helper + tail.replace("isfinite(", f"{fn}(")
 
 
-def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,
-             drive=None, current_limit: float | None = None, det_min: float = DEFAULT_DET_MIN,
-             damping: float = DEFAULT_DAMPING, mechanics=None, limit_source: str | None = None,
-             drive_source: str | None = None) -> tuple[str, str]:
+@dataclass(frozen=True)
+class CLawOptions:
+    """How :func:`c_source` writes the law: its C name, precision, current limit and damping.
+
+    Attributes:
+        name: C identifier used as file name and function prefix.
+        precision: ``"double"`` or ``"single"``.
+        current_limit: peak phase current (A) embedded in the law, or ``None`` (no limit).
+        det_min, damping: damping rule of :func:`pgcomm.commutation.min_energy_currents`.
+        limit_source: where the limit (or its absence) came from, written after it in the comment
+            block, e.g. ``"from the model file"``; ``None``: not said.
+        drive_source: where the drive's commutation came from (comment block), e.g. ``"--drive-k, --drive-zeta"``.
+
+    Raises:
+        ValueError: a name that is no C identifier, another precision, a limit that is not a positive current,
+            ``det_min <= 0`` or ``damping < 0``.
+    """
+
+    name: str = "pgcomm_law"
+    precision: str = "double"
+    current_limit: float | None = None
+    det_min: float = DEFAULT_DET_MIN
+    damping: float = DEFAULT_DAMPING
+    limit_source: str | None = None
+    drive_source: str | None = None
+
+    def __post_init__(self):
+        check_c_name(self.name)
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, got {self.precision!r}")
+        limit = self.current_limit
+        if limit is not None and not (math.isfinite(limit) and limit > 0):
+            raise ValueError(f"current_limit must be a positive number of amperes or None, got {limit}")
+        if not (self.det_min > 0 and self.damping >= 0):
+            raise ValueError(f"need det_min > 0 and damping >= 0, got {self.det_min}, {self.damping}")
+
+
+def c_source(model, options: CLawOptions = CLawOptions(), *, metadata: dict | None = None, drive=None,
+             mechanics=None) -> tuple[str, str]:
     """Header and source text of the exported law (see the module docstring).
 
     Args:
         model: :class:`~pgcomm.models.CombinedModel` (any ``L``, any hidden widths and
             depth, any activation of :data:`pgcomm.models.ACTIVATIONS`) or
             :class:`~pgcomm.spline_model.SplineModel` (tables on uniform knots).
-        name: C identifier used as file name and function prefix.
-        precision: ``"double"`` or ``"single"``.
+        options: :class:`CLawOptions` (name, precision, current limit in A, damping rule).
         metadata: the model file's metadata (named in the comment block: source file,
             date, package version, when present), or ``None``.
         drive: optional fixed commutation of the drive, embedded as the constant arrays
             ``NAME_drive_k_hat[L]`` (N/A) and ``NAME_drive_zeta_hat[L]`` (rad) to pass to
             ``NAME_drive_inputs``: a :class:`~pgcomm.motor.Motor`, a mapping with keys
             ``k_hat``, ``zeta_hat`` or a pair ``(k_hat, zeta_hat)`` (scalars or ``(L,)``).
-        current_limit: peak phase current (A) embedded in the law, or ``None`` (no limit).
-        det_min, damping: damping rule of :func:`pgcomm.commutation.min_energy_currents`.
-        limit_source: where the limit (or its absence) came from, written after it in the comment
-            block, e.g. ``"from the model file"``; ``None``: not said.
-        drive_source: where ``drive`` came from (comment block), e.g. ``"--drive-k, --drive-zeta"``.
         mechanics: optional feedforward to export beside the law as ``NAME_feedforward_g`` and
             ``NAME_feedforward`` (module docstring): a :class:`pgcomm.control.Feedforward`, a
             :class:`pgcomm.identify.mechanics.MechanicsFit`, or the plain mechanics dict of a model
@@ -209,28 +238,19 @@ def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadat
         ``(header_text, source_text)``.
 
     Raises:
-        ValueError: bad name, precision, limit, non-finite weights or non-uniform knots.
+        ValueError: non-finite weights or non-uniform knots.
     """
-    check_c_name(name)
-    if precision not in PRECISIONS:
-        raise ValueError(f"precision must be one of {PRECISIONS}, got {precision!r}")
-    if current_limit is not None and not (math.isfinite(current_limit) and current_limit > 0):
-        raise ValueError(f"current_limit must be a positive number of amperes or None, got {current_limit}")
-    if not (det_min > 0 and damping >= 0):
-        raise ValueError(f"need det_min > 0 and damping >= 0, got {det_min}, {damping}")
-
+    o = options
     gen = _SplineGen if isinstance(model, SplineModel) else _Gen
-    g = gen(model, name, _SINGLE if precision == "single" else _DOUBLE, metadata or {}, drive,
-            current_limit, float(det_min), float(damping), _feedforward_of(mechanics))
-    g.limit_source, g.drive_source = limit_source, drive_source
-    single = precision == "single"
-    return ieee_finite(g.header(), name, single), ieee_finite(g.source(), name, single)
+    g = gen(model, o.name, _SINGLE if o.precision == "single" else _DOUBLE, metadata or {}, drive,
+            o.current_limit, float(o.det_min), float(o.damping), _feedforward_of(mechanics))
+    g.limit_source, g.drive_source = o.limit_source, o.drive_source
+    single = o.precision == "single"
+    return ieee_finite(g.header(), o.name, single), ieee_finite(g.source(), o.name, single)
 
 
-def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,
-            drive=None, current_limit: float | None = None, det_min: float = DEFAULT_DET_MIN,
-            damping: float = DEFAULT_DAMPING, mechanics=None, limit_source: str | None = None,
-            drive_source: str | None = None) -> list[Path]:
+def write_c(model, out_dir, options: CLawOptions = CLawOptions(), *, metadata: dict | None = None, drive=None,
+            mechanics=None) -> list[Path]:
     """Write ``NAME.h`` and ``NAME.c`` into ``out_dir`` (created if missing).
 
     Both texts are generated before anything is written, and each file is written
@@ -240,11 +260,10 @@ def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double",
     Returns:
         ``[path_of_header, path_of_source]``.
     """
-    header, source = c_source(model, name, precision, metadata, drive, current_limit, det_min, damping, mechanics,
-                              limit_source, drive_source)
+    header, source = c_source(model, options, metadata=metadata, drive=drive, mechanics=mechanics)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [out / f"{name}.h", out / f"{name}.c"]
+    paths = [out / f"{options.name}.h", out / f"{options.name}.c"]
     atomic_write_text(paths[0], header)
     atomic_write_text(paths[1], source)
     return paths

@@ -155,7 +155,7 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     from pgcomm.experiment import identification_results, identify_models
     from pgcomm.settings import ExperimentConfig  # start-up cost: loads JAX only when this runs
     from pgcomm.setup import Setup  # start-up cost: loads JAX only when this runs
-    from pgcomm.export.c import write_c  # start-up cost: loads JAX only when this runs
+    from pgcomm.export.c import CLawOptions, write_c  # start-up cost: loads JAX only when this runs
     # start-up cost: loads JAX only when this runs
     from pgcomm.export.lut import build_cogging_table, build_lut, write_cogging_table, write_lut
     from pgcomm.io.model import drive_metadata, save_model  # start-up cost: loads JAX only when this runs
@@ -188,8 +188,8 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     lowpass = config.evaluation.lowpass_hz
     evals = evaluate_logs(logs, lowpass, model=pgnn, motor=motor)
     limit_source = "motor.toml current_limit" if motor.current_limit else "motor.toml has no current_limit"
-    write_c(pgnn, out, name="pgcomm_law", metadata={"motor": folder.name, "seed": seed},
-            current_limit=motor.current_limit, limit_source=limit_source)
+    write_c(pgnn, out, CLawOptions("pgcomm_law", current_limit=motor.current_limit, limit_source=limit_source),
+            metadata={"motor": folder.name, "seed": seed})
     write_lut(build_lut(pgnn, current_limit=motor.current_limit), out, "pgcomm_lut", limit_source=limit_source)
     write_cogging_table(build_cogging_table(pgnn, k_hat=cal.k, zeta_hat=cal.zeta), out, "pgcomm_lut_cogging",
                         comments=[f"anti-cogging table for a drive with classical commutation k_hat = "
