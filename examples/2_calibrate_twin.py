@@ -12,8 +12,9 @@ twin with a shortened data-generation reference (two speeds, 11.6 s instead of t
 import numpy as np
 
 from pgcomm import TwinParams
-from pgcomm.calibration import CalibrationOptions, calibrate
+from pgcomm.calibration import calibrate
 from pgcomm.data import generate_datasets
+from pgcomm.settings import CalibrationOptions
 from pgcomm.trajectory import data_generation_reference
 from pgcomm.twin import true_fundamental
 

@@ -445,7 +445,7 @@ def test_angle_lookups_under_fast_math_stay_finite_and_limited(cc, tmp_path, wha
     from pgcomm.export.angle_lut import angle_lut_header, build_angle_lut
     from pgcomm.export.angle_table import make_table
     from pgcomm.export.rotary_law import build_rotary_law, rotary_law_header
-    from pgcomm.io.model import rotary_model_from_dict
+    from pgcomm.io.rotary_model import rotary_model_from_dict
 
     limit = 0.5
     if what == "c-angle":

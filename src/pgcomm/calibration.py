@@ -50,41 +50,7 @@ from pgcomm.errors import DataError
 from pgcomm.interp import hat_basis
 from pgcomm.data import active_coil_set, log_currents, velocity_from_positions
 from pgcomm.sensorless import AccelerationFilter, filter_windows, filtered_acceleration, window_starts
-
-
-#: The estimators of ``ĉ_1, ĉ_2`` (module docstring).
-METHODS = ("paper", "offset", "sensorless")
-
-
-@dataclass(frozen=True)
-class CalibrationOptions:
-    """The settings of Algorithm 1 as one object (``[calibration]`` of an experiment TOML gives them,
-    :meth:`pgcomm.settings.CalibrationConfig.options`).
-
-    Attributes:
-        method: the estimator of ``ĉ_1, ĉ_2``: ``"paper"`` (eq. Ci per data set), ``"offset"`` or ``"sensorless"``
-            (module docstring).
-        n_bins: offset bins per direction over the stroke (``"offset"``, ``"sensorless"``).
-        gain_bins: bins of the gain ``c_i(y)`` along the stroke.
-        y_range: ``(lo, hi)`` (m) the bins span; ``None``: the data's range.
-        min_speed: samples with ``|v| <= min_speed`` (m/s) are left out (standstill, reversals).
-        delta: ``Δ`` (rad), the drive's phase offset of the two data sets, ``0 < |Δ| <= π/4``.
-        iterations: at most this many passes of :func:`calibrate`.
-        tol: :func:`calibrate` stops when ``max |Δk̂/k̂|`` and ``max |Δζ̂|`` (rad) are both below it.
-    """
-
-    method: str = "offset"
-    n_bins: int = 40
-    gain_bins: int = 8
-    y_range: tuple[float, float] | None = None
-    min_speed: float = 0.01
-    delta: float = np.pi / 4
-    iterations: int = 1
-    tol: float = 1e-4
-
-    def __post_init__(self):
-        if self.method not in METHODS:
-            raise ValueError(f"method must be 'paper', 'offset' or 'sensorless', got {self.method!r}")
+from pgcomm.settings import CalibrationOptions
 
 
 @dataclass(frozen=True)
@@ -135,7 +101,7 @@ def fit_coefficients(set1, set2, options: CalibrationOptions = CalibrationOption
     Args:
         set1, set2: ``(F_y, F_y*, y)`` of data set ``Z_i``: ``(N_i,)`` measured ``F_y`` (N), demanded ``F_y*`` (N),
             position (m).
-        options: :class:`CalibrationOptions`: ``method`` ``"paper"`` (eq. Ci per data set) or ``"offset"`` (module
+        options: :class:`~pgcomm.settings.CalibrationOptions`: ``method`` ``"paper"`` (eq. Ci per data set) or ``"offset"`` (module
             docstring), with ``n_bins`` offset bins and ``gain_bins`` gain bins over ``y_range`` (m, default the
             data's range), samples with ``|v| <= min_speed`` (m/s; ``v`` from the positions and ``sample_time``, s)
             left out, ripple terms when ``pole_pitch`` (m) is given; or ``"sensorless"`` (module docstring; ``F_y``
@@ -421,7 +387,7 @@ def calibrate(generate, k0, zeta0, options: CalibrationOptions = CalibrationOpti
             with the drive set to those values (e.g. a closure over
             :func:`pgcomm.data.generate_datasets` on the twin).
         k0, zeta0: ``(L,)`` initial ``k̂`` (N/A), ``ζ̂`` (rad).
-        options: :class:`CalibrationOptions` (``delta`` the data sets' ``Δ``; ``iterations`` the maximum passes,
+        options: :class:`~pgcomm.settings.CalibrationOptions` (``delta`` the data sets' ``Δ``; ``iterations`` the maximum passes,
             fewer when ``max |Δk̂/k̂|`` and ``max |Δζ̂|`` (rad) are both below ``tol``; ``method``, ``n_bins``).
         pole_pitch: ``d_m`` (m) for the ripple terms of ``method="offset"``.
         mass: moving mass (kg) for ``method="sensorless"`` (no force data used).

@@ -24,7 +24,7 @@ from pgcomm.errors import ConfigError
 from pgcomm.export.angle_table import make_table, write_angle_table
 from pgcomm.io.atomic import atomic_open, atomic_write_text
 from pgcomm.io.config import load_experiment, load_rotary_motor
-from pgcomm.io.model import rotary_model_from_dict
+from pgcomm.io.rotary_model import rotary_model_from_dict
 from pgcomm.io.results import write_results
 from pgcomm.io.rotary_zoo import read_truth
 from pgcomm.plots import plot_rotary_run, save

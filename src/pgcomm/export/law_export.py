@@ -125,14 +125,9 @@ def _export_c(args, out, progress, model, metadata, name, results, limit, limit_
 
 
 def _export_lut(args, out, progress, model, metadata, name, results, limit, limit_source, drive):
-    from pgcomm.export.lut import (
-        build_cogging_table,
-        build_lut,
-        cogging_table_error,
-        lut_error,
-        write_cogging_table,
-        write_lut,
-    )  # start-up cost: loads JAX only when this runs
+    # start-up cost: loads JAX only when this runs
+    from pgcomm.export.lut import MAX_ROWS, build_cogging_table, build_lut, cogging_table_error, lut_error, \
+        write_cogging_table, write_lut
 
     if model.training_range is None:
         raise ConfigError(f"{args.model}: the model has no training range, so the table has no extent")
@@ -142,8 +137,6 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
         source = "training data (model metadata)"
         if f_max is None:
             f_max, source = DEFAULT_F_MAX, "default (no training force in the model's metadata)"
-    from pgcomm.export.lut import MAX_ROWS  # start-up cost: loads JAX only when this runs
-
     lo, hi = model.training_range
     if (hi - lo) / args.resolution > MAX_ROWS:
         raise ConfigError(f"--resolution {args.resolution:g} m over the training range [{lo:.6g}, {hi:.6g}] m of "

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import replace
 
 import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
@@ -340,8 +341,6 @@ def identify_selecting_width(data: CoilSetData, pole_pitch: float, options: Iden
             (single-hidden-layer widths of the two gain networks, default ``(2, 4, 8)`` when empty)
             replace ``gain_widths`` one by one.
     """
-    from dataclasses import replace
-
     o = IdentifyOptions() if options is None else options
     cands = o.gain_width_candidates or (2, 4, 8)
     results = [identify(data, pole_pitch, replace(o, gain_widths=(w,)), seed=seed, progress=progress,

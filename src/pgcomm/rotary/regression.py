@@ -83,6 +83,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import eigh
+from scipy.stats import chi2, f as f_dist
 
 from pgcomm.errors import DataError, ExcitationError
 from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, harmonic_columns, harmonic_rows, ripple_orders
@@ -887,7 +889,6 @@ def _current_noise_correction(G, b, yy, noise_equations, variance: float):
     A[np.diag_indices_from(A)] += RIDGE_GRID[0] * np.trace(A) / A.shape[0]
     schur = np.linalg.inv(np.linalg.inv(A)[np.ix_(idx, idx)])
     part = variance * Gnt[np.ix_(idx, idx)] / np.outer(d[idx], d[idx])
-    from scipy.linalg import eigh  # start-up cost: SciPy loads only when this runs
 
     share = float(eigh(part, 0.5 * (schur + schur.T), eigvals_only=True)[-1])
     applied = variance * min(1.0, MAX_CURRENT_NOISE_SHARE / share) if share > 0 else variance
@@ -1083,7 +1084,6 @@ def _significant_extra_orders(fit: dict, layout: _Layout, structured: Orders, al
     beta[layout.keep] = fit["beta"]
     cov = np.zeros((layout.keep.size, layout.keep.size))
     cov[np.ix_(layout.keep, layout.keep)] = fit["cov"]
-    from scipy.stats import f as f_dist  # start-up cost: SciPy loads only when this runs
 
     infl = np.zeros((fit["influence"].shape[0], layout.keep.size))
     infl[:, layout.keep] = fit["influence"]
@@ -1135,7 +1135,6 @@ def _map_error_quantile(cov_block, gram, level: float) -> float:
     ``(Σλ) χ²_ν / ν`` with ``ν = (Σλ)² / Σλ²`` degrees of freedom (exact when the weights are equal). Returns the RMS error (the map's
     units) that the noise part stays below with probability ``level``.
     """
-    from scipy.stats import chi2  # start-up cost: SciPy loads only when this runs
 
     d, v = np.linalg.eigh(gram)
     L = v * np.sqrt(np.clip(d, 0.0, None))  # M = L Lᵀ; M is singular where a column is zero (the sine of order 0)
