@@ -11,6 +11,12 @@ import sys
 from pathlib import Path
 
 from pgcomm.errors import ConfigError, PgcommError
+from pgcomm.io.config import load_experiment, load_motor, load_toml, motor_kind
+from pgcomm.io.logs import load_column_mapping, read_logs
+from pgcomm.io.references import read_reference
+
+# Imports inside the functions below: the set-up's modules load JAX and SciPy only when a command builds one;
+# `import pgcomm.cli` loads none of them (`--help` and a bad option answer at once).
 
 
 def add_common_options(p: argparse.ArgumentParser, out: bool = True, plant: bool = True) -> None:
@@ -112,7 +118,6 @@ def motor_is_rotary(args) -> bool:
     """Whether ``--motor`` declares ``kind = "rotary"`` (the rotary pipeline then runs)."""
     if not getattr(args, "motor", None):
         return False
-    from pgcomm.io.config import motor_kind
 
     return motor_kind(args.motor) == "rotary"
 
@@ -126,8 +131,6 @@ def require_data(args) -> None:
 def read_data_logs(args, progress=None):
     """Logs named by ``--data`` (with ``--columns`` and ``--sample-time``): list of :class:`pgcomm.io.logs.Log`; each
     log's notes (how its time was read) said on ``progress``."""
-    from pgcomm.io.logs import load_column_mapping, read_logs
-
     mapping = load_column_mapping(args.columns) if args.columns else None
     # a host's time stamps: resampled to a uniform grid (the linear identification's filters need one), with a note
     logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, resample=True)
@@ -141,8 +144,6 @@ def read_data_logs(args, progress=None):
 def motor_from_args(args):
     """The drive's motor description: ``--motor`` or the twin's nominal motor (k̂ = 67 N/A, ζ̂ = −0.52 rad)."""
     if getattr(args, "motor", None):
-        from pgcomm.io.config import load_motor
-
         return load_motor(args.motor)
     from pgcomm.twin import TwinParams
 
@@ -152,7 +153,6 @@ def motor_from_args(args):
 def setup_from_args(args):
     """The :class:`pgcomm.setup.Setup` of ``--config``, ``--plant`` and ``--motor``."""
     from pgcomm.setup import build_setup
-    from pgcomm.io.config import load_experiment
     from pgcomm.settings import ExperimentConfig
 
     config_path = args.config
@@ -170,7 +170,6 @@ def reference_from_args(args, setup):
     """``--reference`` (checked against the controller's sample time), else the data-generation reference."""
     from pgcomm.experiment import data_generation_reference
     from pgcomm.setup import check_reference
-    from pgcomm.io.references import read_reference
 
     if getattr(args, "reference", None):
         ref = read_reference(args.reference, sample_time=args.reference_sample_time)
@@ -193,8 +192,6 @@ def options_given(args, *dests: str) -> list[str]:
 
 def settings_given(path, keys) -> list[str]:
     """Which of ``keys`` (``"section.key"`` or ``"key"``) the TOML file ``path`` sets, as ``"FILE [section] key"``."""
-    from pgcomm.io.config import load_toml
-
     doc = load_toml(path)
     found = []
     for key in keys:

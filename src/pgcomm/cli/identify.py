@@ -18,13 +18,21 @@ and whether the logs resolve it. It writes ``model.json``, ``compensation.csv`` 
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from pgcomm.cli._common import ROTARY_READING, add_common_options, add_data_options, add_rotary_reading_options, \
     motor_is_rotary, read_data_logs, refuse_conflicts, settings_given, setup_from_args
 from pgcomm.errors import ConfigError, DataError
+from pgcomm.io.config import load_experiment, load_motor
+from pgcomm.io.results import write_results
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib (and a rotary motor's pipeline) load only when
+# the command runs; `import pgcomm.cli` loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("Algorithm 2: identify the PGNN (and the physics-only model) of every coil set; "
         "writes model.json/.npz, results.json and figures.")
@@ -62,15 +70,10 @@ def configure(p) -> None:
 def run(args, out: Path, progress) -> None:
     """Identify (:func:`pgcomm.identification.identify_coil_sets`); write ``model.json/.npz``, ``results.json``,
     ``cogging.png`` and ``gain_coilset{l}.png``."""
-    import dataclasses
-
-    import numpy as np
-
     from pgcomm import __version__, experiment
     from pgcomm.data import coil_set_data_from_logs, coil_set_data_from_runs
     from pgcomm.identification import CoilSetsOptions, identify_coil_sets
     from pgcomm.io.model import save_model
-    from pgcomm.io.results import write_results
     from pgcomm.setup import sensorless_mass, simulated_mass
 
     t0 = time.perf_counter()
@@ -168,7 +171,6 @@ def _figures(out: Path, model, plant, title: str, label: str) -> None:
     """``cogging.png`` and ``gain_coilset{l}.png`` of ``model`` over its training range, with ``plant``'s truth
     where known (``None``: not drawn)."""
     import jax.numpy as jnp
-    import numpy as np
 
     from pgcomm import plots
 
@@ -198,8 +200,6 @@ def _print_pgnn(found) -> None:
 
 def _print_spline(found) -> None:
     """The spline model's knots, costs per coil set and feedforward on standard output."""
-    import numpy as np
-
     fit, mech = found.spline, found.mechanics
     sp = fit.spacing
     print(f"spline model: knots every {1e3 * sp['gain']:.3g} mm (gain), {1e3 * sp['cogging']:.3g} mm (cogging), "
@@ -224,10 +224,8 @@ def _refuse_spline_without_force(args, sensorless: bool) -> None:
 def _setup(args):
     """The set-up; logs with ``--motor`` but no ``--plant`` are a rig's: its motor description, no plant."""
     if args.data and args.motor is not None and args.plant is None:
-        from pgcomm.io.config import load_experiment
         from pgcomm.settings import ExperimentConfig
         from pgcomm.setup import Setup
-        from pgcomm.io.config import load_motor
 
         motor = load_motor(args.motor)
         config = load_experiment(args.config) if args.config else ExperimentConfig()

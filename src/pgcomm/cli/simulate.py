@@ -7,6 +7,13 @@ from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, add_reference_options, print_mse, reference_from_args, \
     setup_from_args
+from pgcomm.control import Feedforward
+from pgcomm.errors import ConfigError
+from pgcomm.io.logs import Log, write_log
+from pgcomm.io.results import write_results
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib load only when the command runs; every
+# command's parser is built by `import pgcomm.cli`, which loads none of them (`--help` and a bad option answer at once).
 
 HELP = "Closed-loop run on the twin (or a force-map plant): log, plot, results.json."
 
@@ -33,10 +40,7 @@ def _run_plan(args, out: Path, progress) -> None:
     """``--plan``: every experiment of the plan on the plant, logs ``out/<experiment>.csv``."""
     from pgcomm.setup import check_reference
     from pgcomm.data import generate_datasets
-    from pgcomm.errors import ConfigError
-    from pgcomm.io.logs import Log, write_log
     from pgcomm.io.plan import log_identity, plan_id, read_plan, write_log_identity
-    from pgcomm.io.results import write_results
 
     for opt, given in (("--model", args.model), ("--reference", args.reference),
                        ("--law", args.law != "nominal"), ("--no-feedforward", args.no_feedforward)):
@@ -81,10 +85,6 @@ def run(args, out: Path, progress) -> None:
         return _run_plan(args, out, progress)
     from pgcomm import experiment, plots
     from pgcomm.commutation import ClassicalLaw, ModelLaw, oracle_law
-    from pgcomm.control import Feedforward
-    from pgcomm.errors import ConfigError
-    from pgcomm.io.logs import Log, write_log
-    from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
     setup = setup_from_args(args)
