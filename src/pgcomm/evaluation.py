@@ -136,7 +136,6 @@ class ReconstructedForce:
 
     def filtered(self, columns) -> np.ndarray:
         """Raw columns ``(N,)``/``(N, k)`` filtered as the force (:func:`pgcomm.sensorless.filter_windows`)."""
-
         return filter_windows(self.filt, self.starts, columns)
 
 
@@ -160,7 +159,6 @@ def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedF
     Raises:
         DataError: no window in which the translator moves (names the log).
     """
-
     ts = log.sample_time
     y = log["y"]
     v = velocity_from_positions(y, ts)
@@ -478,13 +476,11 @@ def _currents_source(log, model, motor) -> str:
 
 def _currents(log, motor) -> np.ndarray:
     """Star currents ``(N, L, 2)`` (A) of a log (or of a block of its rows): logged, or from the drive inputs."""
-
     return np.asarray(log_currents(log, motor))
 
 
 def _model_fit(log, model, motor, lowpass_hz) -> dict:
     """``model_error``, ``model_mse``, ``currents``, ``range_warning`` of one log, block by block."""
-
     source = _currents_source(log, model, motor)
     y = log["y"]
     # a model with a direction term predicts C(y) s(ẏ) too: give it the velocity, as identification did (the

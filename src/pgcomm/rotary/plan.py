@@ -577,7 +577,6 @@ def read_first_round(data, motor: RotaryMotor) -> FirstRound:
     Raises:
         DataError, ExcitationError: as the identification (logs that never move, no usable window, ...).
     """
-
     slots = None
     if motor.slots is None:
         slots, _ = count_slots(data, motor)

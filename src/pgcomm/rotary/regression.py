@@ -1135,7 +1135,6 @@ def _map_error_quantile(cov_block, gram, level: float) -> float:
     ``(Σλ) χ²_ν / ν`` with ``ν = (Σλ)² / Σλ²`` degrees of freedom (exact when the weights are equal). Returns the RMS error (the map's
     units) that the noise part stays below with probability ``level``.
     """
-
     d, v = np.linalg.eigh(gram)
     L = v * np.sqrt(np.clip(d, 0.0, None))  # M = L Lᵀ; M is singular where a column is zero (the sine of order 0)
     lam = np.clip(np.linalg.eigvalsh(L.T @ cov_block @ L), 0.0, None)

@@ -91,7 +91,6 @@ def _current_lines(prepared, hz: float, taps: int) -> np.ndarray:
     the maps); fitted jointly with the dither's line, its share is the pickup's own.
     A dither one natural bin off is not separated (a 60 Hz line beside a 61 Hz dither in 1 s logs, module docstring).
     """
-
     none = Orders(np.zeros(0, int), np.zeros(0, int), np.zeros(0, int))
     stride = max(1, taps // 2)
     ts = float(np.median([p.ts for p in prepared]))
@@ -139,7 +138,6 @@ def _line_spectrum(residuals, stride: int, ts: float):
         frequencies in the longest log, and the highest frequency (Hz) at which every log's noise floor has its whole
         window (half of it short of the Nyquist frequency of the shortest log's bins).
     """
-
     lengths = [int(r.max()) // stride + 1 for r, _ in residuals]
     n = 1 << int(math.ceil(math.log2(LINE_PADDING * max(lengths))))
     dt = stride * ts
@@ -182,7 +180,6 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
         peaks set aside, and each peak's amplitude fitted beside the maps over the logged current's own line there
         (median over the logs that show it; under :data:`LINE_CURRENT_SHARE` it is the current's own).
     """
-
     stride = max(1, taps // 2)
     ts = float(np.median([p.ts for p in prepared]))
     rate = 1.0 / (stride * ts)
