@@ -39,7 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import pgcomm  # noqa: F401  (x64)
-from pgcomm.export.c import write_c
+from pgcomm.export.c import CLawOptions, write_c
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bench_export import _compile_and_run, paper_size_model  # noqa: E402
@@ -88,11 +88,11 @@ def bench_c(cc, n, reps) -> None:
     rows = []
     with tempfile.TemporaryDirectory(prefix="pgcomm_bench_") as tmp:
         d = Path(tmp) / "plain"
-        write_c(base, d, name="law")
+        write_c(base, d, CLawOptions("law"))
         rows.append(("paper PGNN law", *_compile_and_run(cc, d, "law.h", [str(d / "law.c")], "law_currents",
                                                          "double", n, reps)))
         d = Path(tmp) / "ext"
-        write_c(ext, d, name="law")
+        write_c(ext, d, CLawOptions("law"))
         (d / "wrap.c").write_text(WRAPPER)
         (d / "decl.h").write_text(DECL)
         rows.append(("+ direction term + 5th/7th harmonics",

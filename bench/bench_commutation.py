@@ -35,7 +35,7 @@ def paper_model(seed: int = 0) -> CombinedModel:
     sets = []
     for l in range(3):
         a, b = physics_from_ideal(D_M, 61.0 + l, -0.54, 0.05, motor.lever_arms[l])
-        m = CoilSetModel.init(jax.random.PRNGKey(seed + l), a, b, D_M, 0.0, 0.1, y_min=-0.1, y_max=0.1)
+        m = CoilSetModel.init(jax.random.PRNGKey(seed + l), CoilSetModel.physics(a, b, D_M, 0.0, 0.1, -0.1, 0.1))
         leaves, tree = jax.tree_util.tree_flatten(m)
         sets.append(jax.tree_util.tree_unflatten(tree, [np.asarray(x) + 0.2 * rng.normal(size=x.shape)
                                                         for x in leaves]))

@@ -47,7 +47,7 @@ import numpy as np
 
 import pgcomm  # noqa: F401  (x64)
 from pgcomm.commutation import ModelLaw
-from pgcomm.export.c import write_c
+from pgcomm.export.c import CLawOptions, write_c
 from pgcomm.export.lut import build_lut, lut_header
 from pgcomm.models import MLP, CoilSetModel, CombinedModel, physics_from_ideal
 
@@ -201,7 +201,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix="pgcomm_bench_") as tmp:
         for precision, ctype in (("double", "double"), ("single", "float")):
             d = Path(tmp) / precision
-            write_c(model, d, name="law", precision=precision)
+            write_c(model, d, CLawOptions("law", precision))
             ns = _compile_and_run(args.cc, d, "law.h", [str(d / "law.c")], "law_currents", ctype,
                                   args.samples, args.repeats)
             rows.append((f"C {precision} (law_currents)", *ns))
@@ -216,7 +216,7 @@ def main(argv=None) -> int:
         rows.append((f"C LUT float ({lut.n} rows, {lut.nbytes} B)", *ns))
         spline = twin_size_spline()
         d = Path(tmp) / "spline"
-        write_c(spline, d, name="spl")
+        write_c(spline, d, CLawOptions("spl"))
         (d / "spl_unit.c").write_text(SPLINE_UNIT)
         (d / "decl.h").write_text(SPLINE_DECL)
         ns = _compile_and_run(args.cc, d, "decl.h", [str(d / "spl_unit.c"), str(d / "spl.c")], "spl_call", "double",

@@ -107,7 +107,7 @@ def baseline(train, n_starts: int, seed: int = 0):
     costs, seconds, nfev = [], [], []
     for key in keys:
         t0 = time.perf_counter()
-        model = CoilSetModel.init(key, a, b, D_M, y_center, y_scale)
+        model = CoilSetModel.init(key, CoilSetModel.physics(a, b, D_M, y_center, y_scale))
         model = idf.proposition1(model, train, lam12, star).model
         prob = FullParameterProblem(train, model, lam12, star)
         x0 = prob.pack(model)

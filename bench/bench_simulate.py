@@ -41,7 +41,8 @@ def paper_size_pgnn(tw):
     models = []
     for l in range(tw.n_coil_sets):
         a, b = physics_from_ideal(tw.pole_pitch, k[l], zeta[l], tw.mu, tw.lever_arms[l])
-        m = CoilSetModel.init(jax.random.PRNGKey(l), a, b, tw.pole_pitch, 0.0, 0.1, (2,), (16,), "tanh", -0.1, 0.1)
+        m = CoilSetModel.init(jax.random.PRNGKey(l), CoilSetModel.physics(a, b, tw.pole_pitch, 0.0, 0.1, -0.1, 0.1), (2,),
+                              (16,), "tanh")
         models.append(m)
     return CombinedModel.from_coil_sets(models)
 

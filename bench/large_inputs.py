@@ -93,7 +93,8 @@ def build_model(path: Path):
     sets = []
     for l in range(3):
         a, b = physics_from_ideal(0.03, 61.0 + l, -0.54, 0.05, 0.07 * (l - 1))
-        m = CoilSetModel.init(jax.random.PRNGKey(l), a, b, 0.03, 0.0, 0.1, (2,), (16,), "tanh", -0.11, 0.11)
+        m = CoilSetModel.init(jax.random.PRNGKey(l), CoilSetModel.physics(a, b, 0.03, 0.0, 0.1, -0.11, 0.11), (2,), (16,),
+                              "tanh")
         leaves, tree = jax.tree_util.tree_flatten(m)
         sets.append(jax.tree_util.tree_unflatten(tree, [np.asarray(x) + 0.1 * rng.normal(size=np.shape(x))
                                                         for x in leaves]))

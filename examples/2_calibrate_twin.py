@@ -14,6 +14,7 @@ import numpy as np
 from pgcomm import TwinParams
 from pgcomm.calibration import calibrate
 from pgcomm.data import generate_datasets
+from pgcomm.settings import CalibrationOptions
 from pgcomm.trajectory import data_generation_reference
 from pgcomm.twin import true_fundamental
 
@@ -28,7 +29,8 @@ def run_experiments(k_hat, zeta_hat):
     return generate_datasets(plant, drive, reference)
 
 
-result = calibrate(run_experiments, motor.k, motor.zeta, iterations=2, pole_pitch=motor.pole_pitch)
+result = calibrate(run_experiments, motor.k, motor.zeta, CalibrationOptions(iterations=2),
+                   pole_pitch=motor.pole_pitch)
 
 # %%
 # The twin knows its true fundamental (the least-squares ``k, ζ`` of its gain over the stroke), so

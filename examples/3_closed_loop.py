@@ -17,7 +17,7 @@ from pgcomm import ClassicalLaw, TwinParams
 from pgcomm.commutation import oracle_law
 from pgcomm.control import PID, Feedforward
 from pgcomm.metrics import commutation_mse, lowpass, tracking_mse
-from pgcomm.simulate import simulate
+from pgcomm.simulate import ClosedLoop, simulate
 from pgcomm.trajectory import single_velocity_reference
 from pgcomm.twin import true_fundamental
 
@@ -32,7 +32,8 @@ reference = single_velocity_reference(0.15, motor.sample_time, stroke=0.1, dwell
 # with what the commutation gets wrong
 pid = PID.tuned(mass=30.0, bandwidth_hz=6.0)
 feedforward = Feedforward(mass=30.0, viscous=80.0, coulomb=12.0)
-runs = {name: simulate(plant, law, reference, drive=motor, pid=pid, feedforward=feedforward, seed=0)
+runs = {name: simulate(plant, law, reference, drive=motor, loop=ClosedLoop(pid=pid), feedforward=feedforward,
+                       seed=0)
         for name, law in laws.items()}
 
 for name, run in runs.items():

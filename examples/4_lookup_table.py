@@ -15,7 +15,7 @@ import tempfile
 import matplotlib.pyplot as plt
 import numpy as np
 
-from pgcomm import TwinParams, build_lut, identify_spline, write_c
+from pgcomm import CLawOptions, TwinParams, build_lut, identify_spline, write_c
 from pgcomm.data import coil_set_data_from_runs, generate_datasets
 from pgcomm.export.lut import lut_error
 from pgcomm.identify.spline import SplineOptions
@@ -52,7 +52,7 @@ err = lut_error(lut, model, f_max=100.0)
 print(f"{lut.n} rows, {lut.nbytes / 1e3:.0f} kB as float32; worst force error "
       f"{100 * err.rel.max():.3f} % of 100 N")
 with tempfile.TemporaryDirectory() as out:
-    header, source = write_c(model, out, name="clm_law", current_limit=motor.current_limit)
+    header, source = write_c(model, out, CLawOptions("clm_law", current_limit=motor.current_limit))
     print(f"{header.name}: {len(header.read_text().splitlines())} lines, "
           f"{source.name}: {len(source.read_text().splitlines())} lines")
     print("functions:", ", ".join(re.findall(r"^int (clm_law_\w+)\(", header.read_text(), re.M)))

@@ -309,6 +309,29 @@ def test_reproduce_refuses_a_stroke_too_short_for_the_sensorless_table_before_an
     assert stop_at_first_simulation == []
 
 
+ROTARY_MOTOR = 'kind = "rotary"\npole_pairs = 7\nslots = 12\nsample_time = 0.001\ncurrent_limit = 20.0\n'
+
+ROTARY_REPRODUCE_CASES = [
+    ([], "[rotary_experiment]\nspeed_shares = []\n", r"exp\.toml \[rotary_experiment\]: speed_shares = \[\]: give at least"),
+    ([], "[rotary_experiment]\nrevolution = 2\n",
+     r"exp\.toml: unknown key 'revolution' in table \[rotary_experiment\] \(closest valid key: 'revolutions'\)"),
+    ([], "[rotary_experiment.standstill]\npoints = 4\n", r"exp\.toml \[rotary_experiment\.standstill\]: points = 4 "),
+    (["--quick"], "[rotary_experiment.standstill]\npoints = 7200\n",
+     r"exp\.toml \[rotary_experiment\] \[standstill\] points conflicts with --quick: --quick overrides it"),
+]
+
+
+@pytest.mark.parametrize("extra,text,pattern", ROTARY_REPRODUCE_CASES,
+                         ids=[c[1].strip().replace("\n", " ") for c in ROTARY_REPRODUCE_CASES])
+def test_rotary_reproduce_config_refused(tmp_path, capsys, extra, text, pattern):
+    """``reproduce`` on a rotary motor reads ``--config``'s ``[rotary_experiment]`` as the linear one reads its tables:
+    a bad value, a misspelt key or a key ``--quick`` overrides is one line naming the file, table and key."""
+    motor = tmp_path / "rotary.toml"
+    motor.write_text(ROTARY_MOTOR)
+    _check_refused(["reproduce", "--motor", motor, *extra, "--config", _config(tmp_path, text)], tmp_path / "out",
+                   capsys, pattern, tmp_path)
+
+
 @pytest.mark.parametrize("argv,pattern", SENSORLESS_CASES, ids=[" ".join(c[0][:3]) + f" {i}"
                                                                 for i, c in enumerate(SENSORLESS_CASES)])
 def test_sensorless_bad_input_refused(tmp_path, capsys, files, argv, pattern):
@@ -365,7 +388,7 @@ def test_out_refused(tmp_path, capsys, files):
 
 
 def test_out_overwrite_replaces_the_whole_folder_and_creates_parents(tmp_path):
-    from pgcomm.cli._common import staged_output
+    from pgcomm.cli._output import staged_output
 
     out = tmp_path / "a" / "b" / "out"
     with staged_output(out) as tmp:

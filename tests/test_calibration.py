@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from pgcomm import trajectory
-from pgcomm.calibration import calibrate, calibrate_from_datasets, fit_coefficients, update
+from pgcomm.calibration import CalibrationOptions, calibrate, calibrate_from_datasets, fit_coefficients, update
 from pgcomm.data import generate_datasets
+from pgcomm.simulate import ClosedLoop
 from pgcomm.errors import DataError
 from pgcomm.sensors import Sensors
 from pgcomm.twin import DEFAULT_TWIN
@@ -74,7 +75,7 @@ def _synthetic_pair(rng, c1, c2, n=2000, offset=None, direction=0.0):
                          ids=["paper", "offset", "offset_ripple"])
 def test_fit_coefficients_exact_on_proportional_data(method, pole_pitch, rng):
     (f1, s1, y1), (f2, s2, y2) = _synthetic_pair(rng, 0.83, 0.41)
-    c1, c2 = fit_coefficients(f1, s1, y1, f2, s2, y2, method=method, pole_pitch=pole_pitch)
+    c1, c2 = fit_coefficients((f1, s1, y1), (f2, s2, y2), CalibrationOptions(method=method), pole_pitch=pole_pitch)
     assert c1 == pytest.approx(0.83, rel=1e-12)
     assert c2 == pytest.approx(0.41, rel=1e-12)
 
@@ -87,20 +88,20 @@ def test_offset_method_removes_position_offset_and_direction_term(rng):
         return np.interp(y, np.linspace(knots_lo, knots_hi, n_bins + 1), weights) + 2.5
 
     (f1, s1, y1), (f2, s2, y2) = _synthetic_pair(rng, 0.83, 0.41, offset=offset, direction=1.5)
-    c1, c2 = fit_coefficients(f1, s1, y1, f2, s2, y2, method="offset", n_bins=n_bins,
-                              y_range=(knots_lo, knots_hi))
+    c1, c2 = fit_coefficients((f1, s1, y1), (f2, s2, y2),
+                              CalibrationOptions(method="offset", n_bins=n_bins, y_range=(knots_lo, knots_hi)))
     assert c1 == pytest.approx(0.83, rel=1e-9)
     assert c2 == pytest.approx(0.41, rel=1e-9)
-    p1, p2 = fit_coefficients(f1, s1, y1, f2, s2, y2, method="paper")
+    p1, p2 = fit_coefficients((f1, s1, y1), (f2, s2, y2), CalibrationOptions(method="paper"))
     assert abs(p1 - 0.83) > 1e-4 or abs(p2 - 0.41) > 1e-4  # eq. Ci alone is biased by the offsets
 
 
 def test_fit_coefficients_rejects_zero_demand(rng):
     z = np.zeros(10)
     with pytest.raises(DataError, match="zero"):
-        fit_coefficients(z, z, z, z + 1, z + 1, z, method="paper")
+        fit_coefficients((z, z, z), (z + 1, z + 1, z), CalibrationOptions(method="paper"))
     with pytest.raises(ValueError, match="method"):
-        fit_coefficients(z + 1, z + 1, z, z + 1, z + 1, z, method="magic")
+        CalibrationOptions(method="magic")
 
 
 # ---------------------------------------------------------------------------
@@ -125,7 +126,7 @@ def plant0():
 
 @pytest.fixture(scope="module")
 def datasets0(plant0, drive0, reference):
-    return generate_datasets(plant0, drive0, reference, delta=DELTA, sensors=NO_NOISE)
+    return generate_datasets(plant0, drive0, reference, delta=DELTA, loop=ClosedLoop(sensors=NO_NOISE))
 
 
 def test_datasets_layout(datasets0, drive0):
@@ -177,10 +178,10 @@ def test_calibrate_iterates_on_twin_and_stops(plant0, drive0, reference):
     def generate(k_hat, zeta_hat):
         calls.append((k_hat.copy(), zeta_hat.copy()))
         return generate_datasets(plant0, drive0.with_nominal(k=k_hat, zeta=zeta_hat), reference, delta=DELTA,
-                                 sensors=NO_NOISE)
+                                 loop=ClosedLoop(sensors=NO_NOISE))
 
-    res = calibrate(generate, np.full(3, K0), np.full(3, ZETA0), delta=DELTA, iterations=5, tol=1e-6,
-                    method="paper")
+    res = calibrate(generate, np.full(3, K0), np.full(3, ZETA0),
+                    CalibrationOptions(delta=DELTA, iterations=5, tol=1e-6, method="paper"))
     # the first pass is already exact on the effect-free twin, the second changes nothing: stop
     assert res.iterations == 2 and len(res.history) == 2 and len(calls) == 2
     np.testing.assert_allclose(res.k, TWIN0.k, rtol=1e-9)
@@ -233,8 +234,9 @@ def test_calibrate_stops_when_change_below_tol(tol, expected, rng):
     # tol = 1e-2 after pass 3 (9e-3), tol = 1e-4 after pass 5 (9e-5); tol < 0 never stops early.
     generate, calls = _moving_truth_generator(rng)
     seen = []
-    res = calibrate(generate, np.full(3, K0), np.full(3, ZETA0), delta=DELTA, iterations=7, tol=tol,
-                    method="paper", progress=lambda it, k, z: seen.append(it))
+    res = calibrate(generate, np.full(3, K0), np.full(3, ZETA0),
+                    CalibrationOptions(delta=DELTA, iterations=7, tol=tol, method="paper"),
+                    progress=lambda it, k, z: seen.append(it))
     assert res.iterations == expected == len(calls) == len(res.history)
     assert seen == list(range(1, expected + 1))
     c = expected

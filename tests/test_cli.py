@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -12,6 +14,15 @@ from pgcomm.forcemap import ForceMapPlant
 from pgcomm.io.forcemap import write_forcemap
 from pgcomm.io.config import write_motor
 from pgcomm.twin import DEFAULT_TWIN, true_fundamental
+
+
+def test_the_command_line_loads_no_jax_scipy_or_matplotlib_before_a_command_runs():
+    """``import pgcomm.cli`` (every command's parser) and ``pgcomm --help`` load none of the heavy libraries: their
+    imports sit inside the commands, so a bad option is answered at once."""
+    heavy = ("jax", "scipy", "matplotlib", "dask", "pyarrow", "h5py")
+    code = ("import sys, pgcomm.cli; from pgcomm.cli import build_parser; build_parser().format_help(); "
+            f"loaded = [m for m in {heavy!r} if m in sys.modules]; assert not loaded, loaded")
+    subprocess.run([sys.executable, "-c", code], check=True)
 
 
 def run(argv, capsys):

@@ -295,8 +295,9 @@ def test_inspect_counts_pgnn_parameters(tmp_path, capsys):
 
     m = truth_model()
     keys = jax.random.split(jax.random.PRNGKey(0), 3)
-    pgnn = CombinedModel.from_coil_sets([CoilSetModel.init(keys[l], m.A[l], m.B[l], m.pole_pitch, 0.0, 0.1,
-                                                           y_min=-0.1, y_max=0.1) for l in range(3)])
+    pgnn = CombinedModel.from_coil_sets([CoilSetModel.init(keys[l], CoilSetModel.physics(m.A[l], m.B[l], m.pole_pitch,
+                                                                                         0.0, 0.1, -0.1, 0.1))
+                                         for l in range(3)])
     path, _ = save_model(tmp_path / "pgnn.json", pgnn)
     code, stdout, err = run(["inspect", "--model", path, "--json"], capsys)
     s = json.loads(stdout)["structure"]

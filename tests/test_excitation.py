@@ -19,6 +19,7 @@ from pgcomm.errors import DataError
 from pgcomm.excitation import excitation_report, group_logs
 from pgcomm.plots import plot_coverage
 from pgcomm.data import CoilSetData
+from pgcomm.motor import Motor
 from pgcomm.excitation import check_excitation
 from pgcomm.io.logs import Log
 from pgcomm.models import physics_from_ideal
@@ -271,6 +272,6 @@ def test_two_exact_directions_in_equal_shares_are_two_directions():
     fy1 = 20.0 + 15.0 * np.sin(2 * np.pi * 61.3 * np.arange(m) / m)  # ~3 periods per bin
     y, fy = np.tile(y1, 2), np.tile(fy1, 2)
     delta = np.repeat([np.pi / 4, -np.pi / 4], m)
-    data = CoilSetData.from_drive_inputs(y, fy, delta, np.zeros((2 * m, 3)), 60.0, -0.5, 0.03,
-                                         np.repeat([0, 1], m))
+    drive = Motor(pole_pitch=0.03, lever_arms=(0.0,), k=(60.0,), zeta=(-0.5,))
+    data = CoilSetData.from_drive_inputs(y, fy, delta, np.zeros((2 * m, 3)), drive, 0, np.repeat([0, 1], m))
     assert check_excitation(data, 0.03) == []

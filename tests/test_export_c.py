@@ -24,7 +24,7 @@ import pytest
 
 import _c_harness as c_harness
 from pgcomm.commutation import ModelLaw, currents_to_drive_inputs
-from pgcomm.export.c import c_source, write_c
+from pgcomm.export.c import CLawOptions, c_source, write_c
 from pgcomm.models import MLP, CoilSetModel, CombinedModel, physics_from_ideal
 
 POLE_PITCH = 0.03
@@ -73,7 +73,8 @@ def make_model(L, gain_widths=(2,), cog_widths=(16,), activation="tanh", seed=0)
 
 def compile_law(cc, model, directory: Path, precision="double", name="law", **kwargs) -> Path:
     """Export ``model``, compile it with the law harness (tests/_c_harness.py), return the executable."""
-    write_c(model, directory, name=name, precision=precision, **kwargs)
+    options = {k: kwargs.pop(k) for k in list(kwargs) if k in CLawOptions.__dataclass_fields__}
+    write_c(model, directory, CLawOptions(name, precision, **options), **kwargs)
     return c_harness.compile_law(cc, directory, name)
 
 
@@ -262,8 +263,8 @@ def test_non_finite_input_gives_zero_and_code_two(cc, tmp_path, precision):
 def test_drive_constants_and_metadata_are_embedded(tmp_path):
     model = make_model(2, seed=2)
     meta = {"source": "runs/model.json", "created": "2024-06-11T10:00:00", "pgcomm_version": "0.1.0"}
-    paths = write_c(model, tmp_path / "out", name="motor_a", metadata=meta, drive=((60.0, 61.0), -0.5),
-                    current_limit=10.0)
+    paths = write_c(model, tmp_path / "out", CLawOptions("motor_a", current_limit=10.0), metadata=meta,
+                    drive=((60.0, 61.0), -0.5))
     assert [p.name for p in paths] == ["motor_a.h", "motor_a.c"]
     header, source = (p.read_text() for p in paths)
     for text in ("runs/model.json", "2024-06-11T10:00:00", "pgcomm 0.1.0", "L = 2", "d_m = 0.03 m",
@@ -300,7 +301,7 @@ def _file_scope_statements(source: str) -> list[str]:
 @pytest.mark.parametrize("precision", ["double", "single"])
 def test_source_is_self_contained_and_has_no_mutable_state(precision):
     model = make_model(3, (3, 2), (16,), seed=4)
-    header, source = c_source(model, "pgcomm_law", precision, drive=(61.0, -0.5), current_limit=5.0)
+    header, source = c_source(model, CLawOptions("pgcomm_law", precision, 5.0), drive=(61.0, -0.5))
     both = header + source
     for word in ("malloc", "calloc", "realloc", "free(", "alloca", "printf"):
         assert word not in both, word
@@ -326,7 +327,7 @@ def test_source_is_self_contained_and_has_no_mutable_state(precision):
 
 def test_double_weights_round_trip_exactly():
     model = make_model(2, (2,), (5,), seed=9)
-    _, source = c_source(model, "w")
+    _, source = c_source(model, CLawOptions("w"))
 
     def numbers(cname):
         body = re.search(rf"static const double {cname}(?:\[\d+\])+ = (\{{.*?\}});", source, flags=re.S).group(1)
@@ -340,15 +341,15 @@ def test_double_weights_round_trip_exactly():
 @pytest.mark.parametrize("bad", ["1law", "_law", "law-x", "", "la w"])
 def test_bad_name_is_refused(bad):
     with pytest.raises(ValueError, match="C identifier"):
-        c_source(make_model(1, None, None), bad)
+        CLawOptions(bad)
 
 
 def test_bad_arguments_are_refused(tmp_path):
     model = make_model(2, None, (4,))
     with pytest.raises(ValueError, match="precision"):
-        c_source(model, precision="half")
+        CLawOptions(precision="half")
     with pytest.raises(ValueError, match="current_limit"):
-        c_source(model, current_limit=-1.0)
+        CLawOptions(current_limit=-1.0)
     bad = CombinedModel(model.A.at[0, 0, 0].set(jnp.nan), model.B, None, model.cog_nets, model.y_center,
                         model.y_scale, model.pole_pitch, model.y_min, model.y_max)
     with pytest.raises(ValueError, match="non-finite"):

@@ -591,3 +591,30 @@ def test_linear_closed_loop_carries_the_direction_table():
     diff = t.f_star[:, 0] - c.f_star[:, 0]
     fwd, rev = v > 0.5 * v.max(), v < 0.5 * v.min()
     assert np.mean(diff[fwd]) == pytest.approx(-5.0, abs=0.5) and np.mean(diff[rev]) == pytest.approx(5.0, abs=0.5)
+
+
+#: Each drive's reader on a file with a bad line 3 (a comment and a blank line before it count): the message names
+#: the file, the line and what was wrong.
+READER_CASES = [
+    (akd.read_akd, "COGCOMP.CORRECTIONVALUE 0 abc", r"t\.txt line 3: 'abc' is not a number"),
+    (akd.read_akd, "COGCOMP.RANGELOW 1e999", r"t\.txt line 3: 1e999 is not finite"),
+    (beckhoff.read_beckhoff, "0x32CB:02 = x", r"t\.txt line 3: '0x32CB:02 = x' is not 'index:subindex = value'"),
+    (beckhoff.read_beckhoff, "32CB:02 = 1", r"t\.txt line 3: '32CB:02 = 1' is not 'index:subindex = value'"),
+    (ioni.read_ioni, "TRA1 = one A", r"t\.txt line 3: 'TRA1 = one A' is not a TRF/TRA setting of pgcomm"),
+    (moog.read_moog, "P 380[0] = nan", r"t\.txt line 3: nan is not finite"),
+    (moog.read_moog, "P380 = 1", r"t\.txt line 3: 'P380 = 1' is not 'P id\[index\] = value'"),
+    (read_moteus, "conf set motor.cogging_dq_comp.0 1.x", r"t\.txt line 3: '1\.x' is not a number"),
+    (sinamics.read_sinamics, "p5260[0] = -inf", r"t\.txt line 3: -inf is not finite"),
+    (sinamics.read_sinamics, "p5260[0] := 1", r"t\.txt line 3: 'p5260\[0\] := 1' is not 'pNNNN\[i\] = value'"),
+    (summit.read_summit, "0x2308 = 1,5", r"t\.txt line 3: '1,5' is not a number"),
+    (summit.read_summit, "0x2309 = 1", r"t\.txt line 3: '0x2309 = 1' is not '0x230N = value'"),
+]
+
+
+@pytest.mark.parametrize("reader, line, match", READER_CASES,
+                         ids=[f"{r.__module__.rsplit('.', 1)[-1]}: {line}" for r, line, _ in READER_CASES])
+def test_every_drive_reader_names_the_file_and_line_of_a_bad_entry(tmp_path, reader, line, match):
+    path = tmp_path / "t.txt"
+    path.write_text(f"# a drive's file: comments and blank lines are skipped but counted\n\n{line}  # the bad one\n")
+    with pytest.raises(DataError, match=match):
+        reader(path)

@@ -28,7 +28,7 @@ import _c_harness as c_harness
 from pgcomm.commutation import ModelLaw, currents_to_drive_inputs
 from pgcomm.control import feedforward_signal
 from pgcomm.errors import DataError
-from pgcomm.export.c import c_source, write_c
+from pgcomm.export.c import CLawOptions, c_source, write_c
 from pgcomm.export.lut import build_cogging_table, build_lut, cogging_table_error, lut_currents, lut_error, write_lut
 from pgcomm.io.model import SPLINE_SCHEMA, feedforward_from_metadata, load_model, save_model
 from pgcomm.models import physics_from_ideal
@@ -165,7 +165,8 @@ def test_missing_npz_and_bad_saves(tmp_path):
 def compile_law(cc, model, directory: Path, mechanics, precision="double", name="spl", **kwargs) -> Path:
     """Export ``model`` with the feedforward, compile it with the law harness (tests/_c_harness.py), return the
     executable."""
-    write_c(model, directory, name=name, precision=precision, mechanics=mechanics, **kwargs)
+    options = {k: kwargs.pop(k) for k in list(kwargs) if k in CLawOptions.__dataclass_fields__}
+    write_c(model, directory, CLawOptions(name, precision, **options), mechanics=mechanics, **kwargs)
     return c_harness.compile_law(cc, directory, name, direction="y, v" if model.has_direction else None,
                                  feedforward=True)
 
@@ -259,14 +260,14 @@ def test_c_single_precision_compiles_and_agrees(tmp_path, cc):
 
 
 def test_c_source_without_mechanics_has_no_feedforward_and_pgnn_api():
-    header, source = c_source(make_spline(direction=False), name="s")
+    header, source = c_source(make_spline(direction=False), CLawOptions("s"))
     assert "s_feedforward" not in header and "int s_currents(double y, const double f_star[3]" in header
     assert "#define S_HAS_VELOCITY 0" in header and "s_locate" in source
-    header, _ = c_source(make_spline(direction=True), name="s")
+    header, _ = c_source(make_spline(direction=True), CLawOptions("s"))
     assert "int s_currents(double y, double v, const double f_star[3]" in header
     assert "void s_direction(double y, double v, double force[3]);" in header
     with pytest.raises(ValueError, match="uniform"):
-        c_source(make_spline(), name="s", mechanics=dict(make_mechanics(), coulomb_knots=[0.0, 0.01, 0.03, 0.04,
+        c_source(make_spline(), CLawOptions("s"), mechanics=dict(make_mechanics(), coulomb_knots=[0.0, 0.01, 0.03, 0.04,
                                                                                           0.05, 0.06]))
 
 

@@ -47,7 +47,7 @@ def _truth(seed=3):
     """A PGNN of the extended class: ideal physics, random small networks, harmonics and a direction term."""
     key = jax.random.PRNGKey(seed)
     a, b = physics_from_ideal(D_M, 61.3, -0.54, 0.05, 0.005)
-    m = CoilSetModel.init(key, a, b, D_M, 0.0, 0.1, (2,), (3,), harmonics=True, direction=True,
+    m = CoilSetModel.init(key, CoilSetModel.physics(a, b, D_M, 0.0, 0.1), (2,), (3,), harmonics=True, direction=True,
                           direction_velocity=V_EPS)
     rng = np.random.default_rng(seed)
     scale = np.array([1.0, 0.1, 0.01])
@@ -126,8 +126,8 @@ def test_proposition1_with_extra_columns_matches_lstsq(truth, data):
 def test_jacobian_with_direction_term_matches_finite_differences(truth, data):
     sub = data.take(slice(None, None, 4))
     a, b = idf.fit_physics(sub, D_M)
-    model = CoilSetModel.init(jax.random.PRNGKey(7), a, b, D_M, 0.0, 0.1, (2,), (3,), harmonics=True,
-                              direction=True, direction_velocity=V_EPS)
+    model = CoilSetModel.init(jax.random.PRNGKey(7), CoilSetModel.physics(a, b, D_M, 0.0, 0.1), (2,), (3,),
+                              harmonics=True, direction=True, direction_velocity=V_EPS)
     star = idf.theta_phy(a, b)
     f, jtj, jtr, _ = idf.projected_normal_equations(model, sub, theta_phy_star=star)
     flat = np.asarray(idf.hidden_vector(model))
@@ -190,7 +190,7 @@ def test_c_export_with_velocity_matches_python(cc, tmp_path, truth):
     import _c_harness as c_harness
     from test_export_c import samples
 
-    from pgcomm.export.c import write_c
+    from pgcomm.export.c import CLawOptions, write_c
 
     L = 2
     # a second coil set at another lever arm: with both at the same lever arm the Tz row is nearly
@@ -198,7 +198,7 @@ def test_c_export_with_velocity_matches_python(cc, tmp_path, truth):
     a2, b2 = physics_from_ideal(D_M, 61.6, -0.55, 0.05, 0.075)
     model = CombinedModel.from_coil_sets([truth, dataclasses.replace(truth, A=jnp.asarray(a2), B=jnp.asarray(b2),
                                                                      C=truth.C * 0.5)])
-    write_c(model, tmp_path, name="law")
+    write_c(model, tmp_path, CLawOptions("law"))
     exe = c_harness.compile_law(cc, tmp_path, "law")
     y, f, k_hat, zeta_hat = samples(L, n=2000)
     v = np.random.default_rng(3).uniform(-0.005, 0.005, y.size)  # through the smooth sign's transition

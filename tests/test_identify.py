@@ -30,6 +30,8 @@ from pgcomm.motor import Motor, ideal_gain
 
 D_M = 0.03
 K_HAT, ZETA_HAT = 67.0, -0.52
+#: the drive's fixed commutation of the one coil set
+DRIVE = Motor(pole_pitch=D_M, lever_arms=(0.0,), k=(K_HAT,), zeta=(ZETA_HAT,))
 
 
 def sweep(n, speeds, dt=1e-3, stroke=0.1):
@@ -81,7 +83,7 @@ def synthetic_coil_set(n_per=3000, seed=0, deltas=(np.pi / 4, -np.pi / 4), speed
     cur = np.asarray(drive_currents(y, fy[:, None], delta[:, None], K_HAT, ZETA_HAT, D_M))[:, 0]
     force = (np.einsum("nqj,nj->nq", true_gain(y, lever_arm), cur) + true_cogging(y)
              + rng.normal(size=(y.size, 3)) * np.asarray(noise))
-    return pdata.CoilSetData.from_drive_inputs(y, fy, delta, force, K_HAT, ZETA_HAT, D_M, exp, name)
+    return pdata.CoilSetData.from_drive_inputs(y, fy, delta, force, DRIVE, 0, exp, name)
 
 
 @pytest.fixture(scope="module")
@@ -279,7 +281,7 @@ def test_drive_input_front_end(data):
     cur = data.currents[:50]
     fy, delta = (np.asarray(v)[:, 0] for v in currents_to_drive_inputs(y, cur[:, None], K_HAT, ZETA_HAT, D_M))
     assert np.all((delta > -np.pi / 2) & (delta <= np.pi / 2))  # the sign convention of the logs
-    d2 = pdata.CoilSetData.from_drive_inputs(y, fy, delta, data.force[:50], K_HAT, ZETA_HAT, D_M)
+    d2 = pdata.CoilSetData.from_drive_inputs(y, fy, delta, data.force[:50], DRIVE)
     np.testing.assert_allclose(d2.currents, cur, rtol=0, atol=1e-12)
 
 

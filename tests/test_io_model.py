@@ -22,7 +22,8 @@ def _model(gain=(2,), cog=(16,), n_coil_sets=3):
     sets = []
     for l in range(n_coil_sets):
         a, b = physics_from_ideal(D_M, 61.0 + l, -0.54, 0.05, 0.07 * (l - 1))
-        m = CoilSetModel.init(jax.random.PRNGKey(l), a, b, D_M, 0.001 * l, 0.1, gain, cog, "tanh", -0.1, 0.0999)
+        m = CoilSetModel.init(jax.random.PRNGKey(l), CoilSetModel.physics(a, b, D_M, 0.001 * l, 0.1, -0.1, 0.0999), gain,
+                              cog, "tanh")
         leaves, tree = jax.tree_util.tree_flatten(m)
         sets.append(jax.tree_util.tree_unflatten(tree, [np.asarray(x) + rng.normal(size=x.shape) for x in leaves]))
     return CombinedModel.from_coil_sets(sets)

@@ -141,7 +141,7 @@ def test_default_substeps_keep_the_error_of_a_sample_below_the_encoder_quantum()
     from pgcomm.commutation import ClassicalLaw
     from pgcomm.control import Feedforward
     from pgcomm.sensors import Sensors
-    from pgcomm.simulate import simulate
+    from pgcomm.simulate import ClosedLoop, simulate
     from pgcomm.twin import DEFAULT_TWIN
 
     dt = 1e-3
@@ -149,7 +149,8 @@ def test_default_substeps_keep_the_error_of_a_sample_below_the_encoder_quantum()
     ref = trajectory.sequence([(0.08, 0.4, 3.0, 1000.0), (0.0, 0.4, 3.0, 1000.0)], dt, dwell=0.2, initial_dwell=0.1)
     motor = DEFAULT_TWIN.motor()
     fine = Mechanics(substeps=64)
-    res = simulate(DEFAULT_TWIN.plant(), ClassicalLaw.from_motor(motor), ref, drive=motor, mechanics=fine,
+    res = simulate(DEFAULT_TWIN.plant(), ClassicalLaw.from_motor(motor), ref, drive=motor,
+                   loop=ClosedLoop(mechanics=fine),
                    feedforward=Feedforward(mass=30.0, viscous=80.0, coulomb=12.0))
     force = jnp.asarray(res.f_true[:, 0])
 

@@ -40,7 +40,8 @@ def _coil_sets(n, seed=0, gain=(2,), cog=(16,), scale=0.3):
     out = []
     for l in range(n):
         a, b = physics_from_ideal(D_M, 61.0 + l, -0.54 + 0.01 * l, 0.05, motor.lever_arms[l])
-        m = CoilSetModel.init(jax.random.PRNGKey(seed + l), a, b, D_M, 0.0, 0.1, gain, cog, "tanh", -0.1, 0.1)
+        m = CoilSetModel.init(jax.random.PRNGKey(seed + l), CoilSetModel.physics(a, b, D_M, 0.0, 0.1, -0.1, 0.1), gain,
+                              cog, "tanh")
         out.append(_randomised(m, scale, seed + 10 + l))
     return out
 
@@ -56,7 +57,7 @@ def test_physics_from_ideal_is_the_ideal_gain(k, zeta, mu, d):
 
 def test_pgnn_with_zero_output_layers_is_the_physics_model():
     a, b = physics_from_ideal(D_M, 61.34, -0.54, 0.05, 0.005)
-    pgnn = CoilSetModel.init(jax.random.PRNGKey(0), a, b, D_M, 0.01, 0.1)  # output layers are zero
+    pgnn = CoilSetModel.init(jax.random.PRNGKey(0), CoilSetModel.physics(a, b, D_M, 0.01, 0.1))  # zero output layers
     phys = pgnn.physics_only()
     truth = np.asarray(ideal_gain(Y, Motor(lever_arms=(0.005,), k=61.34, zeta=-0.54), mu=0.05))[:, 0]
     np.testing.assert_allclose(np.asarray(_gain(pgnn, Y)), np.asarray(_gain(phys, Y)), rtol=0, atol=1e-12)
@@ -167,8 +168,9 @@ def test_padded_network_is_the_same_function_and_stacks():
 
     from pgcomm.models import MLP, CoilSetModel, CombinedModel
 
-    a = CoilSetModel.init(jax.random.PRNGKey(1), np.ones((3, 2)), np.zeros((3, 2)), 0.03, 0.0, 0.1, (2,), (4,))
-    b = CoilSetModel.init(jax.random.PRNGKey(2), np.ones((3, 2)), np.zeros((3, 2)), 0.03, 0.0, 0.1, (8,), (4,))
+    phys = CoilSetModel.physics(np.ones((3, 2)), np.zeros((3, 2)), 0.03, 0.0, 0.1)
+    a = CoilSetModel.init(jax.random.PRNGKey(1), phys, (2,), (4,))
+    b = CoilSetModel.init(jax.random.PRNGKey(2), phys, (8,), (4,))
     net = MLP.init(jax.random.PRNGKey(3), (2,))
     net = MLP(net.hidden, jax.random.normal(jax.random.PRNGKey(4), (2, 3)), jnp.ones(3), net.activation)
     s = jnp.linspace(-1.2, 1.2, 50)

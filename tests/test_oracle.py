@@ -19,7 +19,7 @@ from pgcomm.control import Feedforward
 from pgcomm.mechanics import Mechanics
 from pgcomm.metrics import DIRECTIONS, lowpass, mse_difference_se
 from pgcomm.sensors import Sensors
-from pgcomm.simulate import simulate_many
+from pgcomm.simulate import ClosedLoop, simulate_many
 from pgcomm.twin import DEFAULT_TWIN, true_fundamental
 
 SENSORS = Sensors()  # the default noise and encoder
@@ -54,8 +54,8 @@ def runs():
     names = list(laws)
     out = []
     for name in names:  # one law type per call: each compiles once, the same noise seed for all
-        out += simulate_many(plant, [laws[name]], ref, drive=drive, feedforwards=[ff], mechanics=mech,
-                             sensors=SENSORS, seeds=[11])
+        out += simulate_many(plant, [laws[name]], ref, drive=drive, loop=ClosedLoop(mechanics=mech, sensors=SENSORS),
+                             feedforwards=[ff], seeds=[11])
     return dict(zip(names, out))
 
 

@@ -391,11 +391,11 @@ FAST = ["-ffast-math"]
 
 @pytest.mark.parametrize("kind, precision", [("pgnn", "double"), ("pgnn", "single"), ("spline", "double")])
 def test_c_law_under_fast_math_stays_finite_and_limited(cc, tmp_path, rng, kind, precision):
-    from pgcomm.export.c import write_c
+    from pgcomm.export.c import CLawOptions, write_c
 
     model = _pgnn() if kind == "pgnn" else _spline(rng)
     L = model.n_coil_sets
-    write_c(model, tmp_path, name="law", precision=precision, current_limit=LIMIT)
+    write_c(model, tmp_path, CLawOptions("law", precision, LIMIT))
     assert "isfinite" not in (tmp_path / "law.c").read_text() + (tmp_path / "law.h").read_text()
     exe = c_harness.compile_law(cc, tmp_path, "law", flags=FAST)
     y, f, v = _fuzz_inputs(rng, 3000)
@@ -445,7 +445,7 @@ def test_angle_lookups_under_fast_math_stay_finite_and_limited(cc, tmp_path, wha
     from pgcomm.export.angle_lut import angle_lut_header, build_angle_lut
     from pgcomm.export.angle_table import make_table
     from pgcomm.export.rotary_law import build_rotary_law, rotary_law_header
-    from pgcomm.io.model import rotary_model_from_dict
+    from pgcomm.io.rotary_model import rotary_model_from_dict
 
     limit = 0.5
     if what == "c-angle":

@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pgcomm.calibration import convergence, fit_coefficients
+from pgcomm.calibration import CalibrationOptions, convergence, fit_coefficients
 from pgcomm.cli import main
 from pgcomm.experiment import data_generation_reference, run_calibration
 from pgcomm.setup import build_setup
@@ -116,14 +116,15 @@ def test_standard_error_matches_the_closed_form_and_the_spread_over_noise(rng):
     for _ in range(40):
         fy1 = c_true[0] * fs1 + sigma * rng.normal(size=n)
         fy2 = c_true[1] * fs2 + sigma * rng.normal(size=n)
-        c1, c2, cov = fit_coefficients(fy1, fs1, y, fy2, fs2, y, method="offset", n_bins=10, sample_time=ts,
-                                       pole_pitch=0.03, return_cov=True)
+        c1, c2, cov = fit_coefficients((fy1, fs1, y), (fy2, fs2, y), CalibrationOptions(method="offset", n_bins=10),
+                                       sample_time=ts, pole_pitch=0.03, return_cov=True)
         draws.append((c1, c2))
         se.append(np.sqrt(np.diag(cov)))
     draws, se = np.asarray(draws), np.asarray(se)
     # 40 draws: the sample standard deviation is within ±35 % of the truth with > 99 % probability
     np.testing.assert_allclose(draws.std(axis=0, ddof=1), se.mean(axis=0), rtol=0.35)
-    p1, p2, cov = fit_coefficients(fy1, fs1, y, fy2, fs2, y, method="paper", sample_time=ts, return_cov=True)
+    p1, p2, cov = fit_coefficients((fy1, fs1, y), (fy2, fs2, y), CalibrationOptions(method="paper"), sample_time=ts,
+                                   return_cov=True)
     closed = sigma**2 / np.array([fs1 @ fs1, fs2 @ fs2])
     # the variance from 40 blocks of residuals: relative error about sqrt(2/40) = 0.22; 3x that as the bar
     np.testing.assert_allclose(np.diag(cov), closed, rtol=0.67)

@@ -17,7 +17,7 @@ from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.model import Fourier
 from pgcomm.rotary.regression import Orders
 from pgcomm.rotary.twin import LawParams, default_gains, simulate
-from pgcomm.rotary.winding import BACK_EMF_FACTOR, Winding, d_voltage, deadtime_q, logged_dq, phase_saturation_dq, \
+from pgcomm.rotary.winding import BACK_EMF_FACTOR, BackEmf, Winding, d_voltage, deadtime_q, logged_dq, phase_saturation_dq, \
     q_voltage
 from pgcomm.rotary.zoo import draw_rotary
 
@@ -85,9 +85,9 @@ def _synthetic(noise: float, seed: int = 0):
     for speed in (20.0, -20.0, 40.0, -40.0):
         th = 0.3 + speed * t
         om = np.full(n, speed)
-        vq = q_voltage(w, 0.3, ripple, p, 0.0, th, om, iq, ts, rng.standard_normal(n))
-        vd = d_voltage(w, 0.3 / math.cos(SYNTHETIC_DELTA), SYNTHETIC_DELTA, ripple, p, 0.0, th, om, iq,
-                       rng.standard_normal(n))
+        emf = BackEmf(0.3 / math.cos(SYNTHETIC_DELTA), SYNTHETIC_DELTA, ripple, p)
+        vq = q_voltage(w, emf, th, om, iq, ts, rng.standard_normal(n))
+        vd = d_voltage(w, emf, th, om, iq, rng.standard_normal(n))
         logs.append({"t": t, "theta": th, "iq_1": iq, "vq_1": vq, "vd_1": vd})
     return logs, ripple, w, p, ts
 

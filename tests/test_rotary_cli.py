@@ -279,7 +279,7 @@ def test_a_current_counted_against_the_angle_gives_the_negated_table(tmp_path, z
     ("glitch", r"glitch\.csv row 1001: 'theta' jumps by 0\.3.* encoder glitch"),
     ("sweep in degrees", r"deg\.csv: the angle travels 5[78] revolutions forward .* declare it in the --columns map"),
     ("delay", "--current-delay 0.5: an integer number of samples"),
-    ("lag", "--current-lag 2: held, or a lag in samples between -0.5 and 0.5"),
+    ("lag", "--current-lag 2: \"held\", or a lag in samples between -0.5 and 0.5"),
     ("pll", "--angle-pll 1000,-1: a natural frequency in rad/s and optionally a damping, both positive"),
     ("lines", "--time-lines 50,x: frequencies in Hz, positive"),
     ("noise", "--current-noise -0.1: the logged current's noise in A"),
@@ -618,3 +618,34 @@ def test_the_rotary_table_of_the_settings_reads_as_the_options_on_the_command_li
     both = _rotary_options(parser.parse_args([*base, "--config", str(cfg), "--current-filter", "0.08"]))
     assert both == replace(from_file, current_filter=0.08)
     assert _rotary_options(parser.parse_args(base)) == RotaryIdentifyOptions()
+
+
+def test_the_rotary_experiment_table_of_the_settings_sizes_reproduce(tmp_path):
+    """``reproduce --motor rotary.toml --config FILE``: the experiment's sizes are the file's ``[rotary_experiment]``
+    (:class:`~pgcomm.settings.RotarySettings`); ``--quick`` shortens what the file leaves to the defaults, and
+    ``--log-budget`` / ``--until-resolved`` take their keys' place."""
+    from dataclasses import replace
+
+    from pgcomm.cli import build_parser
+    from pgcomm.cli._reproduce_rotary import _rotary_settings
+    from pgcomm.rotary.experiment import quick_settings
+    from pgcomm.settings import RotarySettings, StandstillPlan
+
+    parser = build_parser()
+    base = ["reproduce", "--motor", "m.toml", "--out", str(tmp_path / "o")]
+    cfg = tmp_path / "exp.toml"
+    cfg.write_text("[rotary]\ncurrent_filter = 0.08\n[rotary_experiment]\nrevolutions = 1.5\nspeed_shares = [0.2, 0.4]\n"
+                   "log_budget_share = 2.0\nstop_when_resolved = true\n[rotary_experiment.standstill]\npoints = 1440\n")
+    from_file = RotarySettings(revolutions=1.5, speed_shares=(0.2, 0.4), log_budget_share=2.0, stop_when_resolved=True,
+                               standstill=StandstillPlan(points=1440))
+    ts = 1e-3
+    assert _rotary_settings(parser.parse_args([*base, "--config", str(cfg)]), ts) == from_file
+    assert _rotary_settings(parser.parse_args(base), ts) == RotarySettings()
+    assert _rotary_settings(parser.parse_args([*base, "--quick"]), ts) == quick_settings()
+    quick_cfg = tmp_path / "quick.toml"
+    quick_cfg.write_text("[rotary_experiment]\nspeed_shares = [0.2, 0.4]\n")
+    assert (_rotary_settings(parser.parse_args([*base, "--quick", "--config", str(quick_cfg)]), ts)
+            == replace(quick_settings(), speed_shares=(0.2, 0.4)))
+    # 40 s of rig time over the sweep's 2 * 1440 * (30 + 20) samples of 1 ms
+    budget = _rotary_settings(parser.parse_args([*base, "--config", str(cfg), "--log-budget", "40"]), ts)
+    assert budget == replace(from_file, log_budget_share=pytest.approx(40 / (2 * 1440 * 50 * ts), rel=1e-12))

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from pgcomm.rotary.model import Fourier
-from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, breakaway_current, power_up_offset, simulate
+from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, Start, breakaway_current, power_up_offset, \
+    simulate
 from pgcomm.rotary.zoo import draw_rotary
 
 
@@ -305,7 +306,7 @@ def test_the_index_moves_the_drives_angle_between_power_ups():
     om = np.minimum(1.0, np.arange(n) / 300.0) * 15.0
     ref = Reference(1.0 + ts * np.cumsum(om), om, np.gradient(om, ts), "speed")
     law = LawParams.classical(t.motor.pole_pairs)
-    one, two = (simulate(t, ref, law, default_gains(a), power_up=s, theta0=1.0) for s in (0, 1))
+    one, two = (simulate(t, ref, law, default_gains(a), start=Start(power_up=s, theta=1.0)) for s in (0, 1))
     q = 2 * np.pi / t.encoder_counts
     assert power_up_offset(t, 1) == pytest.approx(math.pi, abs=1e-12)
     scale = float(np.max(np.abs(one["theta_true"])))

@@ -290,14 +290,14 @@ def test_log_budget_is_a_share_of_this_motors_sweep():
     """``--log-budget`` seconds become the settings' share of the sweep's rig time on the motor's own sample time."""
     import argparse
 
-    from pgcomm.cli._reproduce_rotary import _log_budget
+    from pgcomm.cli._reproduce_rotary import _rotary_settings
 
     s = quick_settings()
     for ts in (1e-3, 2.5e-4):
-        got = _log_budget(argparse.Namespace(log_budget=42.0, until_resolved=True), s, ts)
+        got = _rotary_settings(argparse.Namespace(config=None, quick=True, log_budget=42.0, until_resolved=True), ts)
         assert got.log_budget_share * got.standstill.duration(ts) == pytest.approx(42.0, rel=1e-12)
         assert got.stop_when_resolved
-    kept = _log_budget(argparse.Namespace(log_budget=None, until_resolved=False), s, 1e-3)
+    kept = _rotary_settings(argparse.Namespace(config=None, quick=True, log_budget=None, until_resolved=False), 1e-3)
     assert kept.log_budget_share == s.log_budget_share and not kept.stop_when_resolved
 
 

@@ -27,7 +27,7 @@ def _pgnn(seed=0):
     models = []
     for l, (z, d) in enumerate(((-0.54, -0.065), (-0.55, 0.005), (-0.55, 0.075))):
         a, b = physics_from_ideal(D_M, K, z, 0.05, d)
-        m = CoilSetModel.init(jax.random.PRNGKey(seed + l), a, b, D_M, 0.0, 0.1, y_min=-0.1, y_max=0.1)
+        m = CoilSetModel.init(jax.random.PRNGKey(seed + l), CoilSetModel.physics(a, b, D_M, 0.0, 0.1, -0.1, 0.1))
         # output layers large enough that the networks dominate far outside the range
         m = m.with_outputs(a, b, [(jnp.full((2, 3), 5.0), jnp.zeros(3))] * 2, (jnp.full((16, 3), 3.0), jnp.zeros(3)))
         models.append(m)
@@ -101,11 +101,11 @@ def test_c_law_is_safe_and_agrees_with_model_law(cc, tmp_path, rng, kind, precis
     within the limit on every phase; codes 0 inside, 1 held at the end, 2 non-finite (zero currents); the
     currents those of ModelLaw; the drive inputs in the convention and giving the currents back."""
     from pgcomm.commutation import drive_currents
-    from pgcomm.export.c import write_c
+    from pgcomm.export.c import CLawOptions, write_c
 
     model = _pgnn() if kind == "pgnn" else _spline(rng)
     L = model.n_coil_sets
-    write_c(model, tmp_path, name="law", precision=precision, current_limit=LIMIT)
+    write_c(model, tmp_path, CLawOptions("law", precision, LIMIT))
     exe = c_harness.compile_law(cc, tmp_path, "law")
     y, f, v = _fuzz_inputs(rng, 8000)
     k_hat = K * rng.uniform(0.9, 1.1, (y.size, L))

@@ -16,7 +16,7 @@ from pgcomm.forcemap import ForceMapPlant
 from pgcomm.mechanics import Mechanics
 from pgcomm.motor import star_to_phases
 from pgcomm.sensors import Sensors
-from pgcomm.simulate import SimResult, simulate, simulate_many
+from pgcomm.simulate import ClosedLoop, SimResult, simulate, simulate_many
 from pgcomm.twin import DEFAULT_TWIN
 
 EFFECTS = ("imbalance", "field", "harmonics", "out_of_plane", "cogging", "direction")
@@ -47,7 +47,7 @@ def exact_drive():
 def double_integrator(plant0, exact_drive, reference):
     law = ClassicalLaw.from_motor(exact_drive)
     return simulate(plant0, law, reference, drive=exact_drive, feedforward=Feedforward(mass=FRICTIONLESS.mass),
-                    mechanics=FRICTIONLESS, sensors=NO_NOISE)
+                    loop=ClosedLoop(mechanics=FRICTIONLESS, sensors=NO_NOISE))
 
 
 def test_double_integrator_commutation_is_exact(double_integrator):
@@ -100,7 +100,7 @@ def test_drive_inputs_reproduce_currents(plant0, reference):
     drive = TWIN0.motor(k_hat=67.0, zeta_hat=-0.52, current_limit=None)
     law = ClassicalLaw.from_motor(TWIN0.motor(k_hat=TWIN0.k, zeta_hat=TWIN0.zeta, current_limit=None))
     res = simulate(plant0, law, reference, drive=drive, feedforward=Feedforward(mass=30.0),
-                   mechanics=FRICTIONLESS, sensors=NO_NOISE)
+                   loop=ClosedLoop(mechanics=FRICTIONLESS, sensors=NO_NOISE))
     cur = drive_currents(jnp.asarray(res.y_meas), jnp.asarray(res.drive_fy), jnp.asarray(res.drive_delta),
                          jnp.asarray(drive.k), jnp.asarray(drive.zeta), drive.pole_pitch)
     np.testing.assert_allclose(np.asarray(cur), res.currents, rtol=0, atol=1e-10 * np.abs(res.currents).max())
@@ -119,7 +119,7 @@ def batch_setup(plant0, exact_drive):
 
 def test_simulate_many_equals_per_run_simulate(plant0, exact_drive, reference, batch_setup):
     laws, ffs, seeds = batch_setup
-    kw = dict(drive=exact_drive, mechanics=FRICTIONLESS, sensors=NOISY)
+    kw = dict(drive=exact_drive, loop=ClosedLoop(mechanics=FRICTIONLESS, sensors=NOISY))
     many = simulate_many(plant0, laws, reference, feedforwards=ffs, seeds=seeds, **kw)
     assert len(many) == 2
     for res_b, law, ff, seed in zip(many, laws, ffs, seeds):
@@ -144,7 +144,8 @@ def test_simulate_many_equals_per_run_simulate(plant0, exact_drive, reference, b
 
 def test_simulation_is_deterministic_by_seed(plant0, exact_drive, reference, batch_setup):
     law = batch_setup[0][1]
-    kw = dict(drive=exact_drive, feedforward=Feedforward(mass=30.0), mechanics=FRICTIONLESS, sensors=NOISY)
+    kw = dict(drive=exact_drive, feedforward=Feedforward(mass=30.0),
+              loop=ClosedLoop(mechanics=FRICTIONLESS, sensors=NOISY))
     a = simulate(plant0, law, reference, seed=5, **kw)
     b = simulate(plant0, law, reference, seed=5, **kw)
     c = simulate(plant0, law, reference, seed=6, **kw)
@@ -162,7 +163,7 @@ def test_current_limit_is_respected(plant0, reference):
     drive = TWIN0.motor(k_hat=67.0, zeta_hat=-0.52, current_limit=0.2)
     law = ClassicalLaw.from_motor(TWIN0.motor(k_hat=67.0, zeta_hat=-0.52, current_limit=None))
     res = simulate(plant0, law, reference, drive=drive, feedforward=Feedforward(mass=30.0),
-                   mechanics=FRICTIONLESS, sensors=NO_NOISE)
+                   loop=ClosedLoop(mechanics=FRICTIONLESS, sensors=NO_NOISE))
     peak = np.abs(np.asarray(star_to_phases(jnp.asarray(res.currents)))).max()
     assert peak <= 0.2 * (1 + 1e-12)
     assert peak == pytest.approx(0.2, rel=1e-9)  # the limit is reached on this move
@@ -177,7 +178,7 @@ def test_force_map_plant_outside_range_raises(plant0, exact_drive, reference):
     law = ClassicalLaw.from_motor(exact_drive)
     with pytest.raises(DataError, match="outside"):
         simulate(fmap, law, reference, drive=exact_drive, feedforward=Feedforward(mass=30.0),
-                 mechanics=FRICTIONLESS, sensors=NO_NOISE)
+                 loop=ClosedLoop(mechanics=FRICTIONLESS, sensors=NO_NOISE))
 
 
 def test_force_map_plant_inside_range_matches_twin(plant0, exact_drive, reference, double_integrator):
@@ -185,7 +186,7 @@ def test_force_map_plant_inside_range_matches_twin(plant0, exact_drive, referenc
     fmap = ForceMapPlant.from_plant(plant0, np.linspace(-0.02, 0.06, N_MAP))
     law = ClassicalLaw.from_motor(exact_drive)
     a = simulate(fmap, law, reference, drive=exact_drive, feedforward=Feedforward(mass=30.0),
-                 mechanics=FRICTIONLESS, sensors=NO_NOISE)
+                 loop=ClosedLoop(mechanics=FRICTIONLESS, sensors=NO_NOISE))
     b = double_integrator
     # linear interpolation of sinusoids on 25 µm steps: gain error <= (2π h/d_m)²/8 ≈ 3e-5 relative
     np.testing.assert_allclose(a.f_true[:, 0], b.f_true[:, 0], rtol=0, atol=1e-4 * np.abs(b.f_true[:, 0]).max())
@@ -201,7 +202,7 @@ def test_reference_sample_time_mismatch_raises(plant0, exact_drive, reference):
 def test_unstable_mechanics_raises(plant0, exact_drive, reference):
     with pytest.raises(ValueError, match="substeps"):
         simulate(plant0, ClassicalLaw.from_motor(exact_drive), reference, drive=exact_drive,
-                 mechanics=Mechanics(coulomb_velocity=1e-5, substeps=1))
+                 loop=ClosedLoop(mechanics=Mechanics(coulomb_velocity=1e-5, substeps=1)))
 
 
 def test_default_pid_is_tuned_for_mass(double_integrator):
@@ -214,7 +215,7 @@ def test_other_law_values_and_reference_lengths_reuse_the_compiled_loop(plant0, 
     class with other values, on a reference of another length, compiles nothing new."""
     from pgcomm import simulate as sim_mod
 
-    kw = dict(drive=exact_drive, mechanics=FRICTIONLESS, sensors=NO_NOISE)
+    kw = dict(drive=exact_drive, loop=ClosedLoop(mechanics=FRICTIONLESS, sensors=NO_NOISE))
     first = simulate(plant0, ClassicalLaw.from_motor(exact_drive), reference, feedforward=Feedforward(mass=30.0), **kw)
     compiled = sim_mod._chunk._cache_size()
     longer = trajectory.point_to_point(0.0, 0.08, 0.2, 2.0, 1000.0, 1e-3)

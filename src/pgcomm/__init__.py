@@ -52,6 +52,9 @@ _PUBLIC = {
     "identify_pgnn": ("pgcomm.identify", "identify"),
     "IdentifyOptions": ("pgcomm.identify.options", "IdentifyOptions"),
     "identify_spline": ("pgcomm.identify.spline", "identify_spline"),
+    # a linear motor's coil sets from their data sets (pgcomm identify), with its options
+    "identify_coil_sets": ("pgcomm.identification", "identify_coil_sets"),
+    "CoilSetsOptions": ("pgcomm.identification", "CoilSetsOptions"),
     # a rotary motor from its drive's logs (pgcomm identify --motor rotary.toml), with its settings
     "identify_rotary_logs": ("pgcomm.rotary.from_logs", "identify_from_logs"),
     "RotaryIdentifyOptions": ("pgcomm.settings", "RotaryIdentifyOptions"),
@@ -65,6 +68,7 @@ _PUBLIC = {
     "ModelLaw": ("pgcomm.commutation", "ModelLaw"),
     # deployment
     "write_c": ("pgcomm.export.c", "write_c"),
+    "CLawOptions": ("pgcomm.export.c", "CLawOptions"),
     "build_lut": ("pgcomm.export.lut", "build_lut"),
     # the interfaces
     "ForceModel": ("pgcomm.protocols", "ForceModel"),

@@ -50,6 +50,7 @@ from pgcomm.errors import DataError
 from pgcomm.interp import hat_basis
 from pgcomm.data import active_coil_set, log_currents, velocity_from_positions
 from pgcomm.sensorless import AccelerationFilter, filter_windows, filtered_acceleration, window_starts
+from pgcomm.settings import CalibrationOptions
 
 
 @dataclass(frozen=True)
@@ -93,25 +94,27 @@ class CalibrationResult:
                 "coefficients": {"c1": [s.c1 for s in steps], "c2": [s.c2 for s in steps]}}
 
 
-def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset", n_bins: int = 40,
-                     y_range=None, sample_time: float = 1e-3, min_speed: float = 0.01, pole_pitch=None,
-                     gain_bins: int = 8, mass: float | None = None, return_cov: bool = False):
+def fit_coefficients(set1, set2, options: CalibrationOptions = CalibrationOptions(), *, sample_time: float = 1e-3,
+                     pole_pitch=None, mass: float | None = None, return_cov: bool = False):
     """Least-squares ``ĉ_1, ĉ_2`` of eq. Ci from the two data sets of one coil set.
 
     Args:
-        fy*, fy_star*, y*: ``(N_i,)`` measured ``F_y`` (N), demanded ``F_y*`` (N), position (m).
-        method: ``"paper"`` (eq. Ci per data set) or ``"offset"`` (module docstring), with
-            ``n_bins`` offset bins and ``gain_bins`` gain bins over ``y_range`` (m, default the
-            data's range), samples with ``|v| <= min_speed`` (m/s; ``v`` from the positions and
-            ``sample_time``, s) left out, ripple terms when ``pole_pitch`` (m) is given; or
-            ``"sensorless"`` (module docstring; ``fy*`` unused, ``mass`` (kg) and ``pole_pitch`` needed).
+        set1, set2: ``(F_y, F_y*, y)`` of data set ``Z_i``: ``(N_i,)`` measured ``F_y`` (N), demanded ``F_y*`` (N),
+            position (m).
+        options: :class:`~pgcomm.settings.CalibrationOptions`: ``method`` ``"paper"`` (eq. Ci per data set) or ``"offset"`` (module
+            docstring), with ``n_bins`` offset bins and ``gain_bins`` gain bins over ``y_range`` (m, default the
+            data's range), samples with ``|v| <= min_speed`` (m/s; ``v`` from the positions and ``sample_time``, s)
+            left out, ripple terms when ``pole_pitch`` (m) is given; or ``"sensorless"`` (module docstring; ``F_y``
+            unused, ``mass`` (kg) and ``pole_pitch`` needed).
         return_cov: also return the ``(2, 2)`` covariance of ``(ĉ_1, ĉ_2)`` from the residuals
             (:func:`_block_covariance`: samples correlated within :data:`NOISE_BLOCK` seconds).
 
     Returns:
         ``(c1, c2)``, or ``(c1, c2, cov)`` with ``return_cov``.
     """
-    fy1, fs1, fy2, fs2 = (np.asarray(a, float) for a in (fy1, fy_star1, fy2, fy_star2))
+    (fy1, fs1, y1), (fy2, fs2, y2) = set1, set2
+    fy1, fs1, fy2, fs2 = (np.asarray(a, float) for a in (fy1, fs1, fy2, fs2))
+    method, n_bins, gain_bins, min_speed = options.method, options.n_bins, options.gain_bins, options.min_speed
     if method == "paper":
         c, var = [], []
         for fy, fs in ((fy1, fs1), (fy2, fs2)):
@@ -123,10 +126,8 @@ def fit_coefficients(fy1, fy_star1, y1, fy2, fy_star2, y2, method: str = "offset
                                                np.arange(fs.shape[0]) // _block(sample_time),
                                                np.ones((1, 1)))[0, 0]))
         return (c[0], c[1]) if not return_cov else (c[0], c[1], np.diag(var))
-    if method not in ("offset", "sensorless"):
-        raise ValueError(f"method must be 'paper', 'offset' or 'sensorless', got {method!r}")
     y = np.concatenate([np.asarray(y1, float), np.asarray(y2, float)])
-    lo, hi = (float(y.min()), float(y.max())) if y_range is None else y_range
+    lo, hi = (float(y.min()), float(y.max())) if options.y_range is None else options.y_range
     n1 = fy1.shape[0]
     sensorless = method == "sensorless"
     if sensorless:
@@ -361,8 +362,8 @@ def calibrate_from_logs(logs, motor, method: str = "offset", n_bins: int = 40) -
 def _step(l, set1, set2, sample_time, k_hat, zeta_hat, delta, method, n_bins, pole_pitch,
           mass=None) -> CalibrationStep:
     """Coefficients of eq. Ci from ``set_i = (Fy, Fy*, y)`` of coil set ``l`` and the update of eq. Update_Calibration."""
-    c1, c2, cov = fit_coefficients(*set1, *set2, method=method, n_bins=n_bins, sample_time=sample_time,
-                                   pole_pitch=pole_pitch, mass=mass, return_cov=True)
+    c1, c2, cov = fit_coefficients(set1, set2, CalibrationOptions(method=method, n_bins=n_bins),
+                                   sample_time=sample_time, pole_pitch=pole_pitch, mass=mass, return_cov=True)
     k_new, z_new = update(c1, c2, float(k_hat[l]), float(zeta_hat[l]), delta)
     # first-order propagation of cov(c1, c2) through the update (central differences)
     jac = np.zeros((2, 2))
@@ -377,21 +378,20 @@ def _step(l, set1, set2, sample_time, k_hat, zeta_hat, delta, method, n_bins, po
     return CalibrationStep(l, c1, c2, k_new, z_new, float(np.sqrt(var[0])), float(np.sqrt(var[1])))
 
 
-def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1, tol: float = 1e-4,
-              method: str = "offset", n_bins: int = 40, progress=None, pole_pitch=None,
-              mass: float | None = None) -> CalibrationResult:
-    """Algorithm 1, optionally iterated until the update is below ``tol``.
+def calibrate(generate, k0, zeta0, options: CalibrationOptions = CalibrationOptions(), *, pole_pitch=None,
+              mass: float | None = None, progress=None) -> CalibrationResult:
+    """Algorithm 1, optionally iterated until the update is below ``options.tol``.
 
     Args:
         generate: ``generate(k_hat (L,), zeta_hat (L,)) -> datasets`` producing ``Z_{1,2}^l``
             with the drive set to those values (e.g. a closure over
             :func:`pgcomm.data.generate_datasets` on the twin).
         k0, zeta0: ``(L,)`` initial ``k̂`` (N/A), ``ζ̂`` (rad).
-        iterations: maximum passes; stops earlier when ``max |Δk̂/k̂|`` and ``max |Δζ̂|`` (rad)
-            are both below ``tol``.
-        progress: optional callable ``progress(iteration, k, zeta)``.
+        options: :class:`~pgcomm.settings.CalibrationOptions` (``delta`` the data sets' ``Δ``; ``iterations`` the maximum passes,
+            fewer when ``max |Δk̂/k̂|`` and ``max |Δζ̂|`` (rad) are both below ``tol``; ``method``, ``n_bins``).
         pole_pitch: ``d_m`` (m) for the ripple terms of ``method="offset"``.
         mass: moving mass (kg) for ``method="sensorless"`` (no force data used).
+        progress: optional callable ``progress(iteration, k, zeta)``.
 
     Returns:
         :class:`CalibrationResult`.
@@ -400,9 +400,9 @@ def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1
     zeta = np.asarray(zeta0, float).copy()
     history = []
     it = 0
-    for it in range(1, iterations + 1):
-        steps = calibrate_from_datasets(generate(k, zeta), k, zeta, delta, method=method, n_bins=n_bins,
-                                        pole_pitch=pole_pitch, mass=mass)
+    for it in range(1, options.iterations + 1):
+        steps = calibrate_from_datasets(generate(k, zeta), k, zeta, options.delta, method=options.method,
+                                        n_bins=options.n_bins, pole_pitch=pole_pitch, mass=mass)
         k_new, z_new = k.copy(), zeta.copy()
         for s in steps:
             k_new[s.coil_set], z_new[s.coil_set] = s.k, s.zeta
@@ -411,7 +411,7 @@ def calibrate(generate, k0, zeta0, delta: float = np.pi / 4, iterations: int = 1
         history.append(steps)
         if progress:
             progress(it, k, zeta)
-        if change < tol:
+        if change < options.tol:
             break
     return CalibrationResult(k=k, zeta=zeta, k_initial=np.asarray(k0, float), zeta_initial=np.asarray(zeta0, float),
                              iterations=it, history=history)

@@ -22,12 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgcomm.commutation import DriveInputLaw, drive_currents
-from pgcomm.control import PID
 from pgcomm.errors import DataError
-from pgcomm.mechanics import Mechanics
 from pgcomm.motor import Motor
-from pgcomm.sensors import Sensors
-from pgcomm.simulate import SimResult, simulate_many
+from pgcomm.simulate import ClosedLoop, SimResult, simulate_many
 from pgcomm.seeds import stream_seed
 
 #: A coil set counts as active in a log when its RMS current exceeds this share of the largest.
@@ -97,7 +94,7 @@ class CoilSetData:
         return int(self.y.shape[0])
 
     @classmethod
-    def from_drive_inputs(cls, y, fy, delta, force, k_hat, zeta_hat, pole_pitch, experiment=None,
+    def from_drive_inputs(cls, y, fy, delta, force, drive: Motor, coil_set: int = 0, experiment=None,
                           name="coil set") -> "CoilSetData":
         """Data logged as drive inputs ``(Fy^l*, Δ^l)`` (the dotted block of Fig. PGNN_Parametrization).
 
@@ -105,15 +102,16 @@ class CoilSetData:
 
         Args:
             y: ``(N,)`` (m); fy: ``(N,)`` commanded force (N); delta: ``(N,)`` phase offset (rad);
-            force: ``(N, 3)``; k_hat (N/A), zeta_hat (rad): the drive's fixed commutation;
-            pole_pitch: ``d_m`` (m); experiment: ``(N,)`` labels.
+            force: ``(N, 3)``; drive: the drive's fixed commutation ``k̂^l`` (N/A), ``ζ̂^l`` (rad) of coil set
+            ``coil_set`` (0-based) and its pole pitch ``d_m`` (m); experiment: ``(N,)`` labels.
         """
         y = np.asarray(y, dtype=float)
         fy = np.asarray(fy, dtype=float)
         delta = np.asarray(delta, dtype=float)
         if fy.shape != y.shape or delta.shape != y.shape:
             raise DataError(f"{name}: fy and delta must have the shape of y {y.shape}, got {fy.shape}, {delta.shape}")
-        cur = np.asarray(drive_currents(y, fy[:, None], delta[:, None], k_hat, zeta_hat, pole_pitch))[:, 0, :]
+        cur = np.asarray(drive_currents(y, fy[:, None], delta[:, None], drive.k[coil_set], drive.zeta[coil_set],
+                                        drive.pole_pitch))[:, 0, :]
         return cls(y, cur, force, experiment, name)
 
     def take(self, index) -> "CoilSetData":
@@ -270,9 +268,8 @@ class DataSet:
         return cols
 
 
-def generate_datasets(plant, drive: Motor, reference, *, delta: float = np.pi / 4, pid: PID | None = None,
-                      mechanics: Mechanics = Mechanics(), sensors: Sensors = Sensors(), seed: int = 0,
-                      coil_sets=None) -> list[list[DataSet]]:
+def generate_datasets(plant, drive: Motor, reference, *, delta: float = np.pi / 4, loop: ClosedLoop = ClosedLoop(),
+                      seed: int = 0, coil_sets=None) -> list[list[DataSet]]:
     """Generate ``Z_1^l, Z_2^l`` for every coil set (eq. DataSets).
 
     Args:
@@ -293,8 +290,7 @@ def generate_datasets(plant, drive: Motor, reference, *, delta: float = np.pi / 
         for i, sgn in enumerate((-1.0, 1.0)):
             laws.append(DriveInputLaw.for_coil_set(drive, l, sgn * delta))
             keys.append((l, sgn * delta, stream_seed(seed, "data", l, i)))
-    runs = simulate_many(plant, laws, reference, drive=drive, pid=pid, mechanics=mechanics, sensors=sensors,
-                         seeds=[k[2] for k in keys])
+    runs = simulate_many(plant, laws, reference, drive=drive, loop=loop, seeds=[k[2] for k in keys])
     out = []
     for j, l in enumerate(coil_sets):
         out.append([DataSet(l, keys[2 * j + i][1], runs[2 * j + i]) for i in range(2)])

@@ -11,3 +11,5 @@ DEFAULT_OUTLIER_Z = 3.5
 #: Default grid spacing (m) of the exported lookup tables: worst case 0.030 % of f_max on paper-like
 #: models (d_m = 0.03 m), 134 kB for ±0.1 m.
 DEFAULT_RESOLUTION = 8e-5
+#: Largest model file header read (bytes): a real one is a few kB (metadata included).
+MAX_JSON_BYTES = 16 * 2**20

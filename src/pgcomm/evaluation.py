@@ -44,11 +44,15 @@ from pathlib import Path
 import os
 from collections import Counter
 
+import jax
 import numpy as np
 
+from pgcomm.data import CoilSetData, log_currents, velocity_from_positions
 from pgcomm.errors import DataError
 from pgcomm.metrics import DIRECTIONS, RunningMse, tracking_mse
+from pgcomm.models import warn_outside_training_range
 from pgcomm import sensorless as sl
+from pgcomm.sensorless import filter_windows
 
 __all__ = ["LogEvaluation", "evaluate_log", "evaluate_logs", "evaluation_results", 
            "format_table", "require_desired_force", "missing_desired_force", "reconstruct_force", "ReconstructedForce",
@@ -92,11 +96,9 @@ _FORCE = []
 
 
 def _force_program():
-    """The compiled ``(model, y, currents, v) -> model.force(y, currents, v)`` (made on first use: loading JAX
-    is left to the logs that are evaluated with a model)."""
+    """The compiled ``(model, y, currents, v) -> model.force(y, currents, v)`` (made on first use: compiling is
+    left to the logs that are evaluated with a model)."""
     if not _FORCE:
-        import jax  # start-up cost: JAX loads only when this runs
-
         _FORCE.append(jax.jit(lambda model, y, currents, v: model.force(y, currents, v)))
     return _FORCE[0]
 
@@ -134,8 +136,6 @@ class ReconstructedForce:
 
     def filtered(self, columns) -> np.ndarray:
         """Raw columns ``(N,)``/``(N, k)`` filtered as the force (:func:`pgcomm.sensorless.filter_windows`)."""
-        from pgcomm.sensorless import filter_windows  # start-up cost: loads JAX only when this runs
-
         return filter_windows(self.filt, self.starts, columns)
 
 
@@ -159,8 +159,6 @@ def reconstruct_force(log, mechanics: dict, pole_pitch: float) -> ReconstructedF
     Raises:
         DataError: no window in which the translator moves (names the log).
     """
-    from pgcomm.data import CoilSetData, velocity_from_positions  # start-up cost: loads JAX only when this runs
-
     ts = log.sample_time
     y = log["y"]
     v = velocity_from_positions(y, ts)
@@ -453,7 +451,6 @@ def _evaluate_reconstructed(log, lowpass_hz, model, motor, mechanics, pole_pitch
               commutation_mse=_mse_y_only(None if rc.error is None else float(np.mean(rc.error ** 2))),
               tracking_mse=None if e is None else tracking_mse(e), notes=tuple(notes), reconstructed=rc)
     if model is not None:
-        from pgcomm.models import warn_outside_training_range  # start-up cost: loads JAX only when this runs
 
         source = _currents_source(log, model, motor)
         fy_hat = np.empty(log.n_samples)
@@ -479,16 +476,11 @@ def _currents_source(log, model, motor) -> str:
 
 def _currents(log, motor) -> np.ndarray:
     """Star currents ``(N, L, 2)`` (A) of a log (or of a block of its rows): logged, or from the drive inputs."""
-    from pgcomm.data import log_currents  # start-up cost: loads JAX only when this runs
-
     return np.asarray(log_currents(log, motor))
 
 
 def _model_fit(log, model, motor, lowpass_hz) -> dict:
     """``model_error``, ``model_mse``, ``currents``, ``range_warning`` of one log, block by block."""
-    from pgcomm.data import velocity_from_positions  # start-up cost: loads JAX only when this runs
-    from pgcomm.models import warn_outside_training_range  # start-up cost: loads JAX only when this runs
-
     source = _currents_source(log, model, motor)
     y = log["y"]
     # a model with a direction term predicts C(y) s(ẏ) too: give it the velocity, as identification did (the

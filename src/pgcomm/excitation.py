@@ -7,7 +7,7 @@ The paper's Remark asks, for every position ``y`` of the stroke,
 2. different ratios ``ia^l : ib^l`` (to separate the two columns of ``K̂^l(y)``); the paper
    gets them by repeating the experiment with ``Δ^l = ∓Δ``.
 
-This module holds the one criterion, judged per position bin (:func:`coil_set_excitation`
+This module holds the one criterion, judged per position bin (:func:`excitation_report`
 gives the numbers, :func:`check_excitation` the verdict that identification acts on:
 :func:`pgcomm.identify.identify` refuses data it flags). For a user who wants to know what
 to measure next the report gives, over the whole stroke:
@@ -15,9 +15,19 @@ to measure next the report gives, over the whole stroke:
 * samples per bin, split by the sign of the phase offset ``Δ`` of the current relative to
   the drive's commutation angle (``Δ < 0``, ``Δ ≈ 0``, ``Δ > 0``) and samples without current;
 * the spread of the current direction (5–95 % range of ``ψ``, rad) and of the current
-  vectors across their direction(s) per bin (see :func:`coil_set_excitation`);
+  vectors across their direction(s) per bin (the criterion below);
 * one readable message per range of bins with the same problem, e.g.
   ``coil set 2: no samples for y in [0.020, 0.040] m``.
+
+The criterion: a bin's problem is the first that applies:
+
+* ``gap``: fewer than ``min_samples`` samples;
+* ``no current``: fewer than 2 samples with a current above 5 % of the median;
+* ``single direction``: the 5–95 % range of the current direction ``ψ`` (mod π) is below
+  ``min_angle`` — one ratio ``ia : ib``, i.e. a single ``Δ``;
+* ``single magnitude``: the current vectors ``p = Γ(y)^{-1} i`` (``k̂ = 1``, ``ζ̂ = 0``; N/A)
+  of the bin lie (nearly) on one line: ``sqrt(λ_min) / rms|p| <= min_spread`` with
+  ``λ_min`` the smaller eigenvalue of their 2×2 covariance (the force-magnitude test below).
 
 The force-magnitude test: within a bin (``y`` about constant) the model is
 ``F = K̂ i + F̂_cog``, linear in ``(i, 1)``, so the gain columns and the cogging force are
@@ -44,7 +54,7 @@ from pgcomm.errors import DataError
 from pgcomm.data import CoilSetData, active_coil_set, log_currents
 from pgcomm.motor import Motor
 
-__all__ = ["BinStats", "CoilSetExcitation", "ExcitationReport", "excitation_report", "coil_set_excitation",
+__all__ = ["BinStats", "CoilSetExcitation", "ExcitationReport", "excitation_report",
            "group_logs", "problem_runs", "check_excitation", "DEFAULT_BINS", "MAX_BINS", "MIN_SAMPLES", "MIN_ANGLE",
            "MIN_SPREAD", "DELTA_ZERO", "PROBLEMS"]
 
@@ -210,7 +220,7 @@ def excitation_report(logs, motor: Motor, n_bins: int = DEFAULT_BINS, y_range=No
         n_bins: position bins over ``y_range``.
         y_range: ``(lo, hi)`` (m); default the span of ALL logs, so a coil set that covers
             less of the stroke than the others is flagged.
-        min_samples, min_angle, min_spread: per-bin thresholds (see :func:`coil_set_excitation`).
+        min_samples, min_angle, min_spread: per-bin thresholds (the criterion of the module docstring).
 
     Returns:
         :class:`ExcitationReport`.
@@ -238,29 +248,16 @@ def excitation_report(logs, motor: Motor, n_bins: int = DEFAULT_BINS, y_range=No
         y = np.concatenate([lg["y"] for lg, _ in members])
         data = CoilSetData(y, np.concatenate([c for _, c in members]), np.zeros((y.shape[0], 3)),
                            name=f"coil set {l + 1}")
-        out.append(coil_set_excitation(data, l, motor, n_bins, (lo, hi), min_samples, min_angle, min_spread,
+        out.append(_coil_set_excitation(data, l, motor, n_bins, (lo, hi), min_samples, min_angle, min_spread,
                                        files=tuple(lg.source for lg, _ in members)))
     thresholds = {"min_samples": min_samples, "min_angle": min_angle, "min_spread": min_spread,
                   "delta_zero": DELTA_ZERO}
     return ExcitationReport(tuple(out), (lo, hi), int(n_bins), thresholds)
 
 
-def coil_set_excitation(data: CoilSetData, coil_set: int, motor: Motor, n_bins: int = DEFAULT_BINS, y_range=None,
-                        min_samples: int = MIN_SAMPLES, min_angle: float = MIN_ANGLE, min_spread: float = MIN_SPREAD,
-                        files=()) -> CoilSetExcitation:
-    """Per-bin excitation of one coil set: the criterion of this module, with its numbers.
-
-    A bin's problem is the first that applies:
-
-    * ``gap``: fewer than ``min_samples`` samples;
-    * ``no current``: fewer than 2 samples with a current above 5 % of the median;
-    * ``single direction``: the 5–95 % range of the current direction ``ψ`` (mod π) is below
-      ``min_angle`` — one ratio ``ia : ib``, i.e. a single ``Δ``;
-    * ``single magnitude``: the current vectors ``p = Γ(y)^{-1} i`` (``k̂ = 1``, ``ζ̂ = 0``; N/A)
-      of the bin lie (nearly) on one line: ``sqrt(λ_min) / rms|p| <= min_spread`` with
-      ``λ_min`` the smaller eigenvalue of their 2×2 covariance. Then ``F = K̂ i + F̂_cog`` cannot
-      separate the gain columns from the cogging force there (a single magnitude per
-      direction: the paper's Remark, point 1); see the module docstring.
+def _coil_set_excitation(data: CoilSetData, coil_set: int, motor: Motor, n_bins: int, y_range, min_samples: int,
+                         min_angle: float, min_spread: float, files=()) -> CoilSetExcitation:
+    """Per-bin excitation of one coil set: the criterion of the module docstring, with its numbers.
 
     Args:
         data: the coil set's samples (positions ``(N,)`` m, currents ``(N, 2)`` A).
@@ -392,7 +389,7 @@ def check_excitation(data: CoilSetData, pole_pitch: float, n_bins: int = DEFAULT
     """Problems with persistent excitation (the paper's Remark), per position bin; empty = fine.
 
     The position range (``y_range`` or the data's own, m) is cut into ``n_bins`` equal bins,
-    each judged by the criterion of :func:`coil_set_excitation` (gap, no current, a single
+    each judged by the criterion of the module docstring (gap, no current, a single
     ratio ``ia : ib``, a single force magnitude). Consecutive bins with the same problem are
     merged into one range. :func:`pgcomm.identify.identify` runs this check first.
 

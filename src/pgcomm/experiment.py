@@ -65,9 +65,8 @@ def single_velocity_reference(setup: Setup, v_max: float) -> trajectory.Referenc
 def generate(setup: Setup, reference, k_hat, zeta_hat, seed: int = 0, coil_sets=None):
     """Data sets ``Z_{1,2}^l`` with the drive at ``k̂`` (L,) N/A and ``ζ̂`` (L,) rad (no feedforward)."""
     drive = setup.motor.with_nominal(k=tuple(np.asarray(k_hat, float)), zeta=tuple(np.asarray(zeta_hat, float)))
-    return generate_datasets(setup.plant, drive, reference, delta=setup.config.calibration.delta, pid=setup.pid,
-                             mechanics=setup.config.mechanics, sensors=setup.config.sensors, seed=seed,
-                             coil_sets=coil_sets)
+    return generate_datasets(setup.plant, drive, reference, delta=setup.config.calibration.delta, loop=setup.loop,
+                             seed=seed, coil_sets=coil_sets)
 
 
 def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first=None,
@@ -97,10 +96,10 @@ def run_calibration(setup: Setup, reference, seed: int = 0, progress=None, first
             progress.info(f"pass {it}: k = {np.array2string(k, precision=3)} N/A, "
                           f"zeta = {np.array2string(zeta, precision=4)} rad")
 
-    cal = calibrate(gen, np.asarray(setup.motor.k), np.asarray(setup.motor.zeta), delta=cc.delta,
-                    iterations=cc.iterations, tol=cc.tol, method="sensorless" if sensorless else cc.method,
-                    n_bins=cc.n_bins, progress=report, pole_pitch=setup.motor.pole_pitch,
-                    mass=sensorless_mass(setup) if sensorless else None)
+    cal = calibrate(gen, np.asarray(setup.motor.k), np.asarray(setup.motor.zeta),
+                    cc.options(method="sensorless") if sensorless else cc.options(),
+                    pole_pitch=setup.motor.pole_pitch, mass=sensorless_mass(setup) if sensorless else None,
+                    progress=report)
     return cal, last["data"]
 
 
@@ -131,10 +130,10 @@ def run_laws(setup: Setup, laws: list, reference, feedforwards: list, seeds) -> 
     for j, law in enumerate(laws):
         groups.setdefault(jax.tree_util.tree_structure(law), []).append(j)
     out: list = [None] * len(laws)
-    kw = dict(drive=setup.motor, pid=setup.pid, mechanics=setup.config.mechanics, sensors=setup.config.sensors)
+    loop = setup.loop
     for idx in groups.values():
-        res = simulate_many(setup.plant, [laws[j] for j in idx], [refs[j] for j in idx],
-                            feedforwards=[feedforwards[j] for j in idx], seeds=[seeds[j] for j in idx], **kw)
+        res = simulate_many(setup.plant, [laws[j] for j in idx], [refs[j] for j in idx], drive=setup.motor, loop=loop,
+                            feedforwards=[feedforwards[j] for j in idx], seeds=[seeds[j] for j in idx])
         for j, r in zip(idx, res):
             out[j] = r
     return out

@@ -251,23 +251,22 @@ class CoilSetModel:
                    float(y_center), float(y_scale), y_min, y_max)
 
     @classmethod
-    def init(cls, key, A, B, pole_pitch, y_center, y_scale, gain_widths=DEFAULT_GAIN_WIDTHS,
-             cog_widths=DEFAULT_COG_WIDTHS, activation="tanh", y_min=None, y_max=None, harmonics=False,
-             direction=False, direction_velocity=DEFAULT_DIRECTION_VELOCITY) -> "CoilSetModel":
-        """PGNN with random hidden layers (:meth:`MLP.init`) and zero output layers.
+    def init(cls, key, physics: "CoilSetModel", gain_widths=DEFAULT_GAIN_WIDTHS, cog_widths=DEFAULT_COG_WIDTHS,
+             activation="tanh", harmonics=False, direction=False,
+             direction_velocity=DEFAULT_DIRECTION_VELOCITY) -> "CoilSetModel":
+        """PGNN with random hidden layers (:meth:`MLP.init`) and zero output layers beside ``physics``.
 
-        ``gain_widths`` / ``cog_widths`` of ``None`` leave that network out. ``harmonics`` /
-        ``direction`` switch the extensions on (zero coefficients; Proposition 1 sets them);
-        ``direction_velocity``: ``v_ε`` (m/s).
+        ``physics`` (:meth:`physics`) gives the fundamental's ``A``, ``B`` (``(3, 2)``, N/A), the pole pitch, the
+        input scaling and the training range (m). ``gain_widths`` / ``cog_widths`` of ``None`` leave that
+        network out. ``harmonics`` / ``direction`` switch the extensions on (zero coefficients; Proposition 1
+        sets them); ``direction_velocity``: ``v_ε`` (m/s).
         """
         k1, k2, k3 = jax.random.split(key, 3)
         gain = None if gain_widths is None else (MLP.init(k1, gain_widths, activation),
                                                  MLP.init(k2, gain_widths, activation))
         cog = None if cog_widths is None else MLP.init(k3, cog_widths, activation)
-        return cls(jnp.asarray(A, float), jnp.asarray(B, float), gain, cog, float(pole_pitch),
-                   float(y_center), float(y_scale), y_min, y_max,
-                   jnp.zeros((4, 3, 2)) if harmonics else None, jnp.zeros(3) if direction else None,
-                   float(direction_velocity))
+        return replace(physics, gain_nets=gain, cog_net=cog, H=jnp.zeros((4, 3, 2)) if harmonics else None,
+                       C=jnp.zeros(3) if direction else None, direction_velocity=float(direction_velocity))
 
     @property
     def networks(self) -> tuple:

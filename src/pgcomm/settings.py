@@ -33,8 +33,8 @@ from pgcomm.sensors import Sensors
 from pgcomm.twin import TwinParams
 from pgcomm.identify.options import IdentifyOptions
 
-__all__ = ["ControllerConfig", "ReferenceConfig", "CalibrationConfig", "IdentificationConfig", "EvaluationConfig",
-           "StandstillPlan", "RotarySettings", "RotaryIdentifyOptions", "ExperimentConfig"]
+__all__ = ["ControllerConfig", "ReferenceConfig", "CalibrationOptions", "CalibrationConfig", "IdentificationConfig",
+           "EvaluationConfig", "StandstillPlan", "RotarySettings", "RotaryIdentifyOptions", "ExperimentConfig"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,41 @@ class ReferenceConfig:
         return (self.center - self.stroke, self.center + self.stroke)
 
 
+#: The estimators of ``ĉ_1, ĉ_2`` (:mod:`pgcomm.calibration`).
+CALIBRATION_METHODS = ("paper", "offset", "sensorless")
+
+
+@dataclass(frozen=True)
+class CalibrationOptions:
+    """The settings of Algorithm 1 (:func:`pgcomm.calibration.calibrate`) as one object (``[calibration]`` of an
+    experiment TOML gives them, :meth:`CalibrationConfig.options`).
+
+    Attributes:
+        method: the estimator of ``ĉ_1, ĉ_2``: ``"paper"`` (eq. Ci per data set), ``"offset"`` or ``"sensorless"``
+            (:mod:`pgcomm.calibration`).
+        n_bins: offset bins per direction over the stroke (``"offset"``, ``"sensorless"``).
+        gain_bins: bins of the gain ``c_i(y)`` along the stroke.
+        y_range: ``(lo, hi)`` (m) the bins span; ``None``: the data's range.
+        min_speed: samples with ``|v| <= min_speed`` (m/s) are left out (standstill, reversals).
+        delta: ``Δ`` (rad), the drive's phase offset of the two data sets, ``0 < |Δ| <= π/4``.
+        iterations: at most this many passes of :func:`~pgcomm.calibration.calibrate`.
+        tol: :func:`~pgcomm.calibration.calibrate` stops when ``max |Δk̂/k̂|`` and ``max |Δζ̂|`` (rad) are both below it.
+    """
+
+    method: str = "offset"
+    n_bins: int = 40
+    gain_bins: int = 8
+    y_range: tuple[float, float] | None = None
+    min_speed: float = 0.01
+    delta: float = math.pi / 4
+    iterations: int = 1
+    tol: float = 1e-4
+
+    def __post_init__(self):
+        if self.method not in CALIBRATION_METHODS:
+            raise ValueError(f"method must be 'paper', 'offset' or 'sensorless', got {self.method!r}")
+
+
 @dataclass(frozen=True)
 class CalibrationConfig:
     """Algorithm 1 settings: initial ``k̂`` (N/A), ``ζ̂`` (rad), ``Δ`` (rad), passes, tolerance, estimator."""
@@ -95,6 +130,18 @@ class CalibrationConfig:
             raise ValueError(f"n_bins = {self.n_bins}: need at least 1 offset bin (default 40)")
         if not 0 < abs(self.delta) <= math.pi / 4 + 1e-12:
             raise ValueError(f"delta = {self.delta} rad: expected 0 < |delta| <= pi/4 (paper: for safety)")
+
+    def options(self, **changes) -> CalibrationOptions:
+        """These settings as the :class:`CalibrationOptions` of Algorithm 1.
+
+        Args:
+            changes: fields of :class:`CalibrationOptions` that differ from the settings for one
+                call (e.g. ``method="sensorless"`` without a force sensor).
+        """
+        fields = dict(method=self.method, n_bins=self.n_bins, delta=self.delta, iterations=self.iterations,
+                      tol=self.tol)
+        fields.update(changes)
+        return CalibrationOptions(**fields)
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ from pgcomm.io.config import load_motor
 from pgcomm.io.forcemap import load_forcemap
 from pgcomm.motor import Motor
 from pgcomm.settings import ExperimentConfig, ReferenceConfig
+from pgcomm.simulate import ClosedLoop
 from pgcomm.twin import true_fundamental
 
 __all__ = ["Setup", "build_setup", "load_truth", "reference_span", "resolve_reference", "check_reference",
@@ -52,6 +53,11 @@ class Setup:
     def pid(self) -> PID:
         """Feedback controller of this experiment."""
         return self.config.controller.pid()
+
+    @property
+    def loop(self) -> ClosedLoop:
+        """The closed loop around the law: this experiment's feedback, translator and sensors."""
+        return ClosedLoop(self.pid, self.config.mechanics, self.config.sensors)
 
 
 

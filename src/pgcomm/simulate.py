@@ -50,6 +50,22 @@ from pgcomm.sensors import Sensors, force_noise
 
 
 @dataclass(frozen=True)
+class ClosedLoop:
+    """What surrounds the commutation law in the closed loop: the feedback, the translator and the sensors.
+
+    Attributes:
+        pid: the feedback controller (:class:`pgcomm.control.PID`); ``None``: :meth:`PID.tuned` for
+            ``mechanics.mass``.
+        mechanics: the translator (:class:`pgcomm.mechanics.Mechanics`: mass in kg, friction, sub-steps).
+        sensors: the encoder and the force sensor (:class:`pgcomm.sensors.Sensors`: resolution in m, noise).
+    """
+
+    pid: PID | None = None
+    mechanics: Mechanics = field(default_factory=Mechanics)
+    sensors: Sensors = field(default_factory=Sensors)
+
+
+@dataclass(frozen=True)
 class SimResult:
     """Everything logged by a closed-loop run; all arrays have ``N`` rows (one per controller sample).
 
@@ -214,9 +230,8 @@ def _chunk(plant, law, loop: _Loop, carry, r, v_ref, u_ff):
 _drive_inputs = jax.jit(currents_to_drive_inputs, static_argnames="pole_pitch")
 
 
-def simulate(plant, law, reference, *, drive: Motor, pid: PID | None = None,
-             feedforward: Feedforward = Feedforward(), mechanics: Mechanics = Mechanics(),
-             sensors: Sensors = Sensors(), seed: int = 0, y0: float | None = None) -> SimResult:
+def simulate(plant, law, reference, *, drive: Motor, loop: ClosedLoop = ClosedLoop(),
+             feedforward: Feedforward = Feedforward(), seed: int = 0, y0: float | None = None) -> SimResult:
     """Run the closed loop on ``plant`` with commutation ``law`` along ``reference``.
 
     Args:
@@ -225,9 +240,8 @@ def simulate(plant, law, reference, *, drive: Motor, pid: PID | None = None,
         reference: a :class:`pgcomm.trajectory.Reference` (``r, v, a`` sampled at ``drive.sample_time``).
         drive: motor description: sample time, current limit, and the drive's fixed
             commutation ``k̂``, ``ζ̂`` used to express currents as drive inputs.
-        pid: feedback; default :meth:`PID.tuned` for ``mechanics.mass``.
+        loop: the feedback, translator and sensor models (:class:`ClosedLoop`).
         feedforward: ``m, f_v, f_c`` of eq. FeedforwardController (zeros = none).
-        mechanics, sensors: translator and sensor models.
         seed: force-sensor noise seed.
         y0: initial position (m), default ``r[0]``.
 
@@ -238,13 +252,12 @@ def simulate(plant, law, reference, *, drive: Motor, pid: PID | None = None,
         DataError: a reference sampled at another rate than the drive's.
         SimulationError: a reference outside the plant's range, or a motion that leaves it (divergence).
     """
-    return simulate_many(plant, [law], reference, drive=drive, pid=pid, feedforwards=[feedforward],
-                         mechanics=mechanics, sensors=sensors, seeds=[seed], y0=y0)[0]
+    return simulate_many(plant, [law], reference, drive=drive, loop=loop, feedforwards=[feedforward], seeds=[seed],
+                         y0=y0)[0]
 
 
-def simulate_many(plant, laws, reference, *, drive: Motor, pid: PID | None = None, feedforwards=None,
-                  mechanics: Mechanics = Mechanics(), sensors: Sensors = Sensors(), seeds=None,
-                  y0: float | None = None) -> list[SimResult]:
+def simulate_many(plant, laws, reference, *, drive: Motor, loop: ClosedLoop = ClosedLoop(), feedforwards=None,
+                  seeds=None, y0: float | None = None) -> list[SimResult]:
     """Run several closed loops that differ in the law, feedforward, noise seed and reference.
 
     The runs go one after the other through the compiled loop of their law's class (laws of one
@@ -268,6 +281,7 @@ def simulate_many(plant, laws, reference, *, drive: Motor, pid: PID | None = Non
     for ref in refs:
         if abs(ref.sample_time - ts) > 1e-12 * ts:
             raise DataError(f"reference sample time {ref.sample_time} s differs from the motor's {ts} s")
+    mechanics, sensors = loop.mechanics, loop.sensors
     mech_mod.check_stable(mechanics, ts)
     if hasattr(plant, "y_range"):
         lo, hi = (float(v) for v in plant.y_range)
@@ -279,7 +293,7 @@ def simulate_many(plant, laws, reference, *, drive: Motor, pid: PID | None = Non
                 raise SimulationError(f"reference{'' if len(refs) == 1 else f' {j + 1}'}: r = {rr[k]:.6g} m at sample "
                                       f"{k} is outside the plant's range [{lo:.6g}, {hi:.6g}] m; keep the reference "
                                       "inside the plant's range", "reference")
-    pid = pid or PID.tuned(mechanics.mass)
+    pid = loop.pid or PID.tuned(mechanics.mass)
     feedforwards = feedforwards or [Feedforward()] * b
     seeds = list(range(b)) if seeds is None else list(seeds)
     return [_run(plant, law, ref, ff, seed, drive, pid, mechanics, sensors, y0)

@@ -2,7 +2,7 @@
 
 User errors (bad files, bad options) print one line ``pgcomm: error: ...`` and exit
 with code 2, without a traceback; outputs are staged in a temporary directory and
-moved into ``--out`` only when the command succeeds (:func:`pgcomm.cli._common.staged_output`),
+moved into ``--out`` only when the command succeeds (:func:`pgcomm.cli._output.staged_output`),
 so a failed run leaves no half-written files.
 
 Each command module has ``HELP`` (one line), ``configure(parser)`` (its options) and
@@ -26,9 +26,13 @@ import threading
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
+from pgcomm import __version__
+from pgcomm._memory import release_compiled_programs
 from pgcomm.cli import calibrate, check, evaluate, export, fleet, identify, inspect, plan, reproduce, simulate, zoo
-from pgcomm.cli._common import input_paths, staged_output, user_error_line
-from pgcomm.errors import PgcommError
+from pgcomm.cli._common import user_error_line
+from pgcomm.cli._output import input_paths, staged_output
+from pgcomm.errors import PgcommError, SimulationError
+from pgcomm.progress import Progress
 
 #: Every subcommand in the order ``pgcomm --help`` lists them: name -> command module.
 COMMANDS = {
@@ -60,8 +64,6 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand of :data:`COMMANDS`."""
-    from pgcomm import __version__
-
     parser = _Parser(prog="pgcomm", description="Physics-guided commutation for linear and rotary permanent-magnet motors.")
     parser.add_argument("--version", action="version", version=f"pgcomm {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
@@ -151,8 +153,6 @@ def _wait_for_jax() -> None:
 
 def _where_from(e: Exception, args) -> str:
     """For a :class:`~pgcomm.errors.SimulationError`: the file its cause came from (reference or settings)."""
-    from pgcomm.errors import SimulationError
-
     if not isinstance(e, SimulationError):
         return ""
     config, reference = getattr(args, "config", None), getattr(args, "reference", None)
@@ -175,8 +175,6 @@ def compile_cache_dir() -> str | None:
     compiling them again (``pgcomm reproduce --quick``: about 120 s -> 30 s on 2 cores); the
     compiled code, and so every number, is the same. A few MB.
     """
-    import os
-
     env = os.environ.get("PGCOMM_COMPILE_CACHE")
     if env is not None:
         return env or None
@@ -190,8 +188,6 @@ def _enable_compile_cache() -> None:
     Before JAX is loaded this only sets the environment variables JAX reads when it loads: a command
     that stops at a bad input before any computation (a damaged log) never loads JAX (~150 MB, 1-3 s).
     """
-    import os
-
     path = compile_cache_dir()
     if path is None or os.environ.get("JAX_COMPILATION_CACHE_DIR"):
         return
@@ -244,10 +240,6 @@ def _main(argv, handlers) -> int:
     except SystemExit as e:
         return int(e.code or 0) if not isinstance(e.code, str) else 2
     module = COMMANDS[args.command]
-    from pgcomm.progress import Progress
-
-    from pgcomm._memory import release_compiled_programs
-
     # between stages: a finished stage's compiled programs go (reloaded from the persistent compile cache if a
     # later stage needs them again), so a command's memory is that of its largest stage, not of all of them
     progress = Progress(enabled=not args.quiet, checkpoint=_raise_if_interrupted,

@@ -1,20 +1,22 @@
-"""Helpers shared by the command modules: common options, staged output, set-up from options, tables.
+"""Helpers shared by the command modules: common options, set-up from options, conflicts, tables.
 
 Nothing here computes results; it turns options into library calls and library results
-into text.
+into text. The output folder's checks and staging are :mod:`pgcomm.cli._output`.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
-import shutil
 import sys
-import tempfile
-from contextlib import contextmanager
 from pathlib import Path
 
 from pgcomm.errors import ConfigError, PgcommError
+from pgcomm.io.config import load_experiment, load_motor, load_toml, motor_kind
+from pgcomm.io.logs import load_column_mapping, read_logs
+from pgcomm.io.references import read_reference
+
+# Imports inside the functions below: the set-up's modules load JAX and SciPy only when a command builds one;
+# `import pgcomm.cli` loads none of them (`--help` and a bad option answer at once).
 
 
 def add_common_options(p: argparse.ArgumentParser, out: bool = True, plant: bool = True) -> None:
@@ -75,11 +77,47 @@ def add_reference_options(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--reference-sample-time", type=float, help="sample time (s) of --reference if it has no t")
 
 
+#: The reading options of a rotary motor's logs on the command line: destination -> how its text reads (an
+#: ``"integer"``, a ``"number"`` or comma-separated ``"numbers"``; the words none, held and detect pass as written).
+#: Each is the :class:`pgcomm.settings.RotaryIdentifyOptions` field of the same name, which checks the value.
+ROTARY_READING = {"current_delay": "integer", "current_lag": "number", "angle_pll": "numbers",
+                  "current_noise": "number", "current_filter": "number", "time_lines": "numbers"}
+
+
+def add_rotary_reading_options(p: argparse.ArgumentParser) -> None:
+    """``--current-delay``, ``--current-lag``, ``--angle-pll``, ``--current-noise``, ``--current-filter`` and
+    ``--time-lines``: how a rotary drive's logs are read (:data:`ROTARY_READING`), each in place of ``--config``'s
+    ``[rotary]`` key of the same name."""
+    p.add_argument("--current-delay", metavar="N",
+                   help="rotary motors: samples by which the logged q-current lags the current that acted over each "
+                        "sample (an integer; default: detected, the fit repeated with the current shifted by -2..2)")
+    p.add_argument("--current-lag", metavar="L|held",
+                   help="rotary motors: how the logged q-current runs between samples: held (the drive controls at its "
+                        "log rate) or L, the smooth curve through the samples L samples late (a drive that controls K "
+                        "times per logged sample: 1/(2K), e.g. 0.0625 for an 8 kHz loop logged at 1 kHz); default: "
+                        "detected")
+    p.add_argument("--angle-pll", metavar="W[,ZETA]",
+                   help="rotary motors: the logged angle is a drive's PLL estimate of natural frequency W rad/s "
+                        "(damping ZETA, default 1; ODrive's encoder bandwidth), or 'none' for the encoder's own "
+                        "angle (default: detected when no logged angle sits on an encoder's lattice)")
+    p.add_argument("--current-noise", metavar="A|none",
+                   help="rotary motors: the logged q-current's white noise (A, standard deviation) that the fit "
+                        "corrects for, or 'none' (default: read from the logged d-current id_1 where every log has "
+                        "it, else from the q-current's own less what the logged angle predicts of it)")
+    p.add_argument("--current-filter", metavar="S|none",
+                   help="rotary motors: the time constant (s) of the first-order filter through which the drive "
+                        "reports the q-current, or 'none' (default: detected; a real ODrive's report lags by about "
+                        "0.08 s)")
+    p.add_argument("--time-lines", metavar="HZ[,HZ...]",
+                   help="rotary motors: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a "
+                        "current sensor's mains pickup, a fan, a resonance), or 'none' (default: detected as lines at "
+                        "one frequency in the residuals of logs at two speeds)")
+
+
 def motor_is_rotary(args) -> bool:
     """Whether ``--motor`` declares ``kind = "rotary"`` (the rotary pipeline then runs)."""
     if not getattr(args, "motor", None):
         return False
-    from pgcomm.io.config import motor_kind
 
     return motor_kind(args.motor) == "rotary"
 
@@ -93,8 +131,6 @@ def require_data(args) -> None:
 def read_data_logs(args, progress=None):
     """Logs named by ``--data`` (with ``--columns`` and ``--sample-time``): list of :class:`pgcomm.io.logs.Log`; each
     log's notes (how its time was read) said on ``progress``."""
-    from pgcomm.io.logs import load_column_mapping, read_logs
-
     mapping = load_column_mapping(args.columns) if args.columns else None
     # a host's time stamps: resampled to a uniform grid (the linear identification's filters need one), with a note
     logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, resample=True)
@@ -108,8 +144,6 @@ def read_data_logs(args, progress=None):
 def motor_from_args(args):
     """The drive's motor description: ``--motor`` or the twin's nominal motor (k̂ = 67 N/A, ζ̂ = −0.52 rad)."""
     if getattr(args, "motor", None):
-        from pgcomm.io.config import load_motor
-
         return load_motor(args.motor)
     from pgcomm.twin import TwinParams
 
@@ -119,7 +153,6 @@ def motor_from_args(args):
 def setup_from_args(args):
     """The :class:`pgcomm.setup.Setup` of ``--config``, ``--plant`` and ``--motor``."""
     from pgcomm.setup import build_setup
-    from pgcomm.io.config import load_experiment
     from pgcomm.settings import ExperimentConfig
 
     config_path = args.config
@@ -137,7 +170,6 @@ def reference_from_args(args, setup):
     """``--reference`` (checked against the controller's sample time), else the data-generation reference."""
     from pgcomm.experiment import data_generation_reference
     from pgcomm.setup import check_reference
-    from pgcomm.io.references import read_reference
 
     if getattr(args, "reference", None):
         ref = read_reference(args.reference, sample_time=args.reference_sample_time)
@@ -147,133 +179,6 @@ def reference_from_args(args, setup):
         check_reference(setup, ref, str(args.reference))
         return ref
     return data_generation_reference(setup)
-
-
-#: Folders that ``--out ... --overwrite`` never replaces (the whole folder would be deleted).
-def _protected_dirs() -> set[Path]:
-    home = Path.home().resolve()
-    cwd = Path.cwd().resolve()
-    return {home, cwd, *cwd.parents, Path(cwd.anchor)}
-
-
-def refuse_working_folder(out: Path, option: str = "--out") -> Path:
-    """Refuse an output folder that is the current folder or one of its parents; return it resolved.
-
-    Every command replaces its output folder as a whole (or, ``fleet``, fills it): ``--out ''`` or
-    ``--out .`` would replace the folder the shell stands in, and a parent would take the current folder
-    with it. Symbolic links are followed, so a link to the current folder is refused too.
-
-    Raises:
-        ConfigError: one line naming ``option`` and the folder.
-    """
-    resolved = Path(out).resolve()
-    cwd = Path.cwd().resolve()
-    if resolved == cwd or resolved in cwd.parents:
-        what = "the current folder" if resolved == cwd else f"a parent of the current folder {cwd}"
-        raise ConfigError(f"{option} {str(out)!r}: is {what}; the outputs go into a new or empty folder of their "
-                          f"own, e.g. {option} results")
-    return resolved
-
-
-def input_paths(args) -> list[Path]:
-    """The files and folders a command reads, from its parsed options: every path-valued option but the
-    outputs, and the files that ``--data`` / ``--sweep`` patterns match (resolved)."""
-    import glob
-
-    found = []
-    for dest, value in vars(args).items():
-        if dest in ("out", "report_dir"):
-            continue
-        if isinstance(value, Path):
-            found.append(value)
-        elif dest in ("data", "sweep") and isinstance(value, (list, tuple)):
-            for pattern in value:
-                found += [Path(m) for m in glob.glob(str(pattern))] or [Path(pattern)]
-    return [p.resolve() for p in found]
-
-
-def check_out(out: Path, overwrite: bool = False, inputs=()) -> Path:
-    """Check ``--out DIR`` before any work is done; return the nearest existing folder (where staging goes).
-
-    Rules (DESIGN, "--out"): ``DIR`` is never the current folder or one of its parents
-    (:func:`refuse_working_folder`); missing parent folders are created (at the end, on success); the
-    command fails only where a path component exists as a file or the nearest existing folder is
-    not writable. An existing ``DIR`` that holds anything is refused unless ``overwrite``: then the
-    whole folder is replaced by the new outputs (never the home or root folder, nor a folder holding
-    one of the run's own ``inputs``, which the replacement would delete).
-
-    Args:
-        out: the ``--out`` folder; overwrite: ``--overwrite`` given;
-        inputs: paths the command reads (:func:`input_paths`).
-
-    Raises:
-        ConfigError: one line naming ``--out`` and what to do.
-    """
-    out = Path(out)
-    resolved = refuse_working_folder(out)
-    for comp in [resolved, *resolved.parents]:
-        if comp.exists() and not comp.is_dir():
-            raise ConfigError(f"--out {out}: '{comp}' exists and is a file, not a folder; "
-                              "choose another --out or move the file")
-    if resolved.exists() and any(resolved.iterdir()):
-        if not overwrite:
-            names = sorted(p.name for p in resolved.iterdir())
-            shown = ", ".join(names[:3]) + (", ..." if len(names) > 3 else "")
-            raise ConfigError(f"--out {out}: folder exists and is not empty ({len(names)} entries: {shown}); "
-                              "pass --overwrite to replace the whole folder with this run's outputs, "
-                              "or choose a new --out")
-        if resolved in _protected_dirs():
-            raise ConfigError(f"--out {out}: refusing to replace the current, home or root folder with "
-                              "--overwrite; give a subfolder")
-        for p in inputs:
-            if p == resolved or resolved in p.parents:
-                raise ConfigError(f"--out {out} --overwrite would delete '{p}', which this run reads; "
-                                  "choose another --out")
-    base = resolved.parent  # staging goes beside (never inside) DIR, in its nearest existing ancestor
-    while not base.exists():
-        base = base.parent
-    if not os.access(base, os.W_OK | os.X_OK):
-        raise ConfigError(f"--out {out}: folder '{base}' is not writable; choose a writable --out")
-    return base
-
-
-@contextmanager
-def staged_output(out: Path, overwrite: bool = False, inputs=()):
-    """Yield an empty staging folder ``.NAME.xxxxxxxx``; on success it becomes ``out``.
-
-    ``out`` is checked first (:func:`check_out`, with the run's ``inputs``). The staging folder sits in the nearest
-    existing folder of ``out`` (same file system, so the final rename is atomic). On success the
-    missing parents of ``out`` are created and the staging folder is renamed to ``out``; an
-    existing ``out`` (empty, or non-empty with ``overwrite``) is replaced as a whole, so no stale
-    file of an earlier run survives beside the new ones. On any exception (including
-    ``KeyboardInterrupt`` and ``SystemExit`` from a signal) the staging folder is removed and
-    ``out`` is left as it was.
-    """
-    out = Path(out)
-    base = check_out(out, overwrite, inputs)
-    resolved = out.resolve()
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{resolved.name}.", dir=base))
-    except OSError as e:
-        raise ConfigError(f"--out {out}: cannot create a folder in '{base}' ({e.strerror}); "
-                          "choose a writable --out") from None
-    old = None
-    try:
-        yield tmp
-        try:
-            resolved.parent.mkdir(parents=True, exist_ok=True)
-            if resolved.exists():
-                old = Path(tempfile.mkdtemp(prefix=f".{resolved.name}.old.", dir=resolved.parent))
-                os.replace(resolved, old / "out")
-            os.replace(tmp, resolved)
-        except OSError as e:
-            if old is not None and not resolved.exists():
-                os.replace(old / "out", resolved)
-            raise ConfigError(f"--out {out}: cannot move the outputs into place ({e.strerror})") from None
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
 
 
 def options_given(args, *dests: str) -> list[str]:
@@ -287,8 +192,6 @@ def options_given(args, *dests: str) -> list[str]:
 
 def settings_given(path, keys) -> list[str]:
     """Which of ``keys`` (``"section.key"`` or ``"key"``) the TOML file ``path`` sets, as ``"FILE [section] key"``."""
-    from pgcomm.io.config import load_toml
-
     doc = load_toml(path)
     found = []
     for key in keys:

@@ -19,6 +19,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from pgcomm.cli._common import ROTARY_READING
 from pgcomm.errors import ConfigError, DataError
 from pgcomm.export.angle_table import make_table, write_angle_table
 from pgcomm.io.atomic import atomic_write_text
@@ -32,108 +33,40 @@ from pgcomm.rotary.from_logs import identify_from_logs
 from pgcomm.settings import RotaryIdentifyOptions
 
 
-def _reading_options(args):
-    """``--current-delay``, ``--angle-pll`` and ``--current-lag`` as :func:`pgcomm.rotary.identify.identify` takes them
-    (``"detect"`` when left out); one line naming the option on a bad value."""
-    delay = "detect"
-    if args.current_delay is not None:
-        try:
-            delay = int(args.current_delay)
-        except ValueError:
-            raise ConfigError(f"--current-delay {args.current_delay}: an integer number of samples, e.g. 1") from None
-    pll = "detect"
-    if args.angle_pll is not None:
-        if args.angle_pll.strip().lower() == "none":
-            pll = None
-        else:
-            parts = args.angle_pll.split(",")
-            try:
-                w, z = float(parts[0]), float(parts[1]) if len(parts) > 1 else 1.0
-            except ValueError:
-                w = z = float("nan")
-            if len(parts) > 2 or not (math.isfinite(w) and w > 0 and math.isfinite(z) and z > 0):
-                raise ConfigError(f"--angle-pll {args.angle_pll}: a natural frequency in rad/s and optionally a "
-                                  "damping, both positive (e.g. 1000 or 1000,0.707), or none")
-            pll = (w, z)
-    lag = "detect"
-    if getattr(args, "current_lag", None) is not None:
-        if args.current_lag.strip().lower() == "held":
-            lag = None
-        else:
-            try:
-                lag = float(args.current_lag)
-            except ValueError:
-                lag = float("nan")
-            if not (math.isfinite(lag) and abs(lag) <= 0.5):
-                raise ConfigError(f"--current-lag {args.current_lag}: held, or a lag in samples between -0.5 and 0.5 "
-                                  "(1/(2K) for K control cycles per logged sample, e.g. 0.0625)")
-    return delay, pll, lag
-
-
-def _current_filter_option(args):
-    """``--current-filter`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out, ``0.0``
-    for none); one line naming the option on a bad value."""
-    text = getattr(args, "current_filter", None)
-    if text is None:
-        return "detect"
-    if text.strip().lower() == "none":
-        return 0.0
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (math.isfinite(value) and 0 <= value <= 10):
-        raise ConfigError(f"--current-filter {text}: the report filter's time constant in s (0 to 10), or none")
-    return value
-
-
-def _current_noise_option(args):
-    """``--current-noise`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out); one line
-    naming the option on a bad value."""
-    text = getattr(args, "current_noise", None)
-    if text is None:
-        return "detect"
-    if text.strip().lower() == "none":
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not (math.isfinite(value) and value >= 0):
-        raise ConfigError(f"--current-noise {text}: the logged current's noise in A (a standard deviation, >= 0), "
-                          "or none")
-    return value
-
-
-def _time_lines_option(args):
-    """``--time-lines`` as :func:`pgcomm.rotary.identify.identify` takes it (``"detect"`` when left out); one line
-    naming the option on a bad value."""
-    text = getattr(args, "time_lines", None)
-    if text is None:
-        return "detect"
-    if text.strip().lower() == "none":
-        return ()
-    try:
-        hz = [float(x) for x in text.split(",")]
-    except ValueError:
-        hz = [float("nan")]
-    if not all(math.isfinite(f) and f > 0 for f in hz):
-        raise ConfigError(f"--time-lines {text}: frequencies in Hz, positive, comma-separated (e.g. 50 or 50,100), "
-                          "or none")
-    return tuple(hz)
-
-
 def _rotary_options(args):
     """The :class:`pgcomm.settings.RotaryIdentifyOptions` of ``--config``'s ``[rotary]`` table (defaults without
-    one), with the reading options given on the command line in their place."""
+    one), with the reading options given on the command line (:data:`~pgcomm.cli._common.ROTARY_READING`) in their
+    place."""
     options = load_experiment(args.config).rotary if args.config else RotaryIdentifyOptions()
-    delay, pll, lag = _reading_options(args)
-    given = {"current_delay": (args.current_delay, delay), "angle_pll": (args.angle_pll, pll),
-             "current_lag": (getattr(args, "current_lag", None), lag),
-             "time_lines": (getattr(args, "time_lines", None), _time_lines_option(args)),
-             "current_noise": (getattr(args, "current_noise", None), _current_noise_option(args)),
-             "current_filter": (getattr(args, "current_filter", None), _current_filter_option(args))}
-    return replace(options, **{k: value for k, (text, value) in given.items() if text is not None})
+    for dest, kind in ROTARY_READING.items():
+        text = getattr(args, dest, None)
+        if text is not None:
+            options = _with_flag(options, dest, text, kind)
+    return options
+
+
+def _with_flag(options, dest: str, text: str, kind: str):
+    """``options`` with ``--DEST TEXT`` read as ``kind`` (:data:`~pgcomm.cli._common.ROTARY_READING`) in the field's
+    place; the options' own check refuses a bad value, in one line naming the option."""
+    word = text.strip().lower()
+    if word in ("none", "held", "detect"):
+        value = word
+    else:
+        try:
+            numbers = [float(x) for x in text.split(",")]
+        except ValueError:
+            numbers = [math.nan]  # not a number: refused below with what the option expects
+        if kind == "numbers":
+            value = tuple(numbers)
+        else:
+            value = numbers[0] if len(numbers) == 1 else math.nan
+            if kind == "integer" and value.is_integer():
+                value = int(value)
+    try:
+        return replace(options, **{dest: value})
+    except ValueError as e:
+        # the options say "name = value: what is expected"; the command line names the option as written
+        raise ConfigError(f"--{dest.replace('_', '-')} {text}: {str(e).split(': ', 1)[-1]}") from None
 
 
 def run_rotary(args, out: Path, progress, t0: float) -> None:

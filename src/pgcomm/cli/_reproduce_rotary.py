@@ -1,6 +1,7 @@
 """``pgcomm reproduce`` on a rotary motor (``--motor`` with ``kind = "rotary"``): the rotary experiment
 (:func:`pgcomm.rotary.experiment.run`) on the twin of the motor, and its files.
 
+The experiment's sizes are ``--config``'s ``[rotary_experiment]`` table (:class:`pgcomm.settings.RotarySettings`).
 The twin's truth is ``--truth`` (a ``truth.json``, or an identified ``model.json`` with its ``results.json``: your
 motor as identified) or ``truth.json`` beside the motor file (the zoo writes one), else drawn from the description
 with ``--seed``. Writes ``results.json``, ``model.json``, ``table.csv``, ``compensation.csv``, ``rotary.png``
@@ -18,16 +19,17 @@ from pathlib import Path
 import numpy as np
 
 from pgcomm import __version__
+from pgcomm.cli._common import refuse_conflicts, settings_given
 from pgcomm.errors import ConfigError
 from pgcomm.export.angle_table import make_table, write_angle_table
 from pgcomm.io.atomic import atomic_open, atomic_write_text
-from pgcomm.io.config import load_rotary_motor
-from pgcomm.io.model import rotary_model_from_dict
+from pgcomm.io.config import load_experiment, load_rotary_motor
+from pgcomm.io.rotary_model import rotary_model_from_dict
 from pgcomm.io.results import write_results
 from pgcomm.io.rotary_zoo import read_truth
 from pgcomm.plots import plot_rotary_run, save
 from pgcomm.report.rotary import write_rotary_report
-from pgcomm.rotary.experiment import quick_settings, run
+from pgcomm.rotary.experiment import QUICK_OVERRIDES, quick_settings, run
 from pgcomm.rotary.zoo import default_truth, truth_from_identification
 from pgcomm.settings import RotarySettings
 
@@ -75,7 +77,7 @@ def run_rotary(args, out: Path, progress, t0: float) -> None:
     motor as identified, :func:`_truth_from_identified`) or ``truth.json`` beside the motor file (the zoo writes one),
     else drawn from the description with ``--seed``.
     """
-    for opt in ("plant", "config", "reference"):
+    for opt in ("plant", "reference"):
         if getattr(args, opt, None):
             raise ConfigError(f"--{opt}: not used with a rotary motor (--motor {args.motor} has kind = \"rotary\")")
     motor = load_rotary_motor(args.motor)
@@ -99,8 +101,7 @@ def run_rotary(args, out: Path, progress, t0: float) -> None:
     progress.info(f"rotary {motor.name}: twin truth {source}"
                   + (f"; its drive controls {truth.control_per_log} times per logged sample"
                      if truth.control_per_log > 1 else ""))
-    settings = quick_settings() if args.quick else RotarySettings()
-    settings = _log_budget(args, settings, motor.sample_time)
+    settings = _rotary_settings(args, motor.sample_time)
     results = run(truth, settings, seed=args.seed, progress=progress)
     results.update(command="reproduce", kind="rotary", version=__version__, quick=bool(args.quick), seed=args.seed,
                    truth_source=source)
@@ -113,13 +114,23 @@ def run_rotary(args, out: Path, progress, t0: float) -> None:
               f"({results['runtime_s']:.0f} s)")
 
 
-def _log_budget(args, settings, sample_time: float):
-    """``settings`` with ``--log-budget`` (rig s, turned into a share of the sweep's time) and ``--until-resolved``."""
+def _rotary_settings(args, sample_time: float) -> RotarySettings:
+    """The :class:`pgcomm.settings.RotarySettings` of ``--config``'s ``[rotary_experiment]`` table (defaults without
+    one; the file's other tables are the linear experiment's and ``identify``'s), shortened by ``--quick``, with
+    ``--log-budget`` (rig s at ``sample_time``, turned into a share of the sweep's time) and ``--until-resolved`` in
+    their keys' place."""
+    settings = load_experiment(args.config).rotary_experiment if args.config else RotarySettings()
+    if args.quick:
+        if args.config:
+            refuse_conflicts("--quick", settings_given(args.config, QUICK_OVERRIDES),
+                             "overrides (a quick run logs one revolution per segment, evaluates half a revolution "
+                             "and sweeps 720 angles)")
+        settings = quick_settings(settings)
     if args.log_budget is not None:
         if not (args.log_budget > 0 and args.log_budget < float("inf")):
             raise ConfigError(f"--log-budget {args.log_budget:g}: give the running logs' rig time in seconds, above 0")
         settings = replace(settings, log_budget_share=args.log_budget / settings.standstill.duration(sample_time))
-    return replace(settings, stop_when_resolved=bool(args.until_resolved))
+    return replace(settings, stop_when_resolved=True) if args.until_resolved else settings
 
 
 def _print_rotary(r: dict) -> None:

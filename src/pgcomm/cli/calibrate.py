@@ -9,6 +9,13 @@ from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, add_data_options, motor_from_args, print_calibration, \
     read_data_logs, setup_from_args
+from pgcomm.errors import ConfigError
+from pgcomm.io.config import load_experiment, write_motor
+from pgcomm.io.logs import write_datasets
+from pgcomm.io.results import write_results
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib load only when the command runs; every
+# command's parser is built by `import pgcomm.cli`, which loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("Algorithm 1: calibrate k and zeta of every coil set from data sets with Delta = -/+ pi/4: one round from "
         "a rig's logs (--data; writes the next round's motor.toml), or on the twin / a force map.")
@@ -27,12 +34,8 @@ def _run_logs(args, out: Path, progress) -> None:
     """``--data``: one round from the logs of a plan's experiments, run with the drive at ``--motor``'s k, zeta."""
     from pgcomm import plots
     from pgcomm.calibration import calibrate_from_logs, convergence
-    from pgcomm.errors import ConfigError
-    from pgcomm.io.config import load_experiment
     from pgcomm.settings import ExperimentConfig
-    from pgcomm.io.config import write_motor
     from pgcomm.io.plan import check_log_plans
-    from pgcomm.io.results import write_results
 
     for opt, given in (("--plant", args.plant), ("--truth", args.truth), ("--save-data", args.save_data)):
         if given:
@@ -88,7 +91,6 @@ def run(args, out: Path, progress) -> None:
         return _run_logs(args, out, progress)
     from pgcomm import experiment, plots
     from pgcomm.setup import sensorless_mass, simulated_mass
-    from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
     setup = setup_from_args(args)
@@ -112,8 +114,6 @@ def run(args, out: Path, progress) -> None:
     plots.save(plots.plot_calibration(cal.k_initial, cal.zeta_initial, cal.k, cal.zeta, setup.true_k,
                                       setup.true_zeta), out / "calibration.png")
     if args.save_data:
-        from pgcomm.io.logs import write_datasets
-
         write_datasets(out / "data", data)
     write_results(out / "results.json", results)
     if not args.quiet:

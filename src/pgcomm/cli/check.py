@@ -12,9 +12,14 @@ import math
 import sys
 import time
 
-from pgcomm.cli._common import add_common_options, add_data_options, add_out_option, check_out, add_motor_option, \
-    input_paths, motor_from_args, read_data_logs, require_data, staged_output
+from pgcomm.cli._common import add_common_options, add_data_options, add_out_option, add_motor_option, \
+    motor_from_args, read_data_logs, require_data
+from pgcomm.cli._output import check_out, input_paths, staged_output
 from pgcomm.errors import ConfigError
+from pgcomm.io.results import write_results
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib load only when the command runs; every
+# command's parser is built by `import pgcomm.cli`, which loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("Check that logs persistently excite the model (paper's Remark): both signs of Delta, "
         "several force magnitudes, every position of the stroke. Exit code 1 when they do not.")
@@ -39,7 +44,6 @@ def configure(p) -> None:
 def run(args, out, progress) -> None:
     """Check ``--data``; print the report; with ``--out`` write ``results.json`` and ``coverage.png``."""
     from pgcomm import excitation, plots
-    from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
     require_data(args)

@@ -15,9 +15,15 @@ import sys
 import time
 from pathlib import Path
 
+from pgcomm import __version__
 from pgcomm.cli._common import add_common_options, add_data_options, add_motor_option, motor_from_args, \
     read_data_logs, require_data
 from pgcomm.errors import ConfigError
+from pgcomm.io.config import load_motor
+from pgcomm.io.results import write_results
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib load only when the command runs; every
+# command's parser is built by `import pgcomm.cli`, which loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("Commutation error F - F* (50 Hz-filtered and unfiltered MSE per direction) and tracking "
         "error of logs; with --model also the model error F - F^(y, i). Writes results.json and figures.")
@@ -37,8 +43,6 @@ def configure(p) -> None:
 
 def run(args, out: Path, progress) -> None:
     """Evaluate ``--data``; write ``results.json``, ``evaluation.png`` (and ``model_error.png`` with ``--model``)."""
-    from pgcomm import __version__
-
     t0 = time.perf_counter()
     require_data(args)
     if not (math.isfinite(args.lowpass_hz) and args.lowpass_hz > 0):
@@ -53,7 +57,6 @@ def run(args, out: Path, progress) -> None:
         logs = read_data_logs(args, progress)
         # the computing modules (SciPy's filters, Matplotlib) load after the logs: a damaged log is refused at once
         from pgcomm import evaluation, plots
-        from pgcomm.io.results import write_results
 
         for log in logs:
             if not args.model:  # with a model, a log without F* still has a model error
@@ -119,8 +122,6 @@ def reconstruction_mechanics(args, without, document) -> dict:
     out = {k: float(mech[k]) for k in keys}
     out["mass_from"] = str(args.model)
     if args.motor is not None:
-        from pgcomm.io.config import load_motor
-
         mass = load_motor(args.motor).mass
         if mass is None:
             raise ConfigError(f"--motor {args.motor}: key 'mass' missing: reconstructing the force of {first} (no force "

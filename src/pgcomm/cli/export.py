@@ -5,7 +5,7 @@
 ``NAME_cogging.csv`` (:mod:`pgcomm.export.lut`) and measures their worst-case force error
 on the model. Both write ``results.json``. A model file that fails validation is refused
 by the loader (one line, exit code 2, nothing written: the output is staged by
-:func:`pgcomm.cli._common.staged_output`).
+:func:`pgcomm.cli._output.staged_output`).
 
 Current limit. Every format applies a peak phase current limit (A) by default: the model file's
 (``pgcomm identify`` stores the motor description's ``current_limit``;
@@ -37,6 +37,7 @@ import time
 from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, add_out_option, options_given, refuse_conflicts
+from pgcomm.defaults import DEFAULT_RESOLUTION
 from pgcomm.export.drive_export import LINEAR_FORMATS, TABLE_FORMATS, add_drive_options, export_drive, export_rotary_law
 from pgcomm.export.law_export import DEFAULT_F_MAX, export_law, f_max_from_metadata  # noqa: F401  (re-exported)
 from pgcomm.export.options import (  # noqa: F401  (the command's option parsing lives beside the exports)
@@ -72,8 +73,6 @@ FORMAT_OPTIONS = {
 
 def configure(p) -> None:
     """Options of ``pgcomm export``."""
-    from pgcomm.defaults import DEFAULT_RESOLUTION
-
     p.add_argument("--model", type=Path, metavar="MODEL.json",
                    help="model file (pgcomm identify): for --format c and lut (linear), c-rotary (rotary) and the "
                         "drive tables (rotary or linear)")
@@ -119,8 +118,6 @@ def configure(p) -> None:
 def refuse_unused_options(args) -> None:
     """The one conflict rule for ``export``: an option the chosen ``--format`` does not read (:data:`FORMAT_OPTIONS`)
     is an error naming both; then the defaults of ``--precision`` and ``--resolution`` are filled in."""
-    from pgcomm.defaults import DEFAULT_RESOLUTION
-
     for dest, formats in FORMAT_OPTIONS.items():
         if args.format not in formats:
             refuse_conflicts(f"--format {args.format}", options_given(args, dest),

@@ -15,8 +15,13 @@ import sys
 import time
 from pathlib import Path
 
-from pgcomm.cli._common import refuse_working_folder, seed_value
+from pgcomm.cli._common import seed_value
+from pgcomm.cli._output import refuse_working_folder
+from pgcomm.defaults import DEFAULT_OUTLIER_Z
 from pgcomm.errors import ConfigError, PgcommError
+
+# Imports inside the functions below: Dask (and bokeh, only to say whether the dashboard can be served) load only
+# when the fleet runs; `import pgcomm.cli` loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("Run a fleet of motors (one folder each: logs/*.csv, motor.toml, optional config.toml) on Dask: "
         "calibrate, identify, evaluate, export per motor; fleet.parquet/.csv/.html with outliers.")
@@ -27,8 +32,6 @@ STAGED_OUT = False
 
 def configure(p) -> None:
     """Options of ``pgcomm fleet``."""
-    from pgcomm.defaults import DEFAULT_OUTLIER_Z
-
     p.add_argument("--data", required=True, type=Path, metavar="DIR", help="fleet directory: one folder per motor")
     p.add_argument("--out", required=True, type=Path,
                    help="output workspace (created; finished motors are kept and skipped on a rerun)")

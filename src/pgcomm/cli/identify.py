@@ -18,13 +18,21 @@ and whether the logs resolve it. It writes ``model.json``, ``compensation.csv`` 
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from pathlib import Path
 
-from pgcomm.cli._common import add_common_options, add_data_options, motor_is_rotary, read_data_logs, \
-    refuse_conflicts, settings_given, setup_from_args
-from pgcomm.errors import DataError
+import numpy as np
+
+from pgcomm.cli._common import ROTARY_READING, add_common_options, add_data_options, add_rotary_reading_options, \
+    motor_is_rotary, read_data_logs, refuse_conflicts, settings_given, setup_from_args
+from pgcomm.errors import ConfigError, DataError
+from pgcomm.io.config import load_experiment, load_motor
+from pgcomm.io.results import write_results
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib (and a rotary motor's pipeline) load only when
+# the command runs; `import pgcomm.cli` loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("Algorithm 2: identify the PGNN (and the physics-only model) of every coil set; "
         "writes model.json/.npz, results.json and figures.")
@@ -51,30 +59,7 @@ def configure(p) -> None:
                         "against both noises, and written as standstill_table.csv; or the drive's own static map "
                         "(columns angle in rad or count in encoder counts, and the holding current): compared with the "
                         "identified table, an index offset between the two power-ups found and removed")
-    p.add_argument("--current-delay", metavar="N",
-                   help="rotary motors: samples by which the logged q-current lags the current that acted over each "
-                        "sample (an integer; default: detected, the fit repeated with the current shifted by -2..2)")
-    p.add_argument("--current-lag", metavar="L|held",
-                   help="rotary motors: how the logged q-current runs between samples: held (the drive controls at its "
-                        "log rate) or L, the smooth curve through the samples L samples late (a drive that controls K "
-                        "times per logged sample: 1/(2K), e.g. 0.0625 for an 8 kHz loop logged at 1 kHz); default: "
-                        "detected")
-    p.add_argument("--angle-pll", metavar="W[,ZETA]",
-                   help="rotary motors: the logged angle is a drive's PLL estimate of natural frequency W rad/s "
-                        "(damping ZETA, default 1; ODrive's encoder bandwidth), or 'none' for the encoder's own "
-                        "angle (default: detected when no logged angle sits on an encoder's lattice)")
-    p.add_argument("--current-noise", metavar="A|none",
-                   help="rotary motors: the logged q-current's white noise (A, standard deviation) that the fit "
-                        "corrects for, or 'none' (default: read from the logged d-current id_1 where every log has "
-                        "it, else from the q-current's own less what the logged angle predicts of it)")
-    p.add_argument("--current-filter", metavar="S|none",
-                   help="rotary motors: the time constant (s) of the first-order filter through which the drive "
-                        "reports the q-current, or 'none' (default: detected; a real ODrive's report lags by about "
-                        "0.08 s)")
-    p.add_argument("--time-lines", metavar="HZ[,HZ...]",
-                   help="rotary motors: frequencies (Hz) of time-periodic disturbances to fit beside the maps (a "
-                        "current sensor's mains pickup, a fan, a resonance), or 'none' (default: detected as lines at "
-                        "one frequency in the residuals of logs at two speeds)")
+    add_rotary_reading_options(p)
     p.add_argument("--no-force-sensor", action="store_true",
                    help="identify without force measurements: the y row from the motion (m ÿ + friction, the "
                         "moving mass from the motor TOML key mass), x/z rows classical with the motor's nominal "
@@ -83,19 +68,13 @@ def configure(p) -> None:
 
 
 def run(args, out: Path, progress) -> None:
-    """Identify; write ``model.json/.npz``, ``results.json``, ``cogging.png`` and ``gain_coilset{l}.png``."""
-    import dataclasses
-
-    import jax.numpy as jnp
-    import numpy as np
-
-    from pgcomm import __version__, experiment, plots
-    from pgcomm.setup import sensorless_mass, simulated_mass
+    """Identify (:func:`pgcomm.identification.identify_coil_sets`); write ``model.json/.npz``, ``results.json``,
+    ``cogging.png`` and ``gain_coilset{l}.png``."""
+    from pgcomm import __version__, experiment
     from pgcomm.data import coil_set_data_from_logs, coil_set_data_from_runs
-    from pgcomm.errors import ExcitationError
-    from pgcomm.excitation import check_excitation
+    from pgcomm.identification import CoilSetsOptions, identify_coil_sets
     from pgcomm.io.model import save_model
-    from pgcomm.io.results import write_results
+    from pgcomm.setup import sensorless_mass, simulated_mass
 
     t0 = time.perf_counter()
     if motor_is_rotary(args):
@@ -104,14 +83,10 @@ def run(args, out: Path, progress) -> None:
         run_rotary(args, out, progress, t0)
         return
     if args.sweep:
-        from pgcomm.errors import ConfigError
-
         raise ConfigError("--sweep: the drives' standstill sweep is a rotary motor's comparison (--motor with "
                           "kind = \"rotary\"); a linear motor's cogging table comes from pgcomm reproduce")
-    for opt in ("current_delay", "current_lag", "angle_pll", "time_lines", "current_noise", "current_filter"):
+    for opt in ROTARY_READING:
         if getattr(args, opt, None) is not None:
-            from pgcomm.errors import ConfigError
-
             raise ConfigError(f"--{opt.replace('_', '-')}: how a rotary drive's log is read (--motor with kind = "
                               "\"rotary\")")
     if args.family == "spline" and args.config:
@@ -162,130 +137,81 @@ def run(args, out: Path, progress) -> None:
     if sensorless:
         # the drive's motor with the mass and the data's sample time (the acceleration scales with its square)
         setup = dataclasses.replace(setup, motor=dataclasses.replace(setup.motor, mass=mass, sample_time=sample_time))
-        # first: logs too short or slow, without acceleration or saturated get their own one-line message
-        from pgcomm.sensorless import sensorless_data
-
-        ic = setup.config.identification
-        with progress.stage("filtered acceleration windows per coil set"):
-            sl = [sensorless_data(d, sample_time, setup.motor.pole_pitch, mass,
-                                  current_limit=setup.motor.current_limit, friction_velocity=ic.direction_velocity)
-                  for d in data]
-            progress.info(", ".join(f"{d.name.split(' (')[0]}: {d.n} windows of {d.filt.length} samples" for d in sl))
-    problems = {d.name: check_excitation(d, setup.motor.pole_pitch) for d in data}  # positions and currents only
-    bad = {k: v for k, v in problems.items() if v}
-    if bad:
-        msg = "; ".join(f"{k}: {', '.join(v)}" for k, v in bad.items())
-        if not args.force:
-            raise ExcitationError(f"data do not persistently excite the model ({msg}); use --force to identify anyway")
-        progress.info(f"warning: {msg}")
-    mechanics = feedforward = None
-    if args.family == "spline":
-        _identify_spline(args, out, progress, setup, data, source, t0)
-        return
-    if sensorless:
-        with progress.stage("identification without a force sensor (y row and friction) per coil set"):
-            t_id = time.perf_counter()
-            # x/z rows: the classical model with the motor's nominal (calibrated) k, zeta
-            pgnn, res = experiment.identify_sensorless_models(setup, data, setup.motor.k, setup.motor.zeta, args.seed,
-                                                              progress, check_data=False)
-            t_id = time.perf_counter() - t_id
-        from pgcomm.identify.mechanics import combined_mechanics
-
-        mechanics, feedforward = combined_mechanics(res)
-        fy_abs_max = max(float(np.max(np.abs(np.asarray(r.model.force(jnp.asarray(d.y),
-                                                                      jnp.asarray(d.currents)))[:, 0])))
-                         for r, d in zip(res, data))
+    found = identify_coil_sets(setup, data, CoilSetsOptions(args.family, not sensorless, args.force), seed=args.seed,
+                               progress=progress)
+    results = {"command": "identify", **({"family": "spline"} if found.family == "spline" else {}),
+               "plant": setup.plant_name, "data": source, "version": __version__, "seed": args.seed,
+               "force_sensor": not sensorless, **found.to_dict()}
+    metadata = {"seed": args.seed, "plant": setup.plant_name, "data": source, "fy_abs_max": found.fy_abs_max,
+                "force_sensor": not sensorless, **law_metadata(args, setup),
+                "identification": results["identification"]}
+    if found.family == "spline":
+        save_model(out / "model", found.model, metadata, mechanics=found.mechanics)
     else:
-        with progress.stage("identification (Algorithm 2) per coil set"):
-            t_id = time.perf_counter()
-            # the check above already ran (and, with --force, only warned)
-            pgnn, _, res = experiment.identify_models(setup, data, args.seed, progress, check_data=False)
-            t_id = time.perf_counter() - t_id
-        fy_abs_max = max(float(np.max(np.abs(d.force[:, 0]))) for d in data)
-    results = {"command": "identify", "plant": setup.plant_name, "data": source, "version": __version__,
-               "seed": args.seed, "force_sensor": not sensorless,
-               "identification": experiment.identification_results(res, t_id)}
-    metadata = {"seed": args.seed, "plant": setup.plant_name, "data": source, "fy_abs_max": fy_abs_max,
-                "force_sensor": not sensorless, **law_metadata(args, setup)}
-    if sensorless:
-        results["mechanics"] = metadata["mechanics"] = mechanics
-        results["feedforward"] = metadata["feedforward"] = feedforward
-        results["mass_source"] = mass_source or (f"{mass:g} kg from --motor {args.motor}" if args.motor else
-                                                 f"{mass:g} kg of the built-in twin's translator (no --motor)")
-    metadata["identification"] = results["identification"]
-    save_model(out / "model", pgnn, metadata, identification="force_sensor" if not sensorless else "no_force_sensor")
-    y = np.linspace(*pgnn.training_range, 2001)
+        if sensorless:
+            metadata.update(mechanics=found.mechanics, feedforward=found.feedforward)
+            results["mass_source"] = mass_source or (f"{mass:g} kg from --motor {args.motor}" if args.motor else
+                                                     f"{mass:g} kg of the built-in twin's translator (no --motor)")
+        save_model(out / "model", found.model, metadata,
+                   identification="force_sensor" if not sensorless else "no_force_sensor")
     known = setup.plant is not None and (source != "logs" or args.plant is None)
-    truth_cog = np.asarray(setup.plant.cogging(jnp.asarray(y))) if known else None
-    title = ("identified cogging force (x, z: not observable without a force sensor)" if sensorless
-             else "identified cogging force")
-    plots.save(plots.plot_cogging(y, np.asarray(pgnn.cogging(jnp.asarray(y))), truth_cog, title=title),
-               out / "cogging.png")
-    gm = np.asarray(pgnn.gain(jnp.asarray(y)))
-    gt = np.asarray(setup.plant.gain(jnp.asarray(y))) if known else None
-    for l in range(pgnn.n_coil_sets):
-        plots.save(plots.plot_gain_columns(y, gm[:, l], None if gt is None else gt[:, l], l, label="PGNN"),
-                   out / f"gain_coilset{l + 1}.png")
+    label = "spline model" if found.family == "spline" else "PGNN"
+    title = ("identified cogging force (spline model)" if found.family == "spline" else
+             "identified cogging force (x, z: not observable without a force sensor)" if sensorless else
+             "identified cogging force")
+    _figures(out, found.model, setup.plant if known else None, title, label)
     results["runtime_s"] = time.perf_counter() - t0
     write_results(out / "results.json", results)
     if not args.quiet:
-        if sensorless:
-            print("without a force sensor: costs of the y row on filtered windows, (m ÿ - F^y - friction)^2 [N^2]")
-        print(f"{'coil set':24s} {'V physics':>10s} {'V PGNN':>10s} {'V phys val':>10s} {'V PGNN val':>10s} {'time':>6s}")
-        print(f"{'':24s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[s]':>6s}")
-        for r in res:
-            print(f"{r.name[:24]:24s} {r.cost_physics:10.4g} {r.cost_pgnn:10.4g} {r.cost_physics_validation:10.4g} "
-                  f"{r.cost_pgnn_validation:10.4g} {r.seconds:6.1f}")
-        if sensorless:
-            print(format_feedforward(feedforward))
+        (_print_spline if found.family == "spline" else _print_pgnn)(found)
         print(f"wrote {args.out}/model.json, model.npz, results.json, cogging.png, gain_coilset*.png")
 
 
-def _identify_spline(args, out, progress, setup, data, source, t0) -> None:
-    """``--family spline``: the spline model and the mechanics; model file with both, results, figures."""
+def _figures(out: Path, model, plant, title: str, label: str) -> None:
+    """``cogging.png`` and ``gain_coilset{l}.png`` of ``model`` over its training range, with ``plant``'s truth
+    where known (``None``: not drawn)."""
     import jax.numpy as jnp
-    import numpy as np
 
-    from pgcomm import __version__, experiment, plots
-    from pgcomm.io.model import save_model
-    from pgcomm.io.results import write_results
+    from pgcomm import plots
 
-    with progress.stage("spline model (knots by cross-validation) and mechanics from the same data"):
-        fit, mech = experiment.identify_spline_models(setup, data, progress)
-    fy_abs_max = max(float(np.max(np.abs(d.force[:, 0]))) for d in data)
-    ident = {"spline": fit.to_dict(), "seconds_total": fit.seconds + mech.seconds}
-    results = {"command": "identify", "family": "spline", "plant": setup.plant_name, "data": source,
-               "version": __version__, "seed": args.seed, "force_sensor": True, "identification": ident,
-               "mechanics": mech.to_dict()}
-    save_model(out / "model", fit.model, {"seed": args.seed, "plant": setup.plant_name, "data": source,
-                                          "fy_abs_max": fy_abs_max, "force_sensor": True, "identification": ident,
-                                          **law_metadata(args, setup)}, mechanics=mech)
-    y = np.linspace(*fit.model.training_range, 2001)
-    known = setup.plant is not None and (source != "logs" or args.plant is None)
-    truth = np.asarray(setup.plant.cogging(jnp.asarray(y))) if known else None
-    plots.save(plots.plot_cogging(y, np.asarray(fit.model.cogging(jnp.asarray(y))), truth,
-                                  title="identified cogging force (spline model)", label="spline model"),
+    y = np.linspace(*model.training_range, 2001)
+    truth = None if plant is None else np.asarray(plant.cogging(jnp.asarray(y)))
+    plots.save(plots.plot_cogging(y, np.asarray(model.cogging(jnp.asarray(y))), truth, title=title, label=label),
                out / "cogging.png")
-    gm = np.asarray(fit.model.gain(jnp.asarray(y)))
-    gt = np.asarray(setup.plant.gain(jnp.asarray(y))) if known else None
-    for l in range(fit.model.n_coil_sets):
-        plots.save(plots.plot_gain_columns(y, gm[:, l], None if gt is None else gt[:, l], l, label="spline model"),
+    gm = np.asarray(model.gain(jnp.asarray(y)))
+    gt = None if plant is None else np.asarray(plant.gain(jnp.asarray(y)))
+    for l in range(model.n_coil_sets):
+        plots.save(plots.plot_gain_columns(y, gm[:, l], None if gt is None else gt[:, l], l, label=label),
                    out / f"gain_coilset{l + 1}.png")
-    results["runtime_s"] = time.perf_counter() - t0
-    write_results(out / "results.json", results)
-    if not args.quiet:
-        sp = fit.spacing
-        print(f"spline model: knots every {1e3 * sp['gain']:.3g} mm (gain), {1e3 * sp['cogging']:.3g} mm (cogging), "
-              f"{1e3 * sp['direction']:.3g} mm (direction), {fit.model.n_parameters} coefficients")
-        print(f"{'coil set':10s} {'MSE y':>10s} {'x':>10s} {'z':>10s} {'CV y':>10s} {'x':>10s} {'z':>10s}")
-        print(f"{'':10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2m^2]':>10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2m^2]':>10s}")
-        for l, (c, v) in enumerate(zip(fit.cost, fit.cost_validation)):
-            print(f"{l + 1:<10d} " + " ".join(f"{c[d]:10.4g}" for d in "yxz") + " "
-                  + " ".join(f"{v[d]:10.4g}" for d in "yxz"))
-        print(f"feedforward: m = {mech.mass:.4g} kg, f_v = {mech.viscous:.4g} N s/m, Coulomb "
-              f"{float(np.min(mech.coulomb)):.3g} .. {float(np.max(mech.coulomb)):.3g} N along the stroke "
-              f"(in the model file)")
-        print(f"wrote {args.out}/model.json, model.npz, results.json, cogging.png, gain_coilset*.png")
+
+
+def _print_pgnn(found) -> None:
+    """The PGNN's costs per coil set (and, without a force sensor, the feedforward) on standard output."""
+    if not found.force_sensor:
+        print("without a force sensor: costs of the y row on filtered windows, (m ÿ - F^y - friction)^2 [N^2]")
+    print(f"{'coil set':24s} {'V physics':>10s} {'V PGNN':>10s} {'V phys val':>10s} {'V PGNN val':>10s} {'time':>6s}")
+    print(f"{'':24s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[s]':>6s}")
+    for r in found.results:
+        print(f"{r.name[:24]:24s} {r.cost_physics:10.4g} {r.cost_pgnn:10.4g} {r.cost_physics_validation:10.4g} "
+              f"{r.cost_pgnn_validation:10.4g} {r.seconds:6.1f}")
+    if not found.force_sensor:
+        print(format_feedforward(found.feedforward))
+
+
+def _print_spline(found) -> None:
+    """The spline model's knots, costs per coil set and feedforward on standard output."""
+    fit, mech = found.spline, found.mechanics
+    sp = fit.spacing
+    print(f"spline model: knots every {1e3 * sp['gain']:.3g} mm (gain), {1e3 * sp['cogging']:.3g} mm (cogging), "
+          f"{1e3 * sp['direction']:.3g} mm (direction), {fit.model.n_parameters} coefficients")
+    print(f"{'coil set':10s} {'MSE y':>10s} {'x':>10s} {'z':>10s} {'CV y':>10s} {'x':>10s} {'z':>10s}")
+    print(f"{'':10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2m^2]':>10s} {'[N^2]':>10s} {'[N^2]':>10s} {'[N^2m^2]':>10s}")
+    for l, (c, v) in enumerate(zip(fit.cost, fit.cost_validation)):
+        print(f"{l + 1:<10d} " + " ".join(f"{c[d]:10.4g}" for d in "yxz") + " "
+              + " ".join(f"{v[d]:10.4g}" for d in "yxz"))
+    print(f"feedforward: m = {mech.mass:.4g} kg, f_v = {mech.viscous:.4g} N s/m, Coulomb "
+          f"{float(np.min(mech.coulomb)):.3g} .. {float(np.max(mech.coulomb)):.3g} N along the stroke "
+          f"(in the model file)")
 
 
 def _refuse_spline_without_force(args, sensorless: bool) -> None:
@@ -298,10 +224,8 @@ def _refuse_spline_without_force(args, sensorless: bool) -> None:
 def _setup(args):
     """The set-up; logs with ``--motor`` but no ``--plant`` are a rig's: its motor description, no plant."""
     if args.data and args.motor is not None and args.plant is None:
-        from pgcomm.io.config import load_experiment
         from pgcomm.settings import ExperimentConfig
         from pgcomm.setup import Setup
-        from pgcomm.io.config import load_motor
 
         motor = load_motor(args.motor)
         config = load_experiment(args.config) if args.config else ExperimentConfig()

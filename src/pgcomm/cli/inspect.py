@@ -8,6 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from pgcomm.cli._common import add_common_options
+from pgcomm.io.results import to_jsonable
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib load only when the command runs; every
+# command's parser is built by `import pgcomm.cli`, which loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("What a model file holds: structure (L, widths, activation, parameters), pole pitch, "
         "training range, costs per coil set, seed, version, date, file sizes.")
@@ -27,8 +31,6 @@ def run(args, out, progress) -> None:
     model, document = load_model(args.model)
     info = model_summary(model, document, args.model)
     if args.json:
-        from pgcomm.io.results import to_jsonable
-
         print(json.dumps(to_jsonable(info), indent=2, ensure_ascii=False))
     else:
         print(format_summary(info))

@@ -7,9 +7,17 @@ size the next round."""
 from __future__ import annotations
 
 import shlex
+import tomllib
+from dataclasses import replace
 from pathlib import Path
 
-from pgcomm.cli._common import add_common_options, add_data_options, motor_is_rotary
+from pgcomm.cli._common import add_common_options, add_data_options, motor_is_rotary, setup_from_args
+from pgcomm.errors import ConfigError
+from pgcomm.io.config import load_experiment, load_motor, load_rotary_motor
+from pgcomm.io.logs import ROTARY_REQUIRED, column_mapping, load_column_mapping, read_logs, with_encoder_counts
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib load only when the command runs; every
+# command's parser is built by `import pgcomm.cli`, which loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("The experiments a rig runs for one round of calibration and for identification: reference files its "
         "controller plays back, the drive settings, and plan.md (what to run, what to log, what next). A rotary "
@@ -48,22 +56,15 @@ def plan_from_args(args):
     twin or ``--plant`` (a simulated rig): its motor at the settings' initial ``k0``, ``ζ0``,
     the travel its reference spans.
     """
-    from dataclasses import replace
-
-    from pgcomm.io.config import load_experiment
     from pgcomm.settings import ExperimentConfig
     from pgcomm.plan import make_plan, reference_settings
 
     force_sensor = not args.no_force_sensor
     if args.motor is not None and args.plant is None:
-        from pgcomm.io.config import load_motor
-
         config = load_experiment(args.config) if args.config else ExperimentConfig()
         motor = load_motor(args.motor)
         settings = reference_settings(config.reference, motor)
     else:
-        from pgcomm.cli._common import setup_from_args
-
         setup = setup_from_args(args)
         config = setup.config
         # the span of the set-up's resolved reference: the next round's plan spans the same
@@ -97,9 +98,6 @@ def _rotary_commands(args, drive: str, runs: bool) -> dict[str, str]:
 def _same_map(args, drive: str) -> bool:
     """Whether ``--columns`` (none: the log format's own names in SI) reads the first round's logs as the plan's
     ``columns.toml`` reads its script's."""
-    import tomllib
-
-    from pgcomm.io.logs import column_mapping, load_column_mapping
     from pgcomm.io.rotary_plan import columns_toml
 
     ours = column_mapping(tomllib.loads(columns_toml(drive)))
@@ -111,8 +109,6 @@ def _same_map(args, drive: str) -> bool:
 
 def _run_rotary(args, out: Path, progress) -> None:
     """``pgcomm plan --motor rotary.toml --drive D [--data LOG...]`` (:mod:`pgcomm.rotary.plan`)."""
-    from pgcomm.errors import ConfigError
-    from pgcomm.io.config import load_rotary_motor
     from pgcomm.io.rotary_plan import write_rotary_plan
     from pgcomm.rotary.plan import first_plan, refined_plan
 
@@ -129,7 +125,6 @@ def _run_rotary(args, out: Path, progress) -> None:
     settings = _rotary_settings(args)
     motor = load_rotary_motor(args.motor)
     if args.data:
-        from pgcomm.io.logs import ROTARY_REQUIRED, load_column_mapping, read_logs, with_encoder_counts
         from pgcomm.rotary.plan import logs_as_data, read_first_round
 
         with progress.stage(f"read {len(args.data)} log pattern(s) of the first round"):
@@ -156,7 +151,6 @@ def _run_rotary(args, out: Path, progress) -> None:
 
 def _rotary_settings(args):
     """:class:`pgcomm.rotary.plan.RotaryPlanSettings` of the options (``--swing``)."""
-    from pgcomm.errors import ConfigError
     from pgcomm.rotary.plan import RotaryPlanSettings
 
     if args.swing is None:
@@ -169,7 +163,6 @@ def _rotary_settings(args):
 
 def run(args, out: Path, progress) -> None:
     """Write the plan folder (:mod:`pgcomm.io.plan`, :mod:`pgcomm.io.rotary_plan` for a rotary motor)."""
-    from pgcomm.errors import ConfigError
     from pgcomm.io.plan import write_plan
 
     if motor_is_rotary(args):

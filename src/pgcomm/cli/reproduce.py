@@ -4,10 +4,18 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
+
+import numpy as np
 
 from pgcomm.cli._common import add_common_options, add_reference_options, motor_is_rotary, print_calibration, \
     print_mse, reference_from_args, refuse_conflicts, settings_given, setup_from_args
+from pgcomm.errors import ConfigError
+from pgcomm.io.results import write_results
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib load only when the command runs; every
+# command's parser is built by `import pgcomm.cli`, which loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("The paper's experiment on the twin (or a force-map plant): calibration, PGNN "
         "identification, all commutation laws in closed loop; report.html, results.json, figures.")
@@ -29,14 +37,10 @@ def configure(p) -> None:
 
 def run(args, out: Path, progress) -> None:
     """Run the experiment; write ``report.html``, ``results.json``, ``model.json/.npz`` and the figures."""
-    from dataclasses import replace
-
     import jax.numpy as jnp
-    import numpy as np
 
     from pgcomm import __version__, plots, reproduce
     from pgcomm.io.model import save_model
-    from pgcomm.io.results import write_results
     from pgcomm.report.linear import figure_captions, write_report
 
     t0 = time.perf_counter()
@@ -46,7 +50,6 @@ def run(args, out: Path, progress) -> None:
         return run_rotary(args, out, progress, t0)
     for flag, given in (("--log-budget", args.log_budget is not None), ("--until-resolved", args.until_resolved)):
         if given:
-            from pgcomm.errors import ConfigError
             raise ConfigError(f"{flag}: only for a rotary motor (a --motor TOML with kind = \"rotary\"); a linear "
                               "motor's data sets are sized by its config")
     if args.quick and args.config:

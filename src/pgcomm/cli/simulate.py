@@ -7,6 +7,13 @@ from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, add_reference_options, print_mse, reference_from_args, \
     setup_from_args
+from pgcomm.control import Feedforward
+from pgcomm.errors import ConfigError
+from pgcomm.io.logs import Log, write_log
+from pgcomm.io.results import write_results
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib load only when the command runs; every
+# command's parser is built by `import pgcomm.cli`, which loads none of them (`--help` and a bad option answer at once).
 
 HELP = "Closed-loop run on the twin (or a force-map plant): log, plot, results.json."
 
@@ -33,10 +40,7 @@ def _run_plan(args, out: Path, progress) -> None:
     """``--plan``: every experiment of the plan on the plant, logs ``out/<experiment>.csv``."""
     from pgcomm.setup import check_reference
     from pgcomm.data import generate_datasets
-    from pgcomm.errors import ConfigError
-    from pgcomm.io.logs import Log, write_log
     from pgcomm.io.plan import log_identity, plan_id, read_plan, write_log_identity
-    from pgcomm.io.results import write_results
 
     for opt, given in (("--model", args.model), ("--reference", args.reference),
                        ("--law", args.law != "nominal"), ("--no-feedforward", args.no_feedforward)):
@@ -55,8 +59,7 @@ def _run_plan(args, out: Path, progress) -> None:
     check_reference(setup, plan.reference, f"--plan {args.plan}")
     n = len(plan.experiments)
     with progress.stage(f"{n} experiments of the plan on {setup.plant_name} ({plan.duration:.1f} s each)"):
-        runs = generate_datasets(setup.plant, drive, plan.reference, delta=plan.delta, pid=setup.pid,
-                                 mechanics=setup.config.mechanics, sensors=setup.config.sensors, seed=args.seed)
+        runs = generate_datasets(setup.plant, drive, plan.reference, delta=plan.delta, loop=setup.loop, seed=args.seed)
     by_key = {(ds.coil_set, ds.delta > 0): ds.result for pair in runs for ds in pair}
     force_cols = () if plan.force_sensor else ("Fy", "Fx", "Tz")
     summary = {}
@@ -82,10 +85,6 @@ def run(args, out: Path, progress) -> None:
         return _run_plan(args, out, progress)
     from pgcomm import experiment, plots
     from pgcomm.commutation import ClassicalLaw, ModelLaw, oracle_law
-    from pgcomm.control import Feedforward
-    from pgcomm.errors import ConfigError
-    from pgcomm.io.logs import Log, write_log
-    from pgcomm.io.results import write_results
 
     t0 = time.perf_counter()
     setup = setup_from_args(args)

@@ -5,7 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from pgcomm.cli._common import add_common_options, seed_value
+from pgcomm.defaults import MAX_MOTORS
 from pgcomm.errors import ConfigError
+
+# Imports inside the functions below: JAX, SciPy and Matplotlib load only when the command runs; every
+# command's parser is built by `import pgcomm.cli`, which loads none of them (`--help` and a bad option answer at once).
 
 HELP = ("Write N random zoo motors (force map, motor.toml, config.toml, truth.json per folder); "
         "--logs also writes the data sets a production line records.")
@@ -13,8 +17,6 @@ HELP = ("Write N random zoo motors (force map, motor.toml, config.toml, truth.js
 
 def configure(p) -> None:
     """Options of ``pgcomm zoo``."""
-    from pgcomm.defaults import MAX_MOTORS
-
     p.add_argument("--motors", type=int, required=True, metavar="N", help=f"number of motors (1 to {MAX_MOTORS})")
     p.add_argument("--seed", type=seed_value, default=0,
                    help="zoo seed, also the noise seed of --logs, 0 to 2**32-1 (default 0)")
@@ -40,7 +42,7 @@ def configure(p) -> None:
 def run(args, out: Path, progress) -> None:
     """Write ``out/motor_NN/`` for every motor (and its ``logs/`` with ``--logs``)."""
     from pgcomm.experiment import write_production_logs
-    from pgcomm.zoo import MAX_MOTORS, draw_motor, motor_folder_name, write_motor
+    from pgcomm.zoo import draw_motor, motor_folder_name, write_motor
 
     n = args.motors
     if not 1 <= n <= MAX_MOTORS:

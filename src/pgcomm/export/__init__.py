@@ -34,7 +34,7 @@ import importlib
 _LUT = ("DEFAULT_RESOLUTION", "Lut", "LutError", "CoggingTable", "CoggingTableError", "build_lut", "lut_currents",
         "lut_error", "write_lut", "read_lut", "lut_header", "lut_columns", "f_star_set", "build_cogging_table",
         "cogging_table_error", "write_cogging_table", "classical_parameters")
-_PUBLIC = {"c_source": "pgcomm.export.c", "write_c": "pgcomm.export.c", **{n: "pgcomm.export.lut" for n in _LUT}}
+_PUBLIC = {"CLawOptions": "pgcomm.export.c", "c_source": "pgcomm.export.c", "write_c": "pgcomm.export.c", **{n: "pgcomm.export.lut" for n in _LUT}}
 
 __all__ = list(_PUBLIC)
 

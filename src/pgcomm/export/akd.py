@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -38,9 +37,11 @@ from pgcomm.export.drive_common import (
     Source,
     error_of,
     f32,
+    finite_value,
     float32_bound,
     fmt32,
     header,
+    parameter_lines,
     periodic_linear,
     round_trip,
     unit_factor,
@@ -183,19 +184,10 @@ def read_akd(path) -> dict:
     """
     src = str(path)
     vals, rng = {}, {}
-    for lineno, raw in enumerate(Path(path).read_text().splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        m, r = _CV.match(line), _RANGE.match(line)
-        if not (m or r):
-            continue
-        try:
-            v = float((m or r).group(2))
-        except ValueError:
-            raise DataError(f"{src} line {lineno}: '{(m or r).group(2)}' is not a number") from None
-        if not math.isfinite(v):
-            raise DataError(f"{src} line {lineno}: {v} is not finite")
-        if r:
-            rng[r.group(1).lower()] = v
+    for lineno, k, m in parameter_lines(path, _CV, _RANGE):
+        v = finite_value(src, lineno, m.group(2))
+        if k == 1:
+            rng[m.group(1).lower()] = v
             continue
         i = int(m.group(1))
         if i >= ENTRIES or i in vals:

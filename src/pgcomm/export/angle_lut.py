@@ -41,6 +41,7 @@ from pgcomm.export.angle_table import (
     resample_periodic,
 )
 from pgcomm import __version__
+from pgcomm.export.c_text import DOUBLE, SINGLE, check_c_name, ieee_finite, macro_literal
 from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["AngleLut", "build_angle_lut", "angle_lut_header", "write_angle_lut", "angle_lut_values",
@@ -184,10 +185,8 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
         limit_source: where the limit (or its absence) came from, for the comment block.
         provenance: further comment lines (the input table's own ``#`` lines, the command).
     """
-    from pgcomm.export.c import _DOUBLE, _SINGLE, _m, check_c_name  # start-up cost: loads JAX only when this runs
-
     check_c_name(name)
-    num = _SINGLE if lut.precision == "single" else _DOUBLE
+    num = SINGLE if lut.precision == "single" else DOUBLE
     T, lit, fl = num.ctype, num.lit, num.fn("floor")
     U = name.upper()
     guard = f"{U}_H_INCLUDED"
@@ -214,9 +213,9 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
     out = ["/*\n", *(f" * {s.replace('*/', '* /')}\n" for s in lines), " */\n",
            f"#ifndef {guard}\n#define {guard}\n\n#include <math.h>\n\n",
            f"#define {U}_N {lut.n}\n",
-           f"/* entries per radian: N / (2 pi) */\n#define {U}_PER_RAD {_m(lit(lut.n / two_pi))}\n"]
+           f"/* entries per radian: N / (2 pi) */\n#define {U}_PER_RAD {macro_literal(lit(lut.n / two_pi))}\n"]
     if lut.current_limit is not None:
-        out.append(f"#define {U}_CURRENT_LIMIT {_m(lit(lut.current_limit))}\n")
+        out.append(f"#define {U}_CURRENT_LIMIT {macro_literal(lit(lut.current_limit))}\n")
     out += [f"\n/* iq_comp (A) at theta_j = 2 pi j / {U}_N */\n",
             f"static const {T} {name}_table[{U}_N] = {{\n{vals}\n}};\n\n",
             f"static inline int {name}_comp({T} theta, {T} *iq_comp)\n{{\n",
@@ -230,8 +229,6 @@ def angle_lut_header(lut: AngleLut, name: str = "pgcomm_angle_lut", limit_source
             "        *iq = 0;\n        return 2;\n    }\n",
             "    *iq = iq_star + c;\n",
             *c_current_tail(U, "iq", lut.current_limit is not None, guard)]
-    from pgcomm.export.c import ieee_finite  # start-up cost: loads JAX only when this runs
-
     return ieee_finite("".join(out), name, lut.precision == "single")
 
 

@@ -26,13 +26,13 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
 from pgcomm.errors import ConfigError, DataError
 from pgcomm.export.compensation import fourier_coefficients
-from pgcomm.export.drive_common import RoundTrip, Source, error_of, f32, header, round_trip, unit_factor
+from pgcomm.export.drive_common import RoundTrip, Source, error_of, f32, header, parameter_lines, round_trip, \
+    unit_factor
 from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["MAX_HARMONICS", "MAX_ORDER", "SOURCES", "BeckhoffTable", "build_beckhoff", "write_beckhoff",
@@ -229,20 +229,15 @@ def read_beckhoff(path) -> dict:
     """
     src = str(path)
     sub, coefs = {}, []
-    for lineno, raw in enumerate(Path(path).read_text().splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        m, c = _COE.match(line), _COEF.match(line)
+    expected = "'index:subindex = value'"
+    for lineno, k, m in parameter_lines(path, _COE, _COEF, expected=expected):
         try:
-            if m:
+            if k == 0:
                 sub[(m.group(1), int(m.group(2), 16))] = float(m.group(3))
-            elif c:
-                coefs.append((int(c.group(2)), float(c.group(3)), float(c.group(4)), lineno))
             else:
-                raise ValueError
+                coefs.append((int(m.group(2)), float(m.group(3)), float(m.group(4)), lineno))
         except ValueError:
-            raise DataError(f"{src} line {lineno}: '{line}' is not 'index:subindex = value'") from None
+            raise DataError(f"{src} line {lineno}: '{m.string}' is not {expected}") from None
     if ("32CB", 1) in sub:
         coefs = [(int(sub.get(("32CB", 7 + 3 * j), 0)), sub.get(("32CB", 8 + 3 * j), 0.0),
                   sub.get(("32CB", 9 + 3 * j), 0.0), 0) for j in range(MAX_HARMONICS)]

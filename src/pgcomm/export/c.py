@@ -78,127 +78,77 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from pgcomm.commutation import DEFAULT_DAMPING, DEFAULT_DET_MIN
+from pgcomm.export.c_text import DOUBLE, PRECISIONS, SINGLE, check_c_name, ieee_finite, macro_literal
 from pgcomm import __version__
 from pgcomm.control import Feedforward
 from pgcomm.io.atomic import atomic_write_text
 from pgcomm.io.model import feedforward_from_metadata
 from pgcomm.spline_model import SplineModel
 
-__all__ = ["c_source", "write_c", "check_c_name", "PRECISIONS"]
+__all__ = ["CLawOptions", "c_source", "write_c", "check_c_name", "PRECISIONS"]
 
-#: Accepted ``precision`` values.
-PRECISIONS = ("double", "single")
-
-_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 #: Inverse copper-loss metric Q^{-1} = [[2, -1], [-1, 2]] / 3, computed as pgcomm.commutation does.
 _QINV = np.array([[2.0, -1.0], [-1.0, 2.0]]) / 3.0
 
 
 @dataclass(frozen=True)
-class _Num:
-    """Precision-specific spelling: C type, literal formatter, math function names."""
+class CLawOptions:
+    """How :func:`c_source` writes the law: its C name, precision, current limit and damping.
 
-    ctype: str
-    single: bool
+    Attributes:
+        name: C identifier used as file name and function prefix.
+        precision: ``"double"`` or ``"single"``.
+        current_limit: peak phase current (A) embedded in the law, or ``None`` (no limit).
+        det_min, damping: damping rule of :func:`pgcomm.commutation.min_energy_currents`.
+        limit_source: where the limit (or its absence) came from, written after it in the comment
+            block, e.g. ``"from the model file"``; ``None``: not said.
+        drive_source: where the drive's commutation came from (comment block), e.g. ``"--drive-k, --drive-zeta"``.
 
-    def lit(self, x) -> str:
-        """A C literal that round-trips ``x`` in this precision."""
-        x = float(x)
-        if not math.isfinite(x):
-            raise ValueError(f"cannot export a non-finite number ({x}) to C")
-        if self.single:
-            s = "%.9g" % float(np.float32(x))
-        else:
-            s = "%.17g" % x
-        if "." not in s and "e" not in s and "n" not in s:
-            s += ".0"  # "1f" is not a C literal; "1.0f" is
-        return s + ("f" if self.single else "")
-
-    def fn(self, name: str) -> str:
-        """``sin`` -> ``sinf`` in single precision."""
-        return name + "f" if self.single else name
-
-
-_DOUBLE = _Num("double", False)
-_SINGLE = _Num("float", True)
-
-
-def _m(literal: str) -> str:
-    """A literal for a ``#define``: parenthesised when negative, so the macro is one operand anywhere."""
-    return f"({literal})" if literal.startswith("-") else literal
-
-
-def check_c_name(name: str) -> str:
-    """``name`` if it is a usable C identifier prefix, else ``ValueError``.
-
-    Names starting with an underscore are reserved in C and refused too.
+    Raises:
+        ValueError: a name that is no C identifier, another precision, a limit that is not a positive current,
+            ``det_min <= 0`` or ``damping < 0``.
     """
-    if not isinstance(name, str) or not _IDENT.match(name) or name.startswith("_"):
-        raise ValueError(f"name {name!r} is not a C identifier "
-                         "(letters, digits, '_', not starting with a digit or '_')")
-    return name
+
+    name: str = "pgcomm_law"
+    precision: str = "double"
+    current_limit: float | None = None
+    det_min: float = DEFAULT_DET_MIN
+    damping: float = DEFAULT_DAMPING
+    limit_source: str | None = None
+    drive_source: str | None = None
+
+    def __post_init__(self):
+        check_c_name(self.name)
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, got {self.precision!r}")
+        limit = self.current_limit
+        if limit is not None and not (math.isfinite(limit) and limit > 0):
+            raise ValueError(f"current_limit must be a positive number of amperes or None, got {limit}")
+        if not (self.det_min > 0 and self.damping >= 0):
+            raise ValueError(f"need det_min > 0 and damping >= 0, got {self.det_min}, {self.damping}")
 
 
-def ieee_finite(text: str, name: str, single: bool) -> str:
-    """Generated C ``text`` with every ``isfinite(x)`` replaced by ``NAME_finite(x)``, a test on the IEEE-754 bits.
-
-    ``-ffast-math`` (and ``-Ofast``, ``-ffinite-math-only``) lets a compiler assume that no value is NaN or inf, and
-    GCC and Clang then fold ``isfinite`` to 1: the guards vanish, a NaN angle becomes a wild table index
-    (a segfault) and a NaN demand NaN currents. An integer test of the exponent bits (all ones: NaN or inf),
-    read through ``memcpy``, is not a floating-point operation and survives those flags. The test function
-    (``static inline``, for ``float`` when ``single``, else ``double``) is inserted after ``#include <math.h>``
-    with ``<stdint.h>`` and ``<string.h>``; ``text`` must include ``<math.h>`` when it uses ``isfinite``.
-    """
-    if "isfinite(" not in text:
-        return text
-    fn = f"{name}_finite"
-    if single:
-        body = (f"static inline int {fn}(float x)\n{{\n    uint32_t b;\n    memcpy(&b, &x, sizeof b);\n"
-                "    return (b & UINT32_C(0x7f800000)) != UINT32_C(0x7f800000);\n}\n\n")
-    else:
-        body = (f"static inline int {fn}(double x)\n{{\n    uint64_t b;\n    memcpy(&b, &x, sizeof b);\n"
-                "    return (b & UINT64_C(0x7ff0000000000000)) != UINT64_C(0x7ff0000000000000);\n}\n\n")
-    helper = ("#include <stdint.h>\n#include <string.h>\n\n"
-              "/* 1 unless x is NaN or inf: a test of the IEEE-754 exponent bits, which -ffast-math cannot fold\n"
-              "   away, as it may fold the classification macros of math.h */\n" + body)
-    anchor = "#include <math.h>\n\n"
-    if anchor not in text:
-        raise ValueError("generated C without #include <math.h>: cannot place the finite test")
-    text = text.replace(anchor, anchor + helper, 1)
-    head, _, tail = text.partition(helper)
-    return head + helper + tail.replace("isfinite(", f"{fn}(")
-
-
-def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,
-             drive=None, current_limit: float | None = None, det_min: float = DEFAULT_DET_MIN,
-             damping: float = DEFAULT_DAMPING, mechanics=None, limit_source: str | None = None,
-             drive_source: str | None = None) -> tuple[str, str]:
+def c_source(model, options: CLawOptions = CLawOptions(), *, metadata: dict | None = None, drive=None,
+             mechanics=None) -> tuple[str, str]:
     """Header and source text of the exported law (see the module docstring).
 
     Args:
         model: :class:`~pgcomm.models.CombinedModel` (any ``L``, any hidden widths and
             depth, any activation of :data:`pgcomm.models.ACTIVATIONS`) or
             :class:`~pgcomm.spline_model.SplineModel` (tables on uniform knots).
-        name: C identifier used as file name and function prefix.
-        precision: ``"double"`` or ``"single"``.
+        options: :class:`CLawOptions` (name, precision, current limit in A, damping rule).
         metadata: the model file's metadata (named in the comment block: source file,
             date, package version, when present), or ``None``.
         drive: optional fixed commutation of the drive, embedded as the constant arrays
             ``NAME_drive_k_hat[L]`` (N/A) and ``NAME_drive_zeta_hat[L]`` (rad) to pass to
             ``NAME_drive_inputs``: a :class:`~pgcomm.motor.Motor`, a mapping with keys
             ``k_hat``, ``zeta_hat`` or a pair ``(k_hat, zeta_hat)`` (scalars or ``(L,)``).
-        current_limit: peak phase current (A) embedded in the law, or ``None`` (no limit).
-        det_min, damping: damping rule of :func:`pgcomm.commutation.min_energy_currents`.
-        limit_source: where the limit (or its absence) came from, written after it in the comment
-            block, e.g. ``"from the model file"``; ``None``: not said.
-        drive_source: where ``drive`` came from (comment block), e.g. ``"--drive-k, --drive-zeta"``.
         mechanics: optional feedforward to export beside the law as ``NAME_feedforward_g`` and
             ``NAME_feedforward`` (module docstring): a :class:`pgcomm.control.Feedforward`, a
             :class:`pgcomm.identify.mechanics.MechanicsFit`, or the plain mechanics dict of a model
@@ -209,28 +159,19 @@ def c_source(model, name: str = "pgcomm_law", precision: str = "double", metadat
         ``(header_text, source_text)``.
 
     Raises:
-        ValueError: bad name, precision, limit, non-finite weights or non-uniform knots.
+        ValueError: non-finite weights or non-uniform knots.
     """
-    check_c_name(name)
-    if precision not in PRECISIONS:
-        raise ValueError(f"precision must be one of {PRECISIONS}, got {precision!r}")
-    if current_limit is not None and not (math.isfinite(current_limit) and current_limit > 0):
-        raise ValueError(f"current_limit must be a positive number of amperes or None, got {current_limit}")
-    if not (det_min > 0 and damping >= 0):
-        raise ValueError(f"need det_min > 0 and damping >= 0, got {det_min}, {damping}")
-
+    o = options
     gen = _SplineGen if isinstance(model, SplineModel) else _Gen
-    g = gen(model, name, _SINGLE if precision == "single" else _DOUBLE, metadata or {}, drive,
-            current_limit, float(det_min), float(damping), _feedforward_of(mechanics))
-    g.limit_source, g.drive_source = limit_source, drive_source
-    single = precision == "single"
-    return ieee_finite(g.header(), name, single), ieee_finite(g.source(), name, single)
+    g = gen(model, o.name, SINGLE if o.precision == "single" else DOUBLE, metadata or {}, drive,
+            o.current_limit, float(o.det_min), float(o.damping), _feedforward_of(mechanics))
+    g.limit_source, g.drive_source = o.limit_source, o.drive_source
+    single = o.precision == "single"
+    return ieee_finite(g.header(), o.name, single), ieee_finite(g.source(), o.name, single)
 
 
-def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double", metadata: dict | None = None,
-            drive=None, current_limit: float | None = None, det_min: float = DEFAULT_DET_MIN,
-            damping: float = DEFAULT_DAMPING, mechanics=None, limit_source: str | None = None,
-            drive_source: str | None = None) -> list[Path]:
+def write_c(model, out_dir, options: CLawOptions = CLawOptions(), *, metadata: dict | None = None, drive=None,
+            mechanics=None) -> list[Path]:
     """Write ``NAME.h`` and ``NAME.c`` into ``out_dir`` (created if missing).
 
     Both texts are generated before anything is written, and each file is written
@@ -240,11 +181,10 @@ def write_c(model, out_dir, name: str = "pgcomm_law", precision: str = "double",
     Returns:
         ``[path_of_header, path_of_source]``.
     """
-    header, source = c_source(model, name, precision, metadata, drive, current_limit, det_min, damping, mechanics,
-                              limit_source, drive_source)
+    header, source = c_source(model, options, metadata=metadata, drive=drive, mechanics=mechanics)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [out / f"{name}.h", out / f"{name}.c"]
+    paths = [out / f"{options.name}.h", out / f"{options.name}.c"]
     atomic_write_text(paths[0], header)
     atomic_write_text(paths[1], source)
     return paths
@@ -327,7 +267,7 @@ def _check_uniform(what: str, knots: np.ndarray) -> None:
 class _Gen:
     """Builds the C texts of one model (private; see :func:`c_source`)."""
 
-    def __init__(self, model, name, num: _Num, metadata, drive, current_limit, det_min, damping, ff=None):
+    def __init__(self, model, name, num: CNumbers, metadata, drive, current_limit, det_min, damping, ff=None):
         self.ff = ff  # pgcomm.control.Feedforward to export beside the law, or None
         self.limit_source = self.drive_source = None  # said in the comment block when set (c_source)
         self.m, self.name, self.num, self.meta = model, name, num, metadata
@@ -354,7 +294,7 @@ class _Gen:
         return self.num.lit(x)
 
     def dlit(self, x) -> str:
-        return _DOUBLE.lit(x)
+        return DOUBLE.lit(x)
 
     def f(self, fn: str) -> str:
         return self.num.fn(fn)
@@ -467,7 +407,7 @@ class _Gen:
                "#ifdef __cplusplus\nextern \"C\" {\n#endif\n\n",
                f"/** Number of coil sets L. */\n#define {P.upper()}_L {L}\n",
                f"/** 1 if {P} was exported in single precision (float), 0 for double. */\n"
-               f"#define {P.upper()}_SINGLE {1 if self.num.single else 0}\n\n",
+               f"#define {P.upper()}SINGLE {1 if self.num.single else 0}\n\n",
                f"/** 1 if the law takes the controller's velocity v (m/s) (direction term), else 0. */\n"
                f"#define {P.upper()}_HAS_VELOCITY {1 if self.dir else 0}\n\n",
                f"/** Scalar type of the interface ({T}). */\ntypedef {T} {P}_real;\n\n",
@@ -648,34 +588,34 @@ class _Gen:
         omega = 2.0 * np.pi / m.pole_pitch  # harmonic_basis: (2π / d_m) * y
         consts = [
             f"/* 2 pi / d_m (rad/m), as pgcomm.models.harmonic_basis computes it */\n"
-            f"#define {P.upper()}_OMEGA {_m(lit(omega))}\n",
+            f"#define {P.upper()}_OMEGA {macro_literal(lit(omega))}\n",
             f"/* 2 pi and d_m (m) for the drive's phase (2 pi y) / d_m + zeta, as pgcomm.motor.commutation_phase */\n"
-            f"#define {P.upper()}_TWO_PI {_m(lit(2.0 * np.pi))}\n"
-            f"#define {P.upper()}_POLE_PITCH {_m(lit(m.pole_pitch))}\n"
-            f"#define {P.upper()}_TWO_PI_3 {_m(lit(2 * np.pi / 3))}\n#define {P.upper()}_PI {_m(lit(np.pi))}\n"
-            f"#define {P.upper()}_HALF_PI {_m(lit(np.pi / 2))}\n"
+            f"#define {P.upper()}_TWO_PI {macro_literal(lit(2.0 * np.pi))}\n"
+            f"#define {P.upper()}_POLE_PITCH {macro_literal(lit(m.pole_pitch))}\n"
+            f"#define {P.upper()}_TWO_PI_3 {macro_literal(lit(2 * np.pi / 3))}\n#define {P.upper()}_PI {macro_literal(lit(np.pi))}\n"
+            f"#define {P.upper()}_HALF_PI {macro_literal(lit(np.pi / 2))}\n"
             f"/* det of [[sin e, cos e], [sin(e + 2pi/3), cos(e + 2pi/3)]] = -sin(2 pi/3) */\n"
-            f"#define {P.upper()}_GAMMA_DET {_m(lit(-np.sin(2 * np.pi / 3)))}\n",
+            f"#define {P.upper()}_GAMMA_DET {macro_literal(lit(-np.sin(2 * np.pi / 3)))}\n",
             f"/* inverse copper-loss metric Q^-1 = [[2, -1], [-1, 2]] / 3 (Q: ia^2 + ib^2 + ic^2) */\n"
-            f"#define {P.upper()}_QI_D {_m(self.dlit(_QINV[0, 0]))}\n"
-            f"#define {P.upper()}_QI_O {_m(self.dlit(_QINV[0, 1]))}\n",
+            f"#define {P.upper()}_QI_D {macro_literal(self.dlit(_QINV[0, 0]))}\n"
+            f"#define {P.upper()}_QI_O {macro_literal(self.dlit(_QINV[0, 1]))}\n",
             f"/* damping rule of pgcomm.commutation.min_energy_currents */\n"
-            f"#define {P.upper()}_DET_MIN {_m(self.dlit(self.det_min))}\n"
-            f"#define {P.upper()}_DAMPING {_m(self.dlit(self.damping))}\n",
+            f"#define {P.upper()}_DET_MIN {macro_literal(self.dlit(self.det_min))}\n"
+            f"#define {P.upper()}_DAMPING {macro_literal(self.dlit(self.damping))}\n",
         ]
         if self.harm:
             consts.append(f"/* 2 pi n / d_m (rad/m) of the 5th and 7th harmonics (pgcomm.models.harmonic_basis) */\n"
-                          f"#define {P.upper()}_OMEGA5 {_m(lit(2.0 * np.pi * 5 / m.pole_pitch))}\n"
-                          f"#define {P.upper()}_OMEGA7 {_m(lit(2.0 * np.pi * 7 / m.pole_pitch))}\n")
+                          f"#define {P.upper()}_OMEGA5 {macro_literal(lit(2.0 * np.pi * 5 / m.pole_pitch))}\n"
+                          f"#define {P.upper()}_OMEGA7 {macro_literal(lit(2.0 * np.pi * 7 / m.pole_pitch))}\n")
         if self.dir:
             consts.append(f"/* v_eps (m/s) of the smooth sign tanh(v / v_eps) */\n"
-                          f"#define {P.upper()}_V_EPS {_m(lit(m.direction_velocity))}\n")
+                          f"#define {P.upper()}_V_EPS {macro_literal(lit(m.direction_velocity))}\n")
         if self.rng is not None:
-            consts.append(f"/* training range (m) */\n#define {P.upper()}_Y_MIN {_m(lit(self.rng[0]))}\n"
-                          f"#define {P.upper()}_Y_MAX {_m(lit(self.rng[1]))}\n")
+            consts.append(f"/* training range (m) */\n#define {P.upper()}_Y_MIN {macro_literal(lit(self.rng[0]))}\n"
+                          f"#define {P.upper()}_Y_MAX {macro_literal(lit(self.rng[1]))}\n")
         if self.limit is not None:
             consts.append(f"/* peak phase current limit (A) */\n"
-                          f"#define {P.upper()}_CURRENT_LIMIT {_m(self.dlit(self.limit))}\n")
+                          f"#define {P.upper()}_CURRENT_LIMIT {macro_literal(self.dlit(self.limit))}\n")
 
         consts += self._model_consts()
         model_fn = self._model_fn()
@@ -736,8 +676,8 @@ class _Gen:
         P, T, U, lit, ff = self.P, self.T, self.P.upper(), self.lit, self.ff
         kt = self._ff_knots()
         out = ["\n/* ---- feedforward (see the header) ---- */\n",
-               f"#define {U}_FF_MASS {_m(lit(ff.mass))}\n#define {U}_FF_VISCOUS {_m(lit(ff.viscous))}\n"
-               f"#define {U}_FF_COULOMB {_m(lit(ff.coulomb))}\n"]
+               f"#define {U}_FF_MASS {macro_literal(lit(ff.mass))}\n#define {U}_FF_VISCOUS {macro_literal(lit(ff.viscous))}\n"
+               f"#define {U}_FF_COULOMB {macro_literal(lit(ff.coulomb))}\n"]
         d_expr = ""
         if kt is not None:
             knots, table = kt
@@ -765,7 +705,7 @@ class _Gen:
         U, m = self.P.upper(), int(knots.shape[0])
         # the spacing exactly as pgcomm.interp.interp_linear computes it: (g[-1] - g[0]) / (m - 1)
         h = (float(knots[-1]) - float(knots[0])) / (m - 1)
-        return f"#define {U}_{tag}_M {m}\n#define {U}_{tag}_H {_m(self.lit(h))}\n"
+        return f"#define {U}_{tag}_M {m}\n#define {U}_{tag}_H {macro_literal(self.lit(h))}\n"
 
     def _locate_fn(self) -> str:
         """``static int NAME_locate(...)``: cell and weight on a uniform grid, as interp_linear (once per file)."""
@@ -1003,8 +943,8 @@ class _Gen:
         lo = float(np.float32(d - hi))
         return (f"/* y - n d_m, |.| <= d_m/2 (exact for |y| < 4096 d_m): keeps the float harmonic argument\n"
                 f"   below pi, with ~1e-7 rad error instead of half an ulp of 2 pi y/d_m */\n"
-                f"#define {U}_INV_DM {_m(self.lit(1.0 / d))}\n#define {U}_DM_HI {_m(self.lit(hi))}\n"
-                f"#define {U}_DM_LO {_m(self.lit(lo))}\n"
+                f"#define {U}_INV_DM {macro_literal(self.lit(1.0 / d))}\n#define {U}_DM_HI {macro_literal(self.lit(hi))}\n"
+                f"#define {U}_DM_LO {macro_literal(self.lit(lo))}\n"
                 f"static float {P}_reduce(float y)\n{{\n"
                 f"    const float n = floorf(y * {U}_INV_DM + 0.5f);\n"
                 f"    return (y - n * {U}_DM_HI) - n * {U}_DM_LO;\n}}\n\n")

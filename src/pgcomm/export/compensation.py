@@ -197,9 +197,10 @@ def from_linear_model(model, k_hat, zeta_hat, current_limit: float | None = None
         ConfigError: the model has no training range (a table needs an extent) or the drive's commutation makes
             too little force somewhere on it (:data:`pgcomm.export.lut.MIN_DRIVE_GAIN`).
     """
-    import jax.numpy as jnp  # start-up cost: JAX loads only when this runs
-
-    from pgcomm.export.lut import _cog_y, _drive, drive_gain  # start-up cost: loads JAX only when this runs
+    # start-up cost: a linear model's table needs JAX; the rotary tables of this module (on pgcomm's start-up path)
+    # do not
+    import jax.numpy as jnp
+    from pgcomm.export.lut import MIN_DRIVE_GAIN, _cog_y, _drive, drive_gain
 
     if model.training_range is None:
         raise ConfigError(f"{source}: the model has no training range, so a drive table has no extent")
@@ -207,8 +208,6 @@ def from_linear_model(model, k_hat, zeta_hat, current_limit: float | None = None
     k_hat, zeta_hat = _drive(model, k_hat, zeta_hat)
     probe = np.linspace(lo, hi, 2001)
     g = drive_gain(model, probe, k_hat, zeta_hat)
-    from pgcomm.export.lut import MIN_DRIVE_GAIN  # start-up cost: loads JAX only when this runs
-
     if not np.min(g) >= MIN_DRIVE_GAIN:
         j = int(np.argmin(g))
         raise ConfigError(f"with k_hat {np.round(k_hat, 4).tolist()} N/A, zeta_hat {np.round(zeta_hat, 4).tolist()} "

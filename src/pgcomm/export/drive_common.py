@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -21,7 +22,7 @@ from pgcomm.errors import ConfigError, DataError
 from pgcomm import __version__
 
 __all__ = ["Source", "RoundTrip", "round_trip", "header", "f32", "fmt32", "float32_bound", "unit_factor",
-           "periodic_linear", "TableError", "error_of", "FINE"]
+           "periodic_linear", "TableError", "error_of", "FINE", "parameter_lines", "finite_value"]
 
 #: Error grid points per table entry for the between-entries error.
 FINE = 8
@@ -179,6 +180,55 @@ def header(title: str, sources, documented, assumed, checks, provenance=(), pref
             for it in items:
                 out += wrap(it, "  - ")
     return "".join(f"{prefix}{line}".rstrip() + "\n" for line in out)
+
+
+def parameter_lines(path, *patterns, expected: str | None = None):
+    """The parameter lines of a drive's file, as every reader of this package takes them.
+
+    Text after ``#`` is a comment; blank lines are skipped. Each other line is matched against ``patterns`` in
+    order, and the first that matches gives ``(lineno, k, match)``: the line's number (1-based), the pattern's index
+    and the match (``match.string`` is the line without its comment).
+
+    Args:
+        path: the file (named in errors, with the line).
+        patterns: compiled regular expressions.
+        expected: what a line must look like, e.g. ``"'pNNNN[i] = value'"``: a line that matches no pattern is
+            refused with it; ``None``: such lines are skipped (a drive's own dump carries its other settings).
+
+    Yields:
+        ``(lineno, k, match)``.
+
+    Raises:
+        DataError: ``FILE line N: 'LINE' is not EXPECTED``.
+    """
+    src = str(path)
+    for lineno, raw in enumerate(Path(path).read_text().splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        for k, pattern in enumerate(patterns):
+            m = pattern.match(line)
+            if m:
+                yield lineno, k, m
+                break
+        else:
+            if expected is not None:
+                raise DataError(f"{src} line {lineno}: '{line}' is not {expected}")
+
+
+def finite_value(path, lineno: int, text: str) -> float:
+    """``text`` of line ``lineno`` of ``path`` as a finite number.
+
+    Raises:
+        DataError: ``FILE line N: 'TEXT' is not a number``, or ``FILE line N: TEXT is not finite``.
+    """
+    try:
+        v = float(text)
+    except ValueError:
+        raise DataError(f"{path} line {lineno}: '{text}' is not a number") from None
+    if not math.isfinite(v):
+        raise DataError(f"{path} line {lineno}: {text} is not finite")
+    return v
 
 
 def parse_pair(text: str | None, option: str, unit: str) -> tuple[float, float] | None:

@@ -41,6 +41,7 @@ from pgcomm.export.options import c_name, drive_commutation, entries_name_limit,
     parse_current_limit
 from pgcomm.export.rotary_law import build_rotary_law, write_rotary_law
 from pgcomm.io.results import write_results
+from pgcomm.io.rotary_model import load_rotary_model
 
 __all__ = ["TABLE_FORMATS", "DRIVE_FORMATS", "LINEAR_FORMATS", "add_drive_options", "export_drive",
            "export_rotary_law"]
@@ -140,8 +141,6 @@ def _source(args):
         check_within_limit(table, limit, slack, src)
         return cs.from_angle_table(table, args.pole_pairs, limit, src), None, table
     if _is_rotary_model(args.model):
-        from pgcomm.io.model import load_rotary_model  # start-up cost: loads JAX only when this runs
-
         model = load_rotary_model(args.model)
         limit, src = _limit(args, model.info.get("current_limit"), "from the model file",
                             f"{args.model}: the model file")
@@ -312,8 +311,6 @@ def export_rotary_law(args, out, progress, t0) -> None:
     if args.table is not None:
         raise ConfigError("--format c-rotary exports --model, not --table (a table's formats: "
                           f"{', '.join(TABLE_FORMATS)})")
-    from pgcomm.io.model import load_rotary_model  # start-up cost: loads JAX only when this runs
-
     name, limit, limit_given = entries_name_limit(args)
     model = load_rotary_model(args.model)
     if limit_given:

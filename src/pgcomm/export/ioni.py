@@ -26,13 +26,13 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
 from pgcomm.errors import ConfigError, DataError
 from pgcomm.export.compensation import fourier_coefficients
-from pgcomm.export.drive_common import RoundTrip, Source, error_of, f32, header, round_trip, unit_factor
+from pgcomm.export.drive_common import RoundTrip, Source, error_of, f32, header, parameter_lines, round_trip, \
+    unit_factor
 from pgcomm.io.atomic import atomic_write_text
 from pgcomm.rotary.law import MIN_GAIN
 
@@ -211,20 +211,15 @@ def read_ioni(path) -> dict:
     """
     src = str(path)
     fn, amp = {}, {}
-    for lineno, raw in enumerate(Path(path).read_text().splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        f, a = _F.match(line), _A.match(line)
+    expected = "a TRF/TRA setting of pgcomm"
+    for lineno, k, m in parameter_lines(path, _F, _A, expected=expected):
         try:
-            if f:
-                fn[f.group(1)[-1]] = (int(f.group(2)), math.radians(float(f.group(3))))
-            elif a:
-                amp[a.group(1)[-1]] = float(a.group(2))
+            if k == 0:
+                fn[m.group(1)[-1]] = (int(m.group(2)), math.radians(float(m.group(3))))
             else:
-                raise ValueError
+                amp[m.group(1)[-1]] = float(m.group(2))
         except ValueError:
-            raise DataError(f"{src} line {lineno}: '{line}' is not a TRF/TRA setting of pgcomm") from None
+            raise DataError(f"{src} line {lineno}: '{m.string}' is not {expected}") from None
     out = {}
     for key, name in (("1", "cogging"), ("2", "ripple")):
         a = amp.get(key, 0.0)

@@ -96,7 +96,7 @@ def export_law(args, out: Path, progress, t0: float) -> None:
 
 
 def _export_c(args, out, progress, model, metadata, name, results, limit, limit_source, drive):
-    from pgcomm.export.c import write_c  # start-up cost: loads JAX only when this runs
+    from pgcomm.export.c import CLawOptions, write_c  # start-up cost: loads JAX only when this runs
 
     meta = {**metadata, "source": str(args.model)}
     # the drive's constants are embedded only when known (given or recorded), not the fit's
@@ -104,9 +104,9 @@ def _export_c(args, out, progress, model, metadata, name, results, limit, limit_
     with progress.stage(f"generate C ({args.precision} precision)"):
         try:
             # a spline file's mechanics travel with it: the feedforward is exported beside the law
-            paths = write_c(model, out, name=name, precision=args.precision, metadata=meta,
-                            current_limit=limit, mechanics=metadata.get("mechanics"), limit_source=limit_source,
-                            drive=embed, drive_source=drive["source"] if embed else None)
+            options = CLawOptions(name, args.precision, limit, limit_source=limit_source,
+                                  drive_source=drive["source"] if embed else None)
+            paths = write_c(model, out, options, metadata=meta, drive=embed, mechanics=metadata.get("mechanics"))
         except ValueError as e:
             raise ConfigError(f"{args.model}: {e}") from None
     results.update(files=[p.name for p in paths], precision=args.precision,
@@ -125,14 +125,9 @@ def _export_c(args, out, progress, model, metadata, name, results, limit, limit_
 
 
 def _export_lut(args, out, progress, model, metadata, name, results, limit, limit_source, drive):
-    from pgcomm.export.lut import (
-        build_cogging_table,
-        build_lut,
-        cogging_table_error,
-        lut_error,
-        write_cogging_table,
-        write_lut,
-    )  # start-up cost: loads JAX only when this runs
+    # start-up cost: loads JAX only when this runs
+    from pgcomm.export.lut import MAX_ROWS, build_cogging_table, build_lut, cogging_table_error, lut_error, \
+        write_cogging_table, write_lut
 
     if model.training_range is None:
         raise ConfigError(f"{args.model}: the model has no training range, so the table has no extent")
@@ -142,8 +137,6 @@ def _export_lut(args, out, progress, model, metadata, name, results, limit, limi
         source = "training data (model metadata)"
         if f_max is None:
             f_max, source = DEFAULT_F_MAX, "default (no training force in the model's metadata)"
-    from pgcomm.export.lut import MAX_ROWS  # start-up cost: loads JAX only when this runs
-
     lo, hi = model.training_range
     if (hi - lo) / args.resolution > MAX_ROWS:
         raise ConfigError(f"--resolution {args.resolution:g} m over the training range [{lo:.6g}, {hi:.6g}] m of "

@@ -102,7 +102,7 @@ __all__ = [
 
 from pgcomm.defaults import DEFAULT_RESOLUTION  # noqa: E402  (re-exported)
 from pgcomm import __version__
-from pgcomm.export.c import _m, _SINGLE, check_c_name, ieee_finite
+from pgcomm.export.c_text import SINGLE, check_c_name, ieee_finite, macro_literal
 from pgcomm.io.atomic import atomic_write_text
 from pgcomm.io.tables import read_csv_columns, read_csv_header
 
@@ -600,7 +600,7 @@ def _c_rows(a: np.ndarray, indent: str) -> str:
     """Nested C initializer of float32 literals (one innermost row per line)."""
     def rec(x, depth):
         if x.ndim == 1:
-            return "{" + ", ".join(_SINGLE.lit(v) for v in x) + "}"
+            return "{" + ", ".join(SINGLE.lit(v) for v in x) + "}"
         inner = ",\n".join(indent * (depth + 1) + rec(v, depth + 1) for v in x)
         return "{\n" + inner + "\n" + indent * depth + "}"
 
@@ -629,7 +629,7 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut", limit_source: str | None = No
             block (e.g. ``"from the model file"``); ``None``: not said.
     """
     check_c_name(name)
-    U, L, lit = name.upper(), lut.n_coil_sets, _SINGLE.lit
+    U, L, lit = name.upper(), lut.n_coil_sets, SINGLE.lit
     guard = f"{U}_H_INCLUDED"
     src = f" ({limit_source})" if limit_source else ""
     limit = (f"{lut.current_limit:.6g} A peak phase current{src}; one factor for all coil sets keeps "
@@ -662,18 +662,18 @@ def lut_header(lut: Lut, name: str = "pgcomm_lut", limit_source: str | None = No
     ]
     out = ["/*\n", *(f" * {s}\n" for s in lines), " */\n", f"#ifndef {guard}\n#define {guard}\n\n",
            f"#define {U}_L {L}\n#define {U}_N {lut.n}\n",
-           f"#define {U}_Y0 {_m(lit(lut.y[0]))}\n#define {U}_INV_DY {_m(lit(1.0 / lut.dy))}\n\n",
+           f"#define {U}_Y0 {macro_literal(lit(lut.y[0]))}\n#define {U}_INV_DY {macro_literal(lit(1.0 / lut.dy))}\n\n",
            f"/* P[k][l][a][j]: current a (ia, ib) of coil set l per unit force j (Fy, Fx, Tz) at row k */\n",
            f"static const float {name}_P[{lut.n}][{L}][2][3] = {_c_rows(lut.P, '    ')};\n\n",
            "/* mean cogging force [Fy, Fx, Tz] (N, N, N m) at row k */\n",
            f"static const float {name}_cog[{lut.n}][3] = {_c_rows(lut.cogging, '    ')};\n\n",
            *([f"/* direction offset Cdir [Fy, Fx, Tz] (N, N, N m) and v_eps (m/s) */\n",
               f"static const float {name}_dir[3] = {_c_rows(np.asarray(lut.direction), '')};\n",
-              f"#define {U}_V_EPS {_m(lit(lut.direction_velocity))}\n\n"] if lut.direction is not None and not dir_rows
+              f"#define {U}_V_EPS {macro_literal(lit(lut.direction_velocity))}\n\n"] if lut.direction is not None and not dir_rows
              else []),
            *([f"/* direction force C(y) [Fy, Fx, Tz] (N, N, N m) at row k, and v_eps (m/s) */\n",
               f"static const float {name}_dir[{lut.n}][3] = {_c_rows(np.asarray(lut.direction), '    ')};\n",
-              f"#define {U}_V_EPS {_m(lit(lut.direction_velocity))}\n\n"] if dir_rows else []),
+              f"#define {U}_V_EPS {macro_literal(lit(lut.direction_velocity))}\n\n"] if dir_rows else []),
            f"static inline int {name}_currents(float y, {vdecl}const float f_star[3], float currents[{U}_L][2])\n{{\n",
            f"    float u, t, f[3];\n    int k, l, a, j, ret = 0;\n",
            *(["    float sg;\n"] if lut.direction is not None else []),

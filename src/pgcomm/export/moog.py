@@ -29,7 +29,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -40,9 +39,11 @@ from pgcomm.export.drive_common import (
     Source,
     error_of,
     f32,
+    finite_value,
     float32_bound,
     fmt32,
     header,
+    parameter_lines,
     periodic_linear,
     round_trip,
     unit_factor,
@@ -204,20 +205,9 @@ def read_moog(path) -> dict:
     """
     src = str(path)
     small, big, scal, index = {}, {}, {}, None
-    for lineno, raw in enumerate(Path(path).read_text().splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        m = _P.match(line)
-        if not m:
-            raise DataError(f"{src} line {lineno}: '{line}' is not 'P id[index] = value'")
+    for lineno, _, m in parameter_lines(path, _P, expected="'P id[index] = value'"):
         pid, sub = int(m.group(1)), int(m.group(2))
-        try:
-            v = float(m.group(3))
-        except ValueError:
-            raise DataError(f"{src} line {lineno}: '{m.group(3)}' is not a number") from None
-        if not math.isfinite(v):
-            raise DataError(f"{src} line {lineno}: {m.group(3)} is not finite")
+        v = finite_value(src, lineno, m.group(3))
         if pid == 380:
             if sub >= 250 or sub in small:
                 raise DataError(f"{src} line {lineno}: P 380[{sub}] is {'repeated' if sub in small else 'beyond 249'}")

@@ -76,6 +76,7 @@ from pgcomm.export.angle_table import (
     reconstruction_error,
 )
 from pgcomm.export.compensation import Compensation, from_angle_table
+from pgcomm.export.drive_common import parameter_lines
 from pgcomm.io.atomic import atomic_write_text
 
 __all__ = ["ENTRIES", "LSB_MAX", "MoteusTable", "build_moteus", "moteus_lines", "write_moteus", "read_moteus",
@@ -244,11 +245,7 @@ def read_moteus(path) -> tuple[float, np.ndarray]:
     """
     src = str(path)
     scale, entries, seen = None, np.zeros(ENTRIES, dtype=np.int8), {}
-    for lineno, raw in enumerate(Path(path).read_text().splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        m = _LINE.match(line)
-        if not m:
-            continue
+    for lineno, _, m in parameter_lines(path, _LINE):
         try:
             v = float(m.group(3))
         except ValueError:

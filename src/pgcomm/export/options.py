@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from pgcomm.errors import ConfigError
+from pgcomm.export.c_text import check_c_name
 from pgcomm.io.config import _plausible
 
 #: ``--name`` when not given; the drive tables default to ``pgcomm_<format>``.
@@ -115,8 +116,6 @@ def entries_name_limit(args) -> tuple[str, float | None, bool]:
 
 def c_name(args) -> str:
     """``--name`` (default per format), checked as a C identifier prefix."""
-    from pgcomm.export.c import check_c_name  # start-up cost: loads JAX only when this runs
-
     name = args.name or DEFAULT_NAMES.get(args.format, f"pgcomm_{args.format.replace('-', '_')}")
     try:
         check_c_name(name)

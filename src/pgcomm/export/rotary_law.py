@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from pgcomm.export.angle_lut import c_current_tail, c_entry_coordinate, interpolate_periodic
+from pgcomm.export.c_text import DOUBLE, SINGLE, check_c_name, ieee_finite, macro_literal
 from pgcomm.rotary.law import MIN_GAIN, iq_command
 from pgcomm.rotary.model import RotaryModel
 from pgcomm import __version__
@@ -164,10 +165,8 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
         limit_source: where the limit (or its absence) came from, for the comment block.
         provenance: further comment lines (the model file, the command).
     """
-    from pgcomm.export.c import _DOUBLE, _SINGLE, _m, check_c_name  # start-up cost: loads JAX only when this runs
-
     check_c_name(name)
-    num = _SINGLE if tables.precision == "single" else _DOUBLE
+    num = SINGLE if tables.precision == "single" else DOUBLE
     T, lit, fl = num.ctype, num.lit, num.fn("floor")
     U = name.upper()
     guard = f"{U}_H_INCLUDED"
@@ -200,9 +199,9 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
     out = ["/*\n", *(f" * {s.replace('*/', '* /')}\n" for s in lines), " */\n",
            f"#ifndef {guard}\n#define {guard}\n\n#include <math.h>\n\n",
            f"#define {U}_N {tables.n}\n",
-           f"/* entries per radian: N / (2 pi) */\n#define {U}_PER_RAD {_m(lit(tables.n / (2.0 * math.pi)))}\n"]
+           f"/* entries per radian: N / (2 pi) */\n#define {U}_PER_RAD {macro_literal(lit(tables.n / (2.0 * math.pi)))}\n"]
     if tables.current_limit is not None:
-        out.append(f"#define {U}_CURRENT_LIMIT {_m(lit(tables.current_limit))}\n")
+        out.append(f"#define {U}_CURRENT_LIMIT {macro_literal(lit(tables.current_limit))}\n")
     out += ["\n", table("cog", tables.cogging, "cogging c (A)"), table("drag", tables.direction, "drag d (A)"),
             table("gain", tables.gain, f"gain g = max(1 + r, {MIN_GAIN:g}) (-)"),
             f"static inline int {name}_iq({T} theta, {T} demand, {T} s, {T} *iq)\n{{\n",
@@ -217,8 +216,6 @@ def rotary_law_header(tables: RotaryLawTables, name: str = "pgcomm_rotary_law", 
             "    sg = (s > 0) ? 1 : ((s < 0) ? -1 : 0);\n",
             "    *iq = (demand - c + d * sg) / g;\n",
             *c_current_tail(U, "iq", tables.current_limit is not None, guard)]
-    from pgcomm.export.c import ieee_finite  # start-up cost: loads JAX only when this runs
-
     return ieee_finite("".join(out), name, tables.precision == "single")
 
 

@@ -38,7 +38,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -49,9 +48,11 @@ from pgcomm.export.drive_common import (
     Source,
     error_of,
     f32,
+    finite_value,
     float32_bound,
     fmt32,
     header,
+    parameter_lines,
     periodic_linear,
     round_trip,
     unit_factor,
@@ -272,19 +273,8 @@ def read_sinamics(path) -> dict:
     """
     src = str(path)
     scalars, arrays = {}, {}
-    for lineno, raw in enumerate(Path(path).read_text().splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        m = _LINE.match(line)
-        if not m:
-            raise DataError(f"{src} line {lineno}: '{line}' is not 'pNNNN[i] = value'")
-        try:
-            v = float(m.group(4))
-        except ValueError:
-            raise DataError(f"{src} line {lineno}: '{m.group(4)}' is not a number") from None
-        if not math.isfinite(v):
-            raise DataError(f"{src} line {lineno}: {m.group(4)} is not finite")
+    for lineno, _, m in parameter_lines(path, _LINE, expected="'pNNNN[i] = value'"):
+        v = finite_value(src, lineno, m.group(4))
         p = f"p{m.group(1)}"
         if m.group(2) is not None:
             i = int(m.group(2))

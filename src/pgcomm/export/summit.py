@@ -23,7 +23,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -34,9 +33,11 @@ from pgcomm.export.drive_common import (
     Source,
     error_of,
     f32,
+    finite_value,
     float32_bound,
     fmt32,
     header,
+    parameter_lines,
     periodic_linear,
     round_trip,
     unit_factor,
@@ -167,19 +168,8 @@ def read_summit(path) -> np.ndarray:
     """
     src = str(path)
     vals, index = {}, None
-    for lineno, raw in enumerate(Path(path).read_text().splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
-        if not line:
-            continue
-        m = _R.match(line)
-        if not m:
-            raise DataError(f"{src} line {lineno}: '{line}' is not '0x230N = value'")
-        try:
-            v = float(m.group(2))
-        except ValueError:
-            raise DataError(f"{src} line {lineno}: '{m.group(2)}' is not a number") from None
-        if not math.isfinite(v):
-            raise DataError(f"{src} line {lineno}: {m.group(2)} is not finite")
+    for lineno, _, m in parameter_lines(path, _R, expected="'0x230N = value'"):
+        v = finite_value(src, lineno, m.group(2))
         if m.group(1) == "2307":
             index = int(v)
         elif m.group(1) == "2308":

@@ -64,8 +64,7 @@ class WorkerSetup(_WorkerPluginBase):
         if pinned:
             for k, v in WORKER_ENV.items():
                 os.environ.setdefault(k, v)
-        import jax  # start-up cost: JAX loads only when this runs
-
+        import jax  # after WORKER_ENV: JAX reads its thread settings when it loads
 
         if self.cache_dir:
             jax.config.update("jax_compilation_cache_dir", self.cache_dir)

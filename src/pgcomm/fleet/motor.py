@@ -146,19 +146,19 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     Raises:
         PgcommError: bad or missing input, no excitation (one line naming the file).
     """
-    import jax.numpy as jnp  # start-up cost: JAX loads only when this runs
-
-    from pgcomm.calibration import calibrate_from_logs  # start-up cost: loads JAX, SciPy only when this runs
-    from pgcomm.data import coil_set_data_from_logs  # start-up cost: loads JAX only when this runs
-    from pgcomm.evaluation import evaluate_logs, evaluation_results  # start-up cost: loads SciPy only when this runs
-    # start-up cost: loads JAX, SciPy only when this runs
+    # JAX and SciPy load here, in the worker that runs the motor: the command's own process (which imports this
+    # module to plan and tabulate the fleet) never computes, and a worker's thread settings (WORKER_ENV) must be in
+    # place before JAX loads
+    import jax.numpy as jnp
+    from pgcomm.calibration import calibrate_from_logs
+    from pgcomm.data import coil_set_data_from_logs
+    from pgcomm.evaluation import evaluate_logs, evaluation_results
     from pgcomm.experiment import identification_results, identify_models
-    from pgcomm.settings import ExperimentConfig  # start-up cost: loads JAX only when this runs
-    from pgcomm.setup import Setup  # start-up cost: loads JAX only when this runs
-    from pgcomm.export.c import write_c  # start-up cost: loads JAX only when this runs
-    # start-up cost: loads JAX only when this runs
+    from pgcomm.export.c import CLawOptions, write_c
     from pgcomm.export.lut import build_cogging_table, build_lut, write_cogging_table, write_lut
-    from pgcomm.io.model import drive_metadata, save_model  # start-up cost: loads JAX only when this runs
+    from pgcomm.io.model import drive_metadata, save_model
+    from pgcomm.settings import ExperimentConfig
+    from pgcomm.setup import Setup
 
     folder, out = Path(folder), Path(out)
     t0 = time.perf_counter()
@@ -188,8 +188,8 @@ def analyse_motor(folder, out, seed: int = 0) -> list[dict]:
     lowpass = config.evaluation.lowpass_hz
     evals = evaluate_logs(logs, lowpass, model=pgnn, motor=motor)
     limit_source = "motor.toml current_limit" if motor.current_limit else "motor.toml has no current_limit"
-    write_c(pgnn, out, name="pgcomm_law", metadata={"motor": folder.name, "seed": seed},
-            current_limit=motor.current_limit, limit_source=limit_source)
+    write_c(pgnn, out, CLawOptions("pgcomm_law", current_limit=motor.current_limit, limit_source=limit_source),
+            metadata={"motor": folder.name, "seed": seed})
     write_lut(build_lut(pgnn, current_limit=motor.current_limit), out, "pgcomm_lut", limit_source=limit_source)
     write_cogging_table(build_cogging_table(pgnn, k_hat=cal.k, zeta_hat=cal.zeta), out, "pgcomm_lut_cogging",
                         comments=[f"anti-cogging table for a drive with classical commutation k_hat = "

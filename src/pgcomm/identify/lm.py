@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import replace
 
 import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
@@ -256,9 +257,8 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
     lam12 = lambda_diagonal(o.regularisation)
 
     keys = jax.random.split(jax.random.PRNGKey(seed), o.starts)
-    models0 = [CoilSetModel.init(kk, a_phy, b_phy, pole_pitch, y_center, y_scale, o.gain_widths, o.cog_widths,
-                                 o.activation, y_lo, y_hi, o.harmonics, o.direction, o.direction_velocity)
-               for kk in keys]
+    models0 = [CoilSetModel.init(kk, physics, o.gain_widths, o.cog_widths, o.activation, o.harmonics, o.direction,
+                                 o.direction_velocity) for kk in keys]
     template = models0[0]
     flats = jnp.stack([hidden_vector(mm) for mm in models0])
     if start_from is not None:
@@ -341,8 +341,6 @@ def identify_selecting_width(data: CoilSetData, pole_pitch: float, options: Iden
             (single-hidden-layer widths of the two gain networks, default ``(2, 4, 8)`` when empty)
             replace ``gain_widths`` one by one.
     """
-    from dataclasses import replace
-
     o = IdentifyOptions() if options is None else options
     cands = o.gain_width_candidates or (2, 4, 8)
     results = [identify(data, pole_pitch, replace(o, gain_widths=(w,)), seed=seed, progress=progress,

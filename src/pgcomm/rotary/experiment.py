@@ -52,13 +52,14 @@ from pgcomm.rotary.readings import delay_text, lag_of
 from pgcomm.rotary.regression import Orders, max_speed
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.standstill import run_standstill, sweep_reference
-from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, breakaway_current, default_gains, simulate
+from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, Start, breakaway_current, default_gains, \
+    simulate
 from pgcomm.settings import RotarySettings, StandstillPlan
 from pgcomm.progress import Progress
 
 __all__ = ["running_references", "running_log", "record_running_logs", "RunningLogs",
            "drive_log_mix", "tracking_references", "closed_loop", "run", "identification_errors", "ROWS",
-           "quick_settings", "stall_log"]
+           "quick_settings", "QUICK_OVERRIDES", "stall_log"]
 
 ROWS = ("classical", "standstill_table", "model", "oracle")
 #: Running-log and standstill tables agree "within the noise of the sweep" when their RMS difference is at
@@ -71,10 +72,17 @@ AGREEMENT_FACTOR = 1.5
 EVAL_MIN_SAMPLES_PER_PERIOD = 8.0
 
 
-def quick_settings() -> RotarySettings:
-    """A short run for a first look and for tests."""
-    return RotarySettings(revolutions=1.0, standstill=StandstillPlan(points=720, settle=30, average=20),
-                          eval_revolutions=0.5)
+#: The ``[rotary_experiment]`` keys :func:`quick_settings` sets (``reproduce --quick`` refuses them in ``--config``).
+QUICK_OVERRIDES = ("rotary_experiment.revolutions", "rotary_experiment.eval_revolutions",
+                   "rotary_experiment.standstill.points", "rotary_experiment.standstill.settle",
+                   "rotary_experiment.standstill.average")
+
+
+def quick_settings(settings: RotarySettings = RotarySettings()) -> RotarySettings:
+    """A short run for a first look and for tests: ``settings`` with one revolution per running-log segment, half a
+    revolution per evaluation run and a 720-angle standstill sweep (:data:`QUICK_OVERRIDES`)."""
+    return replace(settings, revolutions=1.0, standstill=StandstillPlan(points=720, settle=30, average=20),
+                   eval_revolutions=0.5)
 
 
 def _ramp_profile(omega: float, n_cruise: int, n_ramp: int, ts: float):
@@ -169,7 +177,7 @@ def stall_log(truth: RotaryTruth, seed: int = 0, seconds: float = 10.0, directio
     start = float(np.random.default_rng([int(seed), 0x57A7]).uniform(0.0, 2 * math.pi))
     ref = Reference(start + ts * np.cumsum(om), om, np.gradient(om, ts), "speed")
     log = simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), Gains(0.0, 0.0, 0.0, kpv, 0.0),
-                   seed=seed, host=True, power_up=power_up)
+                   seed=seed, host=True, start=Start(power_up=power_up))
     log["stall_speed"] = s * w_b
     return log
 

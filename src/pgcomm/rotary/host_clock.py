@@ -40,6 +40,8 @@ import math
 from dataclasses import replace
 
 import numpy as np
+from scipy.optimize import nnls
+from scipy.stats import chi2
 
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.regression import _basis_fit, _hann, _Layout, _residuals
@@ -81,8 +83,6 @@ def _trimmed_mean(x: np.ndarray, inflation: float) -> tuple[float, float]:
     beyond :data:`TRIM_QUANTILE` of ``χ²₁`` times the median-based scale are set aside, divided by the truncated
     mean's factor ``P(χ²₃ ≤ q) / P(χ²₁ ≤ q)`` (exact for a normal variable); ``inflation`` the variance factor of the
     values' correlation (overlapping windows)."""
-    from scipy.stats import chi2  # start-up cost: SciPy loads only when this runs
-
     q = float(chi2.ppf(TRIM_QUANTILE, 1))
     scale = float(np.median(x)) / _CHI2_MEDIAN
     kept = x[x <= q * scale] if scale > 0 else x
@@ -160,8 +160,6 @@ def speed_noise_fit(bins) -> dict:
         least :data:`RESOLVED_SIGMAS` standard errors, "speed95_rad_s": the bins' fastest RMS speed}``; ``None`` when
         no bin was filled.
     """
-    from scipy.optimize import nnls  # start-up cost: SciPy loads only when this runs
-
     bins = [bins] if isinstance(bins, dict) else list(bins)
     v = np.concatenate([b["variance"] for b in bins])
     se = np.concatenate([b["se"] for b in bins])

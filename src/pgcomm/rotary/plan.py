@@ -64,6 +64,7 @@ from pgcomm.errors import ConfigError, DataError
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import MIN_SAMPLES_PER_PERIOD, Orders, max_speed
 from pgcomm.rotary.slots import count_slots, MAX_ORDER
+from pgcomm.rotary.identify import identify, resolution_verdict
 
 __all__ = ["RotaryPlanSettings", "Run", "RotaryPlan", "FirstRound", "DRIVES", "DRIVE_COLUMNS", "DITHER_MAX_HZ",
            "highest_order", "segment_speeds", "first_round_cruise", "dither_frequencies", "dither_amplitudes",
@@ -576,8 +577,6 @@ def read_first_round(data, motor: RotaryMotor) -> FirstRound:
     Raises:
         DataError, ExcitationError: as the identification (logs that never move, no usable window, ...).
     """
-    from pgcomm.rotary.identify import identify, resolution_verdict  # start-up cost: loads JAX only when this runs
-
     slots = None
     if motor.slots is None:
         slots, _ = count_slots(data, motor)

@@ -83,6 +83,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import eigh
+from scipy.stats import chi2, f as f_dist
 
 from pgcomm.errors import DataError, ExcitationError
 from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, harmonic_columns, harmonic_rows, ripple_orders
@@ -649,27 +651,6 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
     for name in ("cogging", "ripple", "direction"):
         at = np.searchsorted(union, getattr(orders, name))
         cols[name] = np.concatenate([at, union.size + at])
-    def current_rows(x, lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh):
-        """``(y, rip)``: the filtered current and the ripple's columns of the chunk's rows under the current ``x``
-        (the log's ``(N,)`` samples, A), held (``lag`` ``None``) or smooth ``lag`` samples late."""
-        if lag is None:
-            xi = x[lo:hi]
-            a_r, b_r = _rise_fall(xi[:n_int, None] * a_rh, xi[:n_int, None] * b_rh, steps)
-            if steps is None:
-                y = _filt(xi, loc, g_zoh)
-            else:
-                rise, fall = _rise_fall(0.5 * xi[:n_int], 0.5 * xi[:n_int], steps)
-                y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
-        else:
-            # the current between snapshots: the cubic through the four around each interval (as the angle's path),
-            # ``lag`` late
-            lw = _lagrange(_GL_NODES - lag) if steps is None else steps.at(_GL_NODES - lag)
-            cur = _at_nodes(_extended(x, lo, hi), n_int, lw)
-            a_r, b_r = _rise_fall(*_weights_at_nodes(phi_r, cur), steps)
-            rise, fall = _rise_fall(cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES)), steps)
-            y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
-        return y, _filt(a_r, loc, g) + _filt(b_r, loc + 1, g)
-
     col_key = b"/".join(cols[name].tobytes() for name in ("cogging", "ripple", "direction"))
     for pos, p in enumerate(first):
         # the probe currents (below), once per log: probe k is 1 on the samples k, k + P, ... (bool: a byte a sample)
@@ -686,6 +667,29 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
             lo, hi = int(st[0]), int(st[-1]) + span
             loc = st - lo
             n_int = hi - lo - 1
+
+            def current_rows(x, lag):
+                """``(y, rip)``: the filtered current and the ripple's columns of this chunk's rows under the current
+                ``x`` (the log's ``(N,)`` samples, A), held (``lag`` ``None``) or smooth ``lag`` samples late."""
+                if lag is None:
+                    xi = x[lo:hi]
+                    a_r, b_r = _rise_fall(xi[:n_int, None] * a_rh, xi[:n_int, None] * b_rh, steps)
+                    if steps is None:
+                        y = _filt(xi, loc, g_zoh)
+                    else:
+                        rise, fall = _rise_fall(0.5 * xi[:n_int], 0.5 * xi[:n_int], steps)
+                        y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
+                else:
+                    # the current between snapshots: the cubic through the four around each interval (as the angle's
+                    # path), ``lag`` late
+                    lw = _lagrange(_GL_NODES - lag) if steps is None else steps.at(_GL_NODES - lag)
+                    cur = _at_nodes(_extended(x, lo, hi), n_int, lw)
+                    a_r, b_r = _rise_fall(*_weights_at_nodes(phi_r, cur), steps)
+                    rise, fall = _rise_fall(cur @ (_GL_WEIGHTS * _GL_NODES), cur @ (_GL_WEIGHTS * (1.0 - _GL_NODES)),
+                                            steps)
+                    y = _filt(rise, loc, g) + _filt(fall, loc + 1, g)
+                return y, _filt(a_r, loc, g) + _filt(b_r, loc + 1, g)
+
             root = None
             if p.weight is not None:
                 # generalised least squares (module docstring, "Weighted rows"): every row and its target scaled by
@@ -704,12 +708,11 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
             for r in readings:
                 q = r[pos]
                 ch = dict(common)
-                ch["y"], ch["rip"] = _weighed(current_rows(q.iq, q.lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh), root)
+                ch["y"], ch["rip"] = _weighed(current_rows(q.iq, q.lag), root)
                 if probes:
                     # the rows' sensitivity to each logged current sample: P is the samples one row reads, so no
                     # row reads two of a probe's samples and each probe's rows hold one sample's part of every row
-                    ch["noise_rows"] = [_weighed(current_rows(x, q.lag, lo, hi, n_int, loc, phi_r, a_rh, b_rh), root)
-                                        for x in probe_x]
+                    ch["noise_rows"] = [_weighed(current_rows(x, q.lag), root) for x in probe_x]
                 if lines:
                     if q.lag is None:
                         if held_line is None:
@@ -886,7 +889,6 @@ def _current_noise_correction(G, b, yy, noise_equations, variance: float):
     A[np.diag_indices_from(A)] += RIDGE_GRID[0] * np.trace(A) / A.shape[0]
     schur = np.linalg.inv(np.linalg.inv(A)[np.ix_(idx, idx)])
     part = variance * Gnt[np.ix_(idx, idx)] / np.outer(d[idx], d[idx])
-    from scipy.linalg import eigh  # start-up cost: SciPy loads only when this runs
 
     share = float(eigh(part, 0.5 * (schur + schur.T), eigvals_only=True)[-1])
     applied = variance * min(1.0, MAX_CURRENT_NOISE_SHARE / share) if share > 0 else variance
@@ -1082,7 +1084,6 @@ def _significant_extra_orders(fit: dict, layout: _Layout, structured: Orders, al
     beta[layout.keep] = fit["beta"]
     cov = np.zeros((layout.keep.size, layout.keep.size))
     cov[np.ix_(layout.keep, layout.keep)] = fit["cov"]
-    from scipy.stats import f as f_dist  # start-up cost: SciPy loads only when this runs
 
     infl = np.zeros((fit["influence"].shape[0], layout.keep.size))
     infl[:, layout.keep] = fit["influence"]
@@ -1134,8 +1135,6 @@ def _map_error_quantile(cov_block, gram, level: float) -> float:
     ``(Σλ) χ²_ν / ν`` with ``ν = (Σλ)² / Σλ²`` degrees of freedom (exact when the weights are equal). Returns the RMS error (the map's
     units) that the noise part stays below with probability ``level``.
     """
-    from scipy.stats import chi2  # start-up cost: SciPy loads only when this runs
-
     d, v = np.linalg.eigh(gram)
     L = v * np.sqrt(np.clip(d, 0.0, None))  # M = L Lᵀ; M is singular where a column is zero (the sine of order 0)
     lam = np.clip(np.linalg.eigvalsh(L.T @ cov_block @ L), 0.0, None)

@@ -23,6 +23,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.ndimage import median_filter
+from scipy.optimize import minimize_scalar
+from scipy.stats import chi2, gamma
 
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, \
@@ -88,8 +91,6 @@ def _current_lines(prepared, hz: float, taps: int) -> np.ndarray:
     the maps); fitted jointly with the dither's line, its share is the pickup's own.
     A dither one natural bin off is not separated (a 60 Hz line beside a 61 Hz dither in 1 s logs, module docstring).
     """
-    from scipy.stats import gamma  # start-up cost: SciPy loads only when this runs
-
     none = Orders(np.zeros(0, int), np.zeros(0, int), np.zeros(0, int))
     stride = max(1, taps // 2)
     ts = float(np.median([p.ts for p in prepared]))
@@ -137,8 +138,6 @@ def _line_spectrum(residuals, stride: int, ts: float):
         frequencies in the longest log, and the highest frequency (Hz) at which every log's noise floor has its whole
         window (half of it short of the Nyquist frequency of the shortest log's bins).
     """
-    from scipy.ndimage import median_filter  # start-up cost: SciPy loads only when this runs
-
     lengths = [int(r.max()) // stride + 1 for r, _ in residuals]
     n = 1 << int(math.ceil(math.log2(LINE_PADDING * max(lengths))))
     dt = stride * ts
@@ -181,8 +180,6 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
         peaks set aside, and each peak's amplitude fitted beside the maps over the logged current's own line there
         (median over the logs that show it; under :data:`LINE_CURRENT_SHARE` it is the current's own).
     """
-    from scipy.stats import chi2, gamma  # start-up cost: SciPy loads only when this runs
-
     stride = max(1, taps // 2)
     ts = float(np.median([p.ts for p in prepared]))
     rate = 1.0 / (stride * ts)
@@ -272,7 +269,6 @@ def _time_lines(prepared, orders: Orders, taps: int) -> dict:
         if e > float(chi2.isf(LINE_EVIDENCE_LEVEL, max(dof, 1))):
             # the spectrum's peak is good to a few hundredths of a bin; over a log of many periods the phase needs
             # better: the frequency whose fit leaves the least, within a natural bin of the peak
-            from scipy.optimize import minimize_scalar  # start-up cost: SciPy loads only when this runs
 
             step = rate / (2 * independent)
             best = minimize_scalar(lambda x: _basis_cost(prepared, _Layout.of(cur, tuple(found) + (x,), logs), taps)[0],

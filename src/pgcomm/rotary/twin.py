@@ -55,7 +55,7 @@ dither interpolated by a cubic spline, and logs a snapshot of every ``K``-th cyc
   with the instant plus a little noise (``simulate(..., host=True)``);
 * *an index that moves between power-ups* (``power_up_offsets``, rad): recorded in power_up ``s``, the drive's angle is
   the encoder's plus ``power_up_offsets[s]`` (rounded to whole counts): its position loop, its law and its log work in
-  that frame, its commutation is calibrated again (``simulate(..., power_up=s)``);
+  that frame, its commutation is calibrated again (``simulate(..., start=Start(power_up=s))``);
 * *stalls*: the plant's cogging, drive errors and friction hold a rotor a soft speed loop cannot move
   (:func:`breakaway_current`; :func:`pgcomm.rotary.experiment.stall_log`).
 """
@@ -76,10 +76,10 @@ from scipy.signal import lfilter
 
 from pgcomm.rotary.model import Fourier, RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
-from pgcomm.rotary.winding import Winding, d_voltage, logged_dq, q_voltage
+from pgcomm.rotary.winding import BackEmf, Winding, d_voltage, logged_dq, q_voltage
 
 __all__ = ["RotaryTruth", "Gains", "LawParams", "Reference", "simulate", "default_gains", "VELOCITY_CUTOFF_HZ",
-           "SUBSTEPS", "HOLD_ADVANCE", "drive_current_error", "breakaway_current", "host_instants", "power_up_offset",
+           "SUBSTEPS", "Start", "HOLD_ADVANCE", "drive_current_error", "breakaway_current", "host_instants", "power_up_offset",
            "HOST_STEP_RANGE", "HOST_GAP_STEPS", "STAMP_NOISE_CLIP"]
 
 #: Cut-off of the drive's velocity estimate (Hz): first-order low-pass on the encoder difference.
@@ -205,6 +205,11 @@ class RotaryTruth:
     def k0(self) -> float:
         """Mean effective torque constant seen from the drive frame: ``k_t cos δ`` (N·m/A)."""
         return self.k_t * math.cos(self.offset_error)
+
+    @property
+    def back_emf(self) -> BackEmf:
+        """The magnets' field as the winding meets it in the drive's frame (:class:`pgcomm.rotary.winding.BackEmf`)."""
+        return BackEmf(self.k_t, self.offset_error, self.ripple, self.motor.pole_pairs, self.motor.commutation_offset)
 
     def model(self, drive: bool = True) -> RotaryModel:
         """The truth in current units (:class:`RotaryModel`): what an ideal identification returns.
@@ -667,9 +672,21 @@ def _run(params, xs, n_sub: int):
     return outs
 
 
-def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, seed: int = 0,
-             n_sub: int = SUBSTEPS, theta0: float | None = None, host: bool = False,
-             power_up: int = 0) -> dict[str, np.ndarray]:
+@dataclass(frozen=True)
+class Start:
+    """How a run of :func:`simulate` starts, the rotor at rest.
+
+    Attributes:
+        power_up: the power-up (the drive's angle zero, :func:`power_up_offset`).
+        theta: the rotor's true angle (rad); ``None``: the reference's first angle less the power-up's offset.
+    """
+
+    power_up: int = 0
+    theta: float | None = None
+
+
+def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, seed: int = 0, *,
+             n_sub: int = SUBSTEPS, host: bool = False, start: Start = Start()) -> dict[str, np.ndarray]:
     """Closed-loop run of the twin on a drive with ``law``.
 
     Args:
@@ -680,12 +697,10 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         seed: current-noise seed (same seed, same numbers).
         n_sub: plant sub-steps per logged sample (per control sample ``ceil(n_sub / K)``, at least 2, where the drive
             controls at ``K = truth.control_per_log`` times the log rate).
-        theta0: initial true angle (rad; default the reference's first angle, less the power-up's offset); starts at
-            rest.
         host: the log as the truth's host records it (:attr:`RotaryTruth.host_logger`: rows at jittered instants,
             :func:`host_instants`); the same as ``False`` for a truth without a host's habits. ``False``: the drive's
             own samples ``j T_s`` (for evaluations against the reference).
-        power_up: the power-up (the drive's angle zero, :func:`power_up_offset`).
+        start: the power-up and the rotor's initial angle (:class:`Start`).
 
     Returns:
         dict of ``(N,)`` arrays at the logged instants ``j T_s``: ``t`` (s), ``theta`` (the drive's angle: encoder or
@@ -729,8 +744,8 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
     beta = 1.0 - math.exp(-2 * math.pi * VELOCITY_CUTOFF_HZ * tc)
     q = 2 * math.pi / truth.encoder_counts
     mode_pos = {"position": 1.0, "speed": 0.0}[ref.mode]
-    index0 = power_up_offset(truth, power_up)
-    th0 = float(ref.theta[0]) - index0 if theta0 is None else float(theta0)
+    index0 = power_up_offset(truth, start.power_up)
+    th0 = float(ref.theta[0]) - index0 if start.theta is None else float(start.theta)
     f = float
     bw = f(truth.pll_bandwidth)
     dte = f(truth.deadtime_error)
@@ -811,12 +826,12 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         di = np.gradient(outs[7], tc)[idx] if outs[7].size > 1 else np.zeros(rows)
         # drawn after the currents' noise, so a twin with a winding logs the same currents as one without
         v_noise = rng.standard_normal(rows)
-        log["vq_1"] = (q_voltage(w, truth.k0, truth.ripple, m.pole_pairs, m.commutation_offset, th_f, om_f, i_flow, tc,
-                                 0.0, slope=di) - w.loop_gain * (iq - rep) + w.voltage_noise * v_noise)
+        emf = truth.back_emf
+        log["vq_1"] = (q_voltage(w, emf, th_f, om_f, i_flow, tc, slope=di) - w.loop_gain * (iq - rep)
+                       + w.voltage_noise * v_noise)
         # drawn after the q-voltage's, which is then the same as a twin's that logs no d-voltage
         v_noise = rng.standard_normal(rows)
-        log["vd_1"] = (d_voltage(w, truth.k_t, truth.offset_error, truth.ripple, m.pole_pairs, m.commutation_offset,
-                                 th_f, om_f, i_flow, 0.0) - w.loop_gain * idd + w.voltage_noise * v_noise)
+        log["vd_1"] = d_voltage(w, emf, th_f, om_f, i_flow) - w.loop_gain * idd + w.voltage_noise * v_noise
         if w.voltage_lag:
             log["vd_1"], log["vq_1"] = logged_dq(log["vd_1"], log["vq_1"], m.pole_pairs, om_f, w.voltage_lag)
     return log

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Winding", "q_voltage", "d_voltage", "logged_dq", "deadtime_q", "phase_saturation_q", "phase_saturation_dq", "draw_winding",
+__all__ = ["Winding", "BackEmf", "q_voltage", "d_voltage", "logged_dq", "deadtime_q", "phase_saturation_q", "phase_saturation_dq", "draw_winding",
            "BACK_EMF_FACTOR"]
 
 #: ``e_q = BACK_EMF_FACTOR · k (1 + ρ) ω``: the amplitude-invariant Park transform's power ``(3/2) v_q i_q``.
@@ -120,24 +120,52 @@ def deadtime_q(iq, theta_e, deadtime_voltage: float, deadtime_current: float) ->
     return -deadtime_voltage * phase_saturation_q(iq, theta_e, [deadtime_current])[:, 0]
 
 
-def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: float, theta, omega, iq, sample_time: float,
-              noise, current_noise=0.0, slope=None) -> np.ndarray:
-    """The q-voltage a drive logs at each sample instant (module docstring).
+@dataclass(frozen=True)
+class BackEmf:
+    """The magnets' field as the winding meets it in the drive's frame (module docstring).
+
+    Attributes:
+        k_t: the torque constant along the magnets' q axis (N·m/A).
+        offset_error: ``δ`` (rad, electrical): the magnets' frame minus the drive's.
+        ripple: ``ρ``, the torque constant's relative ripple (a callable of the mechanical angle in rad, -).
+        pole_pairs: ``p``.
+        offset: the drive's electrical offset (rad): its frame is ``p θ + offset``.
+    """
+
+    k_t: float
+    offset_error: float
+    ripple: object
+    pole_pairs: int
+    offset: float = 0.0
+
+    @property
+    def k0(self) -> float:
+        """The torque constant seen from the drive's frame, ``k_t cos δ`` (N·m/A)."""
+        return self.k_t * math.cos(self.offset_error)
+
+    def electrical(self, theta) -> np.ndarray:
+        """The drive's electrical angle ``p θ + offset`` (rad) at the mechanical angles ``theta`` (rad)."""
+        return self.pole_pairs * np.asarray(theta, float) + self.offset
+
+
+def q_voltage(winding: Winding, emf: BackEmf, theta, omega, iq, sample_time: float, noise=0.0,
+              slope=None) -> np.ndarray:
+    """The q-voltage a drive logs at each sample instant (module docstring)::
+
+        v_q = R i_q + L di_q/dt + (2/3) k0 (1 + ρ(θ)) ω + v_dt + noise                    (V)
 
     Args:
-        winding: :class:`Winding`; k0: ``k_t cos δ`` (N·m/A); ripple: ``ρ`` (a callable of the angle, -).
-        pole_pairs: ``p``; offset: the drive's electrical offset (rad): its frame is ``p θ + offset``.
+        winding: :class:`Winding`; emf: :class:`BackEmf` (``k0 = k_t cos δ``, ``ρ``, ``p``, the drive's offset).
         theta, omega: ``(N,)`` true angle (rad) and speed (rad/s) at the sample instants.
         iq: ``(N,)`` q-current that flows from each sample instant (A).
-        sample_time: ``T_s`` (s); noise: ``(N,)`` standard normal draws (the voltage's own noise).
-        current_noise: ``(N,)`` the logged current's noise (A; measured minus flowing), which the loop's gain puts
-            into the command.
+        sample_time: ``T_s`` (s); noise: ``(N,)`` standard normal draws (the voltage's own noise), or ``0.0``.
         slope: ``(N,)`` the current's slope at the instants (A/s), or ``None``: its central difference over
             ``sample_time`` (a twin whose drive controls faster than it logs passes the control rate's, and the
             other arrays at the logged instants only).
 
     Returns:
-        ``(N,)`` logged ``v_q`` (V).
+        ``(N,)`` logged ``v_q`` (V), without the loop's ``−K_p n`` of the logged current's noise ``n`` (the caller's,
+        who drew it).
     """
     th, om, iq = (np.asarray(v, float) for v in (theta, omega, iq))
     # the current's slope at the instant: the drive's loop moves the current from one sample's value to the next
@@ -145,42 +173,35 @@ def q_voltage(winding: Winding, k0: float, ripple, pole_pairs: int, offset: floa
         di = np.asarray(slope, float)
     else:
         di = np.gradient(iq, sample_time) if iq.size > 1 else np.zeros_like(iq)
-    emf = BACK_EMF_FACTOR * k0 * (1.0 + np.asarray(ripple(th), float)) * om
-    dt = deadtime_q(iq, pole_pairs * th + offset, winding.deadtime_voltage, winding.deadtime_current)
-    return (winding.resistance * iq + winding.inductance * di + emf + dt - winding.loop_gain * np.asarray(current_noise)
-            + winding.voltage_noise * np.asarray(noise))
+    back = BACK_EMF_FACTOR * emf.k0 * (1.0 + np.asarray(emf.ripple(th), float)) * om
+    dt = deadtime_q(iq, emf.electrical(th), winding.deadtime_voltage, winding.deadtime_current)
+    return winding.resistance * iq + winding.inductance * di + back + dt + winding.voltage_noise * np.asarray(noise)
 
 
-def d_voltage(winding: Winding, k_t: float, offset_error: float, ripple, pole_pairs: int, offset: float, theta, omega,
-              iq, noise, current_noise=0.0) -> np.ndarray:
+def d_voltage(winding: Winding, emf: BackEmf, theta, omega, iq, noise=0.0) -> np.ndarray:
     """The d-voltage a drive logs at each sample instant, its d-current held at zero::
 
-        v_d = −p ω L i_q − (2/3) k_t sin δ (1 + ρ(θ)) ω + v_dt,d − K_p n_d + noise          (V)
+        v_d = −p ω L i_q − (2/3) k_t sin δ (1 + ρ(θ)) ω + v_dt,d + noise          (V)
 
     The first term is the rotating frame's cross-coupling; the second the back-EMF's d component: the magnets' q
-    axis is ``δ`` ahead of the drive's (``offset_error``, true frame minus drive frame), so the back-EMF
+    axis is ``δ`` ahead of the drive's (``emf.offset_error``, true frame minus drive frame), so the back-EMF
     ``(2/3) k_t (1 + ρ) ω`` along it has ``cos δ`` of itself on the drive's q axis (:func:`q_voltage`'s ``k0``) and
     ``−sin δ`` on its d axis. The drive's offset is therefore read off the two voltages; a drive with its offset
     right logs no back-EMF on d.
 
     Args:
-        winding: :class:`Winding`; k_t: the torque constant along the magnets' q axis (N·m/A); offset_error: ``δ``
-            (rad, electrical); ripple: ``ρ`` (a callable of the angle, -); pole_pairs: ``p``; offset: the drive's
-            electrical offset (rad): its frame is ``p θ + offset``.
+        winding: :class:`Winding`; emf: :class:`BackEmf`.
         theta, omega: ``(N,)`` true angle (rad) and speed (rad/s) at the sample instants.
         iq: ``(N,)`` q-current that flows from each sample instant (A).
-        noise: ``(N,)`` standard normal draws (the voltage's own noise).
-        current_noise: ``(N,)`` the logged d-current's noise (A; measured minus flowing, which is zero), which the
-            loop's gain puts into the command.
+        noise: ``(N,)`` standard normal draws (the voltage's own noise), or ``0.0``.
 
     Returns:
-        ``(N,)`` logged ``v_d`` (V).
+        ``(N,)`` logged ``v_d`` (V), without the loop's ``−K_p n_d`` of the logged d-current's noise (the caller's).
     """
     th, om, iq = (np.asarray(v, float) for v in (theta, omega, iq))
-    emf = -BACK_EMF_FACTOR * k_t * math.sin(offset_error) * (1.0 + np.asarray(ripple(th), float)) * om
-    dt = -winding.deadtime_voltage * phase_saturation_dq(iq, pole_pairs * th + offset, [winding.deadtime_current])[0][:, 0]
-    return (-pole_pairs * om * winding.inductance * iq + emf + dt - winding.loop_gain * np.asarray(current_noise)
-            + winding.voltage_noise * np.asarray(noise))
+    back = -BACK_EMF_FACTOR * emf.k_t * math.sin(emf.offset_error) * (1.0 + np.asarray(emf.ripple(th), float)) * om
+    dt = -winding.deadtime_voltage * phase_saturation_dq(iq, emf.electrical(th), [winding.deadtime_current])[0][:, 0]
+    return -emf.pole_pairs * om * winding.inductance * iq + back + dt + winding.voltage_noise * np.asarray(noise)
 
 
 def logged_dq(vd, vq, pole_pairs: int, omega, lag: float) -> tuple[np.ndarray, np.ndarray]:

@@ -47,7 +47,7 @@ from pgcomm.rotary.experiment import running_references, stall_log
 from pgcomm.settings import RotarySettings
 from pgcomm.rotary.regression import Orders
 from pgcomm.rotary.standstill import sweep_reference
-from pgcomm.rotary.twin import LawParams, RotaryTruth, default_gains, simulate
+from pgcomm.rotary.twin import LawParams, RotaryTruth, Start, default_gains, simulate
 from pgcomm.rotary.winding import draw_winding
 from pgcomm.errors import ConfigError
 
@@ -372,4 +372,4 @@ def sweep_log(truth: RotaryTruth, seed: int = 0, revolution_seconds: float = 60.
     is :func:`pgcomm.rotary.twin.power_up_offset` of it, not the running logs'."""
     ref = sweep_reference(truth.motor.sample_time, revolution_seconds)
     return simulate(truth, ref, LawParams.classical(truth.motor.pole_pairs), default_gains(truth.inertia / truth.k0),
-                    seed=seed * 1000 + 999, host=True, power_up=SWEEP_POWER_UP)
+                    seed=seed * 1000 + 999, host=True, start=Start(power_up=SWEEP_POWER_UP))
