@@ -107,9 +107,9 @@ def angle_noise_bins(t, theta, order: int = DIFFERENCE_ORDER, bins: int = SPEED_
         order: the divided difference's order ``k``; bins: speed bins (quantiles of the speed).
 
     Returns:
-        ``{"variance": (m,) rad², "se": (m,) rad², "speed2": (m,) mean ω² (rad²/s²), "count": (m,) int,
-        "windows": int}``, ``m ≤ bins`` (bins with fewer than :data:`MIN_BIN` runs left out; all empty arrays when the
-        log is too short).
+        dict: ``variance`` ``(m,)`` rad², ``se`` ``(m,)`` rad², ``speed2`` ``(m,)`` mean ω² (rad²/s²), ``count``
+        ``(m,)`` int and ``windows`` int; ``m ≤ bins`` (bins with fewer than :data:`MIN_BIN` runs left out; all empty
+        arrays when the log is too short).
     """
     t, th = np.asarray(t, float), np.asarray(theta, float)
     empty = {"variance": np.zeros(0), "se": np.zeros(0), "speed2": np.zeros(0), "count": np.zeros(0, int),
@@ -156,9 +156,9 @@ def speed_noise_fit(bins) -> dict:
         bins: one :func:`angle_noise_bins` dict, or a sequence of them (one host, one encoder).
 
     Returns:
-        ``{"floor_rad2": a, "timing_s2": b, "timing_se_s2": its standard error, "sigma_t_s": √b, "resolved": b at
-        least :data:`RESOLVED_SIGMAS` standard errors, "speed95_rad_s": the bins' fastest RMS speed}``; ``None`` when
-        no bin was filled.
+        dict: ``floor_rad2`` (a), ``timing_s2`` (b), ``timing_se_s2`` (its standard error), ``sigma_t_s`` (√b),
+        ``resolved`` (b at least :data:`RESOLVED_SIGMAS` standard errors), ``speed95_rad_s`` (the bins' fastest RMS
+        speed); ``None`` when no bin was filled.
     """
     bins = [bins] if isinstance(bins, dict) else list(bins)
     v = np.concatenate([b["variance"] for b in bins])

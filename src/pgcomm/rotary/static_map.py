@@ -123,8 +123,8 @@ def combine(static: StaticMap, model, found: dict, model_rms_error: float) -> di
             ``identification.standard_error.cogging.rms_error``).
 
     Returns:
-        ``{"iq": (n,) A on θ_j = 2π j / n, n the map's points, "weight_static", "static_rms_error_A",
-        "model_rms_error_A"}``.
+        dict: ``iq`` ``(n,)`` A on ``θ_j = 2π j / n`` (``n`` the map's points), ``weight_static``,
+        ``static_rms_error_A`` and ``model_rms_error_A``.
     """
     n = static.theta.size
     grid = 2 * math.pi * np.arange(n) / n
