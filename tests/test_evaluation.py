@@ -225,8 +225,8 @@ def test_a_long_log_is_evaluated_block_by_block_as_whole(monkeypatch):
     sets = []
     for l in range(MOTOR.n_coil_sets):
         a, b = physics_from_ideal(MOTOR.pole_pitch, 61.0 + l, -0.54, 0.05, MOTOR.lever_arms[l])
-        m = CoilSetModel.init(jax.random.PRNGKey(l), a, b, MOTOR.pole_pitch, 0.0, 0.1, (2,), (16,), "tanh", -0.1, 0.1,
-                              direction=True)
+        m = CoilSetModel.init(jax.random.PRNGKey(l), CoilSetModel.physics(a, b, MOTOR.pole_pitch, 0.0, 0.1, -0.1, 0.1),
+                              (2,), (16,), "tanh", direction=True)
         leaves, tree = jax.tree_util.tree_flatten(m)
         sets.append(jax.tree_util.tree_unflatten(tree, [np.asarray(x) + rng.normal(size=np.shape(x)) for x in leaves]))
     model = CombinedModel.from_coil_sets(sets)

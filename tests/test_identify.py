@@ -93,7 +93,7 @@ def data():
 
 def _model(data, seed=0, gain=(2,), cog=(3,)):
     a, b = idf.fit_physics(data, D_M)
-    return CoilSetModel.init(jax.random.PRNGKey(seed), a, b, D_M, 0.0, 0.1, gain, cog)
+    return CoilSetModel.init(jax.random.PRNGKey(seed), CoilSetModel.physics(a, b, D_M, 0.0, 0.1), gain, cog)
 
 
 def _lstsq_theta(model, data, lam12, star, ridge=0.0):

@@ -75,7 +75,7 @@ def sdata():
 
 def _model(sd, seed=0, gain=(2,), cog=(3,)):
     a, b = idf.fit_physics(sd, D_M)
-    return CoilSetModel.init(jax.random.PRNGKey(seed), a, b, D_M, 0.0, 0.1, gain, cog)
+    return CoilSetModel.init(jax.random.PRNGKey(seed), CoilSetModel.physics(a, b, D_M, 0.0, 0.1), gain, cog)
 
 
 def test_proposition1_matches_lstsq_on_the_filtered_regressor(sdata):
