@@ -104,6 +104,9 @@ def test_combined_table_weighs_the_map_by_its_error(ratio):
     found = compare(static, ident, independent=2 * 84)
     assert found["index_offset"]["shift"] == 256
     both = combine(static, ident, found, sigma_m)
+    ours = ident.table(n)
+    np.testing.assert_allclose(both["map_aligned"], ref + noise - (ref + noise).mean() + ours.mean(), rtol=0,
+                               atol=1e-12 * np.max(np.abs(ref)))
     tol_var = 4 * (sigma_s**2 * math.sqrt(2 / n) + 2 * sigma_m * sigma_s / math.sqrt(n))
     assert abs(both["static_rms_error_A"] ** 2 - sigma_s**2) <= tol_var
     w = sigma_m**2 / (sigma_m**2 + sigma_s**2)

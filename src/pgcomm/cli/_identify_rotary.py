@@ -110,7 +110,7 @@ def run_rotary(args, out: Path, progress, t0: float) -> None:
     written = ["model.json", "compensation.csv", "results.json", "identify_rotary.png", "report.html"]
     if sweep is not None and found.sweep_comparison["table_written"]:
         written.insert(2, "standstill_table.csv")
-    written[2:2] = [name for name, _ in found.combined_tables]
+    written[2:2] = [name for name, *_ in found.combined_tables]
     with progress.stage(", ".join(written)):
         atomic_write_text(out / "model.json", json.dumps(model.to_dict(), indent=1) + "\n")
         write_angle_table(out / "compensation.csv",
@@ -123,13 +123,15 @@ def run_rotary(args, out: Path, progress, t0: float) -> None:
                               comments=(f"the drives' table of {motor.name} from the logged sweep "
                                         f"{', '.join(found.sweep_comparison['logs'])}: forward and reverse bin "
                                         "averages, their mean",))
-        for (name, iq), m in zip(found.combined_tables, static_maps):
+        for (name, iq, _), m in zip(found.combined_tables, static_maps):
             write_angle_table(out / name, make_table(iq, name, current_limit=motor.current_limit),
                               comments=(f"pgcomm rotary model of {motor.name} from {len(logs)} log(s) and the drive's "
                                         f"static map {m.source} as one table, each weighed by its error (forward and "
                                         "reverse averaged; the map's index offset removed)",))
         write_results(out / "results.json", results)
-        save(plot_rotary_maps(model, found.identification, motor.name, sweep=sweep), out / "identify_rotary.png")
+        static = [(Path(m.source).name, iq, aligned) for (_, iq, aligned), m in zip(found.combined_tables, static_maps)]
+        save(plot_rotary_maps(model, found.identification, motor.name, sweep=sweep, static=static),
+             out / "identify_rotary.png")
         write_rotary_report(out / "report.html", results, {
             "The identified maps over one revolution with their standard error as a band: the compensating q "
             "current (cogging and direction term, forward and reverse and their mean, the table that is "

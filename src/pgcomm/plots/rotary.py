@@ -12,15 +12,18 @@ from pgcomm.rotary.model import Fourier
 __all__ = ["plot_rotary_maps", "plot_rotary_run"]
 
 
-def plot_rotary_maps(model, identification, motor_name: str, n: int = 3600, sweep=None):
+def plot_rotary_maps(model, identification, motor_name: str, n: int = 3600, sweep=None, static=()):
     """The identified maps over one revolution, each with its standard error as a band where known; the
-    table of a logged standstill sweep (``sweep``, :class:`pgcomm.rotary.standstill.SweepTable`) beside
-    the model's, and the ripple the logged q-voltage measures beside the currents' (:mod:`pgcomm.rotary.back_emf`).
+    table of a logged standstill sweep (``sweep``, :class:`pgcomm.rotary.standstill.SweepTable`) and the drive's own
+    static maps with their combination (``static``) beside the model's, and the ripple the logged q-voltage measures
+    beside the currents' (:mod:`pgcomm.rotary.back_emf`).
 
     Args:
         model: :class:`pgcomm.rotary.model.RotaryModel` (current units).
         identification: :class:`pgcomm.rotary.identify.RotaryIdentification` (its standard errors and back-EMF).
         motor_name: for the title; n: points over the revolution.
+        static: ``(name, combined (m,) A, map aligned (m,) A)`` per static map, on ``2π j / m``
+            (:func:`pgcomm.rotary.static_map.combine`).
 
     Returns:
         the figure: cogging (A), ripple (%), direction term (A) over ``(n,)`` angles.
@@ -52,6 +55,10 @@ def plot_rotary_maps(model, identification, motor_name: str, n: int = 3600, swee
             if sweep is not None:
                 a.plot(sweep.theta, sweep.table, "k", lw=0.4, alpha=0.6,
                        label=f"standstill sweep ({sweep.seconds:.0f} s of rig time)")
+            for name, combined, aligned in static:
+                grid = 2 * np.pi * np.arange(np.size(aligned)) / np.size(aligned)
+                a.plot(grid, aligned, "k--", lw=0.4, alpha=0.6, label=f"drive's static map {name} (index aligned)")
+                a.plot(grid, combined, lw=0.6, alpha=0.8, label=f"{name} and the identified table as one")
         a.set_ylabel(f"{label} [{unit}]", fontsize=8)
         a.legend(fontsize=7, loc="upper right")
     ax[-1].set_xlabel("mechanical angle θ [rad]")

@@ -80,8 +80,9 @@ class LogsIdentification:
         k_t_ratios: the back-EMF's torque constant over the description's ``k_t`` (``"back_emf"``) and along the
             magnets' axis (``"aligned"``), where both are known.
         runtime_s: seconds from ``started`` to the result.
-        combined_tables: per static map, ``(file name, (n,) A)``: the identified table and the map as one table
-            (:func:`pgcomm.rotary.static_map.combine`), on the map's ``n`` angles ``2π j / n``.
+        combined_tables: per static map, ``(file name, (n,) A, (n,) A)``: the identified table and the map as one
+            table (:func:`pgcomm.rotary.static_map.combine`), and the map aligned with it, on the map's ``n`` angles
+            ``2π j / n``.
     """
 
     motor: RotaryMotor
@@ -189,9 +190,9 @@ def identify_from_logs(logs, motor: RotaryMotor, options: RotaryIdentifyOptions 
         if model_error is not None:
             both = combine(m, model, found, model_error)
             name = f"combined_{Path(m.source).stem}.csv"
-            if any(name == used for used, _ in combined_tables):  # two maps of one name in different folders
+            if any(name == used for used, *_ in combined_tables):  # two maps of one name in different folders
                 name = f"combined_{Path(m.source).stem}_{len(combined_tables) + 1}.csv"
-            combined_tables.append((name, both.pop("iq")))
+            combined_tables.append((name, both.pop("iq"), both.pop("map_aligned")))
             found["combined"] = {**both, "file": name}
             progress.info(f"{name}: the identified table and {Path(m.source).name} as one table, the map weighing "
                           f"{100 * both['weight_static']:.0f} % (its error {both['static_rms_error_A']:.3g} A RMS "

@@ -123,8 +123,9 @@ def combine(static: StaticMap, model, found: dict, model_rms_error: float) -> di
             ``identification.standard_error.cogging.rms_error``).
 
     Returns:
-        dict: ``iq`` ``(n,)`` A on ``θ_j = 2π j / n`` (``n`` the map's points), ``weight_static``,
-        ``static_rms_error_A`` and ``model_rms_error_A``.
+        dict: ``iq`` ``(n,)`` A on ``θ_j = 2π j / n`` (``n`` the map's points), ``map_aligned`` ``(n,)`` A (the map there,
+        its index offset removed and its offset the table's), ``weight_static``, ``static_rms_error_A`` and
+        ``model_rms_error_A``.
     """
     n = static.theta.size
     grid = 2 * math.pi * np.arange(n) / n
@@ -134,7 +135,8 @@ def combine(static: StaticMap, model, found: dict, model_rms_error: float) -> di
     var_static = max(float(np.mean((_centred(ours) - _centred(aligned)) ** 2)) - var_model, 0.0)
     # both errors zero (a noise-free model and a map that agrees with it): either table, the mean of both
     w = var_model / (var_model + var_static) if var_model + var_static > 0 else 0.5
-    return {"iq": ours + w * (_centred(aligned) - _centred(ours)), "weight_static": float(w),
+    return {"iq": ours + w * (_centred(aligned) - _centred(ours)), "map_aligned": _centred(aligned) + ours.mean(),
+            "weight_static": float(w),
             "static_rms_error_A": math.sqrt(var_static), "model_rms_error_A": math.sqrt(var_model)}
 
 
