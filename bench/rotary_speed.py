@@ -78,11 +78,12 @@ def main(argv=None) -> int:
         t_id, res = _best(lambda: identify(logs, t.motor), args.repeat)
         read = res.reading()
         t_read, _ = _best(lambda: identify(logs, t.motor, RotaryIdentifyOptions().with_reading(read)), args.repeat)
-        budget, regression._ANGLE_PARTS.budget = regression._ANGLE_PARTS.budget, 0
+        kept = regression._angle_parts()
+        budget, kept.budget = kept.budget, 0
         try:
             t_fresh, _ = _best(lambda: identify(logs, t.motor), args.repeat)
         finally:
-            regression._ANGLE_PARTS.budget = budget
+            kept.budget = budget
         name = f"{t.motor.slots}N{2 * t.motor.pole_pairs}P"
         print(f"{idx:>2} {name:7s} {t.control_per_log:>3d} {union.size:>6d} {t_closed / t_rows:>9.1f} {diff:>9.1e} "
               f"{secs:>6.1f} {t_twin / secs:>9.3f} {t_id / secs:>10.3f} {t_read / secs:>9.3f} "

@@ -246,3 +246,32 @@ def test_a_pinned_ripple_leaves_the_cogging_of_logs_that_determine_it(uniform_lo
     assert pinned.pinned == ["ripple"] and pinned.model.ripple.orders.size == 0
     assert "not determined by these logs" in resolution_verdict(pinned.standard_error["ripple"])
     assert cogging_error(pinned.model) < max(2 * cogging_error(full.model), 2e-3)
+
+
+def test_the_kept_angle_parts_give_the_fit_of_parts_built_afresh():
+    """Second formulation: an identification that searches the logs' reading (its delay, lag, filter and a PLL: tens
+    of passes over the same logs, the angle's columns kept between them, :func:`pgcomm.rotary.regression.angle_parts_kept`)
+    gives the maps of the same identification with every pass building them afresh (no budget), within 1e-9 of the
+    maps' own scale; another thread keeps parts of its own."""
+    import threading
+
+    from pgcomm.rotary import regression
+
+    logs = [_rotor.run(2.0, speed=20.0, seed=1), _rotor.run(2.0, speed=-15.0, seed=2)]
+    kept = identify(logs, MOTOR)
+    parts = regression._angle_parts()
+    budget, parts.budget = parts.budget, 0
+    try:
+        fresh = identify(logs, MOTOR)
+    finally:
+        parts.budget = budget
+    assert fresh.reading() == kept.reading()
+    for name in ("cogging", "ripple", "direction"):
+        a, b = getattr(kept.model, name), getattr(fresh.model, name)
+        assert np.array_equal(a.orders, b.orders)
+        np.testing.assert_allclose(a.coef, b.coef, rtol=0, atol=1e-9 * max(np.abs(b.coef).max(), 1e-300))
+    other = []
+    thread = threading.Thread(target=lambda: other.append(regression._angle_parts()))
+    thread.start()
+    thread.join()
+    assert other[0] is not parts

@@ -48,7 +48,7 @@ from scipy.optimize import minimize
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _basis_costs, \
-    _evidence, _prepare, _ANGLE_PARTS
+    _angle_parts, _evidence, _prepare
 from pgcomm.settings import RotaryIdentifyOptions
 
 #: Delays (samples) of the logged q-current behind the current that acted over each sample that
@@ -419,7 +419,7 @@ def _with_pll(prepared, pll) -> list:
         return prepared
     # the same corrected angle for the same reading: the search tries each PLL several times, and the fit's angle parts
     # are kept per angle array (pgcomm.rotary.regression.angle_parts_kept)
-    return [replace(p, theta=_ANGLE_PARTS.derived(p.theta, ("pll", p.ts, *pll),
+    return [replace(p, theta=_angle_parts().derived(p.theta, ("pll", p.ts, *pll),
                                                   lambda p=p: pll_corrected(p.theta, p.ts, *pll))) for p in prepared]
 
 

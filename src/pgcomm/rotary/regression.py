@@ -79,6 +79,7 @@ structured model. The rows are built a chunk of windows at a time and reduced to
 from __future__ import annotations
 
 import math
+import threading
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -608,22 +609,32 @@ def _nbytes(part) -> int:
     return total
 
 
-#: The angle parts kept while an identification runs: 256 MB at most (about three minutes of 1 kHz logs on a basis
-#: of a hundred orders).
-_ANGLE_PARTS = _AngleParts(256 * 2**20)
+#: The angle parts kept while an identification runs, at most this many bytes per thread (about three minutes of
+#: 1 kHz logs on a basis of a hundred orders).
+ANGLE_PARTS_BUDGET = 256 * 2**20
+_THREAD = threading.local()
+
+
+def _angle_parts() -> _AngleParts:
+    """This thread's :class:`_AngleParts`: identifications in threads of one process keep their parts apart."""
+    parts = getattr(_THREAD, "parts", None)
+    if parts is None:
+        parts = _THREAD.parts = _AngleParts(ANGLE_PARTS_BUDGET)
+    return parts
 
 
 @contextmanager
 def angle_parts_kept():
     """Keep the angle's part of the regression's rows between passes over the same logs inside this block
-    (:class:`_AngleParts`), and drop them when it ends. Nested blocks share the outer one's parts."""
-    _ANGLE_PARTS.depth += 1
+    (:class:`_AngleParts`, this thread's), and drop them when it ends. Nested blocks share the outer one's parts."""
+    parts = _angle_parts()
+    parts.depth += 1
     try:
         yield
     finally:
-        _ANGLE_PARTS.depth -= 1
-        if not _ANGLE_PARTS.depth:
-            _ANGLE_PARTS.clear()
+        parts.depth -= 1
+        if not parts.depth:
+            parts.clear()
 
 
 
@@ -652,16 +663,17 @@ def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WIND
         at = np.searchsorted(union, getattr(orders, name))
         cols[name] = np.concatenate([at, union.size + at])
     col_key = b"/".join(cols[name].tobytes() for name in ("cogging", "ripple", "direction"))
+    kept = _angle_parts()
     for pos, p in enumerate(first):
         # the probe currents (below), once per log: probe k is 1 on the samples k, k + P, ... (bool: a byte a sample)
         probe_x = ((np.arange(p.theta.size) % n_probes)[None, :] == np.arange(n_probes)[:, None]) if probes else None
         need_phi_r = any(r[pos].lag is not None for r in readings)
         for k in range(0, p.starts.size, chunk):
             key = (pos, k, chunk, span, taps, block_seconds, union.tobytes(), col_key, need_phi_r)
-            part = _ANGLE_PARTS.get(p, key)
+            part = kept.get(p, key)
             if part is None:
                 part = _angle_part(p, pos, k, chunk, span, union, cols, g, g_tri, block_seconds, need_phi_r)
-                _ANGLE_PARTS.put(p, key, part)
+                kept.put(p, key, part)
             common, a_rh, b_rh, phi_r, steps = part["common"], part["a_rh"], part["b_rh"], part["phi_r"], part["steps"]
             st = common["row"]
             lo, hi = int(st[0]), int(st[-1]) + span
