@@ -432,7 +432,7 @@ def test_large_csv_single_copy(tmp_path):
 def test_host_stamps_are_resampled_for_a_reader_that_needs_a_uniform_grid(tmp_path):
     """A linear log stamped by a host (steps 0.4-1.9 ms around 1 ms) whose columns are straight lines in time: with
     ``resample=True`` every column is on a uniform grid of the median step, equal to the line there (linear
-    interpolation is exact on a line, to rounding), with a note; a step over ``GAP_STEPS`` median steps is refused
+    interpolation is exact on a line, to rounding) and a data set's label held, with a note; a step over ``GAP_STEPS`` median steps is refused
     with its row; without the flag the log is refused as before."""
     from pgcomm.io.logs import GAP_STEPS
 
@@ -440,7 +440,7 @@ def test_host_stamps_are_resampled_for_a_reader_that_needs_a_uniform_grid(tmp_pa
     steps = 1e-3 * rng.uniform(0.4, 1.9, 2000)
     t = np.concatenate([[0.0], np.cumsum(steps)])
     cols = {"t": t, "y": 0.01 + 0.02 * t, "Fy": -3.0 + 40.0 * t, "Fx": 0.5 * t, "Tz": np.zeros(t.size),
-            "ia_1": 1.0 + 2.0 * t, "ib_1": -1.0 + 0.5 * t}
+            "ia_1": 1.0 + 2.0 * t, "ib_1": -1.0 + 0.5 * t, "experiment": np.where(t < 1.0, 1.0, 2.0)}
     p = _write_csv(tmp_path / "host.csv", cols)
     with pytest.raises(DataError, match=r"host.csv row \d+ column 't': time step changes"):
         read_log(p)
@@ -454,6 +454,8 @@ def test_host_stamps_are_resampled_for_a_reader_that_needs_a_uniform_grid(tmp_pa
         c0 = cols[name][0]
         slope = (cols[name][-1] - c0) / t[-1]
         np.testing.assert_allclose(lg.columns[name], c0 + slope * tg, rtol=0, atol=1e-12 * (abs(c0) + abs(slope)))
+    # a label is held, not interpolated: the one in force at each grid point
+    np.testing.assert_array_equal(lg.columns["experiment"], np.where(tg < t[np.searchsorted(t, 1.0)], 1.0, 2.0))
     assert any("resampled to a uniform grid" in note for note in lg.notes)
     t_gap = t.copy()
     t_gap[1001:] += (GAP_STEPS + 1) * step

@@ -30,6 +30,7 @@ from pgcomm.io.static_map import is_static_map, read_static_map
 from pgcomm.plots import plot_rotary_maps, save
 from pgcomm.report.rotary import write_rotary_report
 from pgcomm.rotary.from_logs import identify_from_logs
+from pgcomm.rotary.plan import check_rotary_logs
 from pgcomm.settings import RotaryIdentifyOptions
 
 
@@ -85,13 +86,7 @@ def run_rotary(args, out: Path, progress, t0: float) -> None:
         mapping = with_encoder_counts(load_column_mapping(args.columns) if args.columns else None, motor)
         logs = read_logs(args.data, sample_time=args.sample_time, columns=mapping, required=ROTARY_REQUIRED, gaps=True,
                          stamps=True)
-        for lg in logs:
-            if not lg.is_rotary:
-                raise DataError(f"{lg.source}: a linear motor's log (it has 'y'), but --motor {args.motor} is rotary; "
-                                "a rotary log has the mechanical angle 'theta' in place of 'y'")
-            if "iq_1" not in lg.columns:
-                raise DataError(f"{lg.source}: no q-axis current 'iq_1' (map the drive's q-current column to iq_1 "
-                                "in --columns); rotary identification reads the current in the drive's frame")
+        check_rotary_logs(logs, f"--motor {args.motor}")
         n_samples = sum(lg.n_samples for lg in logs)
         progress.info(f"{len(logs)} log(s), {n_samples} samples, {n_samples * logs[0].sample_time:.0f} s")
         for lg in logs:

@@ -128,6 +128,8 @@ ROTARY_REQUIRED = ("theta",)
 FORCE_COLUMNS = ("Fy", "Fx", "Tz")
 
 #: Log-format column names that are not per coil set.
+#: Columns that label rows (which data set, which coil set drives) rather than measure: resampling holds them.
+LABEL_COLUMNS = ("experiment", "active_coil_set")
 KNOWN_COLUMNS = ("t", "y", "Fy", "Fx", "Tz", "r", "Fy_star", "Fx_star", "Tz_star", "experiment", "active_coil_set",
                  "theta", "velocity", "vbus")
 
@@ -610,8 +612,8 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
             ``sample_time`` the median step), split where a step exceeds :data:`GAP_STEPS` median steps
             (:attr:`Log.gaps`); only stamps that repeat or go back are refused. For readers that use the real
             intervals (the rotary identification); otherwise non-uniform time is refused.
-        resample: non-uniform time stamps (a host's clock) are interpolated, every column linearly, onto a uniform
-            grid of their median step (or ``sample_time`` where given), with a note; a step over :data:`GAP_STEPS`
+        resample: non-uniform time stamps (a host's clock) are interpolated, every column linearly (the labels of
+            :data:`LABEL_COLUMNS` held), onto a uniform grid of their median step (or ``sample_time`` where given), with a note; a step over :data:`GAP_STEPS`
             median steps is refused with its row. For readers that need a uniform grid (the linear motor's
             commands).
 
@@ -793,8 +795,11 @@ def read_log(path, sample_time: float | None = None, columns=None, required=REQU
             notes.append(f"t: non-uniform time stamps (steps {dt.min() * 1e3:.3g} to {dt.max() * 1e3:.3g} ms around "
                          f"{np.median(dt) * 1e3:.3g} ms), every column resampled to a uniform grid of {step * 1e3:.6g} "
                          "ms (linear interpolation)")
+            held = np.searchsorted(t, t_grid, side="right") - 1  # each grid point's last sample at or before it
             for name in cols:
-                if name != "t":
+                if name in LABEL_COLUMNS:
+                    cols[name] = cols[name][held]  # a label is not interpolated: the one in force
+                elif name != "t":
                     cols[name] = np.interp(t_grid, t, cols[name])
             cols["t"] = t = t_grid
             n, est, dev = t.size, step, np.zeros(t.size)

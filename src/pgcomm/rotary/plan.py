@@ -541,6 +541,23 @@ def _motor_notes(motor: RotaryMotor, inertia_ratio) -> list:
     return notes
 
 
+def check_rotary_logs(logs, motor: str = "") -> None:
+    """Refuse logs the rotary identification cannot read: a linear motor's (``y`` in place of ``theta``) or one without
+    the q-current ``iq_1``; ``motor`` names the rotary motor they were given with (e.g. ``"--motor m.toml"``).
+
+    Raises:
+        DataError: one line naming the log.
+    """
+    given = f", but {motor} is rotary" if motor else ""
+    for lg in logs:
+        if not lg.is_rotary:
+            raise DataError(f"{lg.source}: a linear motor's log (it has 'y'){given}; a rotary log has the mechanical "
+                            "angle 'theta' in place of 'y'")
+        if "iq_1" not in lg.columns:
+            raise DataError(f"{lg.source}: no q-axis current 'iq_1' (map the drive's q-current column to iq_1 in "
+                            "--columns); rotary identification reads the current in the drive's frame")
+
+
 def logs_as_data(logs) -> list:
     """Logs read by :func:`pgcomm.io.logs.read_logs` (``stamps=True``: a host's time stamps as recorded) as the rotary
     identification takes them: one dict per stretch between gaps, with ``name``, ``t``, ``theta``, ``iq_1`` and, where
@@ -549,13 +566,7 @@ def logs_as_data(logs) -> list:
     Raises:
         DataError: a log without ``iq_1``.
     """
-    for lg in logs:
-        if not lg.is_rotary:
-            raise DataError(f"{lg.source}: a linear motor's log (it has 'y'); a rotary log has the mechanical angle "
-                            "'theta' in place of 'y'")
-        if "iq_1" not in lg.columns:
-            raise DataError(f"{lg.source}: no q-axis current 'iq_1' (map the drive's q-current column to iq_1 in "
-                            "--columns)")
+    check_rotary_logs(logs)
     extra = ("id_1",) if all("id_1" in lg.columns for lg in logs) else ()
     return [{"name": lg.source if len(lg.gaps) == 0 else f"{lg.source} rows {a + 1}-{b}",
              **{k: lg.columns[k][a:b] for k in ("t", "theta", "iq_1", *extra)}}

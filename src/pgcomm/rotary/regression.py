@@ -556,6 +556,7 @@ class _AngleParts:
         self._bytes = 0
 
     def _key(self, p, key):
+        # the arrays' identities: each entry holds the arrays themselves, so no other array can take an id it keys on
         return (id(p.theta), id(p.starts), id(p.t), id(p.w), id(p.sgn), p.index, p.ts, p.acc_noise) + key
 
     def get(self, p, key):
@@ -567,8 +568,7 @@ class _AngleParts:
         if hit is None:
             return None
         self._parts[k] = hit  # the most recently used last: the oldest go first
-        held = hit[0]
-        return hit[1] if held[0] is p.theta and held[1] is p.starts and held[2] is p.t else None
+        return hit[1]
 
     def put(self, p, key, part) -> None:
         """Keep ``part`` for chunk ``key`` of log ``p`` (inside :func:`angle_parts_kept`, within the budget)."""
@@ -589,8 +589,8 @@ class _AngleParts:
             return make()
         k = (id(source),) + tuple(key)
         hit = self._derived.get(k)
-        if hit is None or hit[0] is not source:
-            hit = self._derived[k] = (source, make())
+        if hit is None:
+            hit = self._derived[k] = (source, make())  # the source held: its id stays its own
         return hit[1]
 
     def clear(self) -> None:
@@ -635,7 +635,6 @@ def angle_parts_kept():
         parts.depth -= 1
         if not parts.depth:
             parts.clear()
-
 
 
 def _reading_chunks(readings, orders: Orders, taps: int, chunk: int = CHUNK_WINDOWS,
