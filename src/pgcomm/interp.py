@@ -7,7 +7,10 @@ Force maps (:class:`pgcomm.forcemap.ForceMapPlant`), the drive-style anti-coggin
 
 from __future__ import annotations
 
+from functools import partial
+
 import pgcomm._x64  # noqa: F401  (float64 before any array is made)
+import jax
 import jax.numpy as jnp
 
 import numpy as np
@@ -15,6 +18,9 @@ import numpy as np
 __all__ = ["interp_linear", "hat_basis"]
 
 
+# jitted: called outside a trace (a table read on the host), its eight operations would each be compiled for every
+# new shape; as one program they are compiled once per shape
+@partial(jax.jit, static_argnames=("uniform",))
 def interp_linear(grid, table, y, uniform: bool = True):
     """Rows of ``table`` linearly interpolated at positions ``y``, clamped to the grid's ends.
 

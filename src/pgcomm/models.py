@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import replace
+from functools import partial
 
 import pgcomm._x64  # noqa: F401  (float64 before any array is made)
 import jax
@@ -143,18 +144,27 @@ class MLP:
         if not widths or min(widths) < 1:
             raise ValueError(f"widths must be a non-empty tuple of positive ints, got {widths}")
         activation_fn(activation)
-        keys = jax.random.split(key, 2 * len(widths))
-        hidden, n_prev = [], 1
-        for i, n in enumerate(widths):
-            if i == 0:
-                w = first_scale * jax.random.normal(keys[0], (1, n))
-                b = jax.random.normal(keys[1], (n,))
-            else:
-                w = jax.random.normal(keys[2 * i], (n_prev, n)) / np.sqrt(n_prev)
-                b = jnp.zeros((n,))
-            hidden.append((w, b))
-            n_prev = n
-        return cls(tuple(hidden), jnp.zeros((n_prev, 3)), jnp.zeros(3), activation)
+        hidden = _random_hidden(key, widths, float(first_scale))
+        return cls(hidden, *jax.device_put((np.zeros((widths[-1], 3)), np.zeros(3))), activation)
+
+
+# one compiled program per network shape: drawn outside a trace, each draw's dozen random and array operations
+# would each be compiled anew after every release of compiled programs
+@partial(jax.jit, static_argnames=("widths", "first_scale"))
+def _random_hidden(key, widths: tuple, first_scale: float) -> tuple:
+    """The hidden layers of :meth:`MLP.init`: ``((W_1, b_1), ...)``, ``W_i`` ``(n_{i-1}, n_i)``, ``b_i`` ``(n_i,)``."""
+    keys = jax.random.split(key, 2 * len(widths))
+    hidden, n_prev = [], 1
+    for i, n in enumerate(widths):
+        if i == 0:
+            w = first_scale * jax.random.normal(keys[0], (1, n))
+            b = jax.random.normal(keys[1], (n,))
+        else:
+            w = jax.random.normal(keys[2 * i], (n_prev, n)) / np.sqrt(n_prev)
+            b = jnp.zeros((n,))
+        hidden.append((w, b))
+        n_prev = n
+    return tuple(hidden)
 
 
 def hidden_features(hidden, s, activation="tanh"):
@@ -472,8 +482,8 @@ class CombinedModel:
                     jnp.shape, (m0.gain_nets, m0.cog_net)):
                 raise ValueError(f"coil set {l + 1}: network widths differ from coil set 1")
 
-        def stack(*xs):
-            return jnp.stack([jnp.asarray(x) for x in xs])
+        def stack(*xs):  # on the host, then placed: jnp.stack outside a trace compiles a program per shape
+            return jax.device_put(np.stack([np.asarray(x, float) for x in xs]))
 
         gain = None
         if m0.gain_nets is not None:
@@ -487,7 +497,8 @@ class CombinedModel:
             raise ValueError("coil sets differ in the direction term's v_eps")
         has_range = all(m.y_min is not None and m.y_max is not None for m in models)
         return cls(stack(*[m.A for m in models]), stack(*[m.B for m in models]), gain, cog,
-                   jnp.asarray([m.y_center for m in models], float), jnp.asarray([m.y_scale for m in models], float),
+                   jax.device_put(np.asarray([m.y_center for m in models], float)),
+                   jax.device_put(np.asarray([m.y_scale for m in models], float)),
                    float(m0.pole_pitch),
                    tuple(float(m.y_min) for m in models) if has_range else None,
                    tuple(float(m.y_max) for m in models) if has_range else None,

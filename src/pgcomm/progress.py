@@ -35,11 +35,19 @@ class Progress:
         if self.enabled:
             print(f"    {msg}", file=self.stream, flush=True)
 
+    @property
+    def releases(self) -> bool:
+        """Whether a stage's start calls an ``on_stage`` hook (the command line's release of compiled programs)."""
+        return self._on_stage is not None
+
     @contextmanager
-    def stage(self, msg: str):
-        """Context manager around one stage; prints its start and its duration."""
+    def stage(self, msg: str, release: bool = True):
+        """Context manager around one stage; prints its start and its duration.
+
+        ``release=False`` skips the ``on_stage`` hook: a stage that runs the programs of the stage before it again
+        (the command line's hook drops every compiled program)."""
         self.checkpoint()
-        if self._on_stage is not None:
+        if release and self._on_stage is not None:
             self._on_stage()
         self.n += 1
         t = time.perf_counter()

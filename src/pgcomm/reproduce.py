@@ -449,10 +449,12 @@ class ReproduceResult:
 def _step(progress, message: str, release: bool = True):
     """One step of :func:`run`: the programs of the steps before it are released first (:mod:`pgcomm._memory`:
     the run's peak memory halves), then ``progress.stage(message)``. ``release=False`` for a step that runs the
-    closed loops of the step before it again: its compiled loops are kept (a few MB), not traced again."""
-    if release:
+    closed loops of the step before it again: its compiled loops are kept (a few MB), not traced again. A
+    ``progress`` that releases at every stage (the command line's) is told which steps release instead: a second
+    release at the same boundary would drop what ``release=False`` keeps."""
+    if release and not progress.releases:
         release_compiled_programs()
-    with progress.stage(message):
+    with progress.stage(message, release=release):
         yield
 
 

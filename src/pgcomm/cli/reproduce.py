@@ -70,7 +70,8 @@ def run(args, out: Path, progress) -> None:
     results = o.to_dict()
     results.update(command="reproduce", version=__version__, quick=bool(args.quick), seed=args.seed)
 
-    with progress.stage("figures, model file and report"):
+    # the figures evaluate the models and laws the closed-loop step compiled: its programs are kept
+    with progress.stage("figures, model file and report", release=False):
         lp = setup.config.evaluation.lowpass_hz
         figs = {}
         captions = figure_captions(o, results)

@@ -62,11 +62,12 @@ def _lm_init(layout: _Layout, flats, lam0):
     """State before the first step: ``f = inf`` and a zero step, so the first :func:`_lm_step`
     evaluates the starting points (one compiled function serves both)."""
     n_s, n = flats.shape
-    # Explicit dtypes (not weakly typed) so that this state and the stepped ones share one compilation.
-    ev = _Eval(jnp.full(n_s, np.inf, float), *(jnp.zeros(n_s) for _ in range(4)), jnp.zeros((n_s, layout.p, 3)),
-               jnp.broadcast_to(jnp.eye(n), (n_s, n, n)), jnp.zeros((n_s, n)))
-    return _LMState(flats, ev, jnp.full(n_s, lam0, float), jnp.full(n_s, 2.0, float), jnp.zeros(n_s, bool),
-                    jnp.zeros(n_s, jnp.int32), jnp.full(n_s, -1, jnp.int32))
+    # Explicit dtypes (not weakly typed) so that this state and the stepped ones share one compilation; built on
+    # the host and placed (jnp constructors outside a trace compile a program per shape)
+    ev = _Eval(np.full(n_s, np.inf), *(np.zeros(n_s) for _ in range(4)), np.zeros((n_s, layout.p, 3)),
+               np.broadcast_to(np.eye(n), (n_s, n, n)).copy(), np.zeros((n_s, n)))
+    return jax.device_put(_LMState(flats, ev, np.full(n_s, float(lam0)), np.full(n_s, 2.0), np.zeros(n_s, bool),
+                                   np.zeros(n_s, np.int32), np.full(n_s, -1, np.int32)))
 
 
 #: Largest damping before a start is declared converged (steps are then ~1e-10 of Gauss–Newton's).
@@ -269,13 +270,13 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
     show = _progress_printer(name) if progress is True else (progress or None)
     opts = dict(max_iter=o.max_iterations, tol=o.tol, lambda0=o.lambda0, show=show)
     history = []
-    mask = jnp.asarray(_Layout.of(template).first_layer_weight_mask())
+    mask = jax.device_put(np.asarray(_Layout.of(template).first_layer_weight_mask()))
     w_max = (2.0 * np.arctanh(0.8) * y_scale / (o.min_feature_width * pole_pitch) if o.min_feature_width > 0
              else np.inf)
     force_ms = float(np.mean(train.force ** 2)) + 1e-300
 
     def slope(n):
-        return (mask, jnp.asarray(w_max), jnp.asarray(np.sqrt(n * force_ms)))
+        return (mask, *jax.device_put((np.asarray(w_max, float), np.asarray(np.sqrt(n * force_ms), float))))
 
     stride = max(1, min(int(o.subsample), train.n // _MIN_SUBSAMPLE))
     iters0 = np.zeros(o.starts, int)

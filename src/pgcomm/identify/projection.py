@@ -48,6 +48,8 @@ _REORTHOGONALISATIONS = 1
 _FLOOR_PER_COLUMN = 10 * np.finfo(float).eps
 
 
+# jitted (called on the host for every data set): one program instead of a dozen eager operations
+@partial(jax.jit, static_argnames=("pole_pitch", "harmonics", "v_eps"))
 def _position_data(y, currents, pole_pitch, y_center, y_scale, harmonics=False, velocity=None, v_eps=None):
     """Data-only (known) columns of the regressor ``x0`` ``(n_known, N)`` and the scaled position ``s`` ``(N,)``.
 
@@ -204,7 +206,8 @@ def _to_chunks(layout: _Layout, data, chunk: int, pole_pitch, y_center, y_scale)
     def padded(a, w=1):  # (k, N W) -> (C, k, c W)
         a = np.atleast_2d(a)
         a = np.concatenate([a, np.zeros((a.shape[0], pad * w))], axis=1)
-        return jnp.asarray(a.reshape(a.shape[0], n_chunks, chunk * w).transpose(1, 0, 2))
+        # device_put: jnp.asarray of a host array compiles a copy per shape
+        return jax.device_put(np.ascontiguousarray(a.reshape(a.shape[0], n_chunks, chunk * w).transpose(1, 0, 2)))
 
     raw = data.raw
     x0, s = (np.asarray(a) for a in _known_data(layout, raw.y, raw.currents, raw.velocity, pole_pitch, y_center,
@@ -596,7 +599,8 @@ def _consts(layout: _Layout, data: CoilSetData, Lambda, theta_phy_star, ridge_ou
     for kind, widths in layout.blocks:
         bound += [norms[kind]] * (widths[-1] + 1)
     damp_w = damping * np.maximum(np.asarray(bound), 1e-300)
-    return _Consts(jnp.asarray(float(data.n)), jnp.asarray(reg_w), jnp.asarray(theta_bar), jnp.asarray(damp_w))
+    return _Consts(*jax.device_put((np.asarray(float(data.n)), np.asarray(reg_w, float), np.asarray(theta_bar, float),
+                                    np.asarray(damp_w, float))))
 
 
 def _star_or_fit(data, pole_pitch, theta_phy_star):
