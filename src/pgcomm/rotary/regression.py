@@ -37,7 +37,9 @@ windows whose direction changes are left out too.
 *regressor*, which pulls ``J/k0`` towards zero and the maps with it (errors in variables; tens of per cent at
 constant speed with 16–17-bit encoders). Where the logged angle sits on an encoder's lattice, the
 step is read from it and the noise's known variance taken out of the normal equations
-(:mod:`pgcomm.rotary.quantisation`, :func:`_quantisation_correction`).
+(:mod:`pgcomm.rotary.quantisation`, :func:`_quantisation_correction`). A host's clock adds a noise of the same kind
+that grows with the speed (:mod:`pgcomm.rotary.host_clock`): where it is read from the angle, its variance per row
+(:attr:`_Prepared.timing_noise`) is taken out the same way.
 
 **The current's noise.** The logged current is in the target and, through ``i_q φ_h``, in the ripple's columns: its
 noise is the same in both, and their product does not average out where the rotor's angle is not sampled evenly over
@@ -325,6 +327,10 @@ class _Prepared:
     #: ``(N,)`` the weight of the row centred on each sample (:mod:`pgcomm.rotary.host_clock`: a speed-dependent
     #: angle noise), or ``None``: every row weighs 1.
     weight: np.ndarray | None = None
+    #: ``(N,)`` the acceleration's noise variance from the host's clock in the row centred on each sample
+    #: (:func:`pgcomm.rotary.host_clock.timing_noise`), taken out of the normal equations with ``acc_noise``; ``None``:
+    #: none.
+    timing_noise: np.ndarray | None = None
 
 
 def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: int, encoder_step="detect",
@@ -531,7 +537,8 @@ def _angle_part(p, pos: int, k: int, chunk: int, span: int, union, cols, g, g_tr
               "visc": _filt(p.w[lo:hi], loc, g_tri),
               "sgn": sgn[loc + span // 2],
               "block": np.floor(t_rows / block_seconds).astype(np.int64) + 100003 * p.index,
-              "acc_noise": np.full(st.size, p.acc_noise)}
+              "acc_noise": np.full(st.size, p.acc_noise) + (0.0 if p.timing_noise is None
+                                                             else p.timing_noise[st + span // 2])}
     # the ripple's columns are scaled with the current that multiplies them (current_rows)
     return {"common": common, "a_rh": a_0[:, cols["ripple"]], "b_rh": b_0[:, cols["ripple"]],
             "phi_r": np.ascontiguousarray(phi[cols["ripple"]]) if need_phi_r else None, "steps": steps}
@@ -557,7 +564,8 @@ class _AngleParts:
 
     def _key(self, p, key):
         # the arrays' identities: each entry holds the arrays themselves, so no other array can take an id it keys on
-        return (id(p.theta), id(p.starts), id(p.t), id(p.w), id(p.sgn), p.index, p.ts, p.acc_noise) + key
+        return (id(p.theta), id(p.starts), id(p.t), id(p.w), id(p.sgn), p.index, p.ts, p.acc_noise,
+                id(p.timing_noise)) + key
 
     def get(self, p, key):
         """The part kept for chunk ``key`` of log ``p``, or ``None`` (also outside :func:`angle_parts_kept`)."""
