@@ -139,3 +139,16 @@ def test_the_timing_noise_is_taken_out_of_the_inertia(monkeypatch):
     e_p = abs(plain.model.inertia_ratio / truth - 1)
     assert e_p > 0.3, e_p  # the bias this test is about is there
     assert e_c < e_p / 3, (e_c, e_p)
+
+
+def test_the_terminal_line_says_what_was_done_for_the_clock():
+    """One line only where something was done for the clock, naming each thing done."""
+    from pgcomm.rotary.host_clock import host_clock_text
+
+    base = {"resolved": True, "sigma_t_us": 38.7, "sigma_t_se_us": 0.5, "spread": 3.0}
+    assert host_clock_text({**base, "weighted": False, "bias_corrected": False}) is None
+    assert host_clock_text({**base, "resolved": False, "weighted": True, "bias_corrected": True}) is None
+    only_bias = host_clock_text({**base, "weighted": False, "bias_corrected": True})
+    assert "38.7 µs" in only_bias and "J/k0" in only_bias and "weighted" not in only_bias
+    both = host_clock_text({**base, "weighted": True, "bias_corrected": True})
+    assert "J/k0" in both and "weighted" in both and "3 times" in both

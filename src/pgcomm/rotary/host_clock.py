@@ -388,4 +388,5 @@ def host_clock_text(info: dict | None) -> str | None:
         done.append(f"the rows are weighted by their predicted noise (the fastest {info['spread']:.3g} times the "
                     "slowest's variance)")
     return (f"the logged angle carries a timing noise of {sigma} (the host's clock: each row is the drive's state "
-            f"at an instant a little before its stamp), an angle noise that grows with the speed: " + "; ".join(done))
+            f"at an instant a little before its stamp), an angle noise that grows with the speed: " + "; ".join(done)
+            + " (slower running logs, or the drive's own time stamps, carry less of it)")
