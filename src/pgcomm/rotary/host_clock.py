@@ -35,9 +35,10 @@ the fit is unchanged. The squared residuals must also grow with ``A_j`` at least
 
 **The acceleration's bias** (:func:`timing_noise`). The same noise sits in the regressor: least squares pulls ``J/k0``
 towards zero by the share of the filtered acceleration's variance it makes up (2.4-fold at 40 µs on a 30 rad/s log),
-and the maps absorb what ``J/k0`` misses, whether or not the rows are weighted. Its variance per row,
-``σ_t² ω_j² Σ k_m² / T_s⁴``, is known from the angle, so it is taken out of the normal equations with the encoder's
-(:mod:`pgcomm.rotary.quantisation`). The host's clock is white and the drive does not react to it, so the correction
+and the maps absorb what ``J/k0`` misses, whether or not the rows are weighted. Its variance per row, ``σ_t² ω²`` at
+each sample through the squared weights of the row's filtered divided differences over the real stamps
+(:func:`_row_noise`; ``σ_t² ω² Σ k_m² / T_s⁴`` on uniform stamps), is known from the angle, so it is taken out of the
+normal equations with the encoder's (:mod:`pgcomm.rotary.quantisation`). The host's clock is white and the drive does not react to it, so the correction
 holds as the model says. Only where the growth is a clock's: at slow speeds an encoder's rounding also grows with the
 speed (the steps of a rotor that moves less than a count per sample are correlated, and whiten as it speeds up), so
 the rows must move at least :data:`MIN_COUNTS_PER_SAMPLE` encoder steps per sample at their median speed, and the
@@ -312,18 +313,18 @@ def _row_noise(p, g: np.ndarray, variance: np.ndarray) -> np.ndarray:
     a = 2.0 / (h_before * (h_before + h_after))
     c = 2.0 / (h_after * (h_before + h_after))
     b = -a - c
-    s = p.starts
+    s = p.starts  # every row's span s .. s + taps + 1 lies inside the log (regression._prepare)
     taps = g.size
     total = np.zeros(s.size)
     for k in range(taps + 2):
         wk = np.zeros(s.size)
         if k < taps:
-            wk += g[k] * a[np.minimum(s + k + 1, n - 1)]
+            wk += g[k] * a[s + k + 1]
         if 1 <= k <= taps:
             wk += g[k - 1] * b[s + k]
         if k >= 2:
             wk += g[k - 2] * c[s + k - 1]
-        total += wk * wk * variance[np.minimum(s + k, n - 1)]
+        total += wk * wk * variance[s + k]
     out = np.zeros(n)
     out[s + (taps + 2) // 2] = total
     return out

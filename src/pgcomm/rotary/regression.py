@@ -587,7 +587,7 @@ class _AngleParts:
             return
         while self._parts and self._bytes + size > self.budget:
             self._bytes -= self._parts.pop(next(iter(self._parts)))[2]
-        self._parts[self._key(p, key)] = ((p.theta, p.starts, p.t, p.w, p.sgn), part, size)
+        self._parts[self._key(p, key)] = ((p.theta, p.starts, p.t, p.w, p.sgn, p.timing_noise), part, size)
         self._bytes += size
 
     def derived(self, source: np.ndarray, key, make):
