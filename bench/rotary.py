@@ -1,6 +1,7 @@
 """Rotary zoo figures: identification error vs truth, tracking ratio law/standstill, time.
 
-Usage: ``python bench/rotary.py [--motors 8] [--seed 0] [--quick] [--control-per-log K]``. Per motor it runs
+Usage: ``python bench/rotary.py [--motors 8] [--first 0] [--seed 0] [--quick] [--control-per-log K] [--real-drive]``
+(``--real-drive``: the zoo motors with a real drive's and host's habits, :func:`pgcomm.rotary.zoo.draw_rotary`). Per motor it runs
 :func:`pgcomm.rotary.experiment.run` (running logs -> identification without a torque sensor,
 standstill sweep of 3600 angles, four rows in closed loop) and prints:
 
@@ -39,6 +40,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--control-per-log", type=int, default=None, help="the drives' control cycles per logged sample")
+    ap.add_argument("--real-drive", action="store_true", help="the zoo motors with a real drive's and host's habits")
+    ap.add_argument("--first", type=int, default=0, help="the first motor's index")
     args = ap.parse_args(argv)
     from pgcomm.rotary.experiment import quick_settings, run
     from pgcomm.settings import RotarySettings
@@ -49,8 +52,8 @@ def main(argv=None) -> int:
           f"{'spd ratio':>9s} {'tab diff A':>10s} {'sweep err A':>11s} {'agree':>5s} {'run s':>6s} {'sweep s':>7s} "
           f"{'wall s':>6s} {'rip SE':>7s} {'s to 5%':>7s} {'floor p/s':>9s} orders added (outside the slot/pole basis)")
     rows = []
-    for i in range(args.motors):
-        t = draw_rotary(args.seed, i, args.control_per_log)
+    for i in range(args.first, args.first + args.motors):
+        t = draw_rotary(args.seed, i, args.control_per_log, real_drive=args.real_drive)
         t0 = time.perf_counter()
         r = run(t, settings, seed=args.seed)
         e = r["identification"]["errors"]
