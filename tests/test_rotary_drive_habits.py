@@ -162,6 +162,26 @@ def test_current_sensors_make_torque_at_the_electrical_orders():
     np.testing.assert_allclose(plain["torque"], t.k0 * amp, rtol=0, atol=1e-12 * t.k0 * amp)
 
 
+def test_the_oracle_takes_the_dead_time_out_of_the_current_that_flows():
+    """``LawParams.deadtime`` (the oracle's): the command ``i − e(θ, i − e(θ, i))`` leaves the current that flows
+    within the fixed point's second-order remainder of the demand, ``L² max|e|`` with the error's slope ``L ≤ e_dt/ε``
+    and ``max|e| ≤ 4/3 e_dt`` (three phases' ``2/3 e_dt tanh``); without it, the flow is short by the dead time's
+    own size."""
+    base = draw_rotary(0, 3)
+    p = base.motor.pole_pairs
+    amp = 0.2 * base.motor.current_limit
+    n = 3000
+    t = _quiet(base, cogging=Fourier.zeros([]), ripple=Fourier.zeros([]), drag=Fourier.zeros([]), coulomb=0.0,
+               offset_error=0.0, encoder_counts=2**20)
+    t = replace(t, viscous=t.k0 * amp / (2 * np.pi / 1.5), deadtime_error=0.01 * amp, deadtime_width=0.05 * amp)
+    plain = LawParams.classical(p)
+    short = simulate(t, _open_loop(n, np.full(n, amp)), plain, NO_FEEDBACK)
+    taken = simulate(t, _open_loop(n, np.full(n, amp)), replace(plain, deadtime=True), NO_FEEDBACK)
+    e_dt, slope = t.deadtime_error, t.deadtime_error / t.deadtime_width
+    assert np.max(np.abs(short["iq_true"] - amp)) > 0.5 * e_dt
+    assert np.max(np.abs(taken["iq_true"] - amp)) <= slope**2 * 4.0 / 3.0 * e_dt
+
+
 def test_the_truths_model_holds_the_drives_current_errors():
     """:meth:`RotaryTruth.model` with the sensors' errors is the torque seen from the drive's current:
     ``k0' ((1 + r') i_q + c')`` equals ``k0 (1 + ρ)(i_q + e(θ, i_q)) + T_cog`` (e by the three-phase formulation, no dead

@@ -491,6 +491,11 @@ class LawParams:
     estimate ω̂ falls below ``−hysteresis/2`` and ``table_reverse`` until it rises above ``+hysteresis/2``
     (rad/s; inside the band the table in use stays); a drive that fades its table out with speed
     (``fade = (start, end)``, rad/s) scales it by 1 up to ``|ω̂| = start``, linearly to 0 at ``end``.
+
+    ``deadtime`` is the oracle's alone: the command also takes out the twin's dead time as the truth has it (the
+    current that flows short by ``e(θ, i)``, :func:`drive_current_error`, the command ``i − e(θ, i − e(θ, i))``).
+    The dead time's error follows the current's sign, so it is not a map, and the truth's maps leave it out
+    (:meth:`RotaryTruth.model`): without it the oracle is no floor on a drive with a dead time.
     """
 
     model: RotaryModel
@@ -502,6 +507,7 @@ class LawParams:
     table_reverse: np.ndarray | None = None
     hysteresis: float = 0.0
     fade: tuple | None = None
+    deadtime: bool = False
 
     @classmethod
     def classical(cls, pole_pairs: int, ff_a=0.0, ff_b=0.0, ff_d=0.0) -> "LawParams":
@@ -587,7 +593,7 @@ def _run(params, xs, n_sub: int):
      h_l, lc_a, lc_b, lr_a, lr_b, ld_a, ld_b, table, n_table, ff_a, ff_b, ff_d,
      kp, ki, kd, kpv, kiv, beta, i_lim, mode_pos, theta0, advance,
      use_pll, pll_kp, pll_ki, errors_on, sensors, index0, pole_pairs, comm_offset, table_rev, band, fade_s,
-     fade_e) = params
+     fade_e, dt_comp) = params
     dt = ts / n_sub
 
     def plant_torque(theta, omega, iq):
@@ -637,11 +643,17 @@ def _run(params, xs, n_sub: int):
         tab = tab * jnp.where(fade_e > fade_s, jnp.clip((fade_e - jnp.abs(w_d)) / (fade_e - fade_s), 0.0, 1.0), 1.0)
         law_cog, law_dir = jnp.sum(c * lc_a + s * lc_b), jnp.sum(c * ld_a + s * ld_b)
         iq = (u - law_cog + law_dir * sgn) / (1.0 + jnp.sum(c * lr_a + s * lr_b)) + tab
+        theta_e = pole_pairs * th_0 + comm_offset
+        # the oracle's dead-time compensation (LawParams.deadtime): two fixed-point steps of i = i* - e(i); the
+        # error is a few per cent of the current, so the second step leaves its square
+        dead = (0.0, 0.0, 0.0, 0.0, *sensors[4:])
+        first = iq - _current_error(jnp, theta_e, iq, *dead)
+        iq = jnp.where(dt_comp > 0, iq - _current_error(jnp, theta_e, first, *dead), iq)
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
         iq = jnp.clip(iq, -i_lim, i_lim)
         # what flows: the measured current held at the command, less the sensors' and the dead time's errors, at the
         # electrical angle the drive commutates with (calibrated again at every power-up: the true frame's)
-        i_flow = jnp.where(errors_on > 0, iq + _current_error(jnp, pole_pairs * th_0 + comm_offset, iq, *sensors), iq)
+        i_flow = jnp.where(errors_on > 0, iq + _current_error(jnp, theta_e, iq, *sensors), iq)
         t_em0, _ = plant_torque(theta, omega, i_flow)
         out = (th_d, w_d, theta, omega, t_em0, u, iq, i_flow)
 
@@ -760,7 +772,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
               f(gains.kp), f(gains.ki), f(gains.kd), f(gains.kpv), f(gains.kiv), beta, i_lim, mode_pos, th0,
               f(law.advance), 1.0 if bw > 0 else 0.0, 2.0 * bw, bw * bw, 1.0 if truth.drive_errors else 0.0,
               tuple(f(x) for x in sensors), index0, f(m.pole_pairs), f(m.commutation_offset), jnp.asarray(table_rev),
-              f(law.hysteresis), fade_s, fade_e)
+              f(law.hysteresis), fade_s, fade_e, 1.0 if law.deadtime and dte > 0 else 0.0)
     rng = np.random.default_rng(seed)
     dither = np.zeros(n) if ref.dither is None else np.asarray(ref.dither, float)
     refs = [np.asarray(v, float) for v in (ref.theta, ref.omega, ref.alpha, dither)]
