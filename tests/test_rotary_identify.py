@@ -964,3 +964,33 @@ def test_a_pll_and_a_report_filter_are_refined_together():
         assert estimate["refined"] and report["refined"]
         assert cost(report["tau_s"], estimate["natural_frequency_rad_s"], timing["lag"]) \
             < cost(start_tau, start_w, start_lag)
+
+
+def test_a_pll_and_a_report_filter_read_from_the_logs():
+    """The whole reading (:func:`pgcomm.rotary.readings.read_logs`) on a twin's first round of running logs with a
+    drive PLL and a filtered report only: the PLL, the filter and the current's form within 10 % (a sixteenth of a
+    sample) of the twin's, where reading the PLL before the filter settles at the grid's fast end with the current
+    held."""
+    from pgcomm.rotary.experiment import _tuned_drive, running_log
+    from pgcomm.rotary.identify import _guard
+    from pgcomm.rotary.readings import read_logs
+    from pgcomm.rotary.regression import _prepare, angle_parts_kept
+    from pgcomm.seeds import stream_seed
+
+    off = dict(host_jitter=0.0, host_gaps=0.0, stamp_noise=0.0, sensor_offset=(0.0, 0.0), sensor_gain=(0.0, 0.0),
+               deadtime_error=0.0, deadtime_width=0.0)
+    t = replace(draw_rotary(0, 0, real_drive=True), **off)
+    orders, a_nom, gains, classical = _tuned_drive(t)
+    logs = [running_log(t, ref, classical, gains, stream_seed(0, "rotary running log", 0, i))
+            for i, ref in enumerate(running_references(t.motor, a_nom, quick_settings(), orders))]
+    options = RotaryIdentifyOptions()
+    min_samples, taps = _guard(options)
+    with angle_parts_kept():
+        prepared = _prepare(logs, t.motor, orders, min_samples, taps, options.encoder_step)[0]
+        estimate, timing, report = read_logs(prepared, orders, taps, options.encoder_step, "detect", "detect")
+    assert estimate["natural_frequency_rad_s"] == pytest.approx(t.pll_bandwidth, rel=0.1)
+    assert estimate["damping"] == 1.0
+    assert report["tau_s"] == pytest.approx(t.report_filter, rel=0.1)
+    # the drive controls 8 times per logged sample: a snapshot half a control cycle late
+    assert t.control_per_log == 8 and not timing["held"] and timing["samples"] == 0
+    assert abs(timing["lag"] - 1.0 / 16.0) <= 1.0 / 16.0
