@@ -970,11 +970,12 @@ def test_a_pll_and_a_report_filter_read_from_the_logs():
     """The whole reading (:func:`pgcomm.rotary.readings.read_logs`) on a twin's first round of running logs with a
     drive PLL and a filtered report only: the PLL, the filter and the current's form within 10 % (a sixteenth of a
     sample) of the twin's, where reading the PLL before the filter settles at the grid's fast end with the current
-    held."""
+    held. A PLL given rather than searched is held through the joint refinement (a second formulation: the angle
+    corrected for it first)."""
     from pgcomm.rotary.experiment import _tuned_drive, running_log
     from pgcomm.rotary.identify import _guard
-    from pgcomm.rotary.readings import read_logs
-    from pgcomm.rotary.regression import _prepare, angle_parts_kept
+    from pgcomm.rotary.readings import _refined, _with_pll, read_logs
+    from pgcomm.rotary.regression import _Layout, _prepare, angle_parts_kept
     from pgcomm.seeds import stream_seed
 
     off = dict(host_jitter=0.0, host_gaps=0.0, stamp_noise=0.0, sensor_offset=(0.0, 0.0), sensor_gain=(0.0, 0.0),
@@ -988,6 +989,19 @@ def test_a_pll_and_a_report_filter_read_from_the_logs():
     with angle_parts_kept():
         prepared = _prepare(logs, t.motor, orders, min_samples, taps, options.encoder_step)[0]
         estimate, timing, report = read_logs(prepared, orders, taps, options.encoder_step, "detect", "detect")
+        # a PLL given (not searched) is held in the joint refinement: the same refinement as on the angle corrected
+        # for it beforehand
+        layout = _Layout.of(orders)
+        pll = (t.pll_bandwidth, 1.0)
+        start = ({"tau_s": 1.3 * t.report_filter, "evidence": None, "cost_by_tau": None},
+                 {"samples": 0, "held": False, "lag": 0.2})
+        given = _refined(prepared, layout, taps, *start, {"natural_frequency_rad_s": pll[0], "damping": pll[1],
+                                                          "searched": False}, refine_lag=True)
+        corrected = _refined(_with_pll(prepared, pll), layout, taps, *start,
+                             {"natural_frequency_rad_s": None, "damping": None, "searched": False}, refine_lag=True)
+    assert given[0]["tau_s"] == pytest.approx(corrected[0]["tau_s"], rel=1e-6)
+    assert given[1]["lag"] == pytest.approx(corrected[1]["lag"], abs=1e-6)
+    assert given[2]["natural_frequency_rad_s"] == pll[0]
     assert estimate["natural_frequency_rad_s"] == pytest.approx(t.pll_bandwidth, rel=0.1)
     assert estimate["damping"] == 1.0
     assert report["tau_s"] == pytest.approx(t.report_filter, rel=0.1)

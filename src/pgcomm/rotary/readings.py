@@ -326,7 +326,10 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
         ``(report, timing, estimate)``, each as given or with the refined values (``"refined": True``).
     """
     d, lag0, tau0 = timing["samples"], lag_of(timing), report["tau_s"]
-    w0 = estimate["natural_frequency_rad_s"] if estimate.get("searched") else None
+    # a PLL given, or searched and not taken, stays as it is; a searched and taken one is refined
+    fixed = (None if estimate["natural_frequency_rad_s"] is None
+             else (estimate["natural_frequency_rad_s"], estimate["damping"]))
+    w0 = fixed[0] if fixed is not None and estimate.get("searched") else None
     zeta = estimate["damping"]
 
     def unpack(x):
@@ -334,8 +337,8 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
         tau = tau0 * math.exp(x[0])
         lag = float(np.clip(x[1], -0.5, 0.5)) if refine_lag else lag0
         # within the natural frequencies searched: beyond them the reading is the angle as logged's
-        pll = None if w0 is None else (float(np.clip(w0 * math.exp(x[-1]), PLL_FREQUENCIES[0], PLL_FREQUENCIES[-1])),
-                                       zeta)
+        pll = fixed if w0 is None else (float(np.clip(w0 * math.exp(x[-1]), PLL_FREQUENCIES[0], PLL_FREQUENCIES[-1])),
+                                        zeta)
         return tau, lag, pll
 
     def f(x):
@@ -356,7 +359,7 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
               "refined": True}
     if refine_lag:
         timing = {**timing, "lag": lag}
-    if pll is not None:
+    if w0 is not None:
         by_freq = dict(estimate.get("cost_by_frequency") or {})
         by_freq[f"{pll[0]:.4g}"] = float(res.fun)
         estimate = {**estimate, "natural_frequency_rad_s": float(pll[0]), "cost": float(res.fun),
