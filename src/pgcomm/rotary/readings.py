@@ -175,6 +175,13 @@ def _with_report(prepared, tau: float) -> list:
     return [replace(p, iq=unfiltered(p.iq, p.ts if p.t is None else p.t, tau)) for p in prepared]
 
 
+def _reading_cost(prepared, layout: "_Layout", taps: int, tau: float, pll, delay: int, lag) -> tuple[float, float]:
+    """The basis fit's ``(cost, rows)`` (:func:`pgcomm.rotary.regression._basis_cost`) with the logs read one way: the
+    current through a report filter of ``tau`` (s), the angle through a PLL ``pll`` (``(ω_n, ζ)`` or ``None``), the
+    current ``delay`` samples late and held (``lag`` ``None``) or smooth ``lag`` samples late."""
+    return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), pll), delay, lag), layout, taps)
+
+
 def _report_filter(prepared, layout: "_Layout", taps: int) -> dict:
     """The time constant of a first-order filter on the logged current (module docstring, "A filtered report"):
     the basis fit with the current read at each of :data:`REPORT_FILTERS` median steps and at the vertex of the
@@ -249,9 +256,8 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
 
     def cost(run):
         estimate, timing, found = run
-        prep = _with_delay(_with_pll(_with_report(prepared, found["tau_s"]), pll_of(estimate)), timing["samples"],
-                           lag_of(timing))
-        return _basis_cost(prep, layout, taps)[0]
+        return _reading_cost(prepared, layout, taps, found["tau_s"], pll_of(estimate), timing["samples"],
+                             lag_of(timing))[0]
 
     estimate, timing = read(report["tau_s"])
     if given:
@@ -296,7 +302,7 @@ def _pll_under_filter(prepared, layout: "_Layout", taps: int, report: dict, timi
     def cost(tau, estimate, lag):
         pll = (None if estimate["natural_frequency_rad_s"] is None
                else (estimate["natural_frequency_rad_s"], estimate["damping"]))
-        return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), pll), d, lag), layout, taps)
+        return _reading_cost(prepared, layout, taps, tau, pll, d, lag)
 
     first, rows = cost(report["tau_s"], estimate, lag_of(timing))
     grid = [(cost(report["tau_s"], {"natural_frequency_rad_s": w, "damping": 1.0}, lag)[0], w, lag)
@@ -343,7 +349,7 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
 
     def f(x):
         tau, lag, pll = unpack(x)
-        return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), pll), d, lag), layout, taps)[0]
+        return _reading_cost(prepared, layout, taps, tau, pll, d, lag)[0]
 
     x0 = np.array([0.0] + ([lag0] if refine_lag else []) + ([0.0] if w0 is not None else []))
     step = np.diag(np.full(x0.size, 0.1))
