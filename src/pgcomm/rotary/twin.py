@@ -39,12 +39,17 @@ dither interpolated by a cubic spline, and logs a snapshot of every ``K``-th cyc
 **A real drive's habits** (each its own field of :class:`RotaryTruth`, all off by default; the zoo draws them with
 ``real_drive=True``, :func:`pgcomm.rotary.zoo.draw_rotary`):
 
-* *current sensors* (``sensor_offset``, ``sensor_gain``, ``deadtime_error``): the drive measures two phase currents
-  with an offset and a gain error each and regulates the *measured* current to its command in its frame; the phase
-  currents that flow are the command less those errors (the third phase closes the star), and the inverter's dead time
-  leaves each phase ``deadtime_error · tanh(i_ph/deadtime_width)`` short. In the drive's frame the offsets make an error
-  at the electrical order ``p``, the gain mismatch ``2p`` (and a mean gain), the dead time ``6p``. The torque the motor
-  makes is that of the current that flows (:func:`drive_current_error`); the log holds the command the drive measures;
+* *current sensors* (``sensor_offset``, ``sensor_gain``): the drive measures two phase currents with an offset and a
+  gain error each and regulates the *measured* current to its command in its frame; the phase currents that flow are
+  the measured ones less those errors (the third phase closes the star). In the drive's frame the offsets make an
+  error at the electrical order ``p``, the gain mismatch ``2p`` (and a mean gain). The torque the motor makes is that
+  of the current that flows (:func:`drive_current_error`); the log holds the current the drive measures;
+* *the inverter's dead time* (``deadtime_error``, ``deadtime_width``, ``current_bandwidth``, ``electrical_pole``):
+  each phase's voltage falls short by the dead time's ``V_dt``, which alone would leave its current
+  ``V_dt/R · tanh(i_ph/i_ε)`` short (``6p`` and its multiples in the q-current). The sensors measure the current
+  that flows, so the current loop sees the dead time and takes it out but for what its finite gain leaves,
+  :func:`deadtime_residual`: nothing at standstill, most where a phase current crosses zero fast. That residual
+  moves the measured current (and the log) and the current that flows together, off the command;
 * *a filtered current report* (``report_filter``, s): the logged q- and d-currents are the drive's first-order
   low-pass of the currents it measures, sensor noise included, updated every control cycle (ODrive's ``Iq_measured``,
   ``Id_measured``);
@@ -79,7 +84,8 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.winding import BackEmf, Winding, d_voltage, logged_dq, q_voltage
 
 __all__ = ["RotaryTruth", "Gains", "LawParams", "Reference", "simulate", "default_gains", "VELOCITY_CUTOFF_HZ",
-           "SUBSTEPS", "Start", "HOLD_ADVANCE", "drive_current_error", "breakaway_current", "host_instants", "power_up_offset",
+           "SUBSTEPS", "Start", "HOLD_ADVANCE", "drive_current_error", "deadtime_residual", "breakaway_current",
+           "host_instants", "power_up_offset",
            "HOST_STEP_RANGE", "HOST_GAP_STEPS", "STAMP_NOISE_CLIP"]
 
 #: Cut-off of the drive's velocity estimate (Hz): first-order low-pass on the encoder difference.
@@ -124,8 +130,12 @@ class RotaryTruth:
         sensor_offset: ``(o_a, o_b)`` (A): the offsets of the drive's current sensors on phases a and b (module
             docstring, "A real drive's habits"); torque at the electrical order ``p``.
         sensor_gain: ``(g_a, g_b)`` (-): their relative gain errors; torque at ``2p`` and a mean gain.
-        deadtime_error: how far each phase current falls short over the inverter's dead time (A; torque at ``6p``).
+        deadtime_error: ``V_dt / R`` (A): how far the inverter's dead time would leave each phase current short
+            without a current loop; the loop takes it out but for :func:`deadtime_residual` (torque at ``6p``).
         deadtime_width: ``i_ε`` (A) of its ``tanh(i_ph / i_ε)``, positive when ``deadtime_error`` is.
+        current_bandwidth: ``ω_c`` (rad/s) of the drive's current loop (ODrive's default 1000); with a dead time and
+            none given, the winding's ``loop_gain / L``.
+        electrical_pole: ``a = R / L`` (rad/s) of the winding; with a dead time and none given, the winding's.
         report_filter: ``τ`` (s) of the first-order low-pass the logged q- and d-currents go through, run every
             control cycle on the measured current with its sensors' noise (``current_noise`` per control cycle); 0:
             none.
@@ -158,6 +168,8 @@ class RotaryTruth:
     sensor_gain: tuple = (0.0, 0.0)
     deadtime_error: float = 0.0
     deadtime_width: float = 0.0
+    current_bandwidth: float = 0.0
+    electrical_pole: float = 0.0
     report_filter: float = 0.0
     pll_bandwidth: float = 0.0
     host_jitter: float = 0.0
@@ -186,6 +198,15 @@ class RotaryTruth:
             raise ValueError(f"host_gaps = {self.host_gaps!r} is a chance per row, at most 1")
         if self.deadtime_error > 0 and self.deadtime_width <= 0:
             raise ValueError(f"deadtime_width = {self.deadtime_width!r} must be positive with a deadtime_error")
+        if self.deadtime_error > 0:
+            w = self.winding
+            if self.current_bandwidth <= 0 and w is not None:
+                object.__setattr__(self, "current_bandwidth", float(w.loop_gain / w.inductance))
+            if self.electrical_pole <= 0 and w is not None:
+                object.__setattr__(self, "electrical_pole", float(w.resistance / w.inductance))
+            if self.current_bandwidth <= 0 or self.electrical_pole <= 0:
+                raise ValueError("a deadtime_error needs the current loop's current_bandwidth and the winding's "
+                                 "electrical_pole (rad/s), or a winding to take them from")
         offs = tuple(float(x) for x in self.power_up_offsets)
         if not all(math.isfinite(x) for x in offs):
             raise ValueError(f"power_up_offsets = {self.power_up_offsets!r} must be finite angles (rad)")
@@ -193,7 +214,7 @@ class RotaryTruth:
 
     @property
     def drive_errors(self) -> bool:
-        """Whether the current that flows differs from what the drive measures (sensor offset, gain, dead time)."""
+        """Whether the current that flows differs from the command (sensor offset, gain, dead time's residual)."""
         return any(self.sensor_offset) or any(self.sensor_gain) or self.deadtime_error > 0
 
     @property
@@ -245,7 +266,7 @@ class RotaryTruth:
         p = self.motor.pole_pairs
         n = 16 * p
         th = 2 * math.pi * np.arange(n) / n
-        e0, e1 = (drive_current_error(self, th, np.full(n, float(i)), deadtime=False) for i in (0.0, 1.0))
+        e0, e1 = (drive_current_error(self, th, np.full(n, float(i))) for i in (0.0, 1.0))
         return _fit_orders(e0, [p]), _fit_orders(e1 - e0, [0, 2 * p])
 
     def air_gap_torque(self, theta, iq) -> np.ndarray:
@@ -289,54 +310,102 @@ class RotaryTruth:
 
 #: The habits' fields and their defaults (off): truth files without them are twins without them.
 _HABIT_DEFAULTS = {"sensor_offset": (0.0, 0.0), "sensor_gain": (0.0, 0.0), "deadtime_error": 0.0,
-                   "deadtime_width": 0.0, "report_filter": 0.0, "pll_bandwidth": 0.0, "host_jitter": 0.0,
-                   "host_gaps": 0.0, "stamp_noise": 0.0, "power_up_offsets": ()}
-_HABITS_NONNEGATIVE = ("deadtime_error", "deadtime_width", "report_filter", "pll_bandwidth", "host_jitter",
-                       "host_gaps", "stamp_noise")
+                   "deadtime_width": 0.0, "current_bandwidth": 0.0, "electrical_pole": 0.0, "report_filter": 0.0,
+                   "pll_bandwidth": 0.0, "host_jitter": 0.0, "host_gaps": 0.0, "stamp_noise": 0.0,
+                   "power_up_offsets": ()}
+_HABITS_NONNEGATIVE = ("deadtime_error", "deadtime_width", "current_bandwidth", "electrical_pole", "report_filter",
+                       "pll_bandwidth", "host_jitter", "host_gaps", "stamp_noise")
 _SQRT3 = math.sqrt(3.0)
 
 
-def _current_error(xp, theta_e, iq, o_a, o_b, g_a, g_b, dt_error, dt_width, tan_delta):
-    """The q-current that flows less the command, in the drive's ``k0`` units (A) (module docstring, "A real drive's
-    habits"), for array module ``xp`` (NumPy or JAX). The drive holds its *measured* phase currents at the command's
-    (``i_d = 0``, amplitude-invariant Park at the drive's electrical angle ``theta_e``); the sensors of phases a and b
-    read ``(1 + g) i + o``, phase c closes the star; the dead time takes ``dt_error tanh(i_ph/dt_width)`` off each
-    phase. The true-frame q-current of the drive-frame ``(i_d, i_q)`` is ``(i_q cos δ − i_d sin δ)``, over ``cos δ``
-    for ``k0``."""
+def _flow_dq(xp, theta_e, id_m, iq_m, o_a, o_b, g_a, g_b):
+    """The ``(i_d, i_q)`` that flow in the drive's frame (A) where the drive measures ``(id_m, iq_m)``
+    (module docstring, "A real drive's habits"), for array module ``xp`` (NumPy or JAX): amplitude-invariant Park at
+    the drive's electrical angle ``theta_e``; the sensors of phases a and b read ``(1 + g) i + o``, phase c closes
+    the star."""
     s, c = xp.sin(theta_e), xp.cos(theta_e)
-    m_a = -iq * s
-    m_b = 0.5 * iq * s + 0.5 * _SQRT3 * iq * c
-    i_a = (m_a - o_a) / (1.0 + g_a)
-    i_b = (m_b - o_b) / (1.0 + g_b)
+    m_al, m_be = id_m * c - iq_m * s, id_m * s + iq_m * c
+    i_a = (m_al - o_a) / (1.0 + g_a)
+    i_b = (-0.5 * m_al + 0.5 * _SQRT3 * m_be - o_b) / (1.0 + g_b)
     al, be = i_a, (i_a + 2.0 * i_b) / _SQRT3
-    i_d = al * c + be * s
-    i_q = -al * s + be * c
+    return al * c + be * s, -al * s + be * c
+
+
+def _deadtime_dq(xp, theta_e, iq, dt_error, dt_width):
+    """The ``(d, q)`` error (A) the inverter's dead time would leave in a current ``iq`` (drive frame, ``i_d = 0``)
+    with no current loop: each phase short by ``dt_error tanh(i_ph/dt_width)`` (``dt_error = V_dt / R``), three
+    phases into the frame's two by the amplitude-invariant Park transform."""
+    e_d = 0.0 * iq
+    e_q = 0.0 * iq
     for k in range(3):
         ph = theta_e - 2.0 * math.pi * k / 3.0
         pk = -xp.sin(ph)
         short = (2.0 / 3.0) * dt_error * xp.tanh(iq * pk / dt_width)
-        i_d = i_d - xp.cos(ph) * short
-        i_q = i_q - pk * short
+        e_d = e_d - xp.cos(ph) * short
+        e_q = e_q - pk * short
+    return e_d, e_q
+
+
+def _current_error(xp, theta_e, iq, o_a, o_b, g_a, g_b, tan_delta, id_m=0.0):
+    """The true-frame q-current that flows less the measured ``iq`` (A, the drive's ``k0`` units) for the sensors'
+    offsets and gains (:func:`_flow_dq`): the true-frame q-current of the drive-frame ``(i_d, i_q)`` is
+    ``(i_q cos δ − i_d sin δ)``, over ``cos δ`` for ``k0``."""
+    i_d, i_q = _flow_dq(xp, theta_e, id_m, iq, o_a, o_b, g_a, g_b)
     return i_q - i_d * tan_delta - iq
 
 
-def drive_current_error(truth: "RotaryTruth", theta, iq, deadtime: bool = True) -> np.ndarray:
+def deadtime_residual(truth: "RotaryTruth", frequency) -> np.ndarray:
+    """The share of the dead time's voltage error that the drive's current loop lets into the current at
+    ``frequency`` (rad/s, electrical, in the drive's frame): ``|H(jω)|`` with ``H(s) = a s / ((s + a)(s + ω_c))``,
+    ``a = R/L`` the winding's pole (:attr:`RotaryTruth.electrical_pole`) and ``ω_c`` the loop's bandwidth
+    (:attr:`RotaryTruth.current_bandwidth`): a PI loop with its zero on the winding's pole, so its open loop is
+    ``ω_c / s`` and a voltage ``v`` enters the current as ``v/(L s + R) · s/(s + ω_c)``; in units of ``v/R``
+    (:attr:`RotaryTruth.deadtime_error`). Zero at standstill (the integrator holds the current), at most
+    ``a / (a + ω_c)`` near ``√(a ω_c)``.
+
+    Args:
+        truth: the twin; frequency: ``(N,)`` or scalar, rad/s.
+
+    Returns:
+        the gain (-), the shape of ``frequency``.
+    """
+    w = np.asarray(frequency, float)
+    a, wc = truth.electrical_pole, truth.current_bandwidth
+    return a * np.abs(w) / np.sqrt((w * w + a * a) * (w * w + wc * wc))
+
+
+def _deadtime_loop(truth: "RotaryTruth", tc: float) -> tuple[float, ...]:
+    """The twin step's constants for :func:`deadtime_residual`'s ``H(s) = k (ω_c/(s + ω_c) - a/(s + a))``,
+    ``k = a/(ω_c - a)``, on an error held over the control cycle ``T_c`` (s): ``(α_a, α_c, k, m_a, m_c)`` with
+    ``α = 1 - e^{-x}`` a low-pass's step per cycle and ``m = 1 - (1 - e^{-x})/x`` the share of the step its mean over
+    the cycle takes, ``x = a T_c`` or ``ω_c T_c``; zeros without a dead time. Where ``ω_c`` is within 0.1 % of ``a``
+    it is taken 0.1 % above (``k`` stays finite; the residual moves by less than that)."""
+    if truth.deadtime_error <= 0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    a, wc = truth.electrical_pole, truth.current_bandwidth
+    if abs(wc - a) < 1e-3 * a:
+        wc = a * 1.001
+    xa, xc = a * tc, wc * tc
+    return (-math.expm1(-xa), -math.expm1(-xc), a / (wc - a), 1.0 + math.expm1(-xa) / xa,
+            1.0 + math.expm1(-xc) / xc)
+
+
+def drive_current_error(truth: "RotaryTruth", theta, iq) -> np.ndarray:
     """How far the q-current that flows is from the one the drive measures and logs (A, in its ``k0`` units): the
-    current sensors' offsets and gains and the dead time of ``truth`` (module docstring, "A real drive's habits").
+    current sensors' offsets and gains of ``truth`` (module docstring, "A real drive's habits"), linear in ``iq``.
+    The dead time is not among them: the sensors measure the current it leaves, and the current loop takes it out
+    of the command's current but for :func:`deadtime_residual`.
 
     Args:
         truth: the twin; theta: ``(N,)`` the rotor's angle in the drive's commutation (rad, mechanical: its
-            electrical angle is ``p θ + commutation_offset``); iq: ``(N,)`` the q-current the drive holds (A).
-        deadtime: with the dead time's share (``False``: the sensors' alone, linear in ``iq``).
+            electrical angle is ``p θ + commutation_offset``); iq: ``(N,)`` the q-current the drive measures (A).
 
     Returns:
-        ``(N,)`` A; zero without :attr:`RotaryTruth.drive_errors`.
+        ``(N,)`` A; zero without current-sensor errors.
     """
     th, i = np.broadcast_arrays(np.asarray(theta, float), np.asarray(iq, float))
-    dte = truth.deadtime_error if deadtime else 0.0
     return _current_error(np, truth.motor.pole_pairs * th + truth.motor.commutation_offset, i, *truth.sensor_offset,
-                          *truth.sensor_gain, dte, truth.deadtime_width if dte > 0 else 1.0,
-                          math.tan(truth.offset_error))
+                          *truth.sensor_gain, math.tan(truth.offset_error))
 
 
 def _fit_orders(values: np.ndarray, orders) -> Fourier:
@@ -593,8 +662,9 @@ def _run(params, xs, n_sub: int):
      h_l, lc_a, lc_b, lr_a, lr_b, ld_a, ld_b, table, n_table, ff_a, ff_b, ff_d,
      kp, ki, kd, kpv, kiv, beta, i_lim, mode_pos, theta0, advance,
      use_pll, pll_kp, pll_ki, errors_on, sensors, index0, pole_pairs, comm_offset, table_rev, band, fade_s,
-     fade_e, dt_comp) = params
+     fade_e, dt_comp, dt_a, dt_c, dt_k, ma, mc) = params
     dt = ts / n_sub
+    o_a, o_b, g_a, g_b, dt_e, dt_w, tan_d = sensors
 
     def plant_torque(theta, omega, iq):
         c, s = _harmonics(h_p, theta)
@@ -607,7 +677,7 @@ def _run(params, xs, n_sub: int):
         return t_em, t_em - (coul + drag) * jnp.tanh(omega / w_eps) - visc * omega
 
     def step(carry, x):
-        theta, omega, th_prev, w_f, integ, acc, pe, ve, dstate = carry
+        theta, omega, th_prev, w_f, integ, acc, pe, ve, dstate, zcd, zcq, zad, zaq = carry
         th_r, w_r, a_r, dith = x
         # the encoder's count; the estimates are made from it as in power_up 0 (they are translation-invariant), and
         # the power-up's offset (index0, whole counts) is added where the drive uses its angle as such
@@ -644,18 +714,38 @@ def _run(params, xs, n_sub: int):
         law_cog, law_dir = jnp.sum(c * lc_a + s * lc_b), jnp.sum(c * ld_a + s * ld_b)
         iq = (u - law_cog + law_dir * sgn) / (1.0 + jnp.sum(c * lr_a + s * lr_b)) + tab
         theta_e = pole_pairs * th_0 + comm_offset
-        # the oracle's dead-time compensation (LawParams.deadtime): two fixed-point steps of i = i* - e(i); the
-        # error is a few per cent of the current, so the second step leaves its square
-        dead = (0.0, 0.0, 0.0, 0.0, *sensors[4:])
-        first = iq - _current_error(jnp, theta_e, iq, *dead)
-        iq = jnp.where(dt_comp > 0, iq - _current_error(jnp, theta_e, first, *dead), iq)
+        # the dead time's error (d, q) with no current loop at the command, through the loop's H(s) =
+        # a s/((s + a)(s + ω_c)) = k (ω_c/(s + ω_c) - a/(s + a)), k = a/(ω_c - a) (deadtime_residual): the two
+        # low-passes zc, za of the error held over the control cycle, each exact, and the residual k (zc - za) is
+        # H's mean over the cycle (the current the plant holds; the cycle's end would lead it by half a cycle)
+        def residual(i):
+            e_d, e_q = _deadtime_dq(jnp, theta_e, i, dt_e, dt_w)
+            new = (zcd + dt_c * (e_d - zcd), zcq + dt_c * (e_q - zcq), zad + dt_a * (e_d - zad),
+                   zaq + dt_a * (e_q - zaq))
+            mean_d = dt_k * (zcd + mc * (e_d - zcd) - zad - ma * (e_d - zad))
+            mean_q = dt_k * (zcq + mc * (e_q - zcq) - zaq - ma * (e_q - zaq))
+            return new, mean_d, mean_q
+
+        def residual_q(i):
+            _, mean_d, mean_q = residual(i)
+            return mean_q - mean_d * tan_d
+
+        # the oracle's dead-time compensation (LawParams.deadtime): two fixed-point steps of i = i* - r(i), r the
+        # loop's residual at this cycle; r is a few per cent of the current, so the second step leaves its square
+        first = iq - residual_q(iq)
+        iq = jnp.where(dt_comp > 0, iq - residual_q(first), iq)
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
         iq = jnp.clip(iq, -i_lim, i_lim)
-        # what flows: the measured current held at the command, less the sensors' and the dead time's errors, at the
-        # electrical angle the drive commutates with (calibrated again at every power-up: the true frame's)
-        i_flow = jnp.where(errors_on > 0, iq + _current_error(jnp, theta_e, iq, *sensors), iq)
+        # what the drive measures: the command and the dead time's residual; what flows: the measured current less
+        # the sensors' errors, at the electrical angle the drive commutates with (calibrated again at every power-up:
+        # the true frame's)
+        (zcd, zcq, zad, zaq), meas_d, meas_q = residual(iq)
+        meas_q = iq + meas_q
+        i_flow = jnp.where(errors_on > 0,
+                           meas_q + _current_error(jnp, theta_e, meas_q, o_a, o_b, g_a, g_b, tan_d, id_m=meas_d), iq)
+        out = (th_d, w_d, theta, omega, 0.0, u, meas_q, i_flow, meas_d)
         t_em0, _ = plant_torque(theta, omega, i_flow)
-        out = (th_d, w_d, theta, omega, t_em0, u, iq, i_flow)
+        out = (*out[:4], t_em0, *out[5:])
 
         def sub(_, st):
             th, om, acc = st
@@ -673,13 +763,13 @@ def _run(params, xs, n_sub: int):
             return th + dt * om + 0.5 * dt * dt * acc, om + dt * acc, acc
 
         theta_n, omega_n, acc_n = jax.lax.fori_loop(0, n_sub, sub, (theta, omega, acc), unroll=n_sub <= 4)
-        return (theta_n, omega_n, th_m, w_f, integ, acc_n, pe, ve, dstate), out
+        return (theta_n, omega_n, th_m, w_f, integ, acc_n, pe, ve, dstate, zcd, zcq, zad, zaq), out
 
     q0 = jnp.round(theta0 / q) * q
     # the acceleration the first sub-step predicts its middle from: the rotor starts at rest, with none; the PLL
     # starts on the count, at rest
     carry0 = (theta0, 0.0 * theta0, q0, 0.0 * theta0, 0.0 * theta0, 0.0 * theta0, q0, 0.0 * theta0,
-              1.0 + 0.0 * theta0)
+              1.0 + 0.0 * theta0, *(0.0 * theta0 for _ in range(4)))
     _, outs = jax.lax.scan(step, carry0, xs)
     return outs
 
@@ -772,7 +862,8 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
               f(gains.kp), f(gains.ki), f(gains.kd), f(gains.kpv), f(gains.kiv), beta, i_lim, mode_pos, th0,
               f(law.advance), 1.0 if bw > 0 else 0.0, 2.0 * bw, bw * bw, 1.0 if truth.drive_errors else 0.0,
               tuple(f(x) for x in sensors), index0, f(m.pole_pairs), f(m.commutation_offset), jnp.asarray(table_rev),
-              f(law.hysteresis), fade_s, fade_e, 1.0 if law.deadtime and dte > 0 else 0.0)
+              f(law.hysteresis), fade_s, fade_e, 1.0 if law.deadtime and dte > 0 else 0.0,
+              *_deadtime_loop(truth, tc))
     rng = np.random.default_rng(seed)
     dither = np.zeros(n) if ref.dither is None else np.asarray(ref.dither, float)
     refs = [np.asarray(v, float) for v in (ref.theta, ref.omega, ref.alpha, dither)]
@@ -791,7 +882,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         a = math.exp(-tc / truth.report_filter)
         sensed = truth.current_noise * np.random.default_rng([int(seed), 0x5E45]).standard_normal((2, n_f))
         report = lfilter([1.0 - a], [1.0, -a], outs[6] + sensed[0])
-        report_d = lfilter([1.0 - a], [1.0, -a], sensed[1])
+        report_d = lfilter([1.0 - a], [1.0, -a], outs[8] + sensed[1])
     else:
         report = outs[6]
     on_host = host and truth.host_logger and n_f > 1
@@ -803,7 +894,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         idx = np.arange(n) * k_ctl
     rows = idx.size
     noise = rng.standard_normal((3, rows))
-    th_m, w_f, th_f, om_f, tq, u, iq_act, i_flow = (o[idx] for o in outs)
+    th_m, w_f, th_f, om_f, tq, u, iq_act, i_flow, id_act = (o[idx] for o in outs)
     rep = report[idx]
     if on_host:
         # the rotor between control cycles: the cubic through the angles and speeds at their ends
@@ -823,7 +914,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
         iq, idd = rep, report_d[idx]
     else:
         iq = rep + truth.current_noise * noise[0]
-        idd = truth.current_noise * noise[1]
+        idd = id_act + truth.current_noise * noise[1]
     log = {"t": t_log, "theta": th_m, "velocity": w_f, "iq_1": iq, "id_1": idd, "theta_true": th_f,
            "omega_true": om_f, "iq_true": i_flow, "iq_drive": iq_act, "torque": tq + truth.torque_noise * noise[2],
            "demand": u, "theta_ref": th_ref, "omega_ref": om_ref}
@@ -843,7 +934,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
                        + w.voltage_noise * v_noise)
         # drawn after the q-voltage's, which is then the same as a twin's that logs no d-voltage
         v_noise = rng.standard_normal(rows)
-        log["vd_1"] = d_voltage(w, emf, th_f, om_f, i_flow) - w.loop_gain * idd + w.voltage_noise * v_noise
+        log["vd_1"] = d_voltage(w, emf, th_f, om_f, i_flow) - w.loop_gain * (idd - id_act) + w.voltage_noise * v_noise
         if w.voltage_lag:
             log["vd_1"], log["vq_1"] = logged_dq(log["vd_1"], log["vq_1"], m.pole_pairs, om_f, w.voltage_lag)
     return log

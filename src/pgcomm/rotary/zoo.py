@@ -28,7 +28,7 @@ drawn from a seed and an index (the same pair always gives the same motor):
 With ``real_drive=True`` (``pgcomm zoo --kind rotary --real-drive``) every motor also gets a real drive's and host's
 habits (:mod:`pgcomm.rotary.twin`, "A real drive's habits"), drawn from a stream of their own
 (:func:`draw_drive_habits`, ranges in :data:`REAL_DRIVE_RANGES`): current-sensor offsets and gain mismatches of a few
-per cent of the sensor's range, a dead time's current error, a filtered current report (none to 120 ms), ODrive's
+per cent of the sensor's range, the inverter's dead time (its current loop leaves a residual), a filtered current report (none to 120 ms), ODrive's
 encoder PLL (on two drives in three, 500-3000 rad/s), a host's jittered clock with gaps and stamp noise, and an index
 that moves between power-ups (by half a revolution or an electrical period, or not at all).
 """
@@ -66,8 +66,8 @@ CONTROL_RATE_HZ = (4000.0, 16000.0)
 #: What :func:`draw_drive_habits` draws (log-uniform ranges unless said otherwise). ``sensor_range``: the current
 #: sensors' full scale as a multiple of the current limit; ``sensor_offset`` (std per phase) and ``sensor_gain``
 #: (std per phase, relative) as shares of it: a few per cent (the ODrive map of ``../real``: order ``p`` 0.87 A, 7x
-#: its cogging fundamental); ``deadtime_error`` as a share of the current limit, its width a multiple of the current's
-#: noise; ``report_filter`` (s), none on ``report_filter_none`` of the drives (the ODrive logs: 80-100 ms);
+#: its cogging fundamental); the dead time is the winding's inverter's (:func:`pgcomm.rotary.winding.draw_winding`:
+#: ``V_dt / R``, its zero crossing's width, its current loop and ``R/L``); ``report_filter`` (s), none on ``report_filter_none`` of the drives (the ODrive logs: 80-100 ms);
 #: ``pll_bandwidth`` (rad/s, ODrive's default 1000), on ``1 - pll_none`` of the drives, at least 2.5 times the
 #: zoo's 30 Hz speed-loop pole (a drive tunes its velocity loop under its PLL: at 300 rad/s the zoo's speed loop
 #: oscillated) and at most ``pll_max_kp_dt / 2`` over the control period (ODrive's discrete loop stays close to its
@@ -76,7 +76,6 @@ CONTROL_RATE_HZ = (4000.0, 16000.0)
 #: ``index_moves``: the index moves by half a revolution, an electrical period or not at all with these chances, in
 #: ``power_ups`` power-ups (the first one's zero is the truth's).
 REAL_DRIVE_RANGES = {"sensor_range": 2.0, "sensor_offset": (0.003, 0.03), "sensor_gain": (0.003, 0.03),
-                     "deadtime_error": (0.001, 0.01), "deadtime_width": (2.0, 10.0),
                      "report_filter": (5e-4, 0.12), "report_filter_none": 0.2,
                      "pll_bandwidth": (500.0, 3000.0), "pll_none": 1.0 / 3.0, "pll_max_kp_dt": 0.5,
                      "host_jitter": (0.03, 0.3), "host_gaps": (3e-4, 3e-3), "stamp_noise": (0.005, 0.03),
@@ -187,7 +186,8 @@ def _log_uniform(rng, lo_hi) -> float:
 def draw_drive_habits(rng, truth: RotaryTruth) -> dict:
     """A real drive's and host's habits for ``truth`` (:data:`REAL_DRIVE_RANGES`; :mod:`pgcomm.rotary.twin`, "A real
     drive's habits"): ``{field: value}`` for :func:`dataclasses.replace` on the truth. The PLL's bandwidth is bounded
-    by the truth's control period (draw the control rate first).
+    by the truth's control period (draw the control rate first); the dead time is the truth's winding's (none
+    without one).
 
     Args:
         rng: :class:`numpy.random.Generator`; truth: the motor and its drive (current limit, noise, control rate).
@@ -197,9 +197,14 @@ def draw_drive_habits(rng, truth: RotaryTruth) -> dict:
     full = r["sensor_range"] * i_lim
     offsets = rng.normal(0.0, _log_uniform(rng, r["sensor_offset"]) * full, 2)
     gains = rng.normal(0.0, _log_uniform(rng, r["sensor_gain"]), 2)
-    habits = {"sensor_offset": tuple(float(x) for x in offsets), "sensor_gain": tuple(float(x) for x in gains),
-              "deadtime_error": _log_uniform(rng, r["deadtime_error"]) * i_lim,
-              "deadtime_width": max(truth.current_noise, 1e-6 * i_lim) * float(rng.uniform(*r["deadtime_width"]))}
+    habits = {"sensor_offset": tuple(float(x) for x in offsets), "sensor_gain": tuple(float(x) for x in gains)}
+    # two places of the stream held for a dead time of the drive's own, so a seed's other habits stay where they are
+    rng.uniform(size=2)
+    w = truth.winding
+    if w is not None:
+        # the inverter the winding's voltages already carry: one dead time for the currents and the voltages
+        habits.update(deadtime_error=w.deadtime_voltage / w.resistance, deadtime_width=w.deadtime_current,
+                      current_bandwidth=w.loop_gain / w.inductance, electrical_pole=w.resistance / w.inductance)
     filtered = rng.random() >= r["report_filter_none"]
     tau = _log_uniform(rng, r["report_filter"])
     habits["report_filter"] = tau if filtered else 0.0
