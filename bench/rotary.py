@@ -10,7 +10,8 @@ standstill sweep of 3600 angles, four rows in closed loop) and prints:
   constant ``k0`` (what it costs in torque: ``k = k0 (1 + r)``);
 * tracking MSE ratio model-law / standstill table in the position and speed loops (target <= 0.5), and the
   oracle's ratio (floor p/s: what the true map achieves; where it is above 0.5 the target is out of any law's reach
-  and the summary gives the model's excess over the oracle instead);
+  and the summary gives the model's excess over the oracle instead, as a share of the table's: nan where the table
+  tracks as well as the oracle or better);
 * running-log vs standstill-table agreement (RMS difference vs the sweep's own error);
 * running-log time vs standstill-sweep time (rig seconds);
 * the ripple's standard error (the identification's own estimate, relative to its RMS) and the
@@ -65,7 +66,9 @@ def main(argv=None) -> int:
         # the oracle (the true map) over the table: the ratio no law can beat in this run (encoder, loop)
         floor = {k: mse["oracle"][k] / mse["standstill_table"][k] for k in ("position", "speed")}
         # the part of the table's MSE above that floor which the model leaves
-        excess = {k: (mse["model"][k] - mse["oracle"][k]) / max(mse["standstill_table"][k] - mse["oracle"][k], 1e-300)
+        # undefined (nan) where the table tracks as well as the oracle or better
+        excess = {k: ((mse["model"][k] - mse["oracle"][k]) / (mse["standstill_table"][k] - mse["oracle"][k])
+                      if mse["standstill_table"][k] > mse["oracle"][k] else float("nan"))
                   for k in ("position", "speed")}
         rows.append((e["cogging_rel"], e["ripple_rel"], q["position"], q["speed"], se["ripple"]["relative"],
                      se["ripple"]["log_time_factor_to_resolve"] * tm["running_logs_s"], excess["position"],

@@ -10,6 +10,7 @@ the tests of the snapshot current run it as drawn.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import replace
 
@@ -928,13 +929,21 @@ def test_current_noise_beside_the_angle_leaves_the_loops_current_out():
     assert current_noise_beside_angle(white, smooth) == pytest.approx(current_noise(white, order=6), rel=0.02)
 
 
+def _continuous_pll(t) -> tuple[float, float]:
+    """The continuous PLL ``(ω_n, ζ)`` the twin's discrete one (ODrive's: predict, correct by ``g = k_p T_c``)
+    matches at low frequencies: its angle lags the count by ``(1 − g)`` times the continuous loop's
+    ``s²/(k_p s + k_i)``, which is the continuous loop of ``k_p/(1 − g)``, ``k_i/(1 − g)``."""
+    g = 2 * t.pll_bandwidth * t.motor.sample_time / t.control_per_log
+    return t.pll_bandwidth / math.sqrt(1 - g), 1 / math.sqrt(1 - g)
+
+
 def test_a_pll_and_a_report_filter_are_refined_together():
     """A drive PLL's angle and a filtered current report (ODrive logs both) each lag the current against the
     acceleration: started where a reading of one after the other settles (the PLL 1.7 times too fast, the current's
     lag a third of a sample), the joint refinement reaches the optimum a refinement from the twin's own reading
     reaches (a second formulation; within five times the refinement's step tolerance, 2e-3 in ``ln τ``, ``ln ω_n``
-    and the lag), its PLL within 10 % of the twin's. The filter is read about 9 % short there, by both: the PLL's
-    continuous model is not the drive's discrete loop (``PLL_UNCERTAINTY``), and the filter takes up the rest."""
+    and the lag), its PLL within 10 % of the continuous loop the drive's discrete one matches (:func:`_continuous_pll`,
+    ``ζ`` = 1.13 at the twin's ``k_p T_c`` = 0.22), and the filter within 5 % of the twin's."""
     from pgcomm.rotary.experiment import _tuned_drive, quick_settings, running_log, running_references
     from pgcomm.rotary.identify import _guard
     from pgcomm.rotary.readings import _refined, _with_delay, _with_pll, _with_report
@@ -956,23 +965,28 @@ def test_a_pll_and_a_report_filter_are_refined_together():
         report = {"tau_s": start_tau, "evidence": None, "cost_by_tau": None}
         timing = {"samples": 0, "held": False, "lag": start_lag}
         estimate = {"natural_frequency_rad_s": start_w, "damping": 1.0, "searched": True}
-        report, timing, estimate = _refined(prepared, layout, taps, report, timing, estimate, refine_lag=True)
+        report, timing, estimate = _refined(prepared, layout, taps, report, timing, estimate, refine_lag=True,
+                                            refine_damping=True)
         best = _refined(prepared, layout, taps, {"tau_s": t.report_filter, "evidence": None, "cost_by_tau": None},
                         {"samples": 0, "held": False, "lag": 0.5 / t.control_per_log},
                         {"natural_frequency_rad_s": t.pll_bandwidth, "damping": 1.0, "searched": True},
-                        refine_lag=True)
+                        refine_lag=True, refine_damping=True)
 
-        def cost(tau, w, lag):
-            return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), (w, 1.0)), 0, lag), layout, taps)[0]
+        def cost(tau, pll, lag):
+            return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), pll), 0, lag), layout, taps)[0]
 
         tol = 5 * 2e-3
         assert report["tau_s"] == pytest.approx(best[0]["tau_s"], rel=tol)
         assert estimate["natural_frequency_rad_s"] == pytest.approx(best[2]["natural_frequency_rad_s"], rel=tol)
+        assert estimate["damping"] == pytest.approx(best[2]["damping"], rel=tol)
         assert timing["lag"] == pytest.approx(best[1]["lag"], abs=tol)
-        assert estimate["natural_frequency_rad_s"] == pytest.approx(t.pll_bandwidth, rel=0.1)
+        w_c, z_c = _continuous_pll(t)
+        assert estimate["natural_frequency_rad_s"] == pytest.approx(w_c, rel=0.1)
+        assert estimate["damping"] == pytest.approx(z_c, rel=0.1)
+        assert report["tau_s"] == pytest.approx(t.report_filter, rel=0.05)
         assert estimate["refined"] and report["refined"]
-        assert cost(report["tau_s"], estimate["natural_frequency_rad_s"], timing["lag"]) \
-            < cost(start_tau, start_w, start_lag)
+        pll = (estimate["natural_frequency_rad_s"], estimate["damping"])
+        assert cost(report["tau_s"], pll, timing["lag"]) < cost(start_tau, (start_w, 1.0), start_lag)
 
 
 def test_a_pll_and_a_report_filter_read_from_the_logs():
@@ -980,10 +994,8 @@ def test_a_pll_and_a_report_filter_read_from_the_logs():
     drive PLL and a filtered report only, where reading the PLL before the filter settles at the grid's fast end with
     the current held (3560 rad/s, 25 ms): the PLL within 10 % of the twin's, the current smooth within a sixteenth of
     a sample of its lag, the filter within 2 % of where a refinement from the twin's own reading ends (the valley
-    along which the filter and the lag trade is flat: the reading stops at 7 % above its floor; the filter itself is
-    read short under the PLL's continuous model, :func:`test_a_pll_and_a_report_filter_are_refined_together`). A
-    PLL given rather than searched is held through the joint refinement (a second formulation: the angle corrected
-    for it first)."""
+    along which the filter and the lag trade is flat) and within 5 % of the twin's. A PLL given rather than searched
+    is held through the joint refinement (a second formulation: the angle corrected for it first)."""
     from pgcomm.rotary.experiment import _tuned_drive, running_log
     from pgcomm.rotary.identify import _guard
     from pgcomm.rotary.readings import _refined, _with_pll, read_logs
@@ -1005,7 +1017,7 @@ def test_a_pll_and_a_report_filter_read_from_the_logs():
         floor = _refined(prepared, layout, taps, {"tau_s": t.report_filter, "evidence": None, "cost_by_tau": None},
                          {"samples": 0, "held": False, "lag": 0.5 / t.control_per_log},
                          {"natural_frequency_rad_s": t.pll_bandwidth, "damping": 1.0, "searched": True},
-                         refine_lag=True)[0]
+                         refine_lag=True, refine_damping=True)[0]
         # a PLL given (not searched) is held in the joint refinement: the same refinement as on the angle corrected
         # for it beforehand
         pll = (t.pll_bandwidth, 1.0)
@@ -1018,9 +1030,11 @@ def test_a_pll_and_a_report_filter_read_from_the_logs():
     assert given[0]["tau_s"] == pytest.approx(corrected[0]["tau_s"], rel=1e-6)
     assert given[1]["lag"] == pytest.approx(corrected[1]["lag"], abs=1e-6)
     assert given[2]["natural_frequency_rad_s"] == pll[0]
-    assert estimate["natural_frequency_rad_s"] == pytest.approx(t.pll_bandwidth, rel=0.1)
-    assert estimate["damping"] == 1.0
+    w_c, z_c = _continuous_pll(t)
+    assert estimate["natural_frequency_rad_s"] == pytest.approx(w_c, rel=0.1)
+    assert estimate["damping"] == pytest.approx(z_c, rel=0.1)
     assert report["tau_s"] == pytest.approx(floor["tau_s"], rel=0.02)
+    assert report["tau_s"] == pytest.approx(t.report_filter, rel=0.05)
     # the drive controls 8 times per logged sample: a snapshot half a control cycle late
     assert t.control_per_log == 8 and not timing["held"] and timing["samples"] == 0
     assert abs(timing["lag"] - 1.0 / 16.0) <= 1.0 / 16.0

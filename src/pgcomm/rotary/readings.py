@@ -76,6 +76,9 @@ PLL_FREQUENCIES = tuple(float(x) for x in np.geomspace(50.0, 5000.0, 13))
 PLL_SECOND_START = 10.0
 #: Dampings tried at the best natural frequency (1: ODrive's ``k_i = k_p² / 4``).
 PLL_DAMPINGS = (1.0, 0.707)
+#: The dampings the joint refinement (:func:`_refined`) may reach: a discrete PLL reads as a continuous one of higher
+#: damping (ODrive's at its largest ``k_p T_c`` of 0.5: ``ζ = 1.41``).
+PLL_DAMPING_RANGE = (0.5, 2.0)
 #: The share of a PLL reading's move of the maps (from the angle as logged) taken as uncertain in the verdict: a drive's
 #: discrete PLL differs from the continuous model the reading inverts by about ``k_p dt`` (ODrive's), so the reading
 #: leaves a part of the as-logged error, a few tenths of it.
@@ -278,6 +281,9 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
             found = _pll_under_filter(prepared, layout, taps, report, timing, estimate)
             if found is not None:
                 estimate, timing, report = found
+        if estimate.get("searched") and estimate["natural_frequency_rad_s"] is not None:
+            report, timing, estimate = _refined(prepared, layout, taps, report, timing, estimate,
+                                                refine_lag=detect_lag and not timing["held"], refine_damping=True)
     return estimate, timing, report
 
 
@@ -319,14 +325,22 @@ def _pll_under_filter(prepared, layout: "_Layout", taps: int, report: dict, timi
     return estimate2, timing2, report2
 
 
-def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict, estimate: dict, refine_lag: bool):
-    """The filter's ``τ``, the smooth current's lag (``refine_lag``) and a searched PLL's natural frequency refined
-    together, by Nelder–Mead on the basis fit's cost from the grids' values. The three trade off (a filter lags the
+def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict, estimate: dict, refine_lag: bool,
+             refine_damping: bool = False):
+    """The filter's ``τ``, the smooth current's lag (``refine_lag``) and a searched PLL's natural frequency (and its
+    damping, ``refine_damping``) refined together, by Nelder–Mead on the basis fit's cost from the grids' values. The three trade off (a filter lags the
     current as a lag does, and a PLL's lag on the angle turns the current against the acceleration as both do), so
     each refined under the others' grid values stops on the valley's side: read one after the other, a 17.3 ms filter
     and an 896 rad/s PLL on a twin's logs were read as 19 ms and 1580 rad/s with a third of a sample's lag; refined
     together, 15.6 ms and 902 rad/s, at a seventh of the fit's mean squared residual. The natural frequency stays
-    within the searched :data:`PLL_FREQUENCIES`.
+    within the searched :data:`PLL_FREQUENCIES`, the damping within :data:`PLL_DAMPING_RANGE`.
+
+    The damping is refined last, from the reading the others settled on (free from the start, it let a reading that
+    began at the grid's fast end stay there at the lowest damping): a drive's PLL runs at its control period ``T_c``,
+    and ODrive's (predict, then correct by ``k_p T_c`` of the error, :mod:`pgcomm.rotary.twin`) lags its count by
+    ``(1 − k_p T_c)`` times the continuous loop's lag at low frequencies, which is the continuous loop of
+    ``ω_n/√(1 − k_p T_c)`` and ``ζ/√(1 − k_p T_c)``. At ODrive's 8 kHz and ``ω_n`` = 896 rad/s that is ``ζ`` = 1.13,
+    between the grid's dampings: read at ``ζ`` = 1, the filter took the rest (17.3 ms read 15.6 ms).
 
     Returns:
         ``(report, timing, estimate)``, each as given or with the refined values (``"refined": True``).
@@ -337,21 +351,25 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
              else (estimate["natural_frequency_rad_s"], estimate["damping"]))
     w0 = fixed[0] if fixed is not None and estimate.get("searched") else None
     zeta = estimate["damping"]
+    z_lo, z_hi = PLL_DAMPING_RANGE
 
     def unpack(x):
         # relative steps in τ and ω_n: the cost's scale in each is the value itself
         tau = tau0 * math.exp(x[0])
         lag = float(np.clip(x[1], -0.5, 0.5)) if refine_lag else lag0
         # within the natural frequencies searched: beyond them the reading is the angle as logged's
-        pll = fixed if w0 is None else (float(np.clip(w0 * math.exp(x[-1]), PLL_FREQUENCIES[0], PLL_FREQUENCIES[-1])),
-                                        zeta)
-        return tau, lag, pll
+        if w0 is None:
+            return tau, lag, fixed
+        z = float(np.clip(zeta * math.exp(x[-1]), z_lo, z_hi)) if refine_damping else zeta
+        w = w0 * math.exp(x[-2] if refine_damping else x[-1])
+        return tau, lag, (float(np.clip(w, PLL_FREQUENCIES[0], PLL_FREQUENCIES[-1])), z)
 
     def f(x):
         tau, lag, pll = unpack(x)
         return _reading_cost(prepared, layout, taps, tau, pll, d, lag)[0]
 
-    x0 = np.array([0.0] + ([lag0] if refine_lag else []) + ([0.0] if w0 is not None else []))
+    x0 = np.array([0.0] + ([lag0] if refine_lag else []) + ([0.0] if w0 is not None else [])
+                  + ([0.0] if w0 is not None and refine_damping else []))
     step = np.diag(np.full(x0.size, 0.1))
     res = minimize(f, x0, method="Nelder-Mead",
                    options={"initial_simplex": np.vstack([x0, x0 + step]), "xatol": 2e-3, "fatol": 0.0,
@@ -368,7 +386,8 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
     if w0 is not None:
         by_freq = dict(estimate.get("cost_by_frequency") or {})
         by_freq[f"{pll[0]:.4g}"] = float(res.fun)
-        estimate = {**estimate, "natural_frequency_rad_s": float(pll[0]), "cost": float(res.fun),
+        estimate = {**estimate, "natural_frequency_rad_s": float(pll[0]), "damping": float(pll[1]),
+                    "cost": float(res.fun),
                     "cost_by_frequency": by_freq, "refined": True}
     return report, timing, estimate
 
