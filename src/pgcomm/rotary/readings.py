@@ -281,9 +281,12 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
             found = _pll_under_filter(prepared, layout, taps, report, timing, estimate)
             if found is not None:
                 estimate, timing, report = found
-        if estimate.get("searched") and estimate["natural_frequency_rad_s"] is not None:
-            report, timing, estimate = _refined(prepared, layout, taps, report, timing, estimate,
-                                                refine_lag=detect_lag and not timing["held"], refine_damping=True)
+    if estimate.get("searched") and estimate["natural_frequency_rad_s"] is not None:
+        # the PLL's frequency and damping refined last, with the current's lag (and a filter read): _refined
+        detect_lag = isinstance(current_lag, str)
+        report, timing, estimate = _refined(prepared, layout, taps, report, timing, estimate,
+                                            refine_lag=detect_lag and not timing["held"], refine_damping=True,
+                                            refine_tau=report["tau_s"] > 0.0)
     return estimate, timing, report
 
 
@@ -326,21 +329,24 @@ def _pll_under_filter(prepared, layout: "_Layout", taps: int, report: dict, timi
 
 
 def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict, estimate: dict, refine_lag: bool,
-             refine_damping: bool = False):
-    """The filter's ``τ``, the smooth current's lag (``refine_lag``) and a searched PLL's natural frequency (and its
-    damping, ``refine_damping``) refined together, by Nelder–Mead on the basis fit's cost from the grids' values. The three trade off (a filter lags the
-    current as a lag does, and a PLL's lag on the angle turns the current against the acceleration as both do), so
-    each refined under the others' grid values stops on the valley's side: read one after the other, a 17.3 ms filter
-    and an 896 rad/s PLL on a twin's logs were read as 19 ms and 1580 rad/s with a third of a sample's lag; refined
-    together, 15.6 ms and 902 rad/s, at a seventh of the fit's mean squared residual. The natural frequency stays
-    within the searched :data:`PLL_FREQUENCIES`, the damping within :data:`PLL_DAMPING_RANGE`.
+             refine_damping: bool = False, refine_tau: bool = True):
+    """The filter's ``τ`` (``refine_tau``), the smooth current's lag (``refine_lag``) and a searched PLL's natural
+    frequency (and its damping, ``refine_damping``) refined together, by Nelder–Mead on the basis fit's cost from the
+    grids' values. They trade off (a filter lags the current as a lag does, and a PLL's lag on the angle turns the
+    current against the acceleration as both do), so each refined under the others' grid values stops on the
+    valley's side: read one after the other, a 17.3 ms filter and an 896 rad/s PLL on a twin's logs were read as
+    19 ms and 1580 rad/s with a third of a sample's lag; refined together, 15.6 ms and 902 rad/s, at a seventh of
+    the fit's mean squared residual. The natural frequency stays within the searched :data:`PLL_FREQUENCIES`, the
+    damping within :data:`PLL_DAMPING_RANGE`.
 
-    The damping is refined last, from the reading the others settled on (free from the start, it let a reading that
-    began at the grid's fast end stay there at the lowest damping): a drive's PLL runs at its control period ``T_c``,
-    and ODrive's (predict, then correct by ``k_p T_c`` of the error, :mod:`pgcomm.rotary.twin`) lags its count by
-    ``(1 − k_p T_c)`` times the continuous loop's lag at low frequencies, which is the continuous loop of
-    ``ω_n/√(1 − k_p T_c)`` and ``ζ/√(1 − k_p T_c)``. At ODrive's 8 kHz and ``ω_n`` = 896 rad/s that is ``ζ`` = 1.13,
-    between the grid's dampings: read at ``ζ`` = 1, the filter took the rest (17.3 ms read 15.6 ms).
+    The damping is refined last, from the reading the others settled on, with or without a filter (free from the
+    start, it let a reading that began at the grid's fast end stay there at the lowest damping): a drive's PLL runs
+    at its control period ``T_c``, and ODrive's (predict, then correct by ``k_p T_c`` of the error,
+    :mod:`pgcomm.rotary.twin`) lags its count by ``(1 − k_p T_c)`` times the continuous loop's lag at low
+    frequencies, which is the continuous loop of ``ω_n/√(1 − k_p T_c)`` and ``ζ/√(1 − k_p T_c)``. At ODrive's 8 kHz
+    and ``ω_n`` = 896 rad/s that is ``ζ`` = 1.13, between the grid's dampings: read at ``ζ`` = 1, the filter took the
+    rest (17.3 ms read 15.6 ms; 17.2 ms with the damping). Without a filter, a PLL at ``k_p T_c`` = 0.5 read
+    2510 rad/s at ``ζ`` = 1 for the equivalent 2110 rad/s at 1.41; 2060 at 1.37 with it.
 
     Returns:
         ``(report, timing, estimate)``, each as given or with the refined values (``"refined": True``).
@@ -355,8 +361,8 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
 
     def unpack(x):
         # relative steps in τ and ω_n: the cost's scale in each is the value itself
-        tau = tau0 * math.exp(x[0])
-        lag = float(np.clip(x[1], -0.5, 0.5)) if refine_lag else lag0
+        tau = tau0 * math.exp(x[0]) if refine_tau else tau0
+        lag = float(np.clip(x[int(refine_tau)], -0.5, 0.5)) if refine_lag else lag0
         # within the natural frequencies searched: beyond them the reading is the angle as logged's
         if w0 is None:
             return tau, lag, fixed
@@ -368,8 +374,10 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
         tau, lag, pll = unpack(x)
         return _reading_cost(prepared, layout, taps, tau, pll, d, lag)[0]
 
-    x0 = np.array([0.0] + ([lag0] if refine_lag else []) + ([0.0] if w0 is not None else [])
+    x0 = np.array(([0.0] if refine_tau else []) + ([lag0] if refine_lag else []) + ([0.0] if w0 is not None else [])
                   + ([0.0] if w0 is not None and refine_damping else []))
+    if x0.size == 0:
+        return report, timing, estimate
     step = np.diag(np.full(x0.size, 0.1))
     res = minimize(f, x0, method="Nelder-Mead",
                    options={"initial_simplex": np.vstack([x0, x0 + step]), "xatol": 2e-3, "fatol": 0.0,
@@ -377,10 +385,11 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
     if not res.fun < f(x0):
         return report, timing, estimate
     tau, lag, pll = unpack(res.x)
-    costs = dict(report["cost_by_tau"] or {})
-    costs[f"{tau:.6g}"] = float(res.fun)
-    report = {**report, "tau_s": tau, "cost_by_tau": dict(sorted(costs.items(), key=lambda kv: float(kv[0]))),
-              "refined": True}
+    if refine_tau:
+        costs = dict(report["cost_by_tau"] or {})
+        costs[f"{tau:.6g}"] = float(res.fun)
+        report = {**report, "tau_s": tau, "cost_by_tau": dict(sorted(costs.items(), key=lambda kv: float(kv[0]))),
+                  "refined": True}
     if refine_lag:
         timing = {**timing, "lag": lag}
     if w0 is not None:
