@@ -561,9 +561,9 @@ class LawParams:
     (rad/s; inside the band the table in use stays); a drive that fades its table out with speed
     (``fade = (start, end)``, rad/s) scales it by 1 up to ``|ω̂| = start``, linearly to 0 at ``end``.
 
-    ``deadtime`` is the oracle's alone: the command also takes out the twin's dead time as the truth has it (the
-    current that flows short by ``e(θ, i)``, :func:`drive_current_error`, the command ``i − e(θ, i − e(θ, i))``).
-    The dead time's error follows the current's sign, so it is not a map, and the truth's maps leave it out
+    ``deadtime`` is the oracle's alone: the command also takes out what the twin's current loop leaves of its dead
+    time at that cycle (``r(i)``, :func:`deadtime_residual` from the loop's state; the command ``i − r(i − r(i))``).
+    The residual follows the current's sign and its history, so it is not a map, and the truth's maps leave it out
     (:meth:`RotaryTruth.model`): without it the oracle is no floor on a drive with a dead time.
     """
 
