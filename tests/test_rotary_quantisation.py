@@ -39,6 +39,23 @@ def test_encoder_step_is_read_from_the_rounded_angle(counts):
         assert encoder_step(np.round(logged, 7)) == pytest.approx(q, rel=1e-4)
 
 
+def test_a_hosts_gaps_do_not_pass_for_a_coarse_lattice():
+    """A drive's encoder angle as a host records it: rows at jittered instants, a few gaps of 5-40 rows, at 15
+    counts per row: the gaps' jumps (hundreds of counts) put every other difference near zero in units of
+    themselves, a "lattice" the angle sits on trivially; the encoder's own step is found (known truth, to float64
+    rounding of the least-squares step)."""
+    q = 2 * math.pi / 2**16
+    rng = np.random.default_rng(3)
+    n = 9000
+    steps = 1e-3 * np.exp(0.035 * rng.standard_normal(n))
+    gap = rng.random(n) < 5e-4
+    steps = steps + gap * 1e-3 * rng.integers(5, 41, n)
+    t = np.cumsum(steps)
+    th = 100.0 + 1.4378 * t + 2e-4 * np.sin(2 * np.pi * 7.3 * t)
+    assert gap.sum() >= 3
+    assert encoder_step(q * np.round(th / q)) == pytest.approx(q, rel=1e-9)
+
+
 def test_an_angle_stored_as_float32_keeps_its_encoder_and_counts_the_storage_noise():
     """A multi-turn angle (50-110 rad) stored as float32 sits on float32's grid (4-8e-6 rad) as well as on the
     encoder's (2^16 counts, 9.6e-5 rad): the encoder's is found (a strict lattice test took float32's grid), and

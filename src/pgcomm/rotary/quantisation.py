@@ -39,8 +39,8 @@ __all__ = ["encoder_step", "angle_noise", "acceleration_noise", "LATTICE_RMS", "
 LATTICE_RMS = 0.1
 #: ... and at most this share of them is more than a quarter step off (glitches, a wrap of a single-turn column).
 LATTICE_OUTLIERS = 0.01
-#: Fewest nonzero second differences needed to trust a step (a multiple of the step passes the lattice test
-#: on ``n`` of them with chance about ``2^-n``).
+#: Fewest nonzero second differences needed to trust a step, counted in whole steps (a multiple of the step passes
+#: the lattice test on ``n`` of them with chance about ``2^-n``).
 MIN_STEPS = 50
 #: Most frequent second differences tried as the step.
 CANDIDATES = 20
@@ -79,6 +79,10 @@ def encoder_step(theta) -> float | None:
     for c in np.sort(vals[np.argsort(freq)[::-1][:CANDIDATES]])[::-1]:
         counts = np.round(nz / c)
         used = counts > 0
+        # a step coarser than the differences themselves puts them all near zero, "on" its lattice: a host's gaps
+        # (jumps of hundreds of counts) offered such steps, so the step must count MIN_STEPS nonzero differences
+        if np.count_nonzero(used) < MIN_STEPS:
+            continue
         q = float(np.sum(nz[used] * counts[used]) / np.sum(counts[used] ** 2))
         if all(_on_lattice(d / q) for d in (d2, d1)):
             return q
