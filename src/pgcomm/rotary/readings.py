@@ -262,9 +262,20 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
         return _reading_cost(prepared, layout, taps, found["tau_s"], pll_of(estimate), timing["samples"],
                              lag_of(timing))[0]
 
+    detect_lag = isinstance(current_lag, str)
+
+    def pll_refined(estimate, timing, report):
+        # the PLL's frequency and damping refined last, with the current's lag (and a filter read): _refined
+        if not (estimate.get("searched") and estimate["natural_frequency_rad_s"] is not None):
+            return estimate, timing, report
+        report, timing, estimate = _refined(prepared, layout, taps, report, timing, estimate,
+                                            refine_lag=detect_lag and not timing["held"], refine_damping=True,
+                                            refine_tau=not given and report["tau_s"] > 0.0)
+        return estimate, timing, report
+
     estimate, timing = read(report["tau_s"])
     if given:
-        return estimate, timing, report
+        return pll_refined(estimate, timing, report)
     runs = [alternate(estimate, timing, report)]
     # the filter first, under the current held between samples and smooth through them (a drive that controls
     # faster than it logs: read held, the filter's read-back current fits worse than the report itself)
@@ -274,20 +285,13 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
         runs.append(alternate(*read(first["tau_s"]), first))
     estimate, timing, report = runs[int(np.argmin([cost(r) for r in runs]))] if len(runs) > 1 else runs[0]
     if report["tau_s"] > 0.0:
-        detect_lag = isinstance(current_lag, str)
         report, timing, estimate = _refined(prepared, layout, taps, report, timing, estimate,
                                             refine_lag=detect_lag and not timing["held"])
         if estimate.get("searched") and detect_lag:
             found = _pll_under_filter(prepared, layout, taps, report, timing, estimate)
             if found is not None:
                 estimate, timing, report = found
-    if estimate.get("searched") and estimate["natural_frequency_rad_s"] is not None:
-        # the PLL's frequency and damping refined last, with the current's lag (and a filter read): _refined
-        detect_lag = isinstance(current_lag, str)
-        report, timing, estimate = _refined(prepared, layout, taps, report, timing, estimate,
-                                            refine_lag=detect_lag and not timing["held"], refine_damping=True,
-                                            refine_tau=report["tau_s"] > 0.0)
-    return estimate, timing, report
+    return pll_refined(estimate, timing, report)
 
 
 def _pll_under_filter(prepared, layout: "_Layout", taps: int, report: dict, timing: dict, estimate: dict):
