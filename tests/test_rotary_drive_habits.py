@@ -210,29 +210,6 @@ def test_the_current_loop_leaves_the_dead_times_residual(rev_per_s):
     assert np.max(np.abs(residual)) < np.max(np.abs(e)) / 3
 
 
-def test_the_oracle_takes_the_dead_time_out_of_the_current_that_flows():
-    """``LawParams.deadtime`` (the oracle's): the command ``i − r(i − r(i))``, ``r`` the loop's residual at the
-    cycle (:func:`deadtime_residual`), leaves the current that flows within the fixed point's second-order remainder
-    of the demand, ``L² max|r|``, with ``r``'s slope in the command ``L ≤ k |m_c − m_a| e_dt/ε`` (the twin's step,
-    ``_deadtime_loop``) and ``|r| ≤ 2 |k| · 4/3 e_dt`` (each low-pass within the three phases' ``2/3 e_dt`` sum);
-    without it, the flow is short by the residual's own size."""
-    from pgcomm.rotary.twin import _deadtime_loop
-
-    t, amp = _dead_time_twin(2.0)
-    p = t.motor.pole_pairs
-    n = 3000
-    plain = LawParams.classical(p)
-    short = simulate(t, _open_loop(n, np.full(n, amp)), plain, NO_FEEDBACK)
-    taken = simulate(t, _open_loop(n, np.full(n, amp)), replace(plain, deadtime=True), NO_FEEDBACK)
-    _, _, k, ma, mc = _deadtime_loop(t, t.motor.sample_time)
-    e_dt = t.deadtime_error
-    slope = abs(k * (mc - ma)) * e_dt / t.deadtime_width
-    bound = slope**2 * 2 * abs(k) * 4.0 / 3.0 * e_dt
-    assert slope < 1
-    assert np.max(np.abs(short["iq_true"] - amp)) > 100 * bound
-    assert np.max(np.abs(taken["iq_true"] - amp)) <= bound
-
-
 def test_the_truths_model_holds_the_drives_current_errors():
     """:meth:`RotaryTruth.model` with the sensors' errors is the torque seen from the drive's current:
     ``k0' ((1 + r') i_q + c')`` equals ``k0 (1 + ρ)(i_q + e(θ, i_q)) + T_cog`` (e by the three-phase formulation, no dead

@@ -460,7 +460,9 @@ def run(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: i
         "standstill_table": LawParams(classical.model, sweep.table, mech["inertia_ratio"], mech["viscous"],
                                       mech["coulomb"]),
         "model": LawParams(ident.model, None, ident.model.inertia_ratio, ident.model.viscous, 0.0),
-        "oracle": LawParams(truth.model(), None, a_nom, truth.viscous / truth.k0, 0.0, deadtime=True),
+        # the true maps: the floor of a commutation map (a drive's dead time, what its current loop leaves of it,
+        # follows the current's history and stays in every row)
+        "oracle": LawParams(truth.model(), None, a_nom, truth.viscous / truth.k0, 0.0),
     }
     with progress.stage("laws in closed loop (position and speed loops)"):
         tracking, commutation = closed_loop(truth, laws, gains, settings, seed)

@@ -561,10 +561,6 @@ class LawParams:
     (rad/s; inside the band the table in use stays); a drive that fades its table out with speed
     (``fade = (start, end)``, rad/s) scales it by 1 up to ``|ω̂| = start``, linearly to 0 at ``end``.
 
-    ``deadtime`` is the oracle's alone: the command also takes out what the twin's current loop leaves of its dead
-    time at that cycle (``r(i)``, :func:`deadtime_residual` from the loop's state; the command ``i − r(i − r(i))``).
-    The residual follows the current's sign and its history, so it is not a map, and the truth's maps leave it out
-    (:meth:`RotaryTruth.model`): without it the oracle is no floor on a drive with a dead time.
     """
 
     model: RotaryModel
@@ -576,7 +572,6 @@ class LawParams:
     table_reverse: np.ndarray | None = None
     hysteresis: float = 0.0
     fade: tuple | None = None
-    deadtime: bool = False
 
     @classmethod
     def classical(cls, pole_pairs: int, ff_a=0.0, ff_b=0.0, ff_d=0.0) -> "LawParams":
@@ -662,7 +657,7 @@ def _run(params, xs, n_sub: int):
      h_l, lc_a, lc_b, lr_a, lr_b, ld_a, ld_b, table, n_table, ff_a, ff_b, ff_d,
      kp, ki, kd, kpv, kiv, beta, i_lim, mode_pos, theta0, advance,
      use_pll, pll_kp, pll_ki, errors_on, sensors, index0, pole_pairs, comm_offset, table_rev, band, fade_s,
-     fade_e, dt_comp, dt_a, dt_c, dt_k, ma, mc) = params
+     fade_e, dt_a, dt_c, dt_k, ma, mc) = params
     dt = ts / n_sub
     o_a, o_b, g_a, g_b, dt_e, dt_w, tan_d = sensors
 
@@ -726,14 +721,6 @@ def _run(params, xs, n_sub: int):
             mean_q = dt_k * (zcq + mc * (e_q - zcq) - zaq - ma * (e_q - zaq))
             return new, mean_d, mean_q
 
-        def residual_q(i):
-            _, mean_d, mean_q = residual(i)
-            return mean_q - mean_d * tan_d
-
-        # the oracle's dead-time compensation (LawParams.deadtime): two fixed-point steps of i = i* - r(i), r the
-        # loop's residual at this cycle; r is a few per cent of the current, so the second step leaves its square
-        first = iq - residual_q(iq)
-        iq = jnp.where(dt_comp > 0, iq - residual_q(first), iq)
         iq = jnp.where(jnp.isfinite(iq), iq, 0.0)  # a NaN demand gives zero current, never NaN torque
         iq = jnp.clip(iq, -i_lim, i_lim)
         # what the drive measures: the command and the dead time's residual; what flows: the measured current less
@@ -862,7 +849,7 @@ def simulate(truth: RotaryTruth, ref: Reference, law: LawParams, gains: Gains, s
               f(gains.kp), f(gains.ki), f(gains.kd), f(gains.kpv), f(gains.kiv), beta, i_lim, mode_pos, th0,
               f(law.advance), 1.0 if bw > 0 else 0.0, 2.0 * bw, bw * bw, 1.0 if truth.drive_errors else 0.0,
               tuple(f(x) for x in sensors), index0, f(m.pole_pairs), f(m.commutation_offset), jnp.asarray(table_rev),
-              f(law.hysteresis), fade_s, fade_e, 1.0 if law.deadtime and dte > 0 else 0.0,
+              f(law.hysteresis), fade_s, fade_e,
               *_deadtime_loop(truth, tc))
     rng = np.random.default_rng(seed)
     dither = np.zeros(n) if ref.dither is None else np.asarray(ref.dither, float)
