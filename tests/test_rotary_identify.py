@@ -992,42 +992,6 @@ def test_a_pll_and_a_report_filter_are_refined_together():
         assert cost(report["tau_s"], pll, timing["lag"]) < cost(start_tau, (start_w, 1.0), start_lag)
 
 
-def test_a_discrete_pll_reads_as_its_continuous_equivalent():
-    """A drive PLL at the control rate with ``k_p T_c`` = 0.5 (zoo motor 0:31's, no report filter), read from a
-    grid start at damping 1 and 20 % fast: the refinement of its frequency, damping and the current's lag reaches the
-    continuous loop the discrete one matches at low frequencies (:func:`_continuous_pll`: ``ζ`` = 1.41) within 10 %,
-    at a lower residual than the start."""
-    from pgcomm.rotary.experiment import _tuned_drive, quick_settings, running_log, running_references
-    from pgcomm.rotary.identify import _guard
-    from pgcomm.rotary.readings import _reading_cost, _refined
-    from pgcomm.rotary.regression import _Layout, _prepare, angle_parts_kept
-
-    off = dict(host_jitter=0.0, host_gaps=0.0, stamp_noise=0.0, sensor_offset=(0.0, 0.0), sensor_gain=(0.0, 0.0),
-               deadtime_error=0.0, deadtime_width=0.0)
-    t = replace(draw_rotary(0, 31, real_drive=True), **off)
-    assert t.pll_bandwidth > 0 and t.report_filter == 0
-    orders, a_nom, gains, classical = _tuned_drive(t)
-    logs = [running_log(t, ref, classical, gains, seed=k)
-            for k, ref in enumerate(running_references(t.motor, a_nom, quick_settings(), orders)[::2])]
-    options = RotaryIdentifyOptions()
-    min_samples, taps = _guard(options)
-    w_c, z_c = _continuous_pll(t)
-    with angle_parts_kept():
-        prepared = _prepare(logs, t.motor, orders, min_samples, taps, options.encoder_step)[0]
-        layout = _Layout.of(orders)
-        start = ({"tau_s": 0.0, "evidence": None, "cost_by_tau": None}, {"samples": 0, "held": False, "lag": 0.0},
-                 {"natural_frequency_rad_s": 1.2 * w_c, "damping": 1.0, "searched": True})
-        report, timing, estimate = _refined(prepared, layout, taps, *start, refine_lag=True, refine_damping=True,
-                                            refine_tau=False)
-        pll = (estimate["natural_frequency_rad_s"], estimate["damping"])
-        cost = _reading_cost(prepared, layout, taps, 0.0, pll, 0, timing["lag"])[0]
-        cost0 = _reading_cost(prepared, layout, taps, 0.0, (1.2 * w_c, 1.0), 0, 0.0)[0]
-    assert report["tau_s"] == 0.0
-    assert pll[0] == pytest.approx(w_c, rel=0.1)
-    assert pll[1] == pytest.approx(z_c, rel=0.1)
-    assert cost < cost0
-
-
 def test_a_pll_and_a_report_filter_read_from_the_logs():
     """The whole reading (:func:`pgcomm.rotary.readings.read_logs`) on a twin's first round of running logs with a
     drive PLL and a filtered report only, where reading the PLL before the filter settles at the grid's fast end with
