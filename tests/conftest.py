@@ -115,9 +115,8 @@ MAX_WORKERS = 2
 END_TO_END = ("test_bad_input.py", "test_fleet.py", "test_readme_rig.py", "test_reproduce.py", "test_zoo_pipeline.py")
 
 
-#: the other files whose tests run whole commands in-process and reach ~0.9-1.2 GB: they come after the light files,
-#: so that the other worker is on light files while the end-to-end unit starts with the fleet (~1.8 GB with its two
-#: worker processes) and meets them only beside ``test_reproduce.py`` or later
+#: the other files whose tests run whole commands in-process and reach ~0.9-1.2 GB: never two at once
+#: (:func:`_one_heavy_file_at_a_time`), spread through the second half of the light files (:func:`_file_rank`)
 HEAVY = ("test_cli.py", "test_export_lut.py", "test_export_spline.py", "test_extensions.py", "test_identify.py",
          "test_safe_law.py", "test_sensorless.py", "test_docs.py", "test_cli_export.py")
 
@@ -243,11 +242,27 @@ def pytest_xdist_make_scheduler(config, log):
 def pytest_collection_modifyitems(config, items):
     """The :data:`END_TO_END` files are ``slow`` and come first (a stable sort; xdist's work units follow the
     collection's order), so that the suite does not end on them, the fleet first among them; the :data:`HEAVY`
-    files come last."""
+    files are spread evenly through the second half of the other files."""
     for item in items:
         if item.path.name in END_TO_END:
             item.add_marker(pytest.mark.slow)
-    # the fleet first within the end-to-end unit: its two worker processes are the suite's largest moment, and
-    # at the start both xdist workers are still small (a run with it second peaked at 2.82 GiB)
-    items.sort(key=lambda item: (item.path.name not in END_TO_END, item.path.name in HEAVY,
-                                 item.path.name != "test_fleet.py"))
+    names = sorted({item.path.name for item in items})
+    items.sort(key=lambda item: _file_rank(item.path.name, names))
+
+
+def _file_rank(name: str, names: list) -> tuple:
+    """A file's place in the run: the fleet, the other end-to-end files, then the rest, where each :data:`HEAVY` file
+    follows a stretch of light ones. The heavy files hold a lock from their first test to their last, so two of them
+    side by side stop a worker: all of them at the end left one worker idle for a minute (the lock serialised ~150 s
+    of tests). They stay in the second half, so that the other worker is on light files while the end-to-end unit
+    starts with the fleet (~1.8 GB with its two worker processes) and meets them only beside ``test_reproduce.py`` or
+    later (a run with them beside the fleet peaked at 2.82 GiB)."""
+    if name in END_TO_END:
+        return (0, name != "test_fleet.py", 0.0)
+    light = [n for n in names if n not in END_TO_END and n not in HEAVY]
+    heavy = [n for n in names if n in HEAVY]
+    if name in heavy:
+        # the k-th heavy file sits after the light file at position half + (k + 1/2) * (half / len(heavy))
+        half = len(light) / 2
+        return (1, False, half + (heavy.index(name) + 0.5) * half / len(heavy))
+    return (1, False, float(light.index(name)))
