@@ -27,6 +27,7 @@ Several minutes on 2 cores (the 3600-point sweeps dominate); ``--quick`` uses 72
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 import os
 import sys
 import time
@@ -43,12 +44,20 @@ def main(argv=None) -> int:
     ap.add_argument("--control-per-log", type=int, default=None, help="the drives' control cycles per logged sample")
     ap.add_argument("--real-drive", action="store_true", help="the zoo motors with a real drive's and host's habits")
     ap.add_argument("--first", type=int, default=0, help="the first motor's index")
+    ap.add_argument("--speed-shares", type=float, nargs="+", default=None,
+                    help="the running logs' speeds as shares of the alias guard's limit (RotarySettings.speed_shares)")
+    ap.add_argument("--revolutions", type=float, default=None,
+                    help="revolutions per running-log segment (RotarySettings.revolutions)")
     args = ap.parse_args(argv)
     from pgcomm.rotary.experiment import quick_settings, run
     from pgcomm.settings import RotarySettings
     from pgcomm.rotary.zoo import draw_rotary
 
     settings = quick_settings() if args.quick else RotarySettings()
+    if args.speed_shares:
+        settings = replace(settings, speed_shares=tuple(args.speed_shares))
+    if args.revolutions:
+        settings = replace(settings, revolutions=args.revolutions)
     print(f"{'#':>2} {'motor':7s} {'K':>3s} {'cog err':>8s} {'rip err':>8s} {'dir err':>8s} {'pos ratio':>9s} "
           f"{'spd ratio':>9s} {'tab diff A':>10s} {'sweep err A':>11s} {'agree':>5s} {'run s':>6s} {'sweep s':>7s} "
           f"{'wall s':>6s} {'rip SE':>7s} {'s to 5%':>7s} {'floor p/s':>9s} orders added (outside the slot/pole basis)")

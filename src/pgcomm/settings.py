@@ -246,6 +246,14 @@ class RotarySettings:
             :data:`~pgcomm.rotary.identify.RESOLVED_CONFIDENCE`), more rounds of the
             same references are recorded, as many as the standard error asks for and the budget allows
             (what an engineer at the rig does: log until the map is resolved, then stop).
+        host_clock_speed_shares: the speeds of the running logs where the first round's angle carries a host's clock
+            (:mod:`pgcomm.rotary.host_clock`: each row stamped when a PC read it, the values from the drive's last
+            cycle before), as shares of the alias guard's limit; the rounds identified then run at these, the first
+            round set aside (empty: keep ``speed_shares``). Slower, because what the identification reads of the
+            logs' timing (the current's delay, a report filter, a PLL's lag) is blurred by the clock's noise, and a
+            timing error ``δτ`` at speed ``ω`` shifts order ``h`` by the phase ``h ω δτ``; the clock's own angle noise
+            ``ω σ_t`` falls with the speed too. Logs stamped by the drive keep the faster ``speed_shares``: they
+            excite the dither and the back-EMF more, and their timing reads sharply.
         stop_when_resolved: stop logging as soon as both maps are resolved (``True``), or record the whole
             budget (``False``, the default): a map resolved to 5 % RMS can still miss an order outside the
             basis that the screening would find in a longer log, and a low one costs the speed loop more than
@@ -256,6 +264,8 @@ class RotarySettings:
     revolutions: float = field(default=2.0, metadata={"range": (0.01, 1e4), "unit": "rev"})
     speed_shares: tuple[float, ...] = field(default=(0.3, 0.5), metadata={"range": (1e-3, 1.0),
                                                                          "hint": "shares of the speed limit"})
+    host_clock_speed_shares: tuple[float, ...] = field(default=(0.1, 0.2), metadata={
+        "range": (1e-3, 1.0), "hint": "shares of the speed limit, used where the logs carry a host's clock"})
     dither_hz: tuple[float, ...] = field(default=(61.0, 83.0, 107.0), metadata={"range": (0.0, 1e5), "unit": "Hz"})
     dither_share: float = field(default=0.5, metadata={"range": (0.0, 1.0), "hint": "a share of the current limit"})
     swing: float = field(default=0.8, metadata={"range": (0.0, 1.0), "hint": "a share of the mean speed"})
@@ -267,7 +277,7 @@ class RotarySettings:
     stop_when_resolved: bool = False
 
     def __post_init__(self):
-        for name in ("speed_shares", "dither_hz"):
+        for name in ("speed_shares", "host_clock_speed_shares", "dither_hz"):
             object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
         if not self.speed_shares:
             raise ValueError("speed_shares = []: give at least one running speed, e.g. [0.3, 0.5]")

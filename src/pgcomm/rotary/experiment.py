@@ -57,7 +57,7 @@ from pgcomm.rotary.twin import Gains, LawParams, Reference, RotaryTruth, Start, 
 from pgcomm.settings import RotarySettings, StandstillPlan
 from pgcomm.progress import Progress
 
-__all__ = ["running_references", "running_log", "record_running_logs", "RunningLogs",
+__all__ = ["running_references", "running_log", "record_running_logs", "RunningLogs", "slower_for_the_host_clock",
            "drive_log_mix", "tracking_references", "closed_loop", "run", "identification_errors", "ROWS",
            "quick_settings", "QUICK_OVERRIDES", "stall_log"]
 
@@ -296,6 +296,7 @@ class RunningLogs:
         rounds: rounds of the references recorded; round_seconds: rig time of one round (s).
         delay: the current's delay (logged samples) and lag: its lag within a sample (``None`` held), as read
             on the first round and kept for the longer logs.
+        set_aside: rig time of a first round recorded and set aside (s; :func:`slower_for_the_host_clock`).
     """
 
     logs: list
@@ -304,19 +305,47 @@ class RunningLogs:
     round_seconds: float
     delay: int
     lag: object
+    set_aside: float = 0.0
 
     @property
     def seconds(self) -> float:
-        """Rig time of the running logs (s)."""
-        return self.rounds * self.round_seconds
+        """Rig time of the running logs (s), a first round set aside included."""
+        return self.rounds * self.round_seconds + self.set_aside
+
+
+def slower_for_the_host_clock(host_clock: dict | None, settings: RotarySettings) -> RotarySettings | None:
+    """The running logs' settings where a first round's angle carries a host's clock, else ``None``.
+
+    The clock is there where the identification resolved a timing noise in the logged angle
+    (``identification.host_clock.resolved``, :func:`pgcomm.rotary.host_clock.weigh`): logs stamped by the drive have
+    none. The runs then go at :attr:`~pgcomm.settings.RotarySettings.host_clock_speed_shares` (the reason is there),
+    each segment ``revolutions`` times the ratio of the mean speeds, so that a round takes about as long, and at least
+    ``1 / len(shares)`` revolutions, so that the speeds together pass every angle in each direction.
+
+    Args:
+        host_clock: ``identification.host_clock`` of the first round (``None``: not read).
+        settings: :class:`RotarySettings`.
+
+    Returns:
+        :class:`RotarySettings` with the slower ``speed_shares`` and ``revolutions``, or ``None`` where there is no
+        clock, no ``host_clock_speed_shares``, or they are not slower.
+    """
+    slow = settings.host_clock_speed_shares
+    if not host_clock or not host_clock.get("resolved") or not slow:
+        return None
+    ratio = float(np.mean(slow)) / float(np.mean(settings.speed_shares))
+    if ratio >= 1.0:
+        return None
+    return replace(settings, speed_shares=slow, revolutions=max(settings.revolutions * ratio, 1.0 / len(slow)))
 
 
 def record_running_logs(truth: RotaryTruth, settings: RotarySettings = RotarySettings(), seed: int = 0,
                         progress=None) -> RunningLogs:
     """Record rounds of running logs on ``truth`` and identify the map from them, without a torque sensor.
 
-    One round of :func:`running_references` first; then, within ``settings.log_budget_share`` of the standstill
-    sweep's rig time, either the whole budget (``settings.stop_when_resolved`` false) or rounds until the
+    One round of :func:`running_references` first (recorded again at slower speeds, the first set aside, where its
+    angle carries a host's clock: :func:`slower_for_the_host_clock`); then, within ``settings.log_budget_share`` of
+    the standstill sweep's rig time, either the whole budget (``settings.stop_when_resolved`` false) or rounds until the
     standard errors say both maps are resolved (module docstring, "How long to log"). The drive runs classical
     commutation with the gains of the nominal ``J/k0``. Noise streams: ``"rotary running log", round, i``.
 
@@ -336,25 +365,44 @@ def record_running_logs(truth: RotaryTruth, settings: RotarySettings = RotarySet
     round_seconds = sum(r.n for r in refs) * ts
     budget = settings.log_budget_share * settings.standstill.duration(ts)
     logs = []
+    first_k = 0  # the first round's index in the noise streams (1 after a first round set aside)
 
     def record(rounds):
         for k in rounds:
-            logs.extend(running_log(truth, r, classical, gains, stream_seed(seed, "rotary running log", k, i))
+            logs.extend(running_log(truth, r, classical, gains, stream_seed(seed, "rotary running log", first_k + k, i))
                         for i, r in enumerate(refs))
 
     with progress.stage("running logs (speed loop, two speeds, both directions, q-current dither)"):
         record([0])
     with progress.stage("identification from the running logs (no torque sensor)"):
         ident = identify(logs, motor, RotaryIdentifyOptions(orders=orders))
+        set_aside, shares = 0.0, settings.speed_shares
+        clock = slower_for_the_host_clock(ident.host_clock, settings)
+        if clock is not None:
+            # the first round is set aside: its timing readings were made through the clock at the faster speeds
+            set_aside, shares = round_seconds, clock.speed_shares
+            refs = running_references(motor, a_nom, clock, orders)
+            round_seconds = sum(r.n for r in refs) * ts
+            progress.info(f"the logged angle carries a host's clock ({ident.host_clock['sigma_t_us']:.3g} µs RMS): "
+                          f"recording again at {', '.join(f'{s:g}' for s in shares)} of the alias guard's limit "
+                          f"(timing errors cost in proportion to the speed); the first round's {set_aside:.0f} s set "
+                          "aside")
+            logs.clear()
+            first_k = 1
+            record([0])
+            ident = identify(logs, motor, RotaryIdentifyOptions(orders=orders))
+            budget_left = budget - set_aside
+        else:
+            budget_left = budget
         # the current's timing is the drive's: detected once, kept for the longer logs
         delay = ident.current_delay["samples"]
         lag = lag_of(ident.current_delay)
-        rounds, max_rounds = 1, max(1, math.floor(budget / round_seconds))
+        rounds, max_rounds = 1, max(1, math.floor(budget_left / round_seconds))
         first = {k: dict(ident.standard_error[k]) for k in ("cogging", "ripple")}
         first_timing = dict(ident.current_delay)
         progress.info(delay_text(first_timing))
         if not settings.stop_when_resolved and max_rounds > 1:
-            progress.info(f"recording the rest of the budget: {max_rounds - 1} more round(s) ({budget:.0f} s)")
+            progress.info(f"recording the rest of the budget: {max_rounds - 1} more round(s) ({budget_left:.0f} s)")
             record(range(1, max_rounds))
             rounds = max_rounds
             ident = identify(logs, motor, RotaryIdentifyOptions(orders=orders, current_delay=delay, current_lag=lag))
@@ -376,8 +424,9 @@ def record_running_logs(truth: RotaryTruth, settings: RotarySettings = RotarySet
             rounds += more
             ident = identify(logs, motor, RotaryIdentifyOptions(orders=orders, current_delay=delay, current_lag=lag))
         ident = replace(ident, rounds=rounds, first_round_standard_error=first, log_budget_s=budget,
-                        current_delay={**first_timing, "samples": delay})
-    return RunningLogs(logs, ident, rounds, round_seconds, delay, lag)
+                        current_delay={**first_timing, "samples": delay}, speed_shares=list(shares),
+                        set_aside_s=set_aside)
+    return RunningLogs(logs, ident, rounds, round_seconds, delay, lag, set_aside)
 
 
 

@@ -78,7 +78,7 @@ _RUNNING_KEYS = ("windows", "windows_used", "windows_refused_alias", "windows_re
                  "pinned", "time_lines", "back_emf", "current_noise_A", "current_noise_from",
                  "current_noise_correction", "host_clock", "seconds")
 #: ... and those written only when set: the alias guard's note, and what a rotary experiment's rounds of logs add.
-_OPTIONAL_KEYS = ("note", "rounds", "first_round_standard_error", "log_budget_s")
+_OPTIONAL_KEYS = ("note", "rounds", "first_round_standard_error", "log_budget_s", "speed_shares", "set_aside_s")
 #: ... and an identification with a torque sensor.
 _TORQUE_KEYS = ("k0", "cost_Nm2", "seconds")
 
@@ -120,7 +120,9 @@ class RotaryIdentification:
             (:func:`pgcomm.rotary.host_clock.weigh`).
         note: the alias guard's refusals in words, where it refused windows.
         rounds, first_round_standard_error, log_budget_s: set by a rotary experiment that logs in rounds
-            (:func:`pgcomm.rotary.experiment.record_running_logs`).
+            (:func:`pgcomm.rotary.experiment.record_running_logs`); speed_shares: the speeds the identified rounds ran
+            at (shares of the alias guard's limit); set_aside_s: a first round recorded and set aside (s, where the
+            logs carried a host's clock, :func:`pgcomm.rotary.experiment.slower_for_the_host_clock`).
     """
 
     model: RotaryModel
@@ -162,6 +164,8 @@ class RotaryIdentification:
     rounds: int | None = None
     first_round_standard_error: dict | None = None
     log_budget_s: float | None = None
+    speed_shares: list | None = None
+    set_aside_s: float | None = None
 
     def to_dict(self) -> dict:
         """``results.json``'s ``identification``: the fields as JSON-ready data (a deep copy; the torque sensor's
