@@ -66,9 +66,13 @@ def test_speeds_respect_the_alias_guard_in_both_directions(name):
     assert len(speeds) == st.speeds
     for w in speeds:  # both directions at every speed
         assert sorted(np.sign(r.speed) for r in plan.runs if abs(r.speed) == w) == [-1.0, 1.0]
-    # from slow to near the guard: the fastest, with the dither's largest swing, at the guard's margin
+    # the fastest at top_share of the guard's limit (a host's clock), within the guard's margin with the dither's
+    # largest swing; where top_share is no bound, at that margin
     assert speeds[0] / speeds[-1] == pytest.approx(st.lowest_share, rel=1e-12)
-    assert speeds[-1] * (1 + st.swing) == pytest.approx(st.guard_margin * v_lim, rel=1e-12)
+    assert speeds[-1] == pytest.approx(st.top_share * v_lim, rel=1e-12)
+    assert speeds[-1] * (1 + st.swing) <= st.guard_margin * v_lim
+    free = first_plan(motor, replace(st, top_share=1.0))
+    assert max(abs(r.speed) for r in free.runs) * (1 + st.swing) == pytest.approx(st.guard_margin * v_lim, rel=1e-12)
     for r in plan.runs:
         ref = r.reference(plan.sample_time)
         assert np.max(np.abs(ref["speed"])) <= abs(r.speed) * (1 + 1e-12)

@@ -15,7 +15,9 @@ What :func:`pgcomm.rotary.identify.identify` reads from running logs, and what e
 whose highest modelled order (:meth:`~pgcomm.rotary.regression.Orders.for_motor`: ``3 LCM(Q, 2p)`` on most motors)
 has at least :data:`~pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period at the log's period ``T_s``:
 ``ω_max = 2π / (T_s · 3 · h_max)``. The fastest run cruises at ``guard_margin · ω_max / (1 + swing)``, so that with
-the dither's largest swing it stays within the guard with a margin for the cogging's own speed ripple; the others
+the dither's largest swing it stays within the guard with a margin for the cogging's own speed ripple, and at most at
+``top_share · ω_max`` (0.2): the rows are stamped by the host, whose clock blurs the logs' timing, and a timing error
+costs a phase in proportion to the speed (:class:`RotaryPlanSettings`); the others
 sit geometrically below it down to ``lowest_share`` of it, each in both directions. Without the slot count the
 highest order is unknown: the plan then takes :data:`pgcomm.rotary.slots.MAX_ORDER`, the highest order the slot
 count's detection examines.
@@ -107,6 +109,11 @@ class RotaryPlanSettings:
         lowest_share: slowest speed as a share of the fastest [0.25]; 0 < share ≤ 1.
         guard_margin: the fastest run's speed with the dither's swing, as a share of the alias guard's limit [0.9]: the
             rest is room for the cogging's own speed ripple.
+        top_share: the fastest run's cruise speed as a share of the alias guard's limit, at most [0.2, as ``pgcomm
+            reproduce``'s ``host_clock_speed_shares``]. The plan's script stamps each row on the host when it reads the
+            drive, and a host's clock blurs what the identification reads of the logs' timing (the current's delay, a
+            report filter, a PLL's lag): a timing error ``δτ`` costs order ``h`` the phase ``h ω δτ``, less at lower
+            speeds (:attr:`pgcomm.settings.RotarySettings.host_clock_speed_shares`).
         swing: the dither's largest speed swing as a share of the run's speed [0.8, as ``pgcomm reproduce``'s running
             logs]; 0 < swing < 1 keeps the sign. The dither's current at the fastest run grows as
             ``swing / (1 + swing)``, the ripple's information as its square (``python bench/rotary_plan.py`` compares
@@ -130,6 +137,7 @@ class RotaryPlanSettings:
     speeds: int = 4
     lowest_share: float = 0.25
     guard_margin: float = 0.9
+    top_share: float = 0.2
     swing: float = 0.8
     dither_share: float = 0.5
     dither_count: int = 3
@@ -145,6 +153,7 @@ class RotaryPlanSettings:
         checks = (("speeds", self.speeds >= 1 and int(self.speeds) == self.speeds, "an integer >= 1"),
                   ("lowest_share", 0.0 < self.lowest_share <= 1.0, "in (0, 1]"),
                   ("guard_margin", 0.0 < self.guard_margin <= 1.0, "in (0, 1]"),
+                  ("top_share", 0.0 < self.top_share <= 1.0, "in (0, 1]"),
                   ("swing", 0.0 < self.swing < 1.0, "in (0, 1): a swing of 1 would stop the rotor"),
                   ("dither_share", 0.0 <= self.dither_share <= 1.0, "in [0, 1]"),
                   ("dither_count", self.dither_count >= 1 and int(self.dither_count) == self.dither_count,
@@ -294,8 +303,9 @@ def highest_order(motor: RotaryMotor) -> int:
 def segment_speeds(speed_limit: float, settings: RotaryPlanSettings) -> np.ndarray:
     """The cruise speeds per direction (rad/s, positive, slowest first).
 
-    The fastest is ``guard_margin · speed_limit / (1 + swing)``: with the dither's largest swing it stays within the
-    guard's margin; the others are geometric down to ``lowest_share`` of it.
+    The fastest is ``min(guard_margin / (1 + swing), top_share) · speed_limit``: with the dither's largest swing it
+    stays within the guard's margin, and at most ``top_share`` of the limit (a host's clock,
+    :class:`RotaryPlanSettings`); the others are geometric down to ``lowest_share`` of it.
 
     Args:
         speed_limit: the alias guard's limit (rad/s, :func:`pgcomm.rotary.regression.max_speed`).
@@ -304,7 +314,7 @@ def segment_speeds(speed_limit: float, settings: RotaryPlanSettings) -> np.ndarr
     Returns:
         ``(speeds,)`` rad/s.
     """
-    top = settings.guard_margin * speed_limit / (1.0 + settings.swing)
+    top = min(settings.guard_margin / (1.0 + settings.swing), settings.top_share) * speed_limit
     if settings.speeds == 1:
         return np.array([top])
     return top * settings.lowest_share ** (1.0 - np.arange(settings.speeds) / (settings.speeds - 1))
