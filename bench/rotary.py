@@ -1,6 +1,9 @@
 """Rotary zoo figures: identification error vs truth, tracking ratio law/standstill, time.
 
-Usage: ``python bench/rotary.py [--motors 8] [--first 0] [--seed 0] [--quick] [--control-per-log K] [--real-drive]``
+Usage: ``python bench/rotary.py [--motors 8] [--first 0] [--seed 0] [--quick] [--control-per-log K] [--real-drive]
+[--speed-shares 0.3 0.5] [--host-clock-speed-shares 0.1 0.2] [--revolutions 2]`` (the last three: the running logs'
+:class:`pgcomm.settings.RotarySettings`; ``--host-clock-speed-shares`` with no value keeps the faster runs where the
+logs carry a host's clock)
 (``--real-drive``: the zoo motors with a real drive's and host's habits, :func:`pgcomm.rotary.zoo.draw_rotary`). Per motor it runs
 :func:`pgcomm.rotary.experiment.run` (running logs -> identification without a torque sensor,
 standstill sweep of 3600 angles, four rows in closed loop) and prints:
@@ -46,6 +49,9 @@ def main(argv=None) -> int:
     ap.add_argument("--first", type=int, default=0, help="the first motor's index")
     ap.add_argument("--speed-shares", type=float, nargs="+", default=None,
                     help="the running logs' speeds as shares of the alias guard's limit (RotarySettings.speed_shares)")
+    ap.add_argument("--host-clock-speed-shares", type=float, nargs="*", default=None,
+                    help="the speeds where the first round's angle carries a host's clock (RotarySettings."
+                         "host_clock_speed_shares; none given: keep --speed-shares)")
     ap.add_argument("--revolutions", type=float, default=None,
                     help="revolutions per running-log segment (RotarySettings.revolutions)")
     args = ap.parse_args(argv)
@@ -56,6 +62,8 @@ def main(argv=None) -> int:
     settings = quick_settings() if args.quick else RotarySettings()
     if args.speed_shares:
         settings = replace(settings, speed_shares=tuple(args.speed_shares))
+    if args.host_clock_speed_shares is not None:
+        settings = replace(settings, host_clock_speed_shares=tuple(args.host_clock_speed_shares))
     if args.revolutions:
         settings = replace(settings, revolutions=args.revolutions)
     print(f"{'#':>2} {'motor':7s} {'K':>3s} {'cog err':>8s} {'rip err':>8s} {'dir err':>8s} {'pos ratio':>9s} "
