@@ -552,6 +552,17 @@ def test_resolution_verdict_says_what_would_help():
     enc = resolution_verdict({"resolved": False, "ridge_bias": 0.01, "quantisation_bias": 0.76,
                               "log_time_factor_to_resolve": float("inf"), "excitation_hint": "more q-current"})
     assert "encoder's rounding could move it by 76 %" in enc and "accelerations" in enc and "x the running" not in enc
+    # parts that reach the share only together (none alone, the largest the encoder's): named with their sum, no
+    # log time (an infinite factor: _time_factor of these parts)
+    from pgcomm.rotary.identify import _time_factor
+
+    together = {"resolved": False, "ridge_bias": 0.02, "quantisation_bias": 0.04, "pll_bias": 0.02,
+                "current_noise_bias": 0.02, "relative_at_confidence": 0.01}
+    together["log_time_factor_to_resolve"] = _time_factor(0.01, math.hypot(0.02, 0.04, 0.02, 0.02))
+    assert together["log_time_factor_to_resolve"] == float("inf")
+    both = resolution_verdict(together, log_seconds=10.0)
+    assert f"reaches {100 * math.hypot(0.02, 0.04, 0.02, 0.02):.1f} % of it together" in both, both
+    assert "the encoder's rounding 4.0 %" in both and "the ridge 2.0 %" in both and "x the running" not in both
     # a drive PLL's reading of the angle: likewise
     part = resolution_verdict({"resolved": False, "ridge_bias": 0.0, "pll_bias": 0.034,
                                "log_time_factor_to_resolve": 1.3, "relative_at_confidence": 0.035})

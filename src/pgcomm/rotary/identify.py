@@ -657,6 +657,14 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
         return (f"not resolved: the encoder's rounding could move it by {100 * entry['quantisation_bias']:.0f} % (the "
                 "logs hardly carry the rotor's acceleration above it; log accelerations or a dither, or use a finer "
                 "encoder)")
+    if not math.isfinite(entry["log_time_factor_to_resolve"]):
+        # the parts longer logs do not change reach the share together, none of them alone
+        fixed = {"the ridge": ridge, "the encoder's rounding": quant, "the PLL's reading": pll,
+                 "the current's noise correction": cur}
+        listed = ", ".join(f"{k} {100 * v:.1f} %" for k, v in fixed.items() if v >= 0.1 * RESOLVED_SHARE)
+        return (f"not resolved: what longer logs of the same kind do not change reaches "
+                f"{100 * math.hypot(*fixed.values()):.1f} % of it together ({listed}); a dither or accelerations "
+                "(more acceleration above the encoder's rounding, more q-current variation at each angle) shrink it")
     # rounded up to a tenth: a factor just above 1 would otherwise read "1.0x", as if no more log were needed
     factor = max(1.1, math.ceil(10 * entry["log_time_factor_to_resolve"]) / 10)
     total = "" if log_seconds is None else f" ({factor * log_seconds:.0f} s)"
