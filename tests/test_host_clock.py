@@ -173,7 +173,9 @@ def test_the_experiment_runs_slower_where_the_first_round_finds_a_host_clock():
     ident = rec.identification
     a = t.inertia / t.k0
     fast = running_references(t.motor, a, s, Orders.for_motor(t.motor))
-    slow = running_references(t.motor, a, replace(s, speed_shares=s.host_clock_speed_shares, revolutions=0.75),
+    # each slower segment: revolutions times the ratio of the mean speeds (a round about as long)
+    revs = s.revolutions * np.mean(s.host_clock_speed_shares) / np.mean(s.speed_shares)
+    slow = running_references(t.motor, a, replace(s, speed_shares=s.host_clock_speed_shares, revolutions=float(revs)),
                               Orders.for_motor(t.motor))
     assert ident.host_clock["resolved"]
     assert ident.speed_shares == list(s.host_clock_speed_shares)
