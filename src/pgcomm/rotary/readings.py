@@ -48,7 +48,7 @@ from scipy.optimize import minimize
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _basis_costs, \
-    _angle_parts, _evidence, _prepare
+    _angle_parts, _evidence, _log_time, _prepare
 from pgcomm.settings import RotaryIdentifyOptions
 
 #: Delays (samples) of the logged q-current behind the current that acted over each sample that
@@ -497,7 +497,8 @@ def _timing(delay: int, lag: float | None) -> dict:
     return {"samples": int(delay), "held": lag is None, "lag": 0.0 if lag is None else float(lag)}
 
 
-def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: float, damping: float) -> np.ndarray:
+def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: float, damping: float,
+                  t: np.ndarray | None = None) -> np.ndarray:
     """The rotor's angle from a drive's estimate of it: the output of a type-2 phase-locked loop,
     ``θ̂ = (k_p s + k_i) / (s² + k_p s + k_i) θ`` with ``k_p = 2 ζ ω_n``, ``k_i = ω_n²`` (ODrive's encoder PLL:
     ``ζ = 1``, ``ω_n`` its bandwidth). Solved for ``θ``: ``θ = θ̂ + s² / (k_p s + k_i) θ̂``, applied in the
@@ -506,9 +507,16 @@ def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: floa
     ``θ̂`` less the line through its ends, extended oddly (continuous with its slope, so only a few samples at each
     end feel the extension).
 
+    A host's time stamps are not uniform (steps of ±14 % and more): read as uniform, the angle's steps of ``ω dt``
+    turn into an acceleration the correction's ``s²`` amplifies (on a rotor at 0.5 rad/s with a 576 rad/s PLL, a
+    basis fit ten times worse than with no correction). With ``t``, the estimate is taken onto a uniform grid of
+    ``sample_time`` through the cubic spline on the stamps, corrected there, and the correction brought back to the
+    stamps by the same spline.
+
     Args:
-        theta: ``(N,)`` the logged estimate (rad); sample_time: s; natural_frequency: ``ω_n`` (rad/s);
-        damping: ``ζ``.
+        theta: ``(N,)`` the logged estimate (rad); sample_time: s (the median step where ``t`` is given);
+        natural_frequency: ``ω_n`` (rad/s); damping: ``ζ``; t: ``(N,)`` increasing time stamps (s), or ``None``:
+        uniform at ``sample_time``.
 
     Returns:
         ``(N,)`` rad.
@@ -517,6 +525,15 @@ def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: floa
     n = th.size
     if n < 3:
         return th.copy()
+    if t is not None:
+        t = np.asarray(t, float)
+        h = float(sample_time)
+        grid = t[0] + h * np.arange(int(math.floor((t[-1] - t[0]) / h)) + 1)
+        if grid.size >= 3:
+            on_grid = CubicSpline(t, th)(grid)
+            correction = pll_corrected(on_grid, h, natural_frequency, damping) - on_grid
+            # the grid ends at or before the last stamp: the spline extrapolates by less than a step
+            return th + CubicSpline(grid, correction)(t)
     kp, ki = 2.0 * damping * natural_frequency, natural_frequency**2
     x = th - np.linspace(th[0], th[-1], n)
     ext = np.concatenate([x, -x[-2:0:-1]])
@@ -531,7 +548,7 @@ def _with_pll(prepared, pll) -> list:
     # the same corrected angle for the same reading: the search tries each PLL several times, and the fit's angle parts
     # are kept per angle array (pgcomm.rotary.regression.angle_parts_kept)
     return [replace(p, theta=_angle_parts().derived(p.theta, ("pll", p.ts, *pll),
-                                                  lambda p=p: pll_corrected(p.theta, p.ts, *pll))) for p in prepared]
+                                                  lambda p=p: pll_corrected(p.theta, p.ts, *pll, t=p.t))) for p in prepared]
 
 
 def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()) -> dict:
@@ -699,7 +716,7 @@ def apply_reading(log: dict, current_delay: int, angle_pll, sample_time: float) 
     if angle_pll is not None:
         t = np.asarray(log["t"], float) if "t" in log else None
         ts = float(np.median(np.diff(t))) if t is not None and t.size > 1 else float(sample_time)
-        out["theta"] = pll_corrected(np.asarray(log["theta"], float), ts, *angle_pll)
+        out["theta"] = pll_corrected(np.asarray(log["theta"], float), ts, *angle_pll, t=_log_time(log))
     return out
 
 
