@@ -974,6 +974,37 @@ def _continuous_pll(t) -> tuple[float, float]:
     return t.pll_bandwidth / math.sqrt(1 - g), 1 / math.sqrt(1 - g)
 
 
+def test_a_report_filter_under_a_dither_is_read_by_the_share_of_the_current_unexplained():
+    """Zoo motor 2:4 with a real drive's habits (a 60.5 ms report filter, a host's clock, a PLL's angle, corrected
+    here at the twin's own PLL) and its 100 Hz dither: read back, the current's moving part grows with ``τ``, and in
+    amperes the fit is best at a filter a quarter of the twin's or less. Compared by the share of the current each
+    reading leaves unexplained (:func:`pgcomm.rotary.regression._unexplained`), the filter is read within 10 % of
+    the twin's."""
+    from pgcomm.rotary.experiment import _tuned_drive, running_log
+    from pgcomm.rotary.identify import _guard
+    from pgcomm.rotary.readings import REPORT_FILTERS, _report_filter, _with_delay, _with_pll, _with_report
+    from pgcomm.rotary.regression import _Layout, _basis_costs, _prepare, angle_parts_kept
+    from pgcomm.seeds import stream_seed
+
+    t = draw_rotary(2, 4, real_drive=True)
+    assert t.report_filter > 0.05 and t.pll_bandwidth > 0 and t.host_jitter > 0
+    orders, a_nom, gains, classical = _tuned_drive(t)
+    logs = [running_log(t, ref, classical, gains, stream_seed(0, "rotary running log", 0, i))
+            for i, ref in enumerate(running_references(t.motor, a_nom, quick_settings(), orders))]
+    options = RotaryIdentifyOptions()
+    min_samples, taps = _guard(options)
+    with angle_parts_kept():
+        prepared = _prepare(logs, t.motor, orders, min_samples, taps, options.encoder_step)[0]
+        prepared = _with_delay(_with_pll(prepared, (t.pll_bandwidth, 1.0)), 0, 0.5 / t.control_per_log)
+        layout = _Layout.of(orders)
+        ts = float(np.median([p.ts for p in prepared]))
+        taus = [f * ts for f in REPORT_FILTERS]
+        amperes = [c for c, _ in _basis_costs([_with_report(prepared, tau) for tau in taus], layout, taps)]
+        found = _report_filter(prepared, layout, taps)
+    assert taus[int(np.argmin(amperes))] <= 0.25 * t.report_filter
+    assert found["tau_s"] == pytest.approx(t.report_filter, rel=0.1)
+
+
 def test_a_pll_and_a_report_filter_are_refined_together():
     """A drive PLL's angle and a filtered current report (ODrive logs both) each lag the current against the
     acceleration: started where a reading of one after the other settles (the PLL 1.7 times too fast, the current's

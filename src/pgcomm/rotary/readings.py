@@ -74,6 +74,9 @@ PLL_FREQUENCIES = tuple(float(x) for x in np.geomspace(50.0, 5000.0, 13))
 #: to be searched again under a report filter (:func:`_pll_under_filter`): where it is less, the logs are too slow
 #: for a PLL's lag to show.
 PLL_SECOND_START = 10.0
+#: The report filters (shares of the one read first) under which :func:`_pll_under_filter` searches the PLL again: a
+#: filter read under a PLL too fast has taken the PLL's lag and reads long (a twin's 17.3 ms at 25-28 ms).
+SECOND_START_FILTERS = (1.0, 0.8, 0.64)
 #: Dampings tried at the best natural frequency (1: ODrive's ``k_i = k_p² / 4``).
 PLL_DAMPINGS = (1.0, 0.707)
 #: The dampings the joint refinement (:func:`_refined`) may reach: a discrete PLL reads as a continuous one of higher
@@ -178,30 +181,35 @@ def _with_report(prepared, tau: float) -> list:
     return [replace(p, iq=unfiltered(p.iq, p.ts if p.t is None else p.t, tau)) for p in prepared]
 
 
-def _reading_cost(prepared, layout: "_Layout", taps: int, tau: float, pll, delay: int, lag) -> tuple[float, float]:
+def _reading_cost(prepared, layout: "_Layout", taps: int, tau: float, pll, delay: int, lag,
+                  relative: bool = False) -> tuple[float, float]:
     """The basis fit's ``(cost, rows)`` (:func:`pgcomm.rotary.regression._basis_cost`) with the logs read one way: the
     current through a report filter of ``tau`` (s), the angle through a PLL ``pll`` (``(ω_n, ζ)`` or ``None``), the
-    current ``delay`` samples late and held (``lag`` ``None``) or smooth ``lag`` samples late."""
-    return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), pll), delay, lag), layout, taps)
+    current ``delay`` samples late and held (``lag`` ``None``) or smooth ``lag`` samples late; with ``relative``,
+    the share of the current the fit leaves unexplained (:func:`pgcomm.rotary.regression._unexplained`), as
+    readings under different report filters are compared."""
+    return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), pll), delay, lag), layout, taps, relative)
 
 
 def _report_filter(prepared, layout: "_Layout", taps: int) -> dict:
     """The time constant of a first-order filter on the logged current (module docstring, "A filtered report"):
     the basis fit with the current read at each of :data:`REPORT_FILTERS` median steps and at the vertex of the
     parabola through the best and its neighbours; a filter only where its likelihood ratio (:func:`_evidence`) over the
-    current as logged exceeds :data:`READING_EVIDENCE`.
+    current as logged exceeds :data:`READING_EVIDENCE`. The fits are compared by the share of the current each leaves
+    unexplained (:func:`pgcomm.rotary.regression._unexplained`): read back, a filtered current grows, and in amperes
+    the current as logged would win by being small.
 
     Returns:
-        ``{"tau_s": float (0: as logged), "evidence": float, "cost_by_tau": {τ (s): A²}}``.
+        ``{"tau_s": float (0: as logged), "evidence": float, "cost_by_tau": {τ (s): share unexplained}}``.
     """
     ts = float(np.median([p.ts for p in prepared]))
     taus = [f * ts for f in REPORT_FILTERS]
-    found = _basis_costs([_with_report(prepared, tau) for tau in taus], layout, taps)
+    found = _basis_costs([_with_report(prepared, tau) for tau in taus], layout, taps, relative=True)
     costs = {tau: c for tau, (c, _) in zip(taus, found)}
     rows = found[0][1]
     tau = _vertex(sorted(costs.items()), 0.0, taus[-1])
     if tau is not None and tau not in costs:
-        costs[tau] = _basis_cost(_with_report(prepared, tau), layout, taps)[0]
+        costs[tau] = _basis_cost(_with_report(prepared, tau), layout, taps, relative=True)[0]
     best = min(costs, key=costs.get)
     evidence = _evidence(costs[0.0], costs[best], rows, taps)
     return {"tau_s": float(best) if evidence > READING_EVIDENCE else 0.0, "evidence": float(evidence),
@@ -223,7 +231,8 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
     * the filter first, on the current as logged (held between samples, or smooth through them: the better), then
       the reading under it (a filtered report is not read as late);
 
-    and the start whose basis fit (:func:`pgcomm.rotary.regression._basis_cost`) is the lower wins.
+    and the start whose basis fit (:func:`pgcomm.rotary.regression._basis_cost`, relative as the filter's readings
+    are compared) is the lower wins.
 
     Args:
         prepared: the logs (:func:`pgcomm.rotary.regression._prepare`); orders, taps: the basis and filter taps;
@@ -260,7 +269,7 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
     def cost(run):
         estimate, timing, found = run
         return _reading_cost(prepared, layout, taps, found["tau_s"], pll_of(estimate), timing["samples"],
-                             lag_of(timing))[0]
+                             lag_of(timing), relative=True)[0]
 
     detect_lag = isinstance(current_lag, str)
 
@@ -296,8 +305,8 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
 
 def _pll_under_filter(prepared, layout: "_Layout", taps: int, report: dict, timing: dict, estimate: dict):
     """A second start for :func:`_refined` where a report filter was read and the PLL searched: the PLL's grid under
-    the filter found, with the current held and smooth at each of :data:`CONTROL_LAGS`, then the joint refinement from
-    the best. Read first without the filter, the PLL can settle at the grid's fast end (no PLL), the filter then
+    the filter found and shorter ones (:data:`SECOND_START_FILTERS`), with the current held and smooth at each of
+    :data:`CONTROL_LAGS`, then the joint refinement from the best. Read first without the filter, the PLL can settle at the grid's fast end (no PLL), the filter then
     takes the PLL's lag and the current reads held (a twin's 896 rad/s PLL and 17.3 ms filter as 3560 rad/s and 25 ms,
     seven times the true reading's residual). The second reading is taken only where it fits better than the first by
     the likelihood ratio every reading must pass (:data:`READING_EVIDENCE`); it is tried only where the PLL's reading
@@ -315,20 +324,22 @@ def _pll_under_filter(prepared, layout: "_Layout", taps: int, report: dict, timi
     def cost(tau, estimate, lag):
         pll = (None if estimate["natural_frequency_rad_s"] is None
                else (estimate["natural_frequency_rad_s"], estimate["damping"]))
-        return _reading_cost(prepared, layout, taps, tau, pll, d, lag)
+        return _reading_cost(prepared, layout, taps, tau, pll, d, lag, relative=True)
 
     first, rows = cost(report["tau_s"], estimate, lag_of(timing))
-    grid = [(cost(report["tau_s"], {"natural_frequency_rad_s": w, "damping": 1.0}, lag)[0], w, lag)
+    grid = [(cost(tau, {"natural_frequency_rad_s": w, "damping": 1.0}, lag)[0], tau, w, lag)
+            for tau in (report["tau_s"] * f for f in SECOND_START_FILTERS)
             for lag in (None, *CONTROL_LAGS) for w in PLL_FREQUENCIES]
-    _, w, lag = min(grid, key=lambda g: g[0])
+    _, tau, w, lag = min(grid, key=lambda g: g[0])
     start_timing = {**timing, **_timing(d, lag)}
     start = {**estimate, "natural_frequency_rad_s": float(w), "damping": 1.0}
-    report2, timing2, estimate2 = _refined(prepared, layout, taps, report, start_timing, start,
+    report2, timing2, estimate2 = _refined(prepared, layout, taps, {**report, "tau_s": float(tau)}, start_timing, start,
                                            refine_lag=lag is not None)
     second = cost(report2["tau_s"], estimate2, lag_of(timing2))[0]
     if _evidence(first, second, rows, taps) <= READING_EVIDENCE:
         return None
-    estimate2 = {**estimate2, "cost": float(second), "second_start": True}
+    # its "cost" is _refined's, in amperes as the PLL's other costs
+    estimate2 = {**estimate2, "second_start": True}
     return estimate2, timing2, report2
 
 
@@ -376,7 +387,8 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
 
     def f(x):
         tau, lag, pll = unpack(x)
-        return _reading_cost(prepared, layout, taps, tau, pll, d, lag)[0]
+        # relative where τ moves: the read-back current's scale moves with it (_report_filter)
+        return _reading_cost(prepared, layout, taps, tau, pll, d, lag, relative=refine_tau)[0]
 
     x0 = np.array(([0.0] if refine_tau else []) + ([lag0] if refine_lag else []) + ([0.0] if w0 is not None else [])
                   + ([0.0] if w0 is not None and refine_damping else []))
@@ -397,10 +409,12 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
     if refine_lag:
         timing = {**timing, "lag": lag}
     if w0 is not None:
+        # the PLL's costs are in amperes: refined with τ, the fit's own again
+        cost = float(res.fun) if not refine_tau else _reading_cost(prepared, layout, taps, tau, pll, d, lag)[0]
         by_freq = dict(estimate.get("cost_by_frequency") or {})
-        by_freq[f"{pll[0]:.4g}"] = float(res.fun)
+        by_freq[f"{pll[0]:.4g}"] = cost
         estimate = {**estimate, "natural_frequency_rad_s": float(pll[0]), "damping": float(pll[1]),
-                    "cost": float(res.fun),
+                    "cost": cost,
                     "cost_by_frequency": by_freq, "refined": True}
     return report, timing, estimate
 
@@ -422,6 +436,8 @@ def _vertex(points, lo: float, hi: float) -> float | None:
     if j == 0 or j == len(points) - 1:
         return None
     (x0, y0), (x1, y1), (x2, y2) = points[j - 1:j + 2]
+    if not all(math.isfinite(y) for y in (y0, y1, y2)):
+        return None
     den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0)
     if den >= 0:
         return None
