@@ -306,12 +306,13 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
 def _pll_under_filter(prepared, layout: "_Layout", taps: int, report: dict, timing: dict, estimate: dict):
     """A second start for :func:`_refined` where a report filter was read and the PLL searched: the PLL's grid under
     the filter found and shorter ones (:data:`SECOND_START_FILTERS`), with the current held and smooth at each of
-    :data:`CONTROL_LAGS`, then the joint refinement from the best. Read first without the filter, the PLL can settle at the grid's fast end (no PLL), the filter then
-    takes the PLL's lag and the current reads held (a twin's 896 rad/s PLL and 17.3 ms filter as 3560 rad/s and 25 ms,
-    seven times the true reading's residual). The second reading is taken only where it fits better than the first by
-    the likelihood ratio every reading must pass (:data:`READING_EVIDENCE`); it is tried only where the PLL's reading
-    matters, the slowest PLL of the grid fitting :data:`PLL_SECOND_START` times worse than the angle as logged (on
-    logs too slow for a PLL's lag to show, 1.7 times on the ODrive's, it would cost time and change nothing).
+    :data:`CONTROL_LAGS`, then the joint refinement from the best. Read first without the filter, the PLL can
+    settle at the grid's fast end (no PLL), the filter then takes the PLL's lag and the current reads held (a twin's
+    896 rad/s PLL and 17.3 ms filter as 3560 rad/s and 25 ms, seven times the true reading's residual). The second
+    reading is taken only where it fits better than the first by the likelihood ratio every reading must pass
+    (:data:`READING_EVIDENCE`); it is tried only where the PLL's reading matters, the slowest PLL of the grid fitting
+    :data:`PLL_SECOND_START` times worse than the angle as logged (on logs too slow for a PLL's lag to show, 1.7
+    times on the ODrive's, it would cost time and change nothing).
 
     Returns:
         ``(estimate, timing, report)`` of the second reading, or ``None`` where the first stands.
@@ -333,8 +334,8 @@ def _pll_under_filter(prepared, layout: "_Layout", taps: int, report: dict, timi
     _, tau, w, lag = min(grid, key=lambda g: g[0])
     start_timing = {**timing, **_timing(d, lag)}
     start = {**estimate, "natural_frequency_rad_s": float(w), "damping": 1.0}
-    report2, timing2, estimate2 = _refined(prepared, layout, taps, {**report, "tau_s": float(tau)}, start_timing, start,
-                                           refine_lag=lag is not None)
+    report2, timing2, estimate2 = _refined(prepared, layout, taps, {**report, "tau_s": float(tau)}, start_timing,
+                                           start, refine_lag=lag is not None)
     second = cost(report2["tau_s"], estimate2, lag_of(timing2))[0]
     if _evidence(first, second, rows, taps) <= READING_EVIDENCE:
         return None
@@ -564,7 +565,8 @@ def _with_pll(prepared, pll) -> list:
     # the same corrected angle for the same reading: the search tries each PLL several times, and the fit's angle parts
     # are kept per angle array (pgcomm.rotary.regression.angle_parts_kept)
     return [replace(p, theta=_angle_parts().derived(p.theta, ("pll", p.ts, *pll),
-                                                  lambda p=p: pll_corrected(p.theta, p.ts, *pll, t=p.t))) for p in prepared]
+                                                  lambda p=p: pll_corrected(p.theta, p.ts, *pll, t=p.t)))
+            for p in prepared]
 
 
 def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()) -> dict:
