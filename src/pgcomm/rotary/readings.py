@@ -353,7 +353,7 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
     valley's side: read one after the other, a 17.3 ms filter and an 896 rad/s PLL on a twin's logs were read as
     19 ms and 1580 rad/s with a third of a sample's lag; refined together, 15.6 ms and 902 rad/s, at a seventh of
     the fit's mean squared residual. The natural frequency stays within the searched :data:`PLL_FREQUENCIES`, the
-    damping within :data:`PLL_DAMPING_RANGE`.
+    damping within :data:`PLL_DAMPING_RANGE`, the filter within the longest of :data:`REPORT_FILTERS` (or its start).
 
     The damping is refined last, from the reading the others settled on, with or without a filter (free from the
     start, it let a reading that began at the grid's fast end stay there at the lowest damping): a drive's PLL runs
@@ -375,9 +375,14 @@ def _refined(prepared, layout: "_Layout", taps: int, report: dict, timing: dict,
     zeta = estimate["damping"]
     z_lo, z_hi = PLL_DAMPING_RANGE
 
+    # within the filters searched (REPORT_FILTERS): compared by the share unexplained (_report_filter), the read-back
+    # tends to τ di/dt as τ grows, a share that no longer depends on τ, and the simplex could walk off along it
+    # (on zoo motor 2:0 with a real drive's habits, to 1e9 s)
+    tau_max = max(REPORT_FILTERS) * float(np.median([p.ts for p in prepared]))
+
     def unpack(x):
         # relative steps in τ and ω_n: the cost's scale in each is the value itself
-        tau = tau0 * math.exp(x[0]) if refine_tau else tau0
+        tau = min(tau0 * math.exp(x[0]), max(tau_max, tau0)) if refine_tau else tau0
         lag = float(np.clip(x[int(refine_tau)], -0.5, 0.5)) if refine_lag else lag0
         # within the natural frequencies searched: beyond them the reading is the angle as logged's
         if w0 is None:
