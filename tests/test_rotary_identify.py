@@ -974,23 +974,30 @@ def _continuous_pll(t) -> tuple[float, float]:
     return t.pll_bandwidth / math.sqrt(1 - g), 1 / math.sqrt(1 - g)
 
 
+def _quick_round(t):
+    """``(orders, logs)``: one round of the quick settings' running logs on twin ``t``, driven as the experiment
+    drives it (classical commutation at the nominal ``J/k0``'s gains; the experiment's first noise streams)."""
+    from pgcomm.rotary.experiment import _tuned_drive, running_log
+    from pgcomm.seeds import stream_seed
+
+    orders, a_nom, gains, classical = _tuned_drive(t)
+    return orders, [running_log(t, ref, classical, gains, stream_seed(0, "rotary running log", 0, i))
+                    for i, ref in enumerate(running_references(t.motor, a_nom, quick_settings(), orders))]
+
+
 def test_a_report_filter_under_a_dither_is_read_by_the_share_of_the_current_unexplained():
     """Zoo motor 2:4 with a real drive's habits (a 60.5 ms report filter, a host's clock, a PLL's angle, corrected
     here at the twin's own PLL) and its 100 Hz dither: read back, the current's moving part grows with ``τ``, and in
     amperes the fit is best at a filter a quarter of the twin's or less. Compared by the share of the current each
     reading leaves unexplained (:func:`pgcomm.rotary.regression._unexplained`), the filter is read within 10 % of
     the twin's."""
-    from pgcomm.rotary.experiment import _tuned_drive, running_log
     from pgcomm.rotary.identify import _guard
     from pgcomm.rotary.readings import REPORT_FILTERS, _report_filter, _with_delay, _with_pll, _with_report
     from pgcomm.rotary.regression import _Layout, _basis_costs, _prepare, angle_parts_kept
-    from pgcomm.seeds import stream_seed
 
     t = draw_rotary(2, 4, real_drive=True)
     assert t.report_filter > 0.05 and t.pll_bandwidth > 0 and t.host_jitter > 0
-    orders, a_nom, gains, classical = _tuned_drive(t)
-    logs = [running_log(t, ref, classical, gains, stream_seed(0, "rotary running log", 0, i))
-            for i, ref in enumerate(running_references(t.motor, a_nom, quick_settings(), orders))]
+    orders, logs = _quick_round(t)
     options = RotaryIdentifyOptions()
     min_samples, taps = _guard(options)
     with angle_parts_kept():
@@ -1064,18 +1071,14 @@ def test_a_pll_and_a_report_filter_read_from_the_logs():
     a sample of its lag, the filter within 2 % of where a refinement from the twin's own reading ends (the valley
     along which the filter and the lag trade is flat) and within 5 % of the twin's. A PLL given rather than searched
     is held through the joint refinement (a second formulation: the angle corrected for it first)."""
-    from pgcomm.rotary.experiment import _tuned_drive, running_log
     from pgcomm.rotary.identify import _guard
     from pgcomm.rotary.readings import _refined, _with_pll, read_logs
     from pgcomm.rotary.regression import _Layout, _prepare, angle_parts_kept
-    from pgcomm.seeds import stream_seed
 
     off = dict(host_jitter=0.0, host_gaps=0.0, stamp_noise=0.0, sensor_offset=(0.0, 0.0), sensor_gain=(0.0, 0.0),
                deadtime_error=0.0, deadtime_width=0.0)
     t = replace(draw_rotary(0, 0, real_drive=True), **off)
-    orders, a_nom, gains, classical = _tuned_drive(t)
-    logs = [running_log(t, ref, classical, gains, stream_seed(0, "rotary running log", 0, i))
-            for i, ref in enumerate(running_references(t.motor, a_nom, quick_settings(), orders))]
+    orders, logs = _quick_round(t)
     options = RotaryIdentifyOptions()
     min_samples, taps = _guard(options)
     with angle_parts_kept():
