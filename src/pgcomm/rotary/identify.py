@@ -207,7 +207,7 @@ def _design(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps: 
     """All filtered rows of all logs at once (for the few columns of :func:`fit_mechanics`)."""
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples, taps, encoder_step)
     prepared = _with_report(prepared, current_filter)
-    parts = list(_chunks(_with_delay(_with_pll(prepared, angle_pll), current_delay, current_lag), orders, taps,
+    parts = list(_chunks(_with_delay(_with_pll(prepared, angle_pll, taps), current_delay, current_lag), orders, taps,
                          lines=lines))
     return {k: np.concatenate([c[k] for c in parts]) for k in parts[0]}, counts, v_limit, ts
 
@@ -279,7 +279,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     prepared = _with_report(prepared, report["tau_s"])
     pll = angle(estimate)
     as_logged = _with_delay(prepared, timing["samples"], lag_of(timing))
-    prepared = _with_delay(_with_pll(prepared, pll), timing["samples"], lag_of(timing))
+    prepared = _with_delay(_with_pll(prepared, pll, taps), timing["samples"], lag_of(timing))
     if isinstance(time_lines, str):
         lines_info = _time_lines(prepared, orders, taps)
     else:

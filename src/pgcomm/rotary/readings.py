@@ -48,7 +48,7 @@ from scipy.optimize import minimize
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _basis_costs, \
-    _angle_parts, _evidence, _log_time, _prepare
+    _angle_parts, _evidence, _hann, _log_time, _prepare
 from pgcomm.settings import RotaryIdentifyOptions
 
 #: Delays (samples) of the logged q-current behind the current that acted over each sample that
@@ -188,7 +188,7 @@ def _reading_cost(prepared, layout: "_Layout", taps: int, tau: float, pll, delay
     current ``delay`` samples late and held (``lag`` ``None``) or smooth ``lag`` samples late; with ``relative``,
     the share of the current the fit leaves unexplained (:func:`pgcomm.rotary.regression._unexplained`), as
     readings under different report filters are compared."""
-    return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), pll), delay, lag), layout, taps, relative)
+    return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), pll, taps), delay, lag), layout, taps, relative)
 
 
 def _report_filter(prepared, layout: "_Layout", taps: int) -> dict:
@@ -257,7 +257,7 @@ def read_logs(prepared, orders: Orders, taps: int, encoder_step, current_delay, 
 
     def alternate(estimate, timing, report):
         for _ in range(2):
-            found = _report_filter(_with_delay(_with_pll(prepared, pll_of(estimate)), timing["samples"],
+            found = _report_filter(_with_delay(_with_pll(prepared, pll_of(estimate), taps), timing["samples"],
                                                lag_of(timing)), layout, taps)
             moved = found["tau_s"] != report["tau_s"]
             report = found
@@ -564,14 +564,52 @@ def pll_corrected(theta: np.ndarray, sample_time: float, natural_frequency: floa
     return th + np.fft.irfft(np.fft.rfft(ext) * (s * s / (kp * s + ki)), ext.size)[:n]
 
 
-def _with_pll(prepared, pll) -> list:
+def pll_noise_gain(sample_time: float, natural_frequency: float, damping: float, taps: int) -> float:
+    """The factor by which :func:`pll_corrected` multiplies the variance a white angle noise puts in a row's filtered
+    acceleration: ``∫ |W(f)|² |1 + H(f)|² df / ∫ |W(f)|² df``, ``W`` the row's weights on the angle (the second
+    difference through the Hann filter of ``taps``, :mod:`pgcomm.rotary.regression`), ``H = s² / (k_p s + k_i)`` the
+    correction.
+
+    A host's clock puts a white noise ``ω δt`` in the logged angle (:mod:`pgcomm.rotary.host_clock`), and its variance
+    in the acceleration is taken out of the fit. The correction amplifies it: above the PLL's bandwidth ``|H| ≈ ω /
+    k_p``, so a slower PLL's reading carries more of it. Left at the angle-as-logged's variance, each slower reading
+    would fit worse by the noise it adds, and the search would settle at the grid's fast end (a twin's 896 rad/s PLL
+    read at 2100 rad/s, with the report filter taking the lag the PLL left).
+
+    Args:
+        sample_time: the log's (median) step (s); natural_frequency: ``ω_n`` (rad/s); damping: ``ζ``; taps: the
+            acceleration filter's taps.
+
+    Returns:
+        the variance ratio (≥ 1 at ``ζ ≥ 1/√2``; dimensionless).
+    """
+    w = np.convolve(_hann(taps), [1.0, -2.0, 1.0])
+    n = 1 << 14
+    weights = np.abs(np.fft.fft(w, n)) ** 2
+    s = 2j * np.pi * np.fft.fftfreq(n, float(sample_time))
+    kp, ki = 2.0 * damping * natural_frequency, natural_frequency**2
+    gain = np.abs(1.0 + s * s / (kp * s + ki)) ** 2
+    return float(np.sum(weights * gain) / np.sum(weights))
+
+
+def _with_pll(prepared, pll, taps: int) -> list:
+    """``prepared`` with the angle corrected for a PLL ``pll`` (``(ω_n, ζ)`` or ``None``: as logged), and the host
+    clock's noise in the acceleration (:attr:`pgcomm.rotary.regression._Prepared.timing_noise`) scaled by what the
+    correction does to it (:func:`pll_noise_gain`)."""
     if pll is None:
         return prepared
     # the same corrected angle for the same reading: the search tries each PLL several times, and the fit's angle parts
     # are kept per angle array (pgcomm.rotary.regression.angle_parts_kept)
-    return [replace(p, theta=_angle_parts().derived(p.theta, ("pll", p.ts, *pll),
-                                                  lambda p=p: pll_corrected(p.theta, p.ts, *pll, t=p.t)))
-            for p in prepared]
+    cache = _angle_parts()
+    out = []
+    for p in prepared:
+        theta = cache.derived(p.theta, ("pll", p.ts, *pll), lambda p=p: pll_corrected(p.theta, p.ts, *pll, t=p.t))
+        noise = p.timing_noise
+        if noise is not None:
+            noise = cache.derived(noise, ("pll noise", p.ts, *pll, taps),
+                                  lambda p=p: p.timing_noise * pll_noise_gain(p.ts, *pll, taps))
+        out.append(replace(p, theta=theta, timing_noise=noise))
+    return out
 
 
 def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()) -> dict:
@@ -600,7 +638,7 @@ def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()
 
     plain, rows = cost_of(prepared)
     grid = np.asarray(PLL_FREQUENCIES, float)
-    costs = np.array([cost_of(_with_pll(prepared, (w, 1.0)))[0] for w in grid])
+    costs = np.array([cost_of(_with_pll(prepared, (w, 1.0), taps))[0] for w in grid])
     by_freq = {f"{w:.4g}": float(c) for w, c in zip(grid, costs)}  # results keys are strings
     j = int(np.argmin(costs))
     best, best_cost = (float(grid[j]), 1.0), float(costs[j])
@@ -610,7 +648,7 @@ def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()
         den = y[0] - 2 * y[1] + y[2]
         if den > 0:
             w = float(np.exp(x[1] + 0.5 * (y[0] - y[2]) / den * (x[1] - x[0])))
-            c = cost_of(_with_pll(prepared, (w, 1.0)))[0]
+            c = cost_of(_with_pll(prepared, (w, 1.0), taps))[0]
             by_freq[f"{w:.4g}"] = c
             if c < best_cost:
                 best, best_cost = (w, 1.0), c
@@ -618,7 +656,7 @@ def _angle_pll(prepared, layout: "_Layout", taps: int, smooth_delays: tuple = ()
         if z == 1.0:
             continue
         for w in grid[max(0, j - 1):j + 2]:
-            c = cost_of(_with_pll(prepared, (float(w), z)))[0]
+            c = cost_of(_with_pll(prepared, (float(w), z), taps))[0]
             if c < best_cost:
                 best, best_cost = (float(w), float(z)), c
     evidence = _evidence(plain, best_cost, rows, taps)
@@ -670,7 +708,7 @@ def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, a
             estimate, pll = read_angle(timing)
         for _ in range(2):
             if detect_delay or detect_form:
-                timing = _current_delay(_with_pll(prepared, pll), layout, taps, delays, lag)
+                timing = _current_delay(_with_pll(prepared, pll, taps), layout, taps, delays, lag)
             if not (search_pll and (timing["samples"] != 0 or not timing["held"])):
                 break
             before = pll
@@ -685,15 +723,15 @@ def _reading(prepared, orders: Orders, taps: int, encoder_step, current_delay, a
         # where the current then reads smooth, the angle is read again with the smooth current's lag fitted for each
         # PLL (_angle_pll's smooth_delay), and the two readings are compared on their own fits
         runs = [alternate(None, estimate, pll, timing)]
-        free = _current_delay(_with_pll(prepared, runs[0][1]), layout, taps, delays, "detect")
+        free = _current_delay(_with_pll(prepared, runs[0][1], taps), layout, taps, delays, "detect")
         if not free["held"]:
             d = free["samples"]
             found = {**_angle_pll(prepared, layout, taps, tuple(x for x in (d - 1, d) if x in delays)),
                      "searched": True}
             q = None if found["natural_frequency_rad_s"] is None else (found["natural_frequency_rad_s"],
                                                                        found["damping"])
-            runs.append((found, q, _current_delay(_with_pll(prepared, q), layout, taps, delays, "detect")))
-        cost = [_basis_cost(_with_delay(_with_pll(prepared, q), t["samples"], lag_of(t)), layout, taps)[0]
+            runs.append((found, q, _current_delay(_with_pll(prepared, q, taps), layout, taps, delays, "detect")))
+        cost = [_basis_cost(_with_delay(_with_pll(prepared, q, taps), t["samples"], lag_of(t)), layout, taps)[0]
                 for _, q, t in runs]
         estimate, pll, timing = runs[int(np.argmin(cost))]
     else:
