@@ -229,6 +229,26 @@ def test_training_beats_physics_and_decreases_monotonically(trained):
     assert d["cost_pgnn"] == r.cost_pgnn and d["n_starts"] == 4 and len(d["start_costs"]) == 4
 
 
+def test_a_start_stopped_by_the_iteration_cap_is_reported_as_not_converged(trained):
+    """25 iterations do not converge these starts: the result says so, in the results' keys and in one line, with
+    the share the cost still fell over the last 10 iterations read off the history. A converged stop says nothing."""
+    from dataclasses import replace
+
+    from pgcomm.identify.result import FALL_WINDOW, STOP_REASONS
+
+    r = trained
+    assert r.stop_reason == STOP_REASONS[4] and not r.converged
+    (hist,) = r.history
+    assert r.final_fall == pytest.approx(1.0 - hist[-1] / hist[-1 - FALL_WINDOW], rel=1e-12)
+    assert r.final_fall > 0.0
+    text = r.convergence_text()
+    assert "not converged" in text and "max_iterations" in text and r.name in text
+    d = r.to_dict()
+    assert d["converged"] is False and d["cost_fall_last_iterations"] == r.final_fall
+    done = replace(r, stop_reason=STOP_REASONS[1])
+    assert done.converged and done.convergence_text() is None and done.to_dict()["converged"] is True
+
+
 def test_same_seed_same_parameters(data, trained):
     again = idf.identify(data, D_M, idf.IdentifyOptions(starts=4, max_iterations=25, subsample=1), seed=3)
     for a, b in zip(jax.tree_util.tree_leaves(trained.model), jax.tree_util.tree_leaves(again.model)):

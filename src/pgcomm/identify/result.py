@@ -12,6 +12,9 @@ from pgcomm.models import CoilSetModel
 STOP_REASONS = {0: "running", 1: "relative cost change below tol", 2: "step below tol",
                 3: "damping above 1e10 (no further decrease)", 4: "maximum iterations", 5: "non-finite cost"}
 
+#: Iterations over which :attr:`IdentifyResult.final_fall` measures what a start still gained when it stopped.
+FALL_WINDOW = 10
+
 
 @dataclass(frozen=True)
 class IdentifyResult:
@@ -77,6 +80,30 @@ class IdentifyResult:
     mechanics: object = None  # FrictionFit (pgcomm.sensorless) without a force sensor
     history: tuple = field(default=(), repr=False)
 
+    @property
+    def converged(self) -> bool:
+        """Whether the kept start stopped on a convergence test (not on the iteration cap or a non-finite cost)."""
+        return self.stop_reason in (STOP_REASONS[1], STOP_REASONS[2], STOP_REASONS[3])
+
+    @property
+    def final_fall(self) -> float | None:
+        """The relative fall of the best objective over the last :data:`FALL_WINDOW` iterations of the last phase
+        (``1 − V_end / V_{end−10}``; ``None`` with fewer iterations): how much a start still gained when it stopped.
+        Near zero for a converged start; at the iteration cap, what more iterations would still give."""
+        last = self.history[-1] if self.history else ()
+        if len(last) <= FALL_WINDOW or not (np.isfinite(last[-1]) and np.isfinite(last[-1 - FALL_WINDOW])):
+            return None
+        return float(1.0 - last[-1] / last[-1 - FALL_WINDOW]) if last[-1 - FALL_WINDOW] > 0 else None
+
+    def convergence_text(self) -> str | None:
+        """One line where the kept start did not converge (the iteration cap or a non-finite cost), else ``None``."""
+        if self.converged:
+            return None
+        fall = self.final_fall
+        still = "" if fall is None else f"; its cost still fell {100 * fall:.2g} % over the last {FALL_WINDOW} iterations"
+        return (f"{self.name}: the PGNN's optimisation stopped on {self.stop_reason!r} after {self.iterations} "
+                f"iterations, not converged{still} (raise identification.max_iterations for a closer optimum)")
+
     def to_dict(self) -> dict:
         """JSON-ready summary (keys of ``results.json`` ``identification.coil_sets[l]``)."""
         keys = ("name", "cost_physics", "cost_pgnn", "cost_pgnn_data", "cost_physics_validation",
@@ -85,6 +112,8 @@ class IdentifyResult:
                 "slope_bound", "slope_term", "cost_y", "cost_y_physics")
         out = {key: getattr(self, key) for key in keys}
         out["start_costs"] = list(self.start_costs)
+        out["converged"] = self.converged
+        out["cost_fall_last_iterations"] = self.final_fall
         out["force_sensor"] = self.mechanics is None
         if self.mechanics is not None:
             out["mechanics"] = self.mechanics.to_dict()
