@@ -19,6 +19,8 @@ standstill sweep of 3600 angles, four rows in closed loop) and prints:
 * running-log time vs standstill-sweep time (rig seconds);
 * the ripple's standard error (the identification's own estimate, relative to its RMS) and the
   running-log time that would bring it to 5 % at the same excitation;
+* the feedforward's ``J/k0`` error against the truth: the model law's own (identified with the maps) and the other
+  rows' (the mechanics fit, maps left out);
 * the orders outside the slot/pole basis that the identification added (each zoo motor has one cogging
   and one ripple order outside its basis).
 
@@ -68,7 +70,8 @@ def main(argv=None) -> int:
         settings = replace(settings, revolutions=args.revolutions)
     print(f"{'#':>2} {'motor':7s} {'K':>3s} {'cog err':>8s} {'rip err':>8s} {'dir err':>8s} {'pos ratio':>9s} "
           f"{'spd ratio':>9s} {'tab diff A':>10s} {'sweep err A':>11s} {'agree':>5s} {'run s':>6s} {'sweep s':>7s} "
-          f"{'wall s':>6s} {'rip SE':>7s} {'s to 5%':>7s} {'floor p/s':>9s} orders added (outside the slot/pole basis)")
+          f"{'wall s':>6s} {'rip SE':>7s} {'s to 5%':>7s} {'floor p/s':>9s} {'J/k0 err':>8s} {'mech J/k0':>9s} "
+          "orders added (outside the slot/pole basis)")
     rows = []
     for i in range(args.first, args.first + args.motors):
         t = draw_rotary(args.seed, i, args.control_per_log, real_drive=args.real_drive)
@@ -84,6 +87,9 @@ def main(argv=None) -> int:
         floor = {k: mse["oracle"][k] / mse["standstill_table"][k] for k in ("position", "speed")}
         # the part of the table's MSE above that floor which the model leaves
         # undefined (nan) where the table tracks as well as the oracle or better
+        # the feedforward's J/k0: the model law's own (identified with the maps), the other rows' from the mechanics
+        # fit (the maps left out)
+        mech_err = abs(r["identification"]["mechanics_fit"]["inertia_ratio"] / r["motor"]["inertia_ratio_true"] - 1)
         excess = {k: ((mse["model"][k] - mse["oracle"][k]) / (mse["standstill_table"][k] - mse["oracle"][k])
                       if mse["standstill_table"][k] > mse["oracle"][k] else float("nan"))
                   for k in ("position", "speed")}
@@ -95,8 +101,8 @@ def main(argv=None) -> int:
               f"{a['rms_model_minus_sweep_A']:10.3g} {a['rms_sweep_minus_truth_A']:11.3g} "
               f"{'yes' if a['within_noise'] else 'no':>5s} {tm['running_logs_s']:6.0f} {tm['standstill_s']:7.0f} "
               f"{time.perf_counter() - t0:6.0f} {100 * rows[-1][4]:6.1f}% {rows[-1][5]:7.0f} "
-              f"{floor['position']:4.2f}/{floor['speed']:4.2f} "
-              f"{r['identification']['orders_added']}", flush=True)
+              f"{floor['position']:4.2f}/{floor['speed']:4.2f} {100 * e['inertia_ratio_rel']:7.1f}% "
+              f"{100 * mech_err:8.1f}% {r['identification']['orders_added']}", flush=True)
     import numpy as np
 
     arr = np.array(rows)

@@ -61,8 +61,9 @@ CURRENT_DELAYS = (-2, -1, 0, 1, 2)
 #: little early (a current sampled later in the drive's cycle than the angle); refined between them by a parabola.
 CONTROL_LAGS = (-1.0 / 32.0, 0.0, 1.0 / 32.0, 1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0)
 #: Time constants (in median log steps) of a first-order report filter on the logged current that :func:`_report_filter`
-#: tries: none to 96 steps (220 ms at a host's 2.3 ms), geometric, refined between them by a parabola.
-REPORT_FILTERS = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 24.0, 32.0, 48.0, 64.0, 96.0)
+#: tries: none to 192 steps (190 ms at 1 kHz, 440 ms at a host's 2.3 ms; a drive's 80-120 ms report logged at 1 kHz
+#: is 80-120 steps), geometric, refined between them by a parabola.
+REPORT_FILTERS = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 24.0, 32.0, 48.0, 64.0, 96.0, 128.0, 192.0)
 #: How much better (``n_eff ln(cost_as_logged / cost)``, a likelihood ratio, :func:`_evidence`) another reading of
 #: the logs (a shifted current, a PLL's angle) must fit than the logs as written to be taken: the χ²₁ quantile at
 #: 0.1 %.
