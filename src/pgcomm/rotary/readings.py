@@ -582,7 +582,9 @@ def pll_noise_gain(sample_time: float, natural_frequency: float, damping: float,
             acceleration filter's taps.
 
     Returns:
-        the variance ratio (≥ 1 at ``ζ ≥ 1/√2``; dimensionless).
+        the variance ratio (dimensionless): above 1 for a PLL slow against the log rate, below 1 for one whose
+        bandwidth lies in the row's band, where the correction's ``|1 + H|`` dips below 1 (at 1 kHz and 6 taps:
+        1.58 at 500 rad/s, 0.82 at 1077 rad/s, ζ = 1; 0.59 at 1581 rad/s, ζ = 0.5).
     """
     w = np.convolve(_hann(taps), [1.0, -2.0, 1.0])
     n = 1 << 14
