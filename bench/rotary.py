@@ -85,11 +85,11 @@ def main(argv=None) -> int:
         mse = r["tracking_mse"]
         # the oracle (the true map) over the table: the ratio no law can beat in this run (encoder, loop)
         floor = {k: mse["oracle"][k] / mse["standstill_table"][k] for k in ("position", "speed")}
-        # the part of the table's MSE above that floor which the model leaves
-        # undefined (nan) where the table tracks as well as the oracle or better
         # the feedforward's J/k0: the model law's own (identified with the maps), the other rows' from the mechanics
         # fit (the maps left out)
         mech_err = abs(r["identification"]["mechanics_fit"]["inertia_ratio"] / r["motor"]["inertia_ratio_true"] - 1)
+        # the part of the table's MSE above that floor which the model leaves
+        # undefined (nan) where the table tracks as well as the oracle or better
         excess = {k: ((mse["model"][k] - mse["oracle"][k]) / (mse["standstill_table"][k] - mse["oracle"][k])
                       if mse["standstill_table"][k] > mse["oracle"][k] else float("nan"))
                   for k in ("position", "speed")}

@@ -499,8 +499,9 @@ def run(setup: Setup, seed: int = 0, extra_reference=None, progress=None) -> Rep
             progress.info(f"{r.name}: V physics {r.cost_physics:.4g} -> PGNN {r.cost_pgnn:.4g} (train), "
                           f"{r.cost_physics_validation:.4g} -> {r.cost_pgnn_validation:.4g} (validation), "
                           f"{r.seconds:.1f} s")
-            if r.convergence_text():
-                progress.info("warning: " + r.convergence_text())
+            unconverged = r.convergence_text()
+            if unconverged:
+                progress.info("warning: " + unconverged)
 
     with _step(progress, "identification with the direction term C^l s(dy/dt) (warm start from the PGNN)"):
         pgnn_dir, id_dir = experiment.identify_direction_models(

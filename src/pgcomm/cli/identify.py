@@ -194,9 +194,8 @@ def _print_pgnn(found) -> None:
     for r in found.results:
         print(f"{r.name[:24]:24s} {r.cost_physics:10.4g} {r.cost_pgnn:10.4g} {r.cost_physics_validation:10.4g} "
               f"{r.cost_pgnn_validation:10.4g} {r.seconds:6.1f}")
-    for r in found.results:
-        if r.convergence_text():
-            print("warning: " + r.convergence_text())
+    for text in filter(None, (r.convergence_text() for r in found.results)):
+        print("warning: " + text)
     if not found.force_sensor:
         print(format_feedforward(found.feedforward))
 

@@ -100,7 +100,8 @@ class IdentifyResult:
         if self.converged:
             return None
         fall = self.final_fall
-        still = "" if fall is None else f"; its cost still fell {100 * fall:.2g} % over the last {FALL_WINDOW} iterations"
+        still = ("" if fall is None
+                 else f"; its cost still fell {100 * fall:.2g} % over the last {FALL_WINDOW} iterations")
         return (f"{self.name}: the PGNN's optimisation stopped on {self.stop_reason!r} after {self.iterations} "
                 f"iterations, not converged{still} (raise identification.max_iterations for a closer optimum)")
 

@@ -189,7 +189,8 @@ def _reading_cost(prepared, layout: "_Layout", taps: int, tau: float, pll, delay
     current ``delay`` samples late and held (``lag`` ``None``) or smooth ``lag`` samples late; with ``relative``,
     the share of the current the fit leaves unexplained (:func:`pgcomm.rotary.regression._unexplained`), as
     readings under different report filters are compared."""
-    return _basis_cost(_with_delay(_with_pll(_with_report(prepared, tau), pll, taps), delay, lag), layout, taps, relative)
+    read = _with_delay(_with_pll(_with_report(prepared, tau), pll, taps), delay, lag)
+    return _basis_cost(read, layout, taps, relative)
 
 
 def _report_filter(prepared, layout: "_Layout", taps: int) -> dict:
