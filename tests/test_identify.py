@@ -391,15 +391,15 @@ def test_slope_penalty_jacobian_matches_finite_differences():
 
 
 def test_slope_bound_keeps_first_layer_within_the_supported_width(data):
-    # a bound of 2 pole pitches (10-90 % width) is far below what an unbounded fit uses here
+    # a bound of 3 pole pitches (10-90 % width) is far below what an unbounded fit uses here
     r = idf.identify(data, D_M, idf.IdentifyOptions(gain_widths=(2,), cog_widths=(8,), starts=2, max_iterations=20,
-                                                 subsample=1, min_feature_width=2.0), seed=1, check_data=False)
+                                                 subsample=1, min_feature_width=3.0), seed=1, check_data=False)
     free = idf.identify(data, D_M, idf.IdentifyOptions(gain_widths=(2,), cog_widths=(8,), starts=2, max_iterations=20,
                                                     subsample=1, min_feature_width=0.0), seed=1, check_data=False)
     mask = _Layout.of(r.model).first_layer_weight_mask()
     w = np.abs(np.asarray(idf.hidden_vector(r.model)))[mask]
     w_free = np.abs(np.asarray(idf.hidden_vector(free.model)))[mask]
-    assert r.slope_bound == pytest.approx(2 * np.arctanh(0.8) * 0.1 / (2.0 * D_M), rel=0.05)
+    assert r.slope_bound == pytest.approx(2 * np.arctanh(0.8) * 0.1 / (3.0 * D_M), rel=0.05)
     assert w_free.max() > 1.5 * r.slope_bound  # the bound is active on these data
     # the penalty makes each unit of excess cost the whole signal power: what remains is tiny
     assert w.max() <= 1.05 * r.slope_bound

@@ -74,10 +74,24 @@ def _lm_init(layout: _Layout, flats, lam0):
 _LAMBDA_MAX = 1e10
 
 
+#: Floor of the damping's scale ``D``, as a share of the largest diagonal entry of ``JᵀJ`` (:func:`_lm_delta`).
+DAMPING_FLOOR = 0.03
+
+
 def _lm_delta(ev_jtj, ev_jtr, lam):
-    """Solve ``(JᵀJ + λ D) δ = -Jᵀr̃`` with ``D = diag(max(diag(JᵀJ), 1e-12·max diag JᵀJ))``."""
+    """Solve ``(JᵀJ + λ D) δ = -Jᵀr̃`` with ``D = diag(max(diag(JᵀJ), ε · max diag JᵀJ))``, ``ε`` =
+    :data:`DAMPING_FLOOR`.
+
+    Marquardt's ``D = diag(JᵀJ)`` gives a parameter whose column of ``J`` is small where it now stands (a unit whose
+    output weight is near 0, a saturated unit's bias) almost no damping: its step is Gauss–Newton's, far beyond where
+    the quadratic model holds, the step is refused and ``λ`` grows for every parameter, and the descent crawls. The
+    floor damps such a parameter as if its column were a few per cent of the largest (Levenberg's damping where
+    Marquardt's vanishes). On the twin's three coil sets, two seeds each, 100 + 100 iterations: ``V`` 5.53-5.68
+    (mean 5.62) with a floor of 1e-12, 5.39-5.49 (mean 5.43) with 0.03; floors from 0.003 to 1 gave means of
+    5.43-5.47, and Moré's running maximum of ``diag(JᵀJ)`` 5.58.
+    """
     diag = jnp.diagonal(ev_jtj)
-    dd = jnp.maximum(diag, 1e-12 * jnp.max(diag) + 1e-300)
+    dd = jnp.maximum(diag, DAMPING_FLOOR * jnp.max(diag) + 1e-300)
     delta = jnp.linalg.solve(ev_jtj + lam * jnp.diag(dd), -ev_jtr)
     return jnp.where(jnp.all(jnp.isfinite(delta)), delta, 0.0)
 
