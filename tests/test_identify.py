@@ -249,6 +249,42 @@ def test_a_start_stopped_by_the_iteration_cap_is_reported_as_not_converged(train
     assert done.converged and done.convergence_text() is None and done.to_dict()["converged"] is True
 
 
+def test_predicted_fall_is_the_gauss_newton_models_decrease():
+    """The convergence test's predicted decrease against the quadratic model written out with an explicit ``J`` and
+    ``r``: ``½||r||² - ½||r + J δ||²`` at the damped step ``(JᵀJ + λ D) δ = -Jᵀr``, ``D`` the floored diagonal.
+    One column is nearly null (a unit that mimics another), as in a network's ``JᵀJ``."""
+    rng = np.random.default_rng(5)
+    jac = rng.normal(size=(200, 6)) * np.array([1.0, 3.0, 0.1, 10.0, 1.0, 1.0])
+    jac[:, 5] = jac[:, 4] + 1e-9 * rng.normal(size=200)
+    r = rng.normal(size=200)
+    jtj, jtr = jac.T @ jac, jac.T @ r
+    d = np.maximum(np.diag(jtj), idf_lm.DAMPING_FLOOR * np.diag(jtj).max())
+    delta = np.linalg.solve(jtj + idf_lm.CONVERGENCE_LAMBDA * np.diag(d), -jtr)
+    expected = 0.5 * r @ r - 0.5 * np.sum((r + jac @ delta) ** 2)
+    got = float(idf_lm._predicted_fall(jnp.asarray(jtj), jnp.asarray(jtr)))
+    # the two differ by rounding in sums of 200 terms of size |r|²
+    assert got == pytest.approx(expected, abs=1e-12 * (r @ r) * 200)
+    assert 0.0 < got < 0.5 * r @ r
+
+
+def test_a_start_stops_as_converged_once_gauss_newton_predicts_little(data):
+    """With a tolerance the starts reach (0.5 % of the cost), the kept start stops as converged on the predicted
+    decrease, before the iteration cap, and says nothing on the terminal; its cost is then no further above what 100
+    more iterations reach than a share of the cost: the predicted decrease is the quadratic model's, and along a
+    curved valley the cost falls further than it predicts (measured 0.4 % with 200 more on these data)."""
+    from pgcomm.identify.result import STOP_REASONS
+
+    o = idf.IdentifyOptions(starts=2, max_iterations=200, subsample=1, tol=0.0, decrease_tol=5e-3)
+    r = idf.identify(data, D_M, o, seed=3, check_data=False)
+    assert r.stop_reason == STOP_REASONS[6] and r.converged and r.iterations < 200
+    assert r.convergence_text() is None
+    more = idf.identify(data, D_M, idf.IdentifyOptions(starts=1, max_iterations=100, subsample=1, tol=0.0,
+                                                        decrease_tol=0.0), seed=3, start_from=r.model,
+                        check_data=False)
+    assert more.cost_pgnn <= r.cost_pgnn * (1 + 1e-9)
+    assert r.cost_pgnn - more.cost_pgnn < 0.02 * r.cost_pgnn
+
+
 def test_same_seed_same_parameters(data, trained):
     again = idf.identify(data, D_M, idf.IdentifyOptions(starts=4, max_iterations=25, subsample=1), seed=3)
     for a, b in zip(jax.tree_util.tree_leaves(trained.model), jax.tree_util.tree_leaves(again.model)):

@@ -10,7 +10,8 @@ from pgcomm.models import CoilSetModel
 
 #: Why the Levenberg–Marquardt loop of a start stopped (codes of :mod:`pgcomm.identify.lm`).
 STOP_REASONS = {0: "running", 1: "relative cost change below tol", 2: "step below tol",
-                3: "damping above 1e10 (no further decrease)", 4: "maximum iterations", 5: "non-finite cost"}
+                3: "damping above 1e10 (no further decrease)", 4: "maximum iterations", 5: "non-finite cost",
+                6: "predicted decrease below decrease_tol"}
 
 #: Iterations over which :attr:`IdentifyResult.final_fall` measures what a start still gained when it stopped.
 FALL_WINDOW = 10
@@ -83,7 +84,7 @@ class IdentifyResult:
     @property
     def converged(self) -> bool:
         """Whether the kept start stopped on a convergence test (not on the iteration cap or a non-finite cost)."""
-        return self.stop_reason in (STOP_REASONS[1], STOP_REASONS[2], STOP_REASONS[3])
+        return self.stop_reason in (STOP_REASONS[1], STOP_REASONS[2], STOP_REASONS[3], STOP_REASONS[6])
 
     @property
     def final_fall(self) -> float | None:
@@ -103,7 +104,8 @@ class IdentifyResult:
         still = ("" if fall is None
                  else f"; its cost still fell {100 * fall:.2g} % over the last {FALL_WINDOW} iterations")
         return (f"{self.name}: the PGNN's optimisation stopped on {self.stop_reason!r} after {self.iterations} "
-                f"iterations, not converged{still} (raise identification.max_iterations for a closer optimum)")
+                f"iterations, not converged{still} (raise identification.refine_iterations, or max_iterations where the "
+                "data are identified in one phase, for a closer optimum)")
 
     def to_dict(self) -> dict:
         """JSON-ready summary (keys of ``results.json`` ``identification.coil_sets[l]``)."""
