@@ -52,11 +52,11 @@ def test_identification_config_passes_every_shared_setting_by_name():
 
     cfg = IdentificationConfig(gain_widths=(3,), cog_widths=(5, 4), gain_width_candidates=(2, 6), activation="tanh",
                                regularisation=0.3, starts=5, max_iterations=17, validation_fraction=0.1,
-                               ridge_output=1e-3, tol=1e-7, decrease_tol=2e-5, refine_iterations=33, direction_velocity=2e-3)
+                               ridge_output=1e-3, tol=1e-7, decrease_tol=2e-5, screen_iterations=33, direction_velocity=2e-3)
     o = cfg.options()
     shared = {f.name for f in dataclasses.fields(IdentifyOptions)} & {f.name for f in dataclasses.fields(cfg)}
     assert shared >= {"gain_widths", "cog_widths", "starts", "max_iterations", "regularisation", "tol", "decrease_tol",
-                      "refine_iterations"}
+                      "screen_iterations"}
     for name in shared:
         assert getattr(o, name) == getattr(cfg, name), name
     assert cfg.options(direction=True, starts=1).direction and cfg.options(starts=1).starts == 1

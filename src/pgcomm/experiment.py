@@ -181,8 +181,12 @@ def identify_sensorless_models(setup: Setup, data: list[CoilSetData], k, zeta, s
     mass = sensorless_mass(setup)
     sdata = [sensorless_data(d, motor.sample_time, motor.pole_pitch, mass, current_limit=motor.current_limit,
                              friction_velocity=ic.direction_velocity) for d in data]
-    _, res = identify_all(sdata, motor.pole_pitch, ic.options(), seed=seed, progress=_lm_progress(progress),
-                          check_data=check_data)
+    # one phase over filtered windows at ~0.35 s an iteration on the twin: within the screening budget (run to
+    # convergence, up to 400 iterations, it took three times as long and tracked the same); results.json says
+    # whether each converged
+    budget = min(ic.max_iterations, ic.screen_iterations)
+    _, res = identify_all(sdata, motor.pole_pitch, ic.options(max_iterations=budget), seed=seed,
+                          progress=_lm_progress(progress), check_data=check_data)
     models = [with_classical_rows(r.model, float(k[l]), float(zeta[l]), motor.mu, motor.lever_arms[l])
               for l, r in enumerate(res)]
     return CombinedModel.from_coil_sets(models), res

@@ -136,7 +136,7 @@ def reference_seed(seed: int, reference_name: str) -> int:
 
 #: The settings :func:`quick_config` overrides (``section.key`` of the experiment TOML).
 QUICK_OVERRIDES = ("reference.velocities", "reference.dwell", "identification.starts", "identification.max_iterations",
-                   "identification.refine_iterations", "controller.ff_iterations")
+                   "identification.screen_iterations", "controller.ff_iterations")
 
 
 def quick_config(config: ExperimentConfig) -> ExperimentConfig:
@@ -144,7 +144,7 @@ def quick_config(config: ExperimentConfig) -> ExperimentConfig:
     velocities, short dwells, fewer random starts and iterations, two feedforward passes."""
     ref = replace(config.reference, velocities=tuple(sorted(config.reference.velocities)[-2:]),
                   dwell=min(config.reference.dwell, 0.2))
-    ident = replace(config.identification, starts=2, max_iterations=25, refine_iterations=25)
+    ident = replace(config.identification, starts=2, max_iterations=25, screen_iterations=25)
     ctrl = replace(config.controller, ff_iterations=2)
     return replace(config, reference=ref, identification=ident, controller=ctrl)
 

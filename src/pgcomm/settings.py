@@ -159,10 +159,10 @@ class IdentificationConfig:
     activation: str = "tanh"
     regularisation: float = field(default=0.1, metadata={"range": (0.0, 1e6), "hint": "Lambda = regularisation * I must be >= 0"})
     starts: int = field(default=8, metadata={"range": (1, 256), "hint": "random starts, run batched (memory grows with starts): 1 to 256"})
-    max_iterations: int = field(default=100, metadata={"range": (1, 100000), "hint": "LM iterations per start"})
-    #: the cap of the final phase of Algorithm 2 (all samples, the best starts), which runs until it converges
-    refine_iterations: int = field(default=400, metadata={"range": (1, 100000),
-                                                          "hint": "LM iterations of the final phase at most"})
+    #: the cap of each phase of Algorithm 2 (the final phase runs until it converges: a safety net there)
+    max_iterations: int = field(default=400, metadata={"range": (1, 100000), "hint": "LM iterations per start"})
+    #: the first phase's budget: the random starts screened on a subsample, at most max_iterations
+    screen_iterations: int = field(default=100, metadata={"range": (1, 100000), "hint": "LM iterations per start"})
     validation_fraction: float = field(default=0.2, metadata={"range": (0.0, 0.5), "hint": "0 trains on everything"})
     ridge_output: float = field(default=0.0, metadata={"range": (0.0, 1e6)})
     tol: float = field(default=1e-9, metadata={"range": (0.0, 1.0)})
@@ -180,9 +180,9 @@ class IdentificationConfig:
         if len(self.gain_widths) == 0 or len(self.cog_widths) == 0:
             which = "gain_widths" if len(self.gain_widths) == 0 else "cog_widths"
             raise ValueError(f"{which} = []: give at least one hidden layer width, e.g. [2] (gain) or [16] (cogging)")
-        if self.starts < 1 or self.max_iterations < 1 or self.refine_iterations < 1:
-            raise ValueError(f"starts = {self.starts}, max_iterations = {self.max_iterations}, refine_iterations = "
-                             f"{self.refine_iterations}: all must be >= 1")
+        if self.starts < 1 or self.max_iterations < 1 or self.screen_iterations < 1:
+            raise ValueError(f"starts = {self.starts}, max_iterations = {self.max_iterations}, screen_iterations = "
+                             f"{self.screen_iterations}: all must be >= 1")
         if not self.regularisation >= 0:
             raise ValueError(f"regularisation = {self.regularisation}: must be >= 0 (Lambda = regularisation * I)")
         if not 0.0 <= self.validation_fraction <= 0.5:
@@ -203,7 +203,7 @@ class IdentificationConfig:
         fields = dict(gain_widths=self.gain_widths, cog_widths=self.cog_widths,
                       gain_width_candidates=self.gain_width_candidates, activation=self.activation,
                       regularisation=self.regularisation, ridge_output=self.ridge_output, starts=self.starts,
-                      max_iterations=self.max_iterations, refine_iterations=self.refine_iterations, tol=self.tol,
+                      max_iterations=self.max_iterations, screen_iterations=self.screen_iterations, tol=self.tol,
                       decrease_tol=self.decrease_tol,
                       validation_fraction=self.validation_fraction,
                       direction_velocity=self.direction_velocity)

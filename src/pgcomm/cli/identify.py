@@ -41,7 +41,7 @@ HELP = ("Algorithm 2: identify the PGNN (and the physics-only model) of every co
 #: ``[identification]`` settings only the PGNN family reads (``--family spline`` refuses them).
 PGNN_ONLY = tuple(f"identification.{k}" for k in (
     "gain_widths", "cog_widths", "gain_width_candidates", "activation", "regularisation", "starts", "max_iterations",
-    "refine_iterations", "validation_fraction", "ridge_output", "tol", "decrease_tol", "direction_harmonics"))
+    "screen_iterations", "validation_fraction", "ridge_output", "tol", "decrease_tol", "direction_harmonics"))
 
 
 def configure(p) -> None:

@@ -224,8 +224,11 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
     1 kHz carry nearly the same information:
 
     1. all ``options.starts`` starts on every ``subsample``-th training sample (at least 4096
-       samples; skipped when the data are too few for that);
-    2. the ``refine_starts`` best of them on all training samples.
+       samples; skipped when the data are too few for that), for ``screen_iterations`` each;
+    2. the ``refine_starts`` best of them on all training samples, each until it converges: until the
+       Gauss–Newton step from where it stands would lower its cost by at most ``decrease_tol`` of it
+       (:func:`_predicted_fall`), with ``max_iterations`` as a safety net (the result then says it did not
+       converge, :attr:`IdentifyResult.converged`).
 
     The start with the lowest training cost is kept. ``subsample=1`` runs all starts on all
     samples in one phase. The result is deterministic for a given ``seed``.
@@ -321,7 +324,8 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
         layout, chunks, k = _prepare(template, sub, lam12, star, o.ridge_output, o.damping, o.chunk_size, o.method)
         # phase 1 screens the starts for max_iterations each: a start on a plateau of the subsample's cost
         # (its Gauss–Newton step predicting little) may still descend from it, and only the final phase must converge
-        st1, hist1 = _run_lm(layout, flats, chunks, k, sub.n, phase=1, slope=slope(sub.n), **{**opts, "decrease_tol": 0.0})
+        st1, hist1 = _run_lm(layout, flats, chunks, k, sub.n, phase=1, slope=slope(sub.n),
+                             **{**opts, "decrease_tol": 0.0, "max_iter": min(o.screen_iterations, o.max_iterations)})
         history.append(hist1)
         fs1 = np.where(np.isfinite(np.asarray(st1.ev.f)), np.asarray(st1.ev.f), np.inf)
         start_costs = 2.0 * fs1 / sub.n
@@ -329,7 +333,7 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
         flats, iters0 = st1.flat[keep], np.asarray(st1.n_iter)[keep]
     layout, chunks, k = _prepare(template, train, lam12, star, o.ridge_output, o.damping, o.chunk_size, o.method)
     st, hist2 = _run_lm(layout, flats, chunks, k, train.n, phase=2 if stride > 1 else 1, slope=slope(train.n),
-                        **{**opts, "max_iter": o.refine_iterations if stride > 1 else o.max_iterations})
+                        **opts)
     history.append(hist2)
 
     fs = np.asarray(st.ev.f)

@@ -34,10 +34,11 @@ class IdentifyOptions:
         ridge_output: explicit ridge on the networks' output weights (0 = the paper's cost).
         starts: random starts, run batched (memory grows with them).
         max_iterations, tol: Levenberg–Marquardt limits per phase (iterations; relative cost
-            decrease of an accepted step and relative step size); ``max_iterations`` is the first
-            phase's whole budget (a screening of the starts) and a single phase's cap.
-        refine_iterations: the cap of the second phase (all samples), which runs until it converges
-            (``decrease_tol``): a safety net, reached only with a warning.
+            decrease of an accepted step and relative step size). The final phase runs until it
+            converges (``decrease_tol``): ``max_iterations`` is a safety net there, reached only with
+            a warning.
+        screen_iterations: the first phase's budget (a screening of the starts on a subsample), at
+            most ``max_iterations``.
         decrease_tol: a start has converged when the Gauss–Newton step from where it stands would lower
             its cost by at most this share (:func:`pgcomm.identify.lm._predicted_fall`).
         subsample, refine_starts: the two phases of :func:`pgcomm.identify.identify` (all starts on
@@ -62,10 +63,10 @@ class IdentifyOptions:
     regularisation: object = DEFAULT_LAMBDA
     ridge_output: float = 0.0
     starts: int = 8
-    max_iterations: int = 100
+    max_iterations: int = 400
     tol: float = 1e-6
     decrease_tol: float = 1e-4
-    refine_iterations: int = 400
+    screen_iterations: int = 100
     subsample: int = 8
     refine_starts: int = 2
     validation_fraction: float = 0.2
@@ -92,9 +93,9 @@ class IdentifyOptions:
             raise ValueError("identify needs at least one network; use fit_physics for the physics-only model")
         object.__setattr__(self, "gain_width_candidates", tuple(int(x) for x in self.gain_width_candidates))
         if (self.starts < 1 or self.max_iterations < 1 or self.refine_starts < 1 or self.subsample < 1
-                or self.refine_iterations < 1):
+                or self.screen_iterations < 1):
             raise ValueError(f"starts = {self.starts}, max_iterations = {self.max_iterations}, refine_starts = "
-                             f"{self.refine_starts}, refine_iterations = {self.refine_iterations}, subsample = "
+                             f"{self.refine_starts}, screen_iterations = {self.screen_iterations}, subsample = "
                              f"{self.subsample}: all must be >= 1")
         if not 0.0 <= self.decrease_tol < 1.0:
             raise ValueError(f"decrease_tol = {self.decrease_tol}: expected a share of the cost, 0 to 1")

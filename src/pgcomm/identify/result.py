@@ -104,8 +104,7 @@ class IdentifyResult:
         still = ("" if fall is None
                  else f"; its cost still fell {100 * fall:.2g} % over the last {FALL_WINDOW} iterations")
         return (f"{self.name}: the PGNN's optimisation stopped on {self.stop_reason!r} after {self.iterations} "
-                f"iterations, not converged{still} (raise identification.refine_iterations, or max_iterations where the "
-                "data are identified in one phase, for a closer optimum)")
+                f"iterations, not converged{still} (raise identification.max_iterations for a closer optimum)")
 
     def to_dict(self) -> dict:
         """JSON-ready summary (keys of ``results.json`` ``identification.coil_sets[l]``)."""
