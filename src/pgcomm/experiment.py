@@ -165,6 +165,11 @@ def identify_models(setup: Setup, data: list[CoilSetData], seed: int, progress=N
     return pgnn, physics, res
 
 
+#: Iterations of the identification without a force sensor at most (one phase over filtered windows; the cap of
+#: ``[identification] max_iterations`` applies where it is lower).
+SENSORLESS_ITERATIONS = 100
+
+
 def identify_sensorless_models(setup: Setup, data: list[CoilSetData], k, zeta, seed: int, progress=None,
                                check_data: bool = True):
     """Algorithm 2 without a force sensor for every coil set (:mod:`pgcomm.sensorless`); force columns unused.
@@ -181,10 +186,10 @@ def identify_sensorless_models(setup: Setup, data: list[CoilSetData], k, zeta, s
     mass = sensorless_mass(setup)
     sdata = [sensorless_data(d, motor.sample_time, motor.pole_pitch, mass, current_limit=motor.current_limit,
                              friction_velocity=ic.direction_velocity) for d in data]
-    # one phase over filtered windows at ~0.35 s an iteration on the twin: within the screening budget (run to
+    # one phase over filtered windows at ~0.35 s an iteration on the twin: SENSORLESS_ITERATIONS at most (run to
     # convergence, up to 400 iterations, it took three times as long and tracked the same); results.json says
     # whether each converged
-    budget = min(ic.max_iterations, ic.screen_iterations)
+    budget = min(ic.max_iterations, SENSORLESS_ITERATIONS)
     _, res = identify_all(sdata, motor.pole_pitch, ic.options(max_iterations=budget), seed=seed,
                           progress=_lm_progress(progress), check_data=check_data)
     models = [with_classical_rows(r.model, float(k[l]), float(zeta[l]), motor.mu, motor.lever_arms[l])

@@ -162,7 +162,7 @@ class IdentificationConfig:
     #: the cap of each phase of Algorithm 2 (the final phase runs until it converges: a safety net there)
     max_iterations: int = field(default=400, metadata={"range": (1, 100000), "hint": "LM iterations per start"})
     #: the first phase's budget: the random starts screened on a subsample, at most max_iterations
-    screen_iterations: int = field(default=100, metadata={"range": (1, 100000), "hint": "LM iterations per start"})
+    screen_iterations: int = field(default=300, metadata={"range": (1, 100000), "hint": "LM iterations per start"})
     validation_fraction: float = field(default=0.2, metadata={"range": (0.0, 0.5), "hint": "0 trains on everything"})
     ridge_output: float = field(default=0.0, metadata={"range": (0.0, 1e6)})
     tol: float = field(default=1e-9, metadata={"range": (0.0, 1.0)})
