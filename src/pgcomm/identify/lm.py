@@ -322,7 +322,7 @@ def identify(data: CoilSetData, pole_pitch: float, options: IdentifyOptions | No
     if stride > 1:
         sub = train.take(slice(None, None, stride))
         layout, chunks, k = _prepare(template, sub, lam12, star, o.ridge_output, o.damping, o.chunk_size, o.method)
-        # phase 1 screens the starts for max_iterations each: a start on a plateau of the subsample's cost
+        # phase 1 screens the starts for screen_iterations each: a start on a plateau of the subsample's cost
         # (its Gauss–Newton step predicting little) may still descend from it, and only the final phase must converge
         st1, hist1 = _run_lm(layout, flats, chunks, k, sub.n, phase=1, slope=slope(sub.n),
                              **{**opts, "decrease_tol": 0.0, "max_iter": min(o.screen_iterations, o.max_iterations)})
