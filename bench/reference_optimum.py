@@ -5,8 +5,9 @@ default experiment, data generated at the drive's nominal ``k̂, ζ̂``). The re
 lowest training cost ``V`` that many long starts reach on them: ``--starts`` random starts (default
 32) screened for 400 iterations, the best 4 refined until the Gauss–Newton step predicts less than
 1e-6 of the cost (at most 2000 iterations). ``V`` is a non-convex function of the hidden layers, so a
-run with the defaults (8 starts, 100 screening iterations) may stop in another basin: the stored
-optimum tells how far.
+run with the defaults (8 starts, 300 screening iterations) may stop in another basin: the stored
+optimum tells how far. It is the best these starts found, not a bound: a run with more starts can end
+below it (negative figures).
 
 Usage:
 
@@ -14,7 +15,7 @@ Usage:
   ``bench/reference_optimum.json`` (about 3 minutes per coil set on one core; seeds already stored are
   recomputed);
 * ``python bench/reference_optimum.py --check OUT/results.json [...]``: each run's ``cost_pgnn`` per
-  coil set against the stored optimum of its seed (``V / V_ref - 1``, the issue's bar is 2 %).
+  coil set against the stored optimum of its seed (``V / V_ref - 1``).
 """
 
 from __future__ import annotations
