@@ -271,7 +271,7 @@ def test_a_start_stops_as_converged_once_gauss_newton_predicts_little(data):
     """With a tolerance the starts reach (0.5 % of the cost), the kept start stops as converged on the predicted
     decrease, before the iteration cap, and says nothing on the terminal; its cost is then no further above what 100
     more iterations reach than a share of the cost: the predicted decrease is the quadratic model's, and along a
-    curved valley the cost falls further than it predicts (measured 0.4 % with 200 more on these data)."""
+    curved valley the cost falls further than it predicts (measured 0.3 % with 100 more on these data)."""
     from pgcomm.identify.result import STOP_REASONS
 
     o = idf.IdentifyOptions(starts=2, max_iterations=200, subsample=1, tol=0.0, decrease_tol=5e-3)
