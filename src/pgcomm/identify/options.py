@@ -42,7 +42,11 @@ class IdentifyOptions:
             sets of seeds 0-2, the 8 starts screened for 100 iterations ended within 2 % of the best of 32
             long starts on 3, screened for 300 on 5, in the same time (9-13 s a coil set): the final phase,
             on all samples, converges in fewer iterations from a longer-screened start. 16 starts screened
-            for 300 ended within 2 % on 7 (and below that optimum on 3), in 19 s.
+            for 300 ended within 2 % on 7 (and below that optimum on 3), in 19 s. But a lower ``V`` is not
+            a better law: with 16 starts (the better 8 going on after 100), ``pgcomm reproduce`` on seeds
+            0-4 fitted the y row in closed loop worse on four (``pgnn`` y MSE 4.9-7.0 N² against 3.9-4.8)
+            and tracked worse on four; the held-out blocks' cost did not tell (it fell on coil sets whose
+            law got worse). So the default stays at 8.
         decrease_tol: a start has converged when the Gauss–Newton step from where it stands would lower
             its cost by at most this share (:func:`pgcomm.identify.lm._predicted_fall`).
         subsample, refine_starts: the two phases of :func:`pgcomm.identify.identify` (all starts on
