@@ -131,6 +131,13 @@ def test_a_current_shifted_against_the_angle_is_found(motor0, delay):
     assert as_logged.current_delay == {"samples": 0, "held": True, "lag": 0.0, "cost_by_delay": None,
                                                "evidence": None, "detected": False}
     assert rms(as_logged.model.cogging(th) - plain.model.cogging(th)) > 3 * se["cogging"]["rms_error"]
+    if delay == 1:
+        # the delay given and its form left to detect: the same reading as detected, said as given
+        given = identify(moved, t.motor, RotaryIdentifyOptions(current_delay=delay))
+        assert given.current_delay["detected"] and given.current_delay["held"] == found.current_delay["held"]
+        assert delay_text(given.current_delay) == f"the logged q-current is used shifted by {delay} sample(s) against " \
+                                                  "the angle, as given"
+        assert rms(given.model.cogging(th) - found.model.cogging(th)) <= 0.01 * se["cogging"]["rms_error"]
 
 
 def test_a_drive_that_controls_faster_than_it_logs_is_read_smooth(motor0_fast):

@@ -818,10 +818,12 @@ def delay_text(timing: dict) -> str | None:
         near = [costs[k] / costs[0] for k in (-1, 1) if k in costs and costs.get(0)]
         return ("the logged q-current is in time with the angle" + (
             f" (shifted by one sample it fits {_times(min(near))} worse)" if near else ""))
-    ratio = costs[0] / costs[d] if costs.get(d) else float("nan")
+    if not (costs.get(0) and costs.get(d)):
+        # the delay given, its form (held from sample to sample) detected: nothing to compare it with
+        return f"the logged q-current is used shifted by {d} sample(s) against the angle, as given"
     return (f"the logged q-current is {abs(d)} sample(s) {'late' if d > 0 else 'early'} against the angle: used "
-            f"shifted by {d} (it fits {_times(ratio)} better so; the drive samples its current at another point of its "
-            "cycle than the encoder, or the logger writes it late)")
+            f"shifted by {d} (it fits {_times(costs[0] / costs[d])} better so; the drive samples its current at another "
+            "point of its cycle than the encoder, or the logger writes it late)")
 
 
 def pll_text(estimate: dict) -> str | None:
