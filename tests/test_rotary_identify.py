@@ -1136,3 +1136,19 @@ def test_a_pll_and_a_report_filter_read_from_the_logs():
     # the drive controls 8 times per logged sample: a snapshot half a control cycle late
     assert t.control_per_log == 8 and not timing["held"] and timing["samples"] == 0
     assert abs(timing["lag"] - 1.0 / 16.0) <= 1.0 / 16.0
+
+
+def test_the_report_filters_sentence_says_whether_it_was_read_or_given():
+    """The sentence on the current's report filter, for a filter read from the logs (with its likelihood ratio), one
+    given (``--current-filter``: no ratio to give) and none."""
+    from pgcomm.rotary.readings import filter_text
+
+    assert filter_text({"tau_s": 0.088, "evidence": 446.0, "cost_by_tau": {}}).endswith(
+        "a first-order lag of 88 ms, read back as i = i_logged + tau di/dt (likelihood ratio 446 over the current as "
+        "logged)")
+    assert filter_text({"tau_s": 0.08, "evidence": None, "cost_by_tau": None}).endswith(
+        "a first-order lag of 80 ms, read back as i = i_logged + tau di/dt (as given)")
+    assert filter_text({"tau_s": 0.0, "evidence": None, "cost_by_tau": None}) == \
+        "the logged q-current is the current that acted (as given)"
+    assert filter_text({"tau_s": 0.0, "evidence": 3.0, "cost_by_tau": {}}).endswith("(no report filter fits better)")
+    assert filter_text(None) is None

@@ -431,10 +431,13 @@ def filter_text(found: dict | None) -> str | None:
     """One line on the current's report filter as :func:`_report_filter` found it, or ``None`` where not searched."""
     if not found:
         return None
+    given = found.get("evidence") is None
     if found["tau_s"] == 0.0:
-        return "the logged q-current is the current that acted (no report filter fits better)"
+        return "the logged q-current is the current that acted" + (" (as given)" if given else
+                                                                    " (no report filter fits better)")
+    why = "as given" if given else f"likelihood ratio {found['evidence']:.3g} over the current as logged"
     return (f"the logged q-current is a filtered report: a first-order lag of {found['tau_s'] * 1e3:.3g} ms, read back "
-            f"as i = i_logged + tau di/dt (likelihood ratio {found['evidence']:.3g} over the current as logged)")
+            f"as i = i_logged + tau di/dt ({why})")
 
 
 def _vertex(points, lo: float, hi: float) -> float | None:
