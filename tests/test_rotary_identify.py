@@ -1152,3 +1152,23 @@ def test_the_report_filters_sentence_says_whether_it_was_read_or_given():
         "the logged q-current is the current that acted (as given)"
     assert filter_text({"tau_s": 0.0, "evidence": 3.0, "cost_by_tau": {}}).endswith("(no report filter fits better)")
     assert filter_text(None) is None
+
+
+def test_too_few_windows_says_where_the_windows_went(motor0):
+    """Logs too short for the model: the refusal counts the windows (``n - span + 1`` starts every ``taps // 2``
+    samples per log, ``span = taps + 2``), those the guards refused, and the pieces too short for one window (a log
+    split at its gaps)."""
+    from pgcomm.rotary.regression import FILTER_TAPS
+
+    t, logs = motor0
+    keys = ("t", "theta", "iq_1")
+    # from the middle of each log, at its speed
+    cut = [{k: np.asarray(lg[k])[np.size(lg["theta"]) // 2:][:24] for k in keys} for lg in logs]
+    cut.append({k: np.asarray(logs[0][k])[-5:] for k in keys})
+    span, stride = FILTER_TAPS + 2, FILTER_TAPS // 2
+    windows = sum(len(range(0, lg["theta"].size - span + 1, stride)) for lg in cut if lg["theta"].size >= span + 2)
+    with pytest.raises(ExcitationError, match=rf"usable windows for \d+ unknowns: .*; of {windows} windows, \d+ too fast "
+                                              rf"for the alias guard and \d+ near standstill or reversing .*; 1 of "
+                                              rf"{len(cut)} logs or pieces between gaps \(5 of {24 * len(logs) + 5} "
+                                              rf"samples\) are shorter than one window \({FILTER_TAPS + 4} samples\)"):
+        identify(cut, t.motor)

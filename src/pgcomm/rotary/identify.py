@@ -248,6 +248,21 @@ def identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions | None = N
         return _identify(logs, motor, options)
 
 
+def _lost_windows(counts: dict, logs, taps: int) -> str:
+    """A clause on where the logs' filter windows went (``counts`` of :func:`pgcomm.rotary.regression._prepare`): too
+    fast for the alias guard, near standstill or reversing (a rotor that stalls on its cogging, a position loop that
+    steps), and the samples of logs too short for one window (``taps + 4`` samples: a log split at its gaps, a host
+    loop that pauses, :data:`pgcomm.io.logs.GAP_STEPS`)."""
+    parts = [f"of {counts['windows']} windows, {counts['alias']} too fast for the alias guard and {counts['slow']} "
+             "near standstill or reversing (a rotor that stalls or steps: log at a steadier speed)"]
+    sizes = [int(np.size(log["theta"])) for log in logs]
+    short = [n for n in sizes if n < taps + 4]
+    if short:
+        parts.append(f"{len(short)} of {len(sizes)} logs or pieces between gaps ({sum(short)} of {sum(sizes)} samples) "
+                     f"are shorter than one window ({taps + 4} samples) and give none")
+    return "; " + "; ".join(parts)
+
+
 def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> RotaryIdentification:
     """:func:`identify` with its options given."""
     min_samples_per_period, taps = _guard(options)
@@ -304,7 +319,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     n_unknowns = int(layout.keep.sum())
     if n_windows < 2 * n_unknowns:
         raise ExcitationError(f"{n_windows} usable windows for {n_unknowns} unknowns: record longer running logs "
-                              f"(speeds up to {v_limit:.3g} rad/s, both directions)")
+                              f"(speeds up to {v_limit:.3g} rad/s, both directions)" + _lost_windows(counts, logs, taps))
     noise_info = _noise_info(logs, ts, report["tau_s"])
     correction = _current_noise_setting(current_noise, noise_info)
     fit = _fit(prepared, layout, taps, ridge, current_noise=correction["noise_A"],
