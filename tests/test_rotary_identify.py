@@ -1167,8 +1167,8 @@ def test_too_few_windows_says_where_the_windows_went(motor0):
     cut.append({k: np.asarray(logs[0][k])[-5:] for k in keys})
     span, stride = FILTER_TAPS + 2, FILTER_TAPS // 2
     windows = sum(len(range(0, lg["theta"].size - span + 1, stride)) for lg in cut if lg["theta"].size >= span + 2)
-    with pytest.raises(ExcitationError, match=rf"usable windows for \d+ unknowns: .*; of {windows} windows, \d+ too fast "
-                                              rf"for the alias guard and \d+ near standstill or reversing .*; 1 of "
-                                              rf"{len(cut)} logs or pieces between gaps \(5 of {24 * len(logs) + 5} "
-                                              rf"samples\) are shorter than one window \({FILTER_TAPS + 4} samples\)"):
+    said = (rf"usable windows for \d+ unknowns: .*; of {windows} windows, \d+ too fast for the alias guard and \d+ near "
+            rf"standstill or reversing .*; 1 of {len(cut)} logs or pieces between gaps \(5 of {24 * len(logs) + 5} "
+            rf"samples\) are shorter than one window \({FILTER_TAPS + 4} samples\)")
+    with pytest.raises(ExcitationError, match=said):
         identify(cut, t.motor)
