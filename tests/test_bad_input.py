@@ -58,6 +58,8 @@ def files(tmp_path_factory):
     f.update({k: d / f"{k}.csv" for k in ("map", "map_mm", "map_mNA", "map2")})
     f["motor"], f["motor2"] = d / "motor.toml", d / "motor2.toml"
     f["motor_nomass"] = d / "motor_nomass.toml"
+    (d / "rotary.toml").write_text((Path(__file__).resolve().parents[1] / "bench" / "real_odrive" / "motor.toml").read_text())
+    f["rotary"] = d / "rotary.toml"
 
     # model files: a good one, and each kind of damage
     save_model(d / "model", _model(), {"seed": 0})
@@ -221,6 +223,8 @@ FILE_CASES = [
      r"model\.json: the model has 3 coil set\(s\) but the plant .*map2\.csv\) has 2"),
     (["evaluate", "--data", "log_ms"], r"log_ms\.csv column 't': sample time 1 s .*looks like milliseconds"),
     (["evaluate", "--data", "log_mm"], r"log_mm\.csv column 'y': .*looks like mm"),
+    (["evaluate", "--data", "log_mm", "--motor", "rotary"],
+     r"rotary\.toml: kind = \"rotary\": this command takes a linear motor .*'pgcomm identify', 'plan' or 'reproduce'"),
     (["simulate", "--reference", "ref_mm"], r"ref_mm\.csv: 'r' reaches 50.*looks like mm"),
     (["simulate", "--reference", "ref_not"], r"ref_not\.csv: no 't' column .*--reference-sample-time"),
 ]

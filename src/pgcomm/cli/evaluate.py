@@ -53,6 +53,8 @@ def run(args, out: Path, progress) -> None:
 
         model, document = load_model(args.model)
         motor = motor_from_args(args)
+    elif args.motor:  # a rotary motor is named as such, not by what its logs' columns lack
+        motor_from_args(args)
     with progress.stage(f"read {len(args.data)} log pattern(s)"):
         logs = read_data_logs(args, progress)
         # the computing modules (SciPy's filters, Matplotlib) load after the logs: a damaged log is refused at once

@@ -493,7 +493,7 @@ def load_motor(path) -> Motor:
     doc = load_toml(path)
     if _kind(doc, file) == "rotary":
         raise ConfigError(f"{file}: kind = \"rotary\": this command takes a linear motor (pole_pitch, [[coil_set]]); "
-                          "rotary motors run with 'pgcomm reproduce --motor'")
+                          "a rotary --motor goes to 'pgcomm identify', 'plan' or 'reproduce'")
     top = ("kind", "pole_pitch", "sample_time", "current_limit", "mass", "travel", "nominal", "coil_set")
     _check_keys(doc, top, _Where(file))
     pole_pitch = _number(doc, "pole_pitch", file)
