@@ -58,7 +58,8 @@ def files(tmp_path_factory):
     f.update({k: d / f"{k}.csv" for k in ("map", "map_mm", "map_mNA", "map2")})
     f["motor"], f["motor2"] = d / "motor.toml", d / "motor2.toml"
     f["motor_nomass"] = d / "motor_nomass.toml"
-    (d / "rotary.toml").write_text((Path(__file__).resolve().parents[1] / "bench" / "real_odrive" / "motor.toml").read_text())
+    rotary = Path(__file__).resolve().parents[1] / "bench" / "real_odrive" / "motor.toml"
+    (d / "rotary.toml").write_text(rotary.read_text())
     f["rotary"] = d / "rotary.toml"
 
     # model files: a good one, and each kind of damage
