@@ -6,7 +6,8 @@ compensation table with the drive's own standstill map ``static_maps/map_a_16.cs
 every 16th count, forward): their correlation and the RMS of their difference (offsets removed) as a share of
 the map's RMS. Beside it, in the same run, the drives' own way: the logged current binned over the angle (512
 bins, as the map). It also prints the report filter the identification found, and the verdicts of the maps the
-logs do not determine.
+logs do not determine. Then two logs identified together, as recorded and with the second re-indexed by half a
+revolution (a power-up whose encoder index moved: :mod:`pgcomm.rotary.sessions`).
 
 The spin-up runs (``spinup/*.mat``, a MATLAB cell array per file, read here with SciPy in a few lines) give the
 moment of inertia: per run a parabola through the angle over its first ``--spinup-window`` seconds (before the
@@ -65,10 +66,11 @@ def binned(log: Path, angle: np.ndarray) -> np.ndarray:
     return out
 
 
-def identify(real: Path, name: str, out: Path) -> tuple[dict, np.ndarray, np.ndarray, float]:
-    """``pgcomm identify`` on one log; ``(results, table angle, table iq, seconds)``."""
+def identify(real: Path, name: str, out: Path, files=None) -> tuple[dict, np.ndarray, np.ndarray, float]:
+    """``pgcomm identify`` on one log (or on ``files``); ``(results, table angle, table iq, seconds)``."""
+    files = [real / "logs" / f"{name}.csv"] if files is None else files
     cmd = [sys.executable, "-m", "pgcomm", "identify", "--motor", str(HERE / "real_odrive" / "motor.toml"),
-           "--columns", str(HERE / "real_odrive" / "columns.toml"), "--data", str(real / "logs" / f"{name}.csv"),
+           "--columns", str(HERE / "real_odrive" / "columns.toml"), "--data", *map(str, files),
            "--out", str(out), "--quiet"]
     t0 = time.perf_counter()
     run = subprocess.run(cmd, capture_output=True, text=True)
@@ -105,6 +107,24 @@ def spinup_inertia(real: Path, k_t: float, tau: float, window: float) -> tuple[f
     return float(sol[0]), float(sol[1]), len(target)
 
 
+def two_sessions(real: Path, tmp: Path, angle: np.ndarray, ref: np.ndarray) -> None:
+    """Two logs of one power-up (0.1 and 0.03 rev/s), then the second as if recorded after a power-up whose index
+    moved by half a revolution (its counts plus 4096): the tables against the map, and the offset identify found."""
+    first, second = (real / "logs" / f"{n}.csv" for n in ("slow2__nocomp_0", "slow2_slower__nocomp_0"))
+    lines = second.read_text().splitlines()
+    moved = tmp / "slow2_slower__nocomp_0_reindexed.csv"
+    rows = [ln.split(",") for ln in lines[1:]]
+    moved.write_text("\n".join([lines[0], *(f"{t},{float(c) + COUNTS / 2:.3f},{i}" for t, c, i in rows)]) + "\n")
+    for label, files in (("two logs, one power-up", [first, second]),
+                         ("the second re-indexed by half a revolution", [first, moved])):
+        res, a, iq, seconds = identify(real, "", tmp / label.replace(" ", "_"), files)
+        corr, rms = compare(np.interp(angle, a, iq, period=2 * np.pi), ref)
+        offs = res["identification"].get("index_offsets") or []
+        said = ", ".join(f"{np.degrees(o['rad']):+.1f}°" for o in offs) or "none"
+        print(f"{label:44s} corr {corr:.4f}, RMS diff {100 * rms:.1f} %, index offset found: {said} ({seconds:.1f} s)")
+    print(f"  each: python -m pgcomm identify ... --data {first} SECOND.csv --out OUT")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--real", type=Path, default=DEFAULT_REAL, help="the odrive_cogging folder")
@@ -130,9 +150,11 @@ def main() -> None:
             se = ident["standard_error"]["cogging"]["relative"]
             print(f"{name:36s} {ours[0]:11.4f} {100 * ours[1]:8.1f}% {base[0]:11.4f} {100 * base[1]:8.1f}% "
                   f"{1e3 * tau:9.1f} {100 * se:9.1f}% {seconds:5.1f}  {', '.join(ident.get('pinned', [])) or '-'}")
-    print(f"  each: python -m pgcomm identify --motor bench/real_odrive/motor.toml --columns "
-          f"bench/real_odrive/columns.toml --data {args.real}/logs/NAME.csv --out OUT")
-    print("  (crosstalk logs were taken with the neighbouring motor moved: another map, a low correlation expected)")
+        print(f"  each: python -m pgcomm identify --motor bench/real_odrive/motor.toml --columns "
+              f"bench/real_odrive/columns.toml --data {args.real}/logs/NAME.csv --out OUT")
+        print("  (crosstalk logs were taken with the neighbouring motor moved: another map, a low correlation "
+              "expected)")
+        two_sessions(args.real, Path(tmp), angle, ref)
     k_t = 8.27 / 150
     tau = float(np.median(taus))
     for window in sorted({args.spinup_window, 1.0}):

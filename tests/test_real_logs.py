@@ -275,3 +275,28 @@ def test_the_kept_angle_parts_give_the_fit_of_parts_built_afresh():
     thread.start()
     thread.join()
     assert other[0] is not parts
+
+
+def test_logs_of_two_power_ups_are_put_in_one_frame(uniform_logs):
+    """Two log files whose encoder index moved between them (the second's angles read 0.4 rad more): the second is
+    found 0.4 rad off against the first, modulo the map's own period (its orders are multiples of 6: a shift of 60° is
+    no shift), within the refinement's resolution (a fiftieth of a bin), re-aligned, and the cogging is the truth's
+    within the kernel's error as from the logs in one frame; the same two files in one frame are left as they are."""
+    from pgcomm.rotary.sessions import _bins
+
+    named = [{**lg, "name": f"session_{k}.csv"} for k, lg in enumerate(uniform_logs)]
+    moved = [named[0], {**named[1], "theta": named[1]["theta"] + 0.4}]
+    options = replace(FIXED, current_filter=0.0)
+    res = identify(moved, MOTOR, options)
+    (found,) = res.index_offsets
+    period = 2 * np.pi / np.gcd.reduce(_rotor.ORDERS)
+    miss = (found["rad"] + 0.4 + period / 2) % period - period / 2
+    step = 2 * np.pi / _bins(res.highest_order)
+    assert found["session"] == "session_1.csv" and found["taken"]
+    assert abs(miss) <= step / 25, (found["rad"], step)
+    assert cogging_error(res.model) < 2e-3
+    # as it was: the two frames' cogging averaged
+    wrong = identify([{k: v for k, v in lg.items() if k != "name"} for lg in moved], MOTOR, options)
+    assert wrong.index_offsets is None and cogging_error(wrong.model) > 0.1
+    same = identify(named, MOTOR, options)
+    assert same.index_offsets is None and cogging_error(same.model) < 2e-3

@@ -36,6 +36,7 @@ import numpy as np
 from pgcomm import __version__
 from pgcomm.errors import DataError
 from pgcomm.progress import Progress
+from pgcomm.rotary.sessions import offsets_text
 from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.experiment import AGREEMENT_FACTOR
 from pgcomm.rotary.identify import RotaryIdentification, drive_text, fit_mechanics, identify, map_text, share_text
@@ -262,7 +263,8 @@ def _tell(res: RotaryIdentification, motor: RotaryMotor, progress: Progress) -> 
     sign of ``J/k0``, the encoder's correction, each map's standard error and verdict."""
     for line in (filter_text(res.current_filter), drive_text(res.drive_orders, motor.pole_pairs),
                  pll_text(res.angle_pll or {}), delay_text(res.current_delay or {}), lines_text(res.time_lines),
-                 voltage_text(res.back_emf), offset_text(res.back_emf), host_clock_text(res.host_clock)):
+                 voltage_text(res.back_emf), offset_text(res.back_emf), host_clock_text(res.host_clock),
+                 offsets_text(res.index_offsets or [])):
         if line:
             progress.info(line)
     if (res.model.inertia_ratio or 0.0) < 0.0:

@@ -35,9 +35,10 @@ from pgcomm.rotary.model import Fourier, RotaryModel, drive_orders, harmonic_col
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
+from pgcomm.rotary.sessions import index_offsets, tested
 from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _with_pll, _with_report, \
     apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
-from pgcomm.rotary.regression import _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, \
+from pgcomm.rotary.regression import _basis_cost, _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, \
     _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
     angle_parts_kept, DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID
 from pgcomm.rotary.time_lines import _time_lines
@@ -78,7 +79,8 @@ _RUNNING_KEYS = ("windows", "windows_used", "windows_refused_alias", "windows_re
                  "pinned", "time_lines", "back_emf", "current_noise_A", "current_noise_from",
                  "current_noise_correction", "host_clock", "seconds")
 #: ... and those written only when set: the alias guard's note, and what a rotary experiment's rounds of logs add.
-_OPTIONAL_KEYS = ("note", "rounds", "first_round_standard_error", "log_budget_s", "speed_shares", "set_aside_s")
+_OPTIONAL_KEYS = ("note", "index_offsets", "rounds", "first_round_standard_error", "log_budget_s", "speed_shares",
+                  "set_aside_s")
 #: ... and an identification with a torque sensor.
 _TORQUE_KEYS = ("k0", "cost_Nm2", "seconds")
 
@@ -119,6 +121,9 @@ class RotaryIdentification:
         host_clock: the logged angle's timing noise (µs) and whether the rows were weighted for it
             (:func:`pgcomm.rotary.host_clock.weigh`).
         note: the alias guard's refusals in words, where it refused windows.
+        index_offsets: the encoder index's offsets found between the logs' sessions and removed before the fit
+            (:func:`pgcomm.rotary.sessions.index_offsets`: per session, the offset in rad and the binned maps'
+            correlation before and after), where one was.
         rounds, first_round_standard_error, log_budget_s: set by a rotary experiment that logs in rounds
             (:func:`pgcomm.rotary.experiment.record_running_logs`); speed_shares: the speeds the identified rounds ran
             at (shares of the alias guard's limit); set_aside_s: a first round recorded and set aside (s, where the
@@ -161,6 +166,7 @@ class RotaryIdentification:
     current_noise_correction: dict | None = None
     host_clock: dict | None = None
     note: str | None = None
+    index_offsets: list | None = None
     rounds: int | None = None
     first_round_standard_error: dict | None = None
     log_budget_s: float | None = None
@@ -274,13 +280,20 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     orders = orders_of(options, motor)
     if options.torque_sensor:
         return check_plausible(_identify_torque(logs, motor, orders, t0))
+    # logs of several power-ups: the offsets their binned maps suggest, tested once the logs are read
+    offsets = index_offsets(logs, orders.highest)
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
     n_windows = sum(p.starts.size for p in prepared)
     # a map the logs do not determine is pinned (the ripple at zero, a one-direction log's direction map folded into
     # the cogging) before anything is read off the basis fit: its columns would take the cogging's part
-    shares = information_shares(prepared, orders, taps)
-    pinned = {name: share for name, share in shares.items() if share < DETERMINED_SHARE or name in pin}
-    orders = replace(orders, **{name: np.zeros(0, int) for name in pinned})
+    all_orders = orders
+
+    def pinning(prepared):
+        shares = information_shares(prepared, all_orders, taps)
+        pinned = {name: share for name, share in shares.items() if share < DETERMINED_SHARE or name in pin}
+        return shares, pinned, replace(all_orders, **{name: np.zeros(0, int) for name in pinned})
+
+    shares, pinned, orders = pinning(prepared)
     # a host's clock makes the angle's noise grow with the speed: the rows weighted for it before the logs are read, so
     # that the reading's search, the fit, its validation and its standard errors all see the same weighted rows
     prepared, host = weigh(prepared, orders, taps)
@@ -291,6 +304,36 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
         return None if estimate["natural_frequency_rad_s"] is None else (estimate["natural_frequency_rad_s"],
                                                                          estimate["damping"])
 
+    if offsets:
+        # each session's offset tested by the fit under the reading found (pgcomm.rotary.sessions); where one is
+        # taken the logs are read again in one frame
+        layout0 = _Layout.of(orders)
+
+        def read_cost(prep):
+            # under the reading found last (the names are read when called)
+            read = _with_delay(_with_pll(_with_report(prep, report["tau_s"]), angle(estimate), taps),
+                               timing["samples"], lag_of(timing))
+            return _basis_cost(read, layout0, taps)
+
+        prepared, offsets = tested(prepared, logs, offsets, read_cost, orders.highest, taps)
+        if any(o["taken"] for o in offsets):
+            # two sessions misaligned hold two currents at an angle: what the logs determine is decided in one frame
+            shares, pinned, orders = pinning(prepared)
+            layout0 = _Layout.of(orders)
+        # read in one frame, then each offset taken tested once more under that reading (read across two frames,
+        # the filter and the current's timing took part of the misalignment: 179.3° for a 180° move on the ODrive's)
+        for _ in range(2):
+            if not any(o["taken"] for o in offsets):
+                break
+            estimate, timing, report = read_logs(prepared, orders, taps, encoder_step, current_delay, angle_pll,
+                                                 current_lag, current_filter)
+            kept = [o for o in offsets if o["taken"]]
+            prepared, again = tested(prepared, logs, [{**o, "binned_rad": 0.0} for o in kept], read_cost,
+                                     orders.highest, taps)
+            for o, a in zip(kept, again):
+                o["rad"] += a["rad"]
+            if not any(a["taken"] for a in again):
+                break
     prepared = _with_report(prepared, report["tau_s"])
     pll = angle(estimate)
     as_logged = _with_delay(prepared, timing["samples"], lag_of(timing))
@@ -382,6 +425,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
         note=(f"{counts['alias']} of {counts['windows']} windows refused: faster than {v_limit:.3g} rad/s, where order "
               f"{orders.highest} has fewer than {min_samples_per_period:g} samples per period")
         if counts["alias"] else None,
+        index_offsets=[o for o in offsets if o["taken"]] or None,
         seconds=time.perf_counter() - t0)
     try:
         return check_plausible(result)
