@@ -7,7 +7,7 @@ every 16th count, forward): their correlation and the RMS of their difference (o
 the map's RMS. Beside it, in the same run, the drives' own way: the logged current binned over the angle (512
 bins, as the map). It also prints the report filter the identification found, and the verdicts of the maps the
 logs do not determine. Then two logs identified together, as recorded and with the second re-indexed by half a
-revolution (a power-up whose encoder index moved: :mod:`pgcomm.rotary.sessions`).
+revolution (a power-up whose encoder index moved: :mod:`pgcomm.rotary.power_ups`).
 
 The spin-up runs (``spinup/*.mat``, a MATLAB cell array per file, read here with SciPy in a few lines) give the
 moment of inertia: per run a parabola through the angle over its first ``--spinup-window`` seconds (before the
@@ -107,7 +107,7 @@ def spinup_inertia(real: Path, k_t: float, tau: float, window: float) -> tuple[f
     return float(sol[0]), float(sol[1]), len(target)
 
 
-def two_sessions(real: Path, tmp: Path, angle: np.ndarray, ref: np.ndarray) -> None:
+def two_power_ups(real: Path, tmp: Path, angle: np.ndarray, ref: np.ndarray) -> None:
     """Two logs of one power-up (0.1 and 0.03 rev/s), then the second as if recorded after a power-up whose index
     moved by half a revolution (its counts plus 4096): the tables against the map, and the offset identify found."""
     first, second = (real / "logs" / f"{n}.csv" for n in ("slow2__nocomp_0", "slow2_slower__nocomp_0"))
@@ -154,7 +154,7 @@ def main() -> None:
               f"bench/real_odrive/columns.toml --data {args.real}/logs/NAME.csv --out OUT")
         print("  (crosstalk logs were taken with the neighbouring motor moved: another map, a low correlation "
               "expected)")
-        two_sessions(args.real, Path(tmp), angle, ref)
+        two_power_ups(args.real, Path(tmp), angle, ref)
     k_t = 8.27 / 150
     tau = float(np.median(taus))
     for window in sorted({args.spinup_window, 1.0}):

@@ -282,9 +282,9 @@ def test_logs_of_two_power_ups_are_put_in_one_frame(uniform_logs):
     found 0.4 rad off against the first, modulo the map's own period (its orders are multiples of 6: a shift of 60° is
     no shift), within the refinement's resolution (a fiftieth of a bin), re-aligned, and the cogging is the truth's
     within the kernel's error as from the logs in one frame; the same two files in one frame are left as they are."""
-    from pgcomm.rotary.sessions import _bins
+    from pgcomm.rotary.power_ups import _bins
 
-    named = [{**lg, "name": f"session_{k}.csv"} for k, lg in enumerate(uniform_logs)]
+    named = [{**lg, "name": f"run_{k}.csv"} for k, lg in enumerate(uniform_logs)]
     moved = [named[0], {**named[1], "theta": named[1]["theta"] + 0.4}]
     options = replace(FIXED, current_filter=0.0)
     res = identify(moved, MOTOR, options)
@@ -292,7 +292,7 @@ def test_logs_of_two_power_ups_are_put_in_one_frame(uniform_logs):
     period = 2 * np.pi / np.gcd.reduce(_rotor.ORDERS)
     miss = (found["rad"] + 0.4 + period / 2) % period - period / 2
     step = 2 * np.pi / _bins(res.highest_order)
-    assert found["session"] == "session_1.csv" and found["taken"]
+    assert found["log"] == "run_1.csv" and found["taken"]
     assert abs(miss) <= step / 25, (found["rad"], step)
     assert cogging_error(res.model) < 2e-3
     # as it was: the two frames' cogging averaged

@@ -36,7 +36,7 @@ import numpy as np
 from pgcomm import __version__
 from pgcomm.errors import DataError
 from pgcomm.progress import Progress
-from pgcomm.rotary.sessions import offsets_text
+from pgcomm.rotary.power_ups import offsets_text
 from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.experiment import AGREEMENT_FACTOR
 from pgcomm.rotary.identify import RotaryIdentification, drive_text, fit_mechanics, identify, map_text, share_text

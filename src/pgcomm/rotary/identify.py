@@ -35,7 +35,7 @@ from pgcomm.rotary.model import Fourier, RotaryModel, drive_orders, harmonic_col
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
-from pgcomm.rotary.sessions import index_offsets, tested
+from pgcomm.rotary.power_ups import index_offsets, tested
 from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _with_pll, _with_report, \
     apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
 from pgcomm.rotary.regression import _basis_cost, _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, \
@@ -121,8 +121,8 @@ class RotaryIdentification:
         host_clock: the logged angle's timing noise (µs) and whether the rows were weighted for it
             (:func:`pgcomm.rotary.host_clock.weigh`).
         note: the alias guard's refusals in words, where it refused windows.
-        index_offsets: the encoder index's offsets found between the logs' sessions and removed before the fit
-            (:func:`pgcomm.rotary.sessions.index_offsets`: per session, the offset in rad and the binned maps'
+        index_offsets: the encoder index's offsets found between the logs' power-ups and removed before the fit
+            (:func:`pgcomm.rotary.power_ups.index_offsets`: per log file, the offset in rad and the binned maps'
             correlation before and after), where one was.
         rounds, first_round_standard_error, log_budget_s: set by a rotary experiment that logs in rounds
             (:func:`pgcomm.rotary.experiment.record_running_logs`); speed_shares: the speeds the identified rounds ran
@@ -305,7 +305,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
                                                                          estimate["damping"])
 
     if offsets:
-        # each session's offset tested by the fit under the reading found (pgcomm.rotary.sessions); where one is
+        # each recording's offset tested by the fit under the reading found (pgcomm.rotary.power_ups); where one is
         # taken the logs are read again in one frame
         layout0 = _Layout.of(orders)
 
@@ -317,7 +317,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
 
         prepared, offsets = tested(prepared, logs, offsets, read_cost, orders.highest, taps)
         if any(o["taken"] for o in offsets):
-            # two sessions misaligned hold two currents at an angle: what the logs determine is decided in one frame
+            # two recordings misaligned hold two currents at an angle: what the logs determine is decided in one frame
             shares, pinned, orders = pinning(prepared)
             layout0 = _Layout.of(orders)
         # read in one frame, then each offset taken tested once more under that reading (read across two frames,
