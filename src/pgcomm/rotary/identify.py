@@ -38,8 +38,8 @@ from pgcomm.rotary.winding import BACK_EMF_FACTOR
 from pgcomm.rotary.power_ups import index_offsets, tested
 from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _with_pll, _with_report, \
     apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
-from pgcomm.rotary.regression import _basis_cost, _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, _map_error_quantile, \
-    _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
+from pgcomm.rotary.regression import _basis_cost, _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, \
+    _map_error_quantile, _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
     angle_parts_kept, DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID
 from pgcomm.rotary.time_lines import _time_lines
 from pgcomm.rotary.host_clock import weigh
