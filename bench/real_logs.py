@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pgcomm.rotary.static_map import index_offset
+
 HERE = Path(__file__).resolve().parent
 DEFAULT_REAL = HERE.parent.parent / "shared" / "real" / "odrive_cogging"
 DEFAULT_LOGS = ("slow2_slower__nocomp_0", "slow2__nocomp_0", "slow2__nocomp_1", "slow2__nocomp_2",
@@ -150,9 +152,14 @@ def main() -> None:
             se = ident["standard_error"]["cogging"]["relative"]
             print(f"{name:36s} {ours[0]:11.4f} {100 * ours[1]:8.1f}% {base[0]:11.4f} {100 * base[1]:8.1f}% "
                   f"{1e3 * tau:9.1f} {100 * se:9.1f}% {seconds:5.1f}  {', '.join(ident.get('pinned', [])) or '-'}")
+            # a log of another power-up: its table against the map with the index offset removed, as --sweep does
+            off = index_offset(ref, np.interp(angle, a, iq, period=2 * np.pi), 2 * ident["highest_order"])
+            if off["taken"]:
+                print(f"{'':36s} {off['correlation']:11.4f} with the map's index moved by "
+                      f"{np.degrees(off['rad']):+.1f}° (recorded in another power-up)")
         print(f"  each: python -m pgcomm identify --motor bench/real_odrive/motor.toml --columns "
               f"bench/real_odrive/columns.toml --data {args.real}/logs/NAME.csv --out OUT")
-        print("  (crosstalk logs were taken with the neighbouring motor moved: another map, a low correlation "
+        print("  (crosstalk logs were taken with the neighbouring motor moved: another map, a lower correlation "
               "expected)")
         two_power_ups(args.real, Path(tmp), angle, ref)
     k_t = 8.27 / 150
