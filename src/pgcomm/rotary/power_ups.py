@@ -13,9 +13,8 @@ are one, and logs without a name are one) is binned over the angle, as drives bi
 current's mean per bin, each direction centred on its own mean (a direction's friction is a constant), on ``4 ×``
 the highest order's bins. A recording whose bins do not cover :data:`MIN_COVERAGE` of the revolution is left as it is
 (its binned map says too little). The first recording that covers it is the reference; every other one's circular
-shift against it is
-:func:`pgcomm.rotary.static_map.index_offset`'s (the best shift, where its Fisher ``z`` beats no shift by three
-standard errors, ``n`` the model's independent values): a candidate.
+shift against it is :func:`pgcomm.rotary.static_map.index_offset`'s (the best shift, where its Fisher ``z`` beats no
+shift by three standard errors, ``n`` the model's independent values): a candidate.
 
 **Taken by the fit.** A binned current lags the angle by the speed loop's and a report filter's lag, so the binned
 maps of recordings at different speeds are offset by the difference (two ODrive logs of one power-up, at 0.1 and 0.03
