@@ -317,8 +317,11 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
 
         prepared, offsets = tested(prepared, logs, offsets, read_cost, orders.highest, taps)
         if any(o["taken"] for o in offsets):
-            # two recordings misaligned hold two currents at an angle: what the logs determine is decided in one frame
+            # two recordings misaligned hold two currents at an angle: what the logs determine, and the rows' weights
+            # for a host's clock (from the basis fit's residuals), are decided again in one frame
+            prepared = [replace(p, weight=None, timing_noise=None) for p in prepared]
             shares, pinned, orders = pinning(prepared)
+            prepared, host = weigh(prepared, orders, taps)
             layout0 = _Layout.of(orders)
         # read in one frame, then each offset taken tested once more under that reading (read across two frames,
         # the filter and the current's timing took part of the misalignment: 179.3° for a 180° move on the ODrive's)

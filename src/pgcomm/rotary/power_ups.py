@@ -45,7 +45,7 @@ def _bins(highest_order: int) -> int:
     return max(64, 4 * int(highest_order))
 
 
-def _recording(log, i: int) -> str:
+def _recording(log) -> str:
     """The file a log (or a piece of one split at its gaps: ``"FILE rows A-B"``) came from; ``""`` for a log without a
     name (logs given as arrays are taken as one recording)."""
     name = log.get("name", "") if isinstance(log, dict) else ""
@@ -100,7 +100,7 @@ def index_offsets(logs, highest_order: int) -> list:
     bins = _bins(highest_order)
     recordings: dict[str, list[int]] = {}
     for i, log in enumerate(logs):
-        recordings.setdefault(_recording(log, i), []).append(i)
+        recordings.setdefault(_recording(log), []).append(i)
     if len(recordings) < 2:
         return []
     maps = {}
@@ -143,7 +143,7 @@ def tested(prepared, logs, found: list, cost, highest_order: int, taps: int) -> 
     step = 2 * math.pi / _bins(highest_order)
     out, result = list(prepared), []
     for f in found:
-        members = {k for k, p in enumerate(out) if _recording(logs[p.index], p.index) == f["log"]}
+        members = {k for k, p in enumerate(out) if _recording(logs[p.index]) == f["log"]}
 
         def moved(d, members=members):
             return [replace(p, theta=p.theta + d) if k in members else p for k, p in enumerate(out)]
