@@ -16,6 +16,7 @@ from pgcomm.io.logs import ROTARY_REQUIRED, column_mapping, read_log, with_encod
 from pgcomm.rotary.identify import identify, resolution_verdict
 from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.motor import RotaryMotor
+from pgcomm.rotary.model import cogging_orders
 from pgcomm.rotary.regression import DETERMINED_SHARE
 
 MOTOR = RotaryMotor(pole_pairs=3, slots=9, sample_time=1e-3, k_t=0.1, current_limit=5.0)
@@ -300,3 +301,27 @@ def test_logs_of_two_power_ups_are_put_in_one_frame(uniform_logs):
     assert wrong.index_offsets is None and cogging_error(wrong.model) > 0.1
     same = identify(named, MOTOR, options)
     assert same.index_offsets is None and cogging_error(same.model) < 2e-3
+
+
+def test_logs_too_fast_for_the_basis_keep_the_orders_they_resolve():
+    """A log at a speed of its own, where the full basis's alias guard would refuse every window (order 54, three
+    multiples of the fundamental 18, at 60 rad/s and 1 ms has under 2 samples per period), is identified with the
+    orders it resolves: up to ``⌊2π / (3 ω T_s)⌋`` (34 at the commanded speed; the speed loop's ripple lowers it by
+    its share), the truth's orders 6, 12, 18 among them, and the orders left out are named."""
+    ts, speed = MOTOR.sample_time, 60.0
+    log = _rotor.run(4.0, speed=speed, dither=0.0, seed=5)
+    res = identify([log], MOTOR, replace(FIXED, current_filter=0.0))
+    cut = res.orders_not_resolved
+    top = int(np.floor(2 * np.pi / (3 * speed * ts)))
+    ripple = np.quantile(np.abs(np.diff(log["theta"])), 0.9) / (speed * ts) - 1.0
+    assert top * (1 - 2 * ripple) - 1 <= cut["highest_order"] <= top, (cut, ripple)
+    assert res.highest_order <= cut["highest_order"] and min(cut["orders"]) > cut["highest_order"]
+    assert 54 in cut["orders"] and res.model.cogging.orders.max() <= cut["highest_order"]
+    c = res.standard_error["cogging"]
+    assert cogging_error(res.model) < 2 * np.hypot(c["relative"], c["ridge_bias"]) + 2e-3, c
+    # the basis given: nothing is cut, and the guard refuses the windows
+    with pytest.raises(ExcitationError, match="no usable window"):
+        identify([log], MOTOR, replace(FIXED, current_filter=0.0, orders=(cogging_orders(9, 3), [], [])))
+    # a fundamental the logs cannot resolve (27 slots: order 54) is refused with the speed that would resolve it
+    with pytest.raises(ExcitationError, match=r"fundamental \(order 54 per revolution\).*log at most 38.8 rad/s"):
+        identify([log], replace(MOTOR, slots=27), replace(FIXED, current_filter=0.0))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from pgcomm.io.atomic import atomic_write_text
 from pgcomm.report.page import CSS, figure_html
-from pgcomm.rotary.identify import resolution_verdict, share_text
+from pgcomm.rotary.identify import orders_text, resolution_verdict, share_text
 from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.readings import delay_text, filter_text, pll_text
 from pgcomm.rotary.power_ups import offsets_text
@@ -69,7 +69,8 @@ def _identification_html(r: dict) -> str:
                         ("Rig", lines_text(ident.get("time_lines"))), ("Voltage", voltage_text(ident.get("back_emf"))),
                         ("Drive offset", offset_text(ident.get("back_emf"))),
                         ("Current report", filter_text(ident.get("current_filter"))),
-                        ("Power-ups", offsets_text(ident.get("index_offsets") or []))):
+                        ("Power-ups", offsets_text(ident.get("index_offsets") or [])),
+                        ("Orders", orders_text(ident.get("orders_not_resolved")))):
         if text:
             parts.append(f"<p>{label}: {html.escape(text)}.</p>")
     quant = ident.get("quantisation") or {}

@@ -40,13 +40,14 @@ from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _wit
     apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
 from pgcomm.rotary.regression import _basis_cost, _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, \
     _map_error_quantile, _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
-    angle_parts_kept, DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID
+    angle_parts_kept, DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID, \
+    resolved_orders
 from pgcomm.rotary.time_lines import _time_lines
 from pgcomm.rotary.host_clock import weigh
 from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.law import MIN_GAIN
 
-__all__ = ["identify", "fit_mechanics", "orders_of", "Reading", "check_plausible", "resolution_verdict", "share_text",
+__all__ = ["identify", "fit_mechanics", "orders_of", "Reading", "check_plausible", "resolution_verdict", "share_text", "orders_text",
            "RESOLVED_SHARE", "RESOLVED_CONFIDENCE", "RotaryIdentification"]
 
 
@@ -79,7 +80,7 @@ _RUNNING_KEYS = ("windows", "windows_used", "windows_refused_alias", "windows_re
                  "pinned", "time_lines", "back_emf", "current_noise_A", "current_noise_from",
                  "current_noise_correction", "host_clock", "seconds")
 #: ... and those written only when set: the alias guard's note, and what a rotary experiment's rounds of logs add.
-_OPTIONAL_KEYS = ("note", "index_offsets", "rounds", "first_round_standard_error", "log_budget_s", "speed_shares",
+_OPTIONAL_KEYS = ("note", "orders_not_resolved", "index_offsets", "rounds", "first_round_standard_error", "log_budget_s", "speed_shares",
                   "set_aside_s")
 #: ... and an identification with a torque sensor.
 _TORQUE_KEYS = ("k0", "cost_Nm2", "seconds")
@@ -121,6 +122,8 @@ class RotaryIdentification:
         host_clock: the logged angle's timing noise (µs) and whether the rows were weighted for it
             (:func:`pgcomm.rotary.host_clock.weigh`).
         note: the alias guard's refusals in words, where it refused windows.
+        orders_not_resolved: where the logs turn too fast for the motor's basis, the orders left out of it and the
+            speeds (:func:`pgcomm.rotary.regression.resolved_orders`; :func:`orders_text`).
         index_offsets: the encoder index's offsets found between the logs' power-ups and removed before the fit
             (:func:`pgcomm.rotary.power_ups.index_offsets`: per log file, the offset in rad and the binned maps'
             correlation before and after), where one was.
@@ -166,6 +169,7 @@ class RotaryIdentification:
     current_noise_correction: dict | None = None
     host_clock: dict | None = None
     note: str | None = None
+    orders_not_resolved: dict | None = None
     index_offsets: list | None = None
     rounds: int | None = None
     first_round_standard_error: dict | None = None
@@ -280,6 +284,11 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     orders = orders_of(options, motor)
     if options.torque_sensor:
         return check_plausible(_identify_torque(logs, motor, orders, t0))
+    cut = None
+    if options.orders is None:
+        # logs that turn too fast for the basis's highest order (a joint's own speed loop, a slow host): the basis cut
+        # to the orders they resolve, rather than most of their windows refused
+        orders, cut = resolved_orders(logs, motor, orders, min_samples_per_period)
     # logs of several power-ups: the offsets their binned maps suggest, tested once the logs are read
     offsets = index_offsets(logs, orders.highest)
     prepared, counts, v_limit, ts = _prepare(logs, motor, orders, min_samples_per_period, taps, encoder_step)
@@ -428,7 +437,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
         note=(f"{counts['alias']} of {counts['windows']} windows refused: faster than {v_limit:.3g} rad/s, where order "
               f"{orders.highest} has fewer than {min_samples_per_period:g} samples per period")
         if counts["alias"] else None,
-        index_offsets=[o for o in offsets if o["taken"]] or None,
+        index_offsets=[o for o in offsets if o["taken"]] or None, orders_not_resolved=cut,
         seconds=time.perf_counter() - t0)
     try:
         return check_plausible(result)
@@ -751,6 +760,18 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
 def share_text(x: float) -> str:
     """A share as per cent with two significant digits, or "under 0.1 %"."""
     return "under 0.1 %" if x < 1e-3 else f"{100 * x:.2g} %"
+
+
+def orders_text(cut: dict | None) -> str:
+    """One sentence on the orders left out of the basis because the logs turn too fast to resolve them
+    (``identification.orders_not_resolved``); ``""`` where none were."""
+    if not cut:
+        return ""
+    shown = ", ".join(map(str, cut["orders"][:8])) + (", ..." if len(cut["orders"]) > 8 else "")
+    return (f"orders above {cut['highest_order']} per revolution not resolved by these logs and left out of the "
+            f"maps ({shown}): nine in ten filter windows at speed turn at up to {cut['speed_rad_s']:.3g} rad/s (their "
+            f"fastest step over the median step); logs at most {cut['speed_to_resolve_rad_s']:.3g} rad/s (or a host "
+            "that polls faster) would resolve them")
 
 
 def map_text(name: str, entry: dict, log_seconds: float | None = None) -> str:

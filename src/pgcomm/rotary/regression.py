@@ -90,7 +90,8 @@ from scipy.linalg import eigh
 from scipy.stats import chi2, f as f_dist
 
 from pgcomm.errors import DataError, ExcitationError
-from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, harmonic_columns, harmonic_rows, ripple_orders
+from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, fundamental_cogging_order, \
+    harmonic_columns, harmonic_rows, ripple_orders
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
 
@@ -156,6 +157,97 @@ def max_speed(orders: Orders, sample_time: float, min_samples: float = MIN_SAMPL
     """The fastest speed (rad/s) at which the alias guard keeps a window:
     ``2π / (T_s · min_samples · h_max)``."""
     return 2.0 * math.pi / (sample_time * min_samples * max(orders.highest, 1))
+
+
+#: Where the basis's alias guard would keep fewer windows at speed than this many per unknown (two per order), the basis
+#: is cut to the orders the logs resolve (:func:`resolved_orders`): below it the fit of the full basis is poorly
+#: determined (the refusal is at two), and the windows the guard refuses cost the maps more than the top orders left
+#: out (the multiples of a motor's cogging fundamental fall with the multiple). Logs that already give the full basis
+#: that many windows (a slow log beside a fast one) keep it.
+CUT_WINDOWS_PER_UNKNOWN = 10.0
+#: The share of the windows at speed whose fastest step the cut basis's highest order still resolves.
+GUARD_QUANTILE = 0.9
+
+
+def steps_at_speed(logs, sample_time: float, taps: int = FILTER_TAPS) -> np.ndarray:
+    """The fastest angle one step turns in each filter window at speed, every log (rad): what the alias guard of
+    :func:`_prepare` judges (windows near standstill or reversing left out).
+
+    Args:
+        logs: logs as for :func:`_prepare` (``theta`` rad, multi-turn; ``(N_i,)`` each).
+        sample_time: the drive's period (s), where a log has no ``t``; taps: the filter's taps.
+
+    Returns:
+        ``(M,)`` float array (rad per median step), all logs' windows at speed.
+    """
+    steps = []
+    for i, log in enumerate(logs):
+        _, th, _, _, ts = _log_arrays(log, i, sample_time)
+        if th.size < taps + 4:
+            continue
+        _, _, slow, wmax, _ = _windows(th, _log_time(log), ts, taps)
+        steps.append(wmax[~slow] * ts)
+    return np.concatenate(steps) if steps else np.zeros(0)
+
+
+def highest_resolved_order(steps: np.ndarray, min_samples: float = MIN_SAMPLES_PER_PERIOD,
+                           share: float = GUARD_QUANTILE) -> int:
+    """The highest order per revolution with ``min_samples`` samples per period in ``share`` of the windows
+    (``steps``: :func:`steps_at_speed`): ``⌊2π / (min_samples · q)⌋``, ``q`` their ``share`` quantile (0 for none)."""
+    if not steps.size:
+        return 0
+    return int(math.floor(2 * math.pi / (min_samples * float(np.quantile(steps, share)))))
+
+
+def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
+                    min_samples: float = MIN_SAMPLES_PER_PERIOD) -> tuple[Orders, dict | None]:
+    """``orders`` cut to what the logs resolve where they turn too fast for the basis's highest order.
+
+    A log recorded at a speed of its own (a robot's joint in its speed loop, a host that polls every few
+    milliseconds) can put most of its windows beyond the alias guard of the full basis (three multiples of the
+    cogging fundamental ``L``), and the guard would refuse them. Where it would keep fewer than
+    :data:`CUT_WINDOWS_PER_UNKNOWN` windows per unknown, every map keeps the orders up to the highest that
+    :data:`GUARD_QUANTILE` of the windows at speed resolve (:func:`highest_resolved_order`), and those windows are
+    kept. The orders above are not determined by these logs; slower logs (or a faster host) would determine them.
+
+    Args:
+        logs: as for :func:`_prepare`; motor: :class:`RotaryMotor` (its slots set ``L``, its ``sample_time`` is
+            used where a log has no ``t``); orders: the basis (:meth:`Orders.for_motor`);
+        min_samples: the alias guard's samples per period.
+
+    Returns:
+        ``(orders, cut)``: ``cut`` is ``None`` where nothing was cut, else ``{"highest_order", "orders"`` (the orders
+        left out, every map), ``"speed_rad_s"`` (the speed ``GUARD_QUANTILE`` of the windows at speed stay below),
+        ``"speed_to_resolve_rad_s"`` (the basis's guard: below it every order is resolved)``}``.
+
+    Raises:
+        ExcitationError: the cut would leave out the cogging's fundamental ``L``.
+    """
+    steps = steps_at_speed(logs, motor.sample_time)
+    if not steps.size or orders.highest < 1:
+        return orders, None
+    unknowns = 2 * (orders.cogging.size + orders.ripple.size + orders.direction.size) + 2
+    kept = int(np.sum(steps <= 2 * math.pi / (min_samples * orders.highest)))
+    top = highest_resolved_order(steps, min_samples)
+    if kept >= CUT_WINDOWS_PER_UNKNOWN * unknowns or top >= orders.highest:
+        return orders, None
+    ts = float(np.median([_log_arrays(log, i, motor.sample_time)[4] for i, log in enumerate(logs)]))
+    speed = float(np.quantile(steps, GUARD_QUANTILE)) / ts
+    full = max_speed(orders, ts, min_samples)
+    fundamental = fundamental_cogging_order(motor.slots, motor.pole_pairs) if motor.slots else None
+    if fundamental is not None and top < fundamental:
+        need = 2 * math.pi / (ts * min_samples * fundamental)
+        raise ExcitationError(
+            f"the logs turn too fast for their sampling to resolve the cogging's fundamental (order {fundamental} "
+            f"per revolution): nine in ten filter windows at speed turn at up to {speed:.4g} rad/s (their fastest step "
+            f"over the median step, {1e3 * ts:.3g} ms), where the highest order with {min_samples:g} samples per "
+            f"period is {top}; log at most {need:.3g} rad/s (every order of the basis: {full:.3g} rad/s) or poll the "
+            "drive faster" + _unit_hint(speed, need))
+    cut = Orders(*(o[o <= top] for o in (orders.cogging, orders.ripple, orders.direction)))
+    left = sorted(set(np.concatenate([orders.cogging, orders.ripple, orders.direction]).tolist())
+                  - set(np.concatenate([cut.cogging, cut.ripple, cut.direction]).tolist()))
+    return cut, {"highest_order": int(top), "orders": [int(h) for h in left], "speed_rad_s": speed,
+                 "speed_to_resolve_rad_s": full}
 
 
 _ZOH = np.array([0.5, 0.5])
@@ -347,7 +439,6 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
     """
     _require_current(logs, motor.sample_time)
     span = taps + 2  # samples of θ one output needs: s .. s+T+1
-    stride = max(1, taps // 2)
     counts = {"windows": 0, "alias": 0, "slow": 0}
     prepared, ts_all, fastest = [], [], 0.0
     v_limit = None
@@ -355,28 +446,11 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
         name, th, iq, _, ts = _log_arrays(log, i, motor.sample_time)
         t = _log_time(log)
         ts_all.append(ts)
-        n = th.size
-        if n < span + 2:
+        if th.size < span + 2:
             continue
-        w = np.empty(n)
-        w[1:-1] = (th[2:] - th[:-2]) / (2 * ts if t is None else t[2:] - t[:-2])
-        w[0], w[-1] = w[1], w[-2]
-        speed = np.abs(w)
-        v95 = float(np.percentile(speed, 95))
+        w, s_all, slow, wmax, v95 = _windows(th, t, ts, taps)
         fastest = max(fastest, v95)
         v_limit = max_speed(orders, ts, min_samples)
-        s_all = np.arange(0, n - span + 1, stride)
-        idx = s_all[:, None] + np.arange(span)
-        wmin = speed[idx].min(axis=1)
-        if t is None:
-            wmax = speed[idx].max(axis=1)
-        else:
-            # the guard on the angle one step turns: the speed times the longer of the two steps around a sample
-            h = np.diff(t)
-            h_at = np.maximum(np.r_[h[0], h], np.r_[h, h[-1]])
-            wmax = (speed * h_at)[idx].max(axis=1) / ts
-        one_dir = np.all(np.sign(w[idx]) == np.sign(w[idx[:, :1]]), axis=1)
-        slow = (wmin <= MIN_SPEED_SHARE * v95) | ~one_dir
         alias = ~slow & (wmax > v_limit)
         ok = ~slow & ~alias
         counts["windows"] += int(s_all.size)
@@ -396,6 +470,40 @@ def _prepare(logs, motor: RotaryMotor, orders: Orders, min_samples: float, taps:
             f"{min_samples:g} samples per period), {counts['slow']} near standstill or reversing"
             + _unit_hint(fastest, v_limit))
     return prepared, counts, v_limit, float(np.median(ts_all))
+
+
+def _windows(th: np.ndarray, t: np.ndarray | None, ts: float, taps: int):
+    """One log's filter windows and what the alias guard judges of them.
+
+    Args:
+        th: ``(n,)`` angle (rad), ``n ≥ taps + 4``; t: ``(n,)`` stamps (s) or ``None`` (samples ``ts`` apart);
+        ts: the log's median step (s); taps: the filter's taps.
+
+    Returns:
+        ``(w, starts, slow, wmax, v95)``: the speed ``(n,)`` (rad/s, central differences), the windows' first samples
+        ``(W,)``, whether each is near standstill or reversing ``(W,)``, the fastest angle a step turns in each
+        (rad/s over ``ts``: on stamps, the speed times the longer of the two steps around a sample) ``(W,)``, and the
+        log's 95th-percentile speed (rad/s).
+    """
+    n = th.size
+    span = taps + 2  # samples of θ one output needs: s .. s+T+1
+    w = np.empty(n)
+    w[1:-1] = (th[2:] - th[:-2]) / (2 * ts if t is None else t[2:] - t[:-2])
+    w[0], w[-1] = w[1], w[-2]
+    speed = np.abs(w)
+    v95 = float(np.percentile(speed, 95))
+    s_all = np.arange(0, n - span + 1, max(1, taps // 2))
+    idx = s_all[:, None] + np.arange(span)
+    wmin = speed[idx].min(axis=1)
+    if t is None:
+        wmax = speed[idx].max(axis=1)
+    else:
+        # the guard on the angle one step turns: the speed times the longer of the two steps around a sample
+        h = np.diff(t)
+        h_at = np.maximum(np.r_[h[0], h], np.r_[h, h[-1]])
+        wmax = (speed * h_at)[idx].max(axis=1) / ts
+    one_dir = np.all(np.sign(w[idx]) == np.sign(w[idx[:, :1]]), axis=1)
+    return w, s_all, (wmin <= MIN_SPEED_SHARE * v95) | ~one_dir, wmax, v95
 
 
 def _unit_hint(speed: float, limit: float | None) -> str:

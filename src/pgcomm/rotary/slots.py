@@ -40,7 +40,7 @@ from pgcomm.rotary.model import cogging_orders, direction_orders, fundamental_co
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, Orders, \
-    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders
+    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders, highest_resolved_order, steps_at_speed
 from pgcomm.rotary.time_lines import detect_time_lines
 from pgcomm.settings import RotaryIdentifyOptions
 
@@ -54,24 +54,6 @@ MAX_ORDER = 1024
 #: log of a few seconds so few blocks that the significance threshold (Hotelling's F quantile) is 10^5-10^7
 #: times the noise; the rows' residuals are nearly white (a small lag-1 correlation), so blocks a tenth as long still hold the correlation of overlapping filter windows (8 samples).
 DETECTION_BLOCK_SECONDS = 0.1
-
-
-def _highest_order(logs, sample_time: float) -> int:
-    """The highest order with :data:`~pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period at the
-    90th percentile of the logs' speed at speed (the samples above the slow share of each log's 95th percentile),
-    at most :data:`MAX_ORDER`: nine in ten samples pass the identification's alias guard."""
-    steps = []  # rad per sample, at speed
-    for i, log in enumerate(logs):
-        _, th, _, _, _ = _log_arrays(log, i, sample_time)
-        if th.size < 3:
-            continue
-        d = np.abs(np.gradient(th))
-        steps.append(d[d > MIN_SPEED_SHARE * float(np.percentile(d, 95))])
-    v = np.concatenate(steps) if steps else np.zeros(0)
-    if not v.size:
-        raise ExcitationError("no sample at speed in the logs: the slot count is read from running logs "
-                              "(set slots in the motor TOML)")
-    return int(min(MAX_ORDER, math.floor(2 * math.pi / (MIN_SAMPLES_PER_PERIOD * float(np.percentile(v, 90))))))
 
 
 def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), current_lag=None) -> tuple[int, dict]:
@@ -99,7 +81,12 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
         ExcitationError: the logs show no slot count's fundamental (or are too slow or fast to say).
     """
     p = int(pole_pairs)
-    top = _highest_order(logs, sample_time)
+    steps = steps_at_speed(logs, sample_time)
+    if not steps.size:
+        raise ExcitationError("no sample at speed in the logs: the slot count is read from running logs "
+                              "(set slots in the motor TOML)")
+    # nine in ten samples at speed pass the identification's alias guard up to this order
+    top = min(MAX_ORDER, highest_resolved_order(steps))
     if top < 2 * p:
         raise ExcitationError(f"the logs are too fast to show the cogging: order {2 * p} (2p) has fewer than "
                               f"{MIN_SAMPLES_PER_PERIOD:g} samples per period at their usual speed; set slots in the "
