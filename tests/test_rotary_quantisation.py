@@ -171,3 +171,34 @@ def test_the_corrected_fit_is_the_dense_solve_of_the_corrected_normal_equations(
     beta = np.linalg.solve(A, X.T @ y / scale) / scale
     rms_y = float(np.sqrt(np.mean(y**2)))
     assert float(np.sqrt(np.mean((X @ (fit["beta"] - beta)) ** 2))) <= 1e-8 * rms_y
+
+
+def test_a_basis_fit_costs_at_least_its_floor_of_the_residual_as_logged():
+    """The reading search's cost (:func:`pgcomm.rotary.regression._fit_of_normal_equations`) against the rows
+    themselves: without encoder noise it is the mean squared residual ``|y − X β|² / n`` of the coefficients it
+    returns; with a noise that the correction takes nearly all of the acceleration's residual for (the corrected
+    quadratic form then falls to zero or below), it is :data:`MIN_CORRECTED_SHARE` of that residual, not a number
+    that ties every such reading at zero."""
+    rng = np.random.default_rng(4)
+    orders = rr.Orders(np.array([0, 1, 2]), np.zeros(0, int), np.zeros(0, int))
+    lay = rr._Layout.of(orders)
+    n = 4000
+    X = rng.standard_normal((n, int(lay.keep.sum())))
+    y = X @ rng.standard_normal(X.shape[1]) + 0.05 * rng.standard_normal(n)
+    half = n // 2
+
+    def equations(noise_per_row):
+        parts = (slice(0, half), slice(half, n))
+        return (np.stack([X[s].T @ X[s] for s in parts]), np.stack([X[s].T @ y[s] for s in parts]),
+                np.array([y[s] @ y[s] for s in parts]), np.array([half, n - half], float),
+                np.array([half, n - half], float) * noise_per_row)
+
+    def residual(beta):
+        return float(np.mean((y - X @ beta) ** 2))
+
+    beta, cost, rows = rr._fit_of_normal_equations(equations(0.0), lay)
+    assert rows == n and cost == pytest.approx(residual(beta), rel=1e-9)
+    # the acceleration's column (0) is all signal here; a noise the size of its whole variance is capped at
+    # MAX_NOISE_SHARE of it, and the corrected form's minimum drops below zero
+    beta, cost, _ = rr._fit_of_normal_equations(equations(float(np.mean(X[:, 0] ** 2))), lay)
+    assert cost == pytest.approx(rr.MIN_CORRECTED_SHARE * residual(beta), rel=1e-9) and cost > 1e-3 * residual(beta)

@@ -789,8 +789,8 @@ def apply_reading(log: dict, current_delay: int, angle_pll, sample_time: float) 
 
 
 def _times(ratio: float) -> str:
-    """A factor for a sentence: ``"1.9x"``, ``"190x"``."""
-    return f"{ratio:.0f}x" if ratio >= 10 else f"{ratio:.2g}x"
+    """A factor for a sentence: ``"1.9x"``, ``"190x"``, ``"1.2e+08x"``."""
+    return f"{ratio:.0f}x" if 10 <= ratio < 1e6 else f"{ratio:.2g}x"
 
 
 def lag_of(timing: dict):

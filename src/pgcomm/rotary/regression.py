@@ -120,6 +120,10 @@ CHUNK_WINDOWS = 512
 #: share of the acceleration's part that the maps and friction do not explain: beyond it the logs do not carry
 #: the rotor's acceleration above the encoder's noise, and ``J/k0`` would be noise over almost nothing.
 MAX_NOISE_SHARE = 0.75
+#: A basis fit's cost (:func:`_fit_of_normal_equations`) is the encoder-noise corrected residual, but at least this
+#: share of the residual on the rows as logged: a correction that would leave less has outgrown the noise it
+#: estimates.
+MIN_CORRECTED_SHARE = 0.01
 #: The current-noise correction (:func:`_current_noise_correction`) removes at most this share of the ripple
 #: columns' part that the other columns do not explain, as :data:`MAX_NOISE_SHARE` does for the acceleration.
 MAX_CURRENT_NOISE_SHARE = 0.75
@@ -1285,14 +1289,23 @@ def _basis_fit(prepared, layout: "_Layout", taps: int) -> tuple[np.ndarray, floa
 
 
 def _fit_of_normal_equations(equations, layout: "_Layout") -> tuple[np.ndarray, float, float]:
-    """:func:`_basis_fit` from its normal equations (:func:`_normal_equations`)."""
-    G, b, yy, n, noise = equations
-    G, _, _ = _quantisation_correction(G, noise)
+    """:func:`_basis_fit` from its normal equations (:func:`_normal_equations`).
+
+    The cost is the encoder-noise corrected residual (what the fit leaves of the current beside the acceleration's
+    rounding noise), at least :data:`MIN_CORRECTED_SHARE` of the residual on the rows as logged. The corrected
+    quadratic form is not a sum of squares: it subtracts ``β_J²`` times the noise, and readings that grow ``J/k0``
+    (a report filter read too long) can take it to zero or below where the encoder's noise is a large share of the
+    acceleration (a 16-bit encoder polled every few ms). Readings that cost nothing all tie: a 2.1 ms filter was read
+    at 10 ms, its cogging four times too large. The floor ranks those by their residual as logged and leaves every
+    other ranking as it was."""
+    G_raw, b, yy, n, noise = equations
+    G, _, _ = _quantisation_correction(G_raw, noise)
     pen = layout.pen[layout.keep].astype(float)
     beta, _, _ = _ridge(G[0] + G[1], b[0] + b[1], n[0] + n[1], pen, _validated_ridge(G, b, yy, n, pen)[0])
-    gt, bt, yt = G[0] + G[1], b[0] + b[1], yy[0] + yy[1]
+    bt, yt = b[0] + b[1], yy[0] + yy[1]
     rows = float(n[0] + n[1])
-    return beta, max(float(yt - 2 * beta @ bt + beta @ gt @ beta), 1e-300) / max(rows, 1.0), rows
+    corrected, raw = (float(yt - 2 * beta @ bt + beta @ (g[0] + g[1]) @ beta) for g in (G, G_raw))
+    return beta, max(corrected, MIN_CORRECTED_SHARE * raw, 1e-300) / max(rows, 1.0), rows
 
 
 def _unexplained(fit, mean_square: float) -> float:
