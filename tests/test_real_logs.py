@@ -325,3 +325,25 @@ def test_logs_too_fast_for_the_basis_keep_the_orders_they_resolve():
     # a fundamental the logs cannot resolve (27 slots: order 54) is refused with the speed that would resolve it
     with pytest.raises(ExcitationError, match=r"fundamental \(order 54 per revolution\).*log at most 38.8 rad/s"):
         identify([log], replace(MOTOR, slots=27), replace(FIXED, current_filter=0.0))
+
+
+def test_orders_no_slot_count_explains_are_the_maps_orders(tmp_path):
+    """Logs whose orders no slot count's fundamental explains (the rotor cogs at 6, 12 and 18 per revolution; a motor
+    declared with 5 pole pairs cogs at multiples of LCM(Q, 10), 30 at the least) are identified with the orders they
+    show beside the drive's own, not refused: the slot count stays unknown, the orders seen are named, and the cogging
+    is the truth's within the verdict's error."""
+    from pgcomm.rotary.from_logs import identify_from_logs
+
+    log = _rotor.run(6.0, speed=20.0, seed=7)
+    # a drive's current noise, so that only the orders the rotor has stand out of it
+    log["iq_1"] = log["iq_1"] + 0.002 * np.random.default_rng(7).standard_normal(log["iq_1"].size)
+    path = tmp_path / "joint.csv"
+    np.savetxt(path, np.c_[log["t"], log["theta"], log["iq_1"]], delimiter=",", header="t,theta,iq_1", comments="",
+               fmt="%.15g")
+    found = identify_from_logs([read_log(path, required=ROTARY_REQUIRED, stamps=True)],
+                               replace(MOTOR, slots=None, pole_pairs=5), replace(FIXED, current_filter=0.0))
+    det = found.slots_detected
+    assert det["slots"] is None and found.motor.slots is None
+    assert set(det["orders_seen"]) == {6, 12, 18} and {6, 12, 18} <= set(found.model.cogging.orders.tolist())
+    c = found.identification.standard_error["cogging"]
+    assert cogging_error(found.model) < 2 * np.hypot(c["relative"], c["ridge_bias"]) + 2e-3, c

@@ -48,7 +48,7 @@ from scipy.optimize import minimize
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _basis_costs, \
-    _angle_parts, _evidence, _hann, _log_time, _prepare
+    _angle_parts, _evidence, _hann, _log_time, _prepare, resolved_orders
 from pgcomm.settings import RotaryIdentifyOptions
 
 #: Delays (samples) of the logged q-current behind the current that acted over each sample that
@@ -760,6 +760,8 @@ def detect_reading(logs, motor: RotaryMotor, options: RotaryIdentifyOptions | No
     options = options or RotaryIdentifyOptions()
     orders = orders_of(options, motor)
     samples = MIN_SAMPLES_PER_PERIOD if options.min_samples_per_period is None else options.min_samples_per_period
+    if options.orders is None:
+        orders, _ = resolved_orders(logs, motor, orders, samples)
     taps = FILTER_TAPS if options.taps is None else options.taps
     prepared, _, _, _ = _prepare(logs, motor, orders, samples, taps, options.encoder_step)
     return _reading(prepared, orders, taps, options.encoder_step, options.current_delay, options.angle_pll,

@@ -36,7 +36,8 @@ from dataclasses import replace
 import numpy as np
 
 from pgcomm.errors import ExcitationError
-from pgcomm.rotary.model import cogging_orders, direction_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, fundamental_cogging_order, \
+    ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, Orders, \
@@ -44,7 +45,7 @@ from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES
 from pgcomm.rotary.time_lines import detect_time_lines
 from pgcomm.settings import RotaryIdentifyOptions
 
-__all__ = ["detect_slots", "count_slots", "MAX_SLOTS", "MAX_ORDER"]
+__all__ = ["detect_slots", "count_slots", "orders_shown", "NoFundamental", "MAX_SLOTS", "MAX_ORDER"]
 
 #: Largest slot count considered (the motor TOML's plausibility bound).
 MAX_SLOTS = 600
@@ -54,6 +55,26 @@ MAX_ORDER = 1024
 #: log of a few seconds so few blocks that the significance threshold (Hotelling's F quantile) is 10^5-10^7
 #: times the noise; the rows' residuals are nearly white (a small lag-1 correlation), so blocks a tenth as long still hold the correlation of overlapping filter windows (8 samples).
 DETECTION_BLOCK_SECONDS = 0.1
+
+
+class NoFundamental(ExcitationError):
+    """The logs show no three-phase slot count's cogging fundamental ``LCM(Q, 2p)`` up to the highest order they
+    resolve. ``seen``: the orders they do show (per revolution, strongest first); ``top``: the highest examined."""
+
+    def __init__(self, message: str, seen: list, top: int):
+        super().__init__(message)
+        self.seen, self.top = seen, int(top)
+
+
+def orders_shown(seen, pole_pairs: int, top: int) -> Orders:
+    """The maps' orders where no slot count explains the logs (:class:`NoFundamental`): the cogging takes the orders
+    the logs show, the lowest (1, 2: eccentricity) and the drive's own (:func:`pgcomm.rotary.model.drive_orders`),
+    and order 0; the ripple and the direction map the orders that do not depend on the slots; every map up to ``top``,
+    the highest order the logs resolve. The identification's screening then adds what else the logs resolve up to the
+    highest of them."""
+    p = int(pole_pairs)
+    cogging = np.union1d(np.union1d([0, 1, 2], drive_orders(p)), np.asarray(seen, int)).astype(int)
+    return Orders(*(o[o <= int(top)] for o in (cogging, ripple_orders(None, p), direction_orders(p))))
 
 
 def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), current_lag=None) -> tuple[int, dict]:
@@ -78,7 +99,8 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
         slot sidebands seen it explains).
 
     Raises:
-        ExcitationError: the logs show no slot count's fundamental (or are too slow or fast to say).
+        NoFundamental: the logs show no slot count's fundamental (with the orders they show);
+        ExcitationError: the logs are too slow or fast to say.
     """
     p = int(pole_pairs)
     steps = steps_at_speed(logs, sample_time)
@@ -112,9 +134,11 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
         scores.append((float(np.sum(ratio[basis] - 1.0)), -q, q, lcm))
     if not scores:
         strongest = int(np.argmax(ratio))
-        raise ExcitationError(
+        seen = np.flatnonzero(ratio > 1.0)
+        raise NoFundamental(
             f"slots not given, and the logs show no cogging fundamental LCM(Q, {2 * p}) up to order {top} (strongest "
-            f"order {strongest} at {ratio[strongest]:.2g}x its threshold): set slots in the motor TOML")
+            f"order {strongest} at {ratio[strongest]:.2g}x its threshold): set slots in the motor TOML",
+            [int(h) for h in seen[np.argsort(ratio[seen])[::-1]]], top)
     scores.sort(reverse=True)
     lcm = scores[0][3]
     # slot counts with that fundamental differ only in their slot sidebands (multiples of Q): the one that explains
