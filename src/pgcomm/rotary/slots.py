@@ -6,8 +6,8 @@ Datasheets of industrial servo motors give the pole count but rarely the slots, 
 
 **Which orders the logs show.** The identification of :mod:`pgcomm.rotary.identify` runs once with a cogging
 basis of *every* order from 1 to ``H`` (the highest the logs can carry: at least
-:data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period at the 90th percentile of the logs'
-speed, at most
+:data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period in nine in ten of the filter windows at
+speed, as the alias guard judges them, :func:`pgcomm.rotary.regression.highest_resolved_order`; at most
 :data:`MAX_ORDER`) and the ripple's orders that do not depend on ``Q``. Each order's ``T² = δᵀ C⁻¹ δ``
 (cosine and sine over their block-sandwich covariance) against its family-wise threshold (the screening's,
 ``α`` = :data:`pgcomm.rotary.regression.EXTRA_ORDER_ALPHA` over the ``H`` orders) says whether the logs show it.
@@ -30,7 +30,6 @@ resolve, whichever ``Q`` was taken.
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -40,8 +39,8 @@ from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, 
     ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
-from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, Orders, \
-    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders, highest_resolved_order, steps_at_speed
+from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _fit, _Layout, \
+    _prepare, _significant_extra_orders, highest_resolved_order, steps_at_speed
 from pgcomm.rotary.time_lines import detect_time_lines
 from pgcomm.settings import RotaryIdentifyOptions
 
@@ -107,7 +106,7 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
     if not steps.size:
         raise ExcitationError("no sample at speed in the logs: the slot count is read from running logs "
                               "(set slots in the motor TOML)")
-    # nine in ten samples at speed pass the identification's alias guard up to this order
+    # nine in ten windows at speed pass the identification's alias guard up to this order
     top = min(MAX_ORDER, highest_resolved_order(steps))
     if top < 2 * p:
         raise ExcitationError(f"the logs are too fast to show the cogging: order {2 * p} (2p) has fewer than "
