@@ -347,3 +347,9 @@ def test_orders_no_slot_count_explains_are_the_maps_orders(tmp_path):
     assert set(det["orders_seen"]) == {6, 12, 18} and {6, 12, 18} <= set(found.model.cogging.orders.tolist())
     c = found.identification.standard_error["cogging"]
     assert cogging_error(found.model) < 2 * np.hypot(c["relative"], c["ridge_bias"]) + 2e-3, c
+    # the report says so, and gives a pinned map's verdict as a sentence
+    from pgcomm.report.rotary import write_rotary_report
+
+    page = write_rotary_report(tmp_path / "report.html", found.to_dict(), {}).read_text()
+    assert "no slot count's cogging fundamental among the orders the logs show" in page
+    assert "no: not determined by these logs" in page and "nonot" not in page

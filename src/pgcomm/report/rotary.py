@@ -51,7 +51,9 @@ def _identification_html(r: dict) -> str:
         e = se[name]
         truth = ident.get("errors", {}).get({"cogging": "cogging_rel", "ripple": "ripple_rel",
                                                "direction": "direction_rel"}[name])
-        verdict = "yes" if e["resolved"] else "no" + resolution_verdict(e).removeprefix("not resolved")
+        said = resolution_verdict(e)
+        verdict = ("yes" if e["resolved"] else "no" + said.removeprefix("not resolved")
+                   if said.startswith("not resolved") else "no: " + said)
         rows.append(f"<tr><th>{name}</th><td>{_g(e['rms'])} {unit}</td><td>{_g(e['rms_error'])} {unit}</td>"
                     f"<td>{_pct(e['relative'])}</td><td>{html.escape(verdict)}</td>"
                     + (f"<td>{_pct(truth)}</td>" if has_truth else "") + "</tr>")
@@ -70,7 +72,7 @@ def _identification_html(r: dict) -> str:
                         ("Drive offset", offset_text(ident.get("back_emf"))),
                         ("Current report", filter_text(ident.get("current_filter"))),
                         ("Power-ups", offsets_text(ident.get("index_offsets") or [])),
-                        ("Orders", orders_text(ident.get("orders_not_resolved")))):
+                        ("Alias guard", orders_text(ident.get("orders_not_resolved")))):
         if text:
             parts.append(f"<p>{label}: {html.escape(text)}.</p>")
     quant = ident.get("quantisation") or {}
