@@ -179,6 +179,5 @@ def _summary(args, found, results: dict, written: list, seconds: float) -> None:
     if (si or {}).get("inertia_kg_m2"):
         # reproduce builds the twin from the TOML, which needs the slot count (read here if it was not there)
         print("preview the law against the drive's table on this motor: "
-              + ((f"add slots = {motor.slots} to {args.motor}, then " if motor.slots is not None
-                  else f"add your motor's slots to {args.motor}, then ") if found.slots_detected is not None else "")
+              + (f"add slots = {motor.slots} to {args.motor}, then " if found.slots_detected is not None else "")
               + f"pgcomm reproduce --motor {args.motor} --truth {args.out}/model.json --quick --out preview")

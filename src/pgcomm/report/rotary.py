@@ -87,14 +87,7 @@ def _identification_html(r: dict) -> str:
                                        "above the encoder's noise (log accelerations or a dither)"
                                        if quant.get("correction_capped") else "") + ".</p>")
     det = r.get("slots_detected")
-    if det and det["slots"] is None:
-        parts.append("<p>Slot count not in the motor description, and no slot count's cogging fundamental among the "
-                     f"orders the logs show up to {det['highest_order_examined']} (strongest first: "
-                     f"{html.escape(', '.join(map(str, det.get('orders_seen', [])[:8])))}): the cogging takes the "
-                     "orders they show with the drive's own. A fundamental above that order does not show at these "
-                     "logs' speed and polling: where the motor's LCM(Q, 2p) is higher, the table lacks its cogging "
-                     "(log slower; set <code>slots</code> in the motor TOML if you know them).</p>")
-    elif det:
+    if det:
         others = [q for q in det.get("slots_with_that_fundamental", []) if q != det["slots"]]
         read = det.get("read_with") or {}
         how = []  # what the count was taken on, where the logs were not read as written

@@ -45,7 +45,7 @@ from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.readings import delay_text, filter_text, pll_text
 from pgcomm.rotary.host_clock import host_clock_text
-from pgcomm.rotary.slots import NoFundamental, count_slots, orders_shown
+from pgcomm.rotary.slots import count_slots
 from pgcomm.rotary.standstill import SweepTable, table_from_sweep
 from pgcomm.rotary.static_map import combine, compare, text
 from pgcomm.rotary.time_lines import lines_text
@@ -164,33 +164,15 @@ def identify_from_logs(logs, motor: RotaryMotor, options: RotaryIdentifyOptions 
     if motor.slots is None:
         with progress.stage("slot count from the logs (not in the motor description): every cogging order the logs "
                             "carry"):
-            try:
-                q, slots_detected = count_slots(data, motor, current_delay=options.current_delay,
-                                                angle_pll=options.angle_pll, current_lag=options.current_lag,
-                                                time_lines=options.time_lines)
-            except NoFundamental as e:
-                if options.orders is not None:
-                    raise
-                # no slot count explains what the logs show (a fundamental above the orders they resolve, or too
-                # weak to see beside the drive's own orders): the maps take the orders they show
-                shown = orders_shown(e.seen, motor.pole_pairs, e.top)
-                options = replace(options, orders=(shown.cogging, shown.ripple, shown.direction))
-                slots_detected = {"slots": None, "cogging_fundamental": None, "orders_seen": e.seen[:12],
-                                  "highest_order_examined": e.top, "orders_shown": shown.cogging.tolist()}
-                progress.info(f"no slot count's cogging fundamental LCM(Q, {2 * motor.pole_pairs}) among the orders "
-                              f"the logs show up to {e.top} (strongest first: {', '.join(map(str, e.seen[:8]))}): the "
-                              f"cogging takes the {shown.cogging.size} orders they show with the drive's own. A "
-                              f"fundamental above order {e.top} does not show at these logs' speed and polling: where "
-                              "your motor's LCM(Q, 2p) is higher, the table lacks its cogging (log slower); set slots "
-                              "in the motor TOML if you know them")
-                q = None
+            q, slots_detected = count_slots(data, motor, current_delay=options.current_delay,
+                                            angle_pll=options.angle_pll, current_lag=options.current_lag,
+                                            time_lines=options.time_lines)
             motor = replace(motor, slots=q)
-            if q is not None:
-                others = [x for x in slots_detected["slots_with_that_fundamental"] if x != q]
-                progress.info(f"cogging fundamental {slots_detected['cogging_fundamental']} per revolution (orders seen, "
-                              f"strongest first: {', '.join(map(str, slots_detected['orders_seen'][:8]))}): slots = {q}, "
-                              f"{motor.name}" + (f" (also {', '.join(map(str, others))} slots have that fundamental; "
-                                                 "set slots in the motor TOML if you know it)" if others else ""))
+            others = [x for x in slots_detected["slots_with_that_fundamental"] if x != q]
+            progress.info(f"cogging fundamental {slots_detected['cogging_fundamental']} per revolution (orders seen, "
+                          f"strongest first: {', '.join(map(str, slots_detected['orders_seen'][:8]))}): slots = {q}, "
+                          f"{motor.name}" + (f" (also {', '.join(map(str, others))} slots have that fundamental; "
+                                             "set slots in the motor TOML if you know it)" if others else ""))
     how = "with the torque sensor" if torque_sensor else "without a torque sensor (from the motion)"
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
         res = identify(data, motor, options)

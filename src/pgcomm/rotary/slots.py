@@ -6,8 +6,8 @@ Datasheets of industrial servo motors give the pole count but rarely the slots, 
 
 **Which orders the logs show.** The identification of :mod:`pgcomm.rotary.identify` runs once with a cogging
 basis of *every* order from 1 to ``H`` (the highest the logs can carry: at least
-:data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period in nine in ten of the filter windows at
-speed, as the alias guard judges them, :func:`pgcomm.rotary.regression.highest_resolved_order`; at most
+:data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period at the 90th percentile of the logs'
+speed, at most
 :data:`MAX_ORDER`) and the ripple's orders that do not depend on ``Q``. Each order's ``T² = δᵀ C⁻¹ δ``
 (cosine and sine over their block-sandwich covariance) against its family-wise threshold (the screening's,
 ``α`` = :data:`pgcomm.rotary.regression.EXTRA_ORDER_ALPHA` over the ``H`` orders) says whether the logs show it.
@@ -30,21 +30,21 @@ resolve, whichever ``Q`` was taken.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
 
 from pgcomm.errors import ExcitationError
-from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, fundamental_cogging_order, \
-    ripple_orders
+from pgcomm.rotary.model import cogging_orders, direction_orders, fundamental_cogging_order, ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
-from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _fit, _Layout, \
-    _prepare, _significant_extra_orders, highest_resolved_order, steps_at_speed
+from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, Orders, \
+    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders
 from pgcomm.rotary.time_lines import detect_time_lines
 from pgcomm.settings import RotaryIdentifyOptions
 
-__all__ = ["detect_slots", "count_slots", "orders_shown", "NoFundamental", "MAX_SLOTS", "MAX_ORDER"]
+__all__ = ["detect_slots", "count_slots", "MAX_SLOTS", "MAX_ORDER"]
 
 #: Largest slot count considered (the motor TOML's plausibility bound).
 MAX_SLOTS = 600
@@ -56,24 +56,22 @@ MAX_ORDER = 1024
 DETECTION_BLOCK_SECONDS = 0.1
 
 
-class NoFundamental(ExcitationError):
-    """The logs show no three-phase slot count's cogging fundamental ``LCM(Q, 2p)`` up to the highest order they
-    resolve. ``seen``: the orders they do show (per revolution, strongest first); ``top``: the highest examined."""
-
-    def __init__(self, message: str, seen: list, top: int):
-        super().__init__(message)
-        self.seen, self.top = seen, int(top)
-
-
-def orders_shown(seen, pole_pairs: int, top: int) -> Orders:
-    """The maps' orders where no slot count explains the logs (:class:`NoFundamental`): the cogging takes the orders
-    the logs show, the lowest (1, 2: eccentricity) and the drive's own (:func:`pgcomm.rotary.model.drive_orders`),
-    and order 0; the ripple and the direction map the orders that do not depend on the slots; every map up to ``top``,
-    the highest order the logs resolve. The identification's screening then adds what else the logs resolve up to the
-    highest of them."""
-    p = int(pole_pairs)
-    cogging = np.union1d(np.union1d([0, 1, 2], drive_orders(p)), np.asarray(seen, int)).astype(int)
-    return Orders(*(o[o <= int(top)] for o in (cogging, ripple_orders(None, p), direction_orders(p))))
+def _highest_order(logs, sample_time: float) -> int:
+    """The highest order with :data:`~pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period at the
+    90th percentile of the logs' speed at speed (the samples above the slow share of each log's 95th percentile),
+    at most :data:`MAX_ORDER`: nine in ten samples pass the identification's alias guard."""
+    steps = []  # rad per sample, at speed
+    for i, log in enumerate(logs):
+        _, th, _, _, _ = _log_arrays(log, i, sample_time)
+        if th.size < 3:
+            continue
+        d = np.abs(np.gradient(th))
+        steps.append(d[d > MIN_SPEED_SHARE * float(np.percentile(d, 95))])
+    v = np.concatenate(steps) if steps else np.zeros(0)
+    if not v.size:
+        raise ExcitationError("no sample at speed in the logs: the slot count is read from running logs "
+                              "(set slots in the motor TOML)")
+    return int(min(MAX_ORDER, math.floor(2 * math.pi / (MIN_SAMPLES_PER_PERIOD * float(np.percentile(v, 90))))))
 
 
 def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), current_lag=None) -> tuple[int, dict]:
@@ -98,16 +96,10 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
         slot sidebands seen it explains).
 
     Raises:
-        NoFundamental: the logs show no slot count's fundamental (with the orders they show);
-        ExcitationError: the logs are too slow or fast to say.
+        ExcitationError: the logs show no slot count's fundamental (or are too slow or fast to say).
     """
     p = int(pole_pairs)
-    steps = steps_at_speed(logs, sample_time)
-    if not steps.size:
-        raise ExcitationError("no sample at speed in the logs: the slot count is read from running logs "
-                              "(set slots in the motor TOML)")
-    # nine in ten windows at speed pass the identification's alias guard up to this order
-    top = min(MAX_ORDER, highest_resolved_order(steps))
+    top = _highest_order(logs, sample_time)
     if top < 2 * p:
         raise ExcitationError(f"the logs are too fast to show the cogging: order {2 * p} (2p) has fewer than "
                               f"{MIN_SAMPLES_PER_PERIOD:g} samples per period at their usual speed; set slots in the "
@@ -133,11 +125,9 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
         scores.append((float(np.sum(ratio[basis] - 1.0)), -q, q, lcm))
     if not scores:
         strongest = int(np.argmax(ratio))
-        seen = np.flatnonzero(ratio > 1.0)
-        raise NoFundamental(
+        raise ExcitationError(
             f"slots not given, and the logs show no cogging fundamental LCM(Q, {2 * p}) up to order {top} (strongest "
-            f"order {strongest} at {ratio[strongest]:.2g}x its threshold): set slots in the motor TOML",
-            [int(h) for h in seen[np.argsort(ratio[seen])[::-1]]], top)
+            f"order {strongest} at {ratio[strongest]:.2g}x its threshold): set slots in the motor TOML")
     scores.sort(reverse=True)
     lcm = scores[0][3]
     # slot counts with that fundamental differ only in their slot sidebands (multiples of Q): the one that explains
