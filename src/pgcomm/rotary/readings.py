@@ -45,6 +45,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize
 
+from pgcomm.errors import ExcitationError
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, _basis_cost, _basis_costs, \
@@ -760,10 +761,15 @@ def detect_reading(logs, motor: RotaryMotor, options: RotaryIdentifyOptions | No
     options = options or RotaryIdentifyOptions()
     orders = orders_of(options, motor)
     samples = MIN_SAMPLES_PER_PERIOD if options.min_samples_per_period is None else options.min_samples_per_period
-    if options.orders is None:
-        orders, _ = resolved_orders(logs, motor, orders, samples)
     taps = FILTER_TAPS if options.taps is None else options.taps
-    prepared, _, _, _ = _prepare(logs, motor, orders, samples, taps, options.encoder_step)
+    try:
+        prepared, _, _, _ = _prepare(logs, motor, orders, samples, taps, options.encoder_step)
+    except ExcitationError:
+        if options.orders is not None:
+            raise
+        # logs too fast for every order of the motor's basis: read on the orders they resolve, as identify fits them
+        orders, _ = resolved_orders(logs, motor, orders, samples)
+        prepared, _, _, _ = _prepare(logs, motor, orders, samples, taps, options.encoder_step)
     return _reading(prepared, orders, taps, options.encoder_step, options.current_delay, options.angle_pll,
                     options.current_lag)
 
