@@ -163,7 +163,7 @@ def max_speed(orders: Orders, sample_time: float, min_samples: float = MIN_SAMPL
     return 2.0 * math.pi / (sample_time * min_samples * max(orders.highest, 1))
 
 
-#: Where the basis's alias guard would keep fewer windows at speed than this many per unknown (two per order), the basis
+#: Where the basis's alias guard would keep fewer windows at speed than this many per unknown (its columns), the basis
 #: is cut to the orders the logs resolve (:func:`resolved_orders`): below it the fit of the full basis is poorly
 #: determined (the refusal is at two), and the windows the guard refuses cost the maps more than the top orders left
 #: out (the multiples of a motor's cogging fundamental fall with the multiple). Logs that already give the full basis
@@ -184,14 +184,20 @@ def steps_at_speed(logs, sample_time: float, taps: int = FILTER_TAPS) -> np.ndar
     Returns:
         ``(M,)`` float array (rad per median step), all logs' windows at speed.
     """
-    steps = []
+    return _steps_and_step(logs, sample_time, taps)[0]
+
+
+def _steps_and_step(logs, sample_time: float, taps: int) -> tuple[np.ndarray, float]:
+    """:func:`steps_at_speed` and the logs' median step (s), in one pass over the logs."""
+    steps, ts_all = [], []
     for i, log in enumerate(logs):
         _, th, _, _, ts = _log_arrays(log, i, sample_time)
+        ts_all.append(ts)
         if th.size < taps + 4:
             continue
         _, _, slow, wmax, _ = _windows(th, _log_time(log), ts, taps)
         steps.append(wmax[~slow] * ts)
-    return np.concatenate(steps) if steps else np.zeros(0)
+    return (np.concatenate(steps) if steps else np.zeros(0)), float(np.median(ts_all)) if ts_all else sample_time
 
 
 def highest_resolved_order(steps: np.ndarray, min_samples: float = MIN_SAMPLES_PER_PERIOD,
@@ -227,15 +233,13 @@ def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
     Raises:
         ExcitationError: the cut would leave out the cogging's fundamental ``L``.
     """
-    steps = steps_at_speed(logs, motor.sample_time)
+    steps, ts = _steps_and_step(logs, motor.sample_time, FILTER_TAPS)
     if not steps.size or orders.highest < 1:
         return orders, None
-    unknowns = 2 * (orders.cogging.size + orders.ripple.size + orders.direction.size) + 2
     kept = int(np.sum(steps <= 2 * math.pi / (min_samples * orders.highest)))
     top = highest_resolved_order(steps, min_samples)
-    if kept >= CUT_WINDOWS_PER_UNKNOWN * unknowns or top >= orders.highest:
+    if kept >= CUT_WINDOWS_PER_UNKNOWN * int(_Layout.of(orders).keep.sum()) or top >= orders.highest:
         return orders, None
-    ts = float(np.median([_log_arrays(log, i, motor.sample_time)[4] for i, log in enumerate(logs)]))
     speed = float(np.quantile(steps, GUARD_QUANTILE)) / ts
     full = max_speed(orders, ts, min_samples)
     fundamental = fundamental_cogging_order(motor.slots, motor.pole_pairs) if motor.slots else None
