@@ -10,6 +10,7 @@ fundamental. Through the CLI, a motor TOML without ``slots`` gives the same comp
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,7 +19,8 @@ from pgcomm.errors import ExcitationError
 from pgcomm.rotary.experiment import quick_settings, running_log, running_references
 from pgcomm.rotary.regression import Orders
 from pgcomm.rotary.model import Fourier
-from pgcomm.rotary.slots import detect_slots
+from pgcomm.progress import Progress
+from pgcomm.rotary.slots import HELD_OUT_OVERRULE, detect_slots
 from pgcomm.rotary.twin import LawParams, default_gains
 from pgcomm.rotary.zoo import draw_rotary
 
@@ -157,3 +159,72 @@ def test_reproduce_needs_the_slots(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "key 'slots' missing" in err[0] and "Traceback" not in err[0]
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("slots, pole_pairs, built", [
+    (9, 3, True), (12, 4, True), (12, 5, True), (12, 7, True), (18, 8, True), (24, 10, True), (24, 11, True),
+    (36, 21, True), (9, 6, True), (36, 2, True), (27, 15, True),  # made: the zoo's, 9N12P, integer-slot, a joint's
+    (12, 3, False), (6, 3, False), (24, 6, False),  # no three phases 120° apart: Q / (3 gcd(Q, p)) not whole
+    (3, 7, False), (9, 7, False), (15, 11, False)])  # balanced, but under a quarter slot per pole and phase
+def test_a_count_is_one_a_motor_can_be_wound_with(slots, pole_pairs, built):
+    """Known motors (9N6P to 36N42P, 9N12P, the integer-slot 36N4P) can be wound; 12N6P, 6N6P and 24N12P cannot
+    give three balanced phases, and 3N14P, 9N14P, 15N22P put a tooth across more than a pole pair (a quarter slot per
+    pole and phase is the least fractional-slot motors are built with)."""
+    from pgcomm.rotary.slots import winding_exists
+
+    assert winding_exists(slots, pole_pairs) is built
+
+
+def test_a_counts_held_out_mean_square_is_that_of_its_own_fit():
+    """Each count's held-out mean square comes from columns of the every-order fit's normal equations; the second
+    formulation builds the count's own layout and normal equations from the logs and validates its ridge: the two agree
+    to rounding (the same rows and products, summed in another order)."""
+    from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, ripple_orders
+    from pgcomm.rotary.motor import RotaryMotor
+    from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, _Layout, _normal_equations, _prepare, \
+        _validated_ridge
+    from pgcomm.rotary.slots import _held_out
+
+    truth = draw_rotary(0, 1)
+    m = truth.motor
+    p, top = m.pole_pairs, 60
+    logs = _logs(truth)
+    ripple = ripple_orders(None, p)
+    every = Orders(np.arange(1, top + 1), ripple[ripple <= top], direction_orders(p))
+    prepared = _prepare(logs, RotaryMotor(pole_pairs=p, sample_time=m.sample_time), every, MIN_SAMPLES_PER_PERIOD,
+                        FILTER_TAPS)[0]
+    G, b, yy, n, _ = _normal_equations(prepared, _Layout.of(every), FILTER_TAPS)
+    held = _held_out((G, b, yy, n), _Layout.of(every), p, top)
+    assert held["same_as"][m.slots] == m.slots
+    shared = {1, 2} | set(range(2 * p, top + 1, 2 * p)) | {int(h) for h in drive_orders(p) if h <= top}
+    for q in (m.slots, 15, 21):
+        own = Orders(np.array(sorted({int(h) for h in cogging_orders(q, p) if h <= top} | shared)), every.ripple,
+                     every.direction)
+        lay = _Layout.of(own)
+        G2, b2, yy2, n2, _ = _normal_equations(prepared, lay, FILTER_TAPS)
+        direct = min(_validated_ridge(G2, b2, yy2, n2, lay.pen[lay.keep].astype(float))[1])
+        assert held["mse"][held["same_as"][q]] == pytest.approx(direct, rel=1e-8), q
+
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "real" / "odrive_cogging"
+
+
+@pytest.mark.skipif(not (REAL / "logs").is_dir(), reason="the shared real logs are not beside the checkout")
+def test_a_real_motor_whose_fundamental_does_not_show_is_counted_by_its_held_out_blocks():
+    """A real 12N14P outrunner on an ODrive (0.1 rev/s, host stamps, the angle a PLL's): the orders seen show no slot
+    count's fundamental (84 does not pass; 15, 28, 43, 52 do), and the count was refused. The held-out time blocks
+    give the datasheet's 12: its basis leaves a fraction of what the next count's and the poles' alone leave."""
+    from pgcomm.io.logs import ROTARY_REQUIRED, read_logs
+    from pgcomm.rotary.from_logs import _segments
+    from pgcomm.rotary.motor import RotaryMotor
+    from pgcomm.rotary.slots import count_slots
+
+    motor = RotaryMotor(pole_pairs=7, sample_time=0.0023)
+    mapping = {"columns": {"t": "time_s", "theta": "pos_estimate_counts", "iq_1": "Iq_measured_A"},
+               "units": {"theta": "counts"}, "options": {"encoder_counts": 8192}}
+    logs = read_logs([REAL / "logs" / "slow2__nocomp_0.csv"], columns=mapping, required=ROTARY_REQUIRED, gaps=True,
+                     stamps=True)
+    q, info = count_slots(_segments(logs, False, Progress(enabled=False)), motor)
+    assert q == 12 and info["chosen_by"] == "held-out blocks", info
+    held = info["held_out"]
+    assert held["unexplained"] < HELD_OUT_OVERRULE * min(held["next"]["unexplained"], held["poles_alone"])

@@ -1109,9 +1109,11 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
     Returns:
         dict: ``beta`` (kept columns, unscaled), ``cov``, ``ridge``, ``curve`` (validation MSE per grid
         weight, A²), ``cost`` (mean squared residual, A²), ``rows``, ``blocks``, ``current_noise`` (the variance
-        subtracted, A², and the noise part's share, :func:`_current_noise_correction`), ``current_shift``.
+        subtracted, A², and the noise part's share, :func:`_current_noise_correction`), ``current_shift``,
+        ``equations`` (``(G, b, yy, n)`` of :func:`_normal_equations`, as the rows gave them: uncorrected).
     """
     G, b, yy, n, noise = _normal_equations(prepared, layout, taps, block_seconds)
+    equations = (G, b, yy, n)
     applied, c_share, noise_eq = 0.0, 0.0, None
     if current_noise > 0.0:
         noise_eq = _current_noise_equations(prepared, layout, taps, block_seconds)
@@ -1162,7 +1164,8 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
     return {"beta": beta, "cov": cov, "ridge": float(lam), "curve": curve, "cost": sse / rows, "rows": int(rows),
             "blocks": len(scores), "influence": influence, "bias": bias, "noise_share": share,
             "noise_factor": factor, "quantisation_shift": shift,
-            "current_noise": {"variance_A2": applied, "share": c_share}, "current_shift": c_shift}
+            "current_noise": {"variance_A2": applied, "share": c_share}, "current_shift": c_shift,
+            "equations": equations}
 
 
 def _full(structured: np.ndarray) -> np.ndarray:

@@ -16,8 +16,9 @@ constant-speed log's time-periodic content does not pose as cogging (an FFT of t
 angle reads a current at ``f`` Hz at a constant speed ``ω`` as order ``2πf/ω``, so a dither's lines would be
 taken for the strongest orders and the fundamental read wrong).
 
-**The choice.** Each three-phase slot count ``Q`` (a multiple of 3 up to :data:`MAX_SLOTS`) whose
-fundamental ``L`` the logs show is scored by what its basis explains: ``Σ (T²/threshold − 1)`` over the
+**The choice.** Each slot count ``Q`` a three-phase motor with ``2p`` poles can have (:func:`winding_exists`: a
+balanced winding, at least a quarter slot per pole and phase; up to :data:`MAX_SLOTS`) whose fundamental ``L`` the
+logs show is scored by what its basis explains: ``Σ (T²/threshold − 1)`` over the
 cogging orders it predicts up to ``H`` (:func:`pgcomm.rotary.model.cogging_orders`): an order seen adds, an
 order predicted and not seen costs about one. The best score sets ``L``. The slot counts with that ``L``
 differ only in their slot sidebands (multiples of ``Q``, from magnet tolerances): the one that explains the
@@ -26,6 +27,19 @@ most sidebands the logs show wins, then the score (9 slots beside 18 on a 16-pol
 slot count is ambiguous when the sidebands are too weak to be seen (an 18N16P that shows only 144 and 288:
 9 slots fit as well as 18), and then the identification's screening adds the sidebands the data do
 resolve, whichever ``Q`` was taken.
+
+**What the logs predict.** The orders seen are a significance test, and on a real drive's logs it lets in tens to
+hundreds of orders that no motor has (a host's clock, the encoder's and the current sensor's errors: 60-480 of the
+orders to 500-1000 on a real ODrive's logs of a 12N14P outrunner), while a real motor's slot sidebands (orders 12 and
+36 of a 12N14P) can outweigh its fundamental (84), which then may not pass. So each count's basis is also judged on
+what it predicts: fitted on the training rows and scored on the held-out time blocks
+(:func:`pgcomm.rotary.regression._validated_ridge`, every fourth block), from the every-order fit's own normal
+equations (:func:`_held_out`). Where another count leaves less than :data:`HELD_OUT_OVERRULE` of the held-out mean
+square of the count the orders seen give, the logs contradict that count and the other is taken; where the orders
+seen give no count, the count that predicts best is taken if it beats the poles' orders alone and the logs show one
+of its own orders (a real ODrive's log at 0.1 rev/s: no fundamental passes, and 12 slots leave 1.2 % of the current's
+held-out mean square unexplained, the next count 6.5 %, the poles' orders alone 7.2 %). A count whose fundamental is beyond ``H`` is refused, as the identification would refuse it with the slots
+given.
 """
 
 from __future__ import annotations
@@ -36,15 +50,17 @@ from dataclasses import replace
 import numpy as np
 
 from pgcomm.errors import ExcitationError
-from pgcomm.rotary.model import cogging_orders, direction_orders, fundamental_cogging_order, ripple_orders
+from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, fundamental_cogging_order, \
+    ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, Orders, \
-    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders
+    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders, _validated_ridge
 from pgcomm.rotary.time_lines import detect_time_lines
 from pgcomm.settings import RotaryIdentifyOptions
 
-__all__ = ["detect_slots", "count_slots", "MAX_SLOTS", "MAX_ORDER"]
+__all__ = ["detect_slots", "count_slots", "winding_exists", "held_out_text", "MAX_SLOTS", "MAX_ORDER",
+           "MIN_SLOTS_PER_POLE_PHASE", "HELD_OUT_OVERRULE"]
 
 #: Largest slot count considered (the motor TOML's plausibility bound).
 MAX_SLOTS = 600
@@ -54,6 +70,31 @@ MAX_ORDER = 1024
 #: log of a few seconds so few blocks that the significance threshold (Hotelling's F quantile) is 10^5-10^7
 #: times the noise; the rows' residuals are nearly white (a small lag-1 correlation), so blocks a tenth as long still hold the correlation of overlapping filter windows (8 samples).
 DETECTION_BLOCK_SECONDS = 0.1
+#: The fewest slots per pole and phase, ``Q / (3 · 2p)``, of a motor that is built: the concentrated (tooth) windings
+#: of fractional-slot motors span 1/4 to 1/2 (9N12P, 12N14P, 36N42P at 1/4-2/7; 9N6P, 12N8P at 1/2), distributed
+#: windings one and more. Below a quarter a tooth faces more than one pole pair's magnets, whose flux cancels in it
+#: (A. M. El-Refaie, "Fractional-slot concentrated-windings synchronous permanent magnet machines: opportunities and
+#: challenges", IEEE Trans. Ind. Electron. 57(1), 2010, which surveys the range).
+MIN_SLOTS_PER_POLE_PHASE = 0.25
+#: The held-out blocks overrule the count the orders seen give where another count's basis leaves less than this
+#: share of its held-out mean square: the logs predicted twice as well by another count contradict it.
+HELD_OUT_OVERRULE = 0.5
+
+
+def winding_exists(slots: int, pole_pairs: int) -> bool:
+    """Whether a three-phase motor of ``slots`` slots and ``2 pole_pairs`` poles can be wound and is built.
+
+    Balanced: the ``Q / t`` slots of the winding's repeating unit (``t = gcd(Q, p)`` units around the stator) share out
+    over the three phases, ``Q / (3 t)`` an integer; otherwise no connection of the coils gives three phases 120°
+    apart (12N6P, 6N6P). Built: at least :data:`MIN_SLOTS_PER_POLE_PHASE` slots per pole and phase (3N14P is balanced
+    but its single tooth per phase spans more than two of its magnets). A count of the logs that fails either is a
+    divisor of the true count whose multiples the logs also show (a 9N6P read as 3 slots, ``L`` = 6).
+
+    Args:
+        slots: ``Q``; pole_pairs: ``p``.
+    """
+    q, p = int(slots), int(pole_pairs)
+    return q > 0 and p > 0 and (q // math.gcd(q, p)) % 3 == 0 and q >= MIN_SLOTS_PER_POLE_PHASE * 6 * p
 
 
 def _highest_order(logs, sample_time: float) -> int:
@@ -91,12 +132,17 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
 
     Returns:
         ``(slots, info)``: ``info`` has ``slots``, ``cogging_fundamental`` (``L``), ``slots_with_that_fundamental``
-        (the three-phase slot counts with ``LCM(Q, 2p) = L``), ``orders_seen`` (strongest first, at most 12),
-        ``highest_order_examined`` and ``runner_up`` (the next slot count with that ``L``, and how many of the
-        slot sidebands seen it explains).
+        (the slot counts a motor can have, :func:`winding_exists`, with ``LCM(Q, 2p) = L``), ``orders_seen``
+        (strongest first, at most 12), ``highest_order_examined``, ``chosen_by`` (``"orders seen"`` or ``"held-out
+        blocks"``, module docstring), ``held_out`` (``unexplained``: the share of the current's held-out mean square
+        the count's basis leaves; ``poles_alone``: that of the orders every count shares; ``next``: the next other
+        basis's ``slots`` and ``unexplained``) and, chosen by the orders seen, ``runner_up`` (the next slot count
+        with that ``L``, and how many of the slot sidebands seen it explains).
 
     Raises:
-        ExcitationError: the logs show no slot count's fundamental (or are too slow or fast to say).
+        ExcitationError: the logs show no slot count's fundamental and no count's basis predicts their held-out
+            blocks better than the poles' orders alone; the count that predicts them best has its fundamental beyond
+            the orders they resolve; or they are too slow or fast to say.
     """
     p = int(pole_pairs)
     top = _highest_order(logs, sample_time)
@@ -110,40 +156,141 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
     motor = RotaryMotor(pole_pairs=p, slots=None, sample_time=sample_time)
     prepared, _, _, _ = _prepare(logs, motor, every, MIN_SAMPLES_PER_PERIOD, FILTER_TAPS, current_lag=current_lag)
     layout = _Layout.of(every, tuple(time_lines), len(prepared))
-    screen = _significant_extra_orders(_fit(prepared, layout, FILTER_TAPS, None, DETECTION_BLOCK_SECONDS), layout,
-                                       Orders(np.zeros(0, int), ripple, every.direction), EXTRA_ORDER_ALPHA)
+    fit = _fit(prepared, layout, FILTER_TAPS, None, DETECTION_BLOCK_SECONDS)
+    screen = _significant_extra_orders(fit, layout, Orders(np.zeros(0, int), ripple, every.direction),
+                                       EXTRA_ORDER_ALPHA)
     orders, t2, thr = screen["statistic"]["cogging"]
     ratio = np.zeros(top + 1)
     ratio[orders] = t2 / thr
+    held_out = _held_out(fit["equations"], layout, p, top)
     scores = []
-    for q in range(3, MAX_SLOTS + 1, 3):
+    for q in held_out["bases"]:
         lcm = fundamental_cogging_order(q, p)
         if lcm > top or ratio[lcm] <= 1.0:
             continue
         basis = cogging_orders(q, p)
         basis = basis[basis <= top]
         scores.append((float(np.sum(ratio[basis] - 1.0)), -q, q, lcm))
-    if not scores:
+    seen = np.flatnonzero(ratio > 1.0)
+    info = {"orders_seen": [int(h) for h in seen[np.argsort(ratio[seen])[::-1]][:12]], "highest_order_examined": top}
+    # a count is judged on the held-out blocks only where the logs show one of its own orders (its multiples of Q or
+    # L that the poles and the drive do not share): of a hundred counts' noise, the best would beat the poles' alone
+    own_seen = {q for q, own in held_out["own"].items() if np.any(ratio[own] > 1.0)}
+    best_q = min(own_seen, key=lambda x: (held_out["mse"][x], x), default=None)
+    best_mse = held_out["mse"][best_q] if best_q is not None else math.inf
+    if scores:
+        scores.sort(reverse=True)
+        lcm = scores[0][3]
+        # slot counts with that fundamental differ only in their slot sidebands (multiples of Q): the one that
+        # explains the most sidebands the logs show (orders seen that are neither low, nor multiples of 2p or L)
+        side = [int(h) for h in seen if h > 2 and h % (2 * p) and h % lcm]
+        same = [(sum(1 for h in side if h % q == 0), score, -q, q) for score, _, q, L in scores if L == lcm]
+        same.sort(reverse=True)
+        q = same[0][3]
+        if best_q is None or best_mse >= HELD_OUT_OVERRULE * _mse_of(held_out, q):
+            info.update({"slots": q, "cogging_fundamental": lcm, "chosen_by": "orders seen",
+                         "slots_with_that_fundamental": sorted(x for *_, x in same)})
+            if len(same) > 1:
+                info["runner_up"] = {"slots": same[1][3], "sidebands_explained": same[1][0], "of": len(side)}
+            return q, _with_held_out(info, held_out)
+    elif best_mse >= held_out["base"]:
         strongest = int(np.argmax(ratio))
         raise ExcitationError(
             f"slots not given, and the logs show no cogging fundamental LCM(Q, {2 * p}) up to order {top} (strongest "
-            f"order {strongest} at {ratio[strongest]:.2g}x its threshold): set slots in the motor TOML")
-    scores.sort(reverse=True)
-    lcm = scores[0][3]
-    # slot counts with that fundamental differ only in their slot sidebands (multiples of Q): the one that explains
-    # the most sidebands the logs show (orders seen that are neither low, nor multiples of 2p or L), then the score
-    seen = np.flatnonzero(ratio > 1.0)
-    side = [int(h) for h in seen if h > 2 and h % (2 * p) and h % lcm]
-    same = [(sum(1 for h in side if h % q == 0), score, -q, q) for score, _, q, L in scores if L == lcm]
-    same.sort(reverse=True)
-    best = same[0]
-    info = {"slots": best[3], "cogging_fundamental": lcm,
-            "slots_with_that_fundamental": sorted(q for *_, q in same),
-            "orders_seen": [int(h) for h in seen[np.argsort(ratio[seen])[::-1]][:12]],
-            "highest_order_examined": top}
-    if len(same) > 1:
-        info["runner_up"] = {"slots": same[1][3], "sidebands_explained": same[1][0], "of": len(side)}
-    return best[3], info
+            f"order {strongest} at {ratio[strongest]:.2g}x its threshold), nor does any slot count's basis predict "
+            "the logs' held-out time blocks better than the orders of the poles alone: set slots in the motor TOML")
+    lcm = fundamental_cogging_order(best_q, p)
+    if lcm > top:
+        # the count's own orders below top are one or two multiples of Q: too few to tell it from its neighbours, and
+        # the cogging's fundamental, which would, is beyond what the logs resolve (as with the slots given)
+        raise ExcitationError(
+            f"slots not given, and the logs do not determine them: their held-out time blocks are predicted best by "
+            f"{best_q} slots, whose cogging fundamental LCM({best_q}, {2 * p}) = {lcm} is beyond order {top}, the "
+            f"highest the logs resolve at their speed: set slots in the motor TOML, or log at most {top / lcm:.2g} "
+            "times as fast")
+    info.update({"slots": best_q, "cogging_fundamental": lcm, "chosen_by": "held-out blocks",
+                 "slots_with_that_fundamental": sorted(x for x in held_out["bases"]
+                                                       if fundamental_cogging_order(x, p) == lcm)})
+    return best_q, _with_held_out(info, held_out)
+
+
+def held_out_text(info: dict) -> str:
+    """What the held-out blocks said of a count (``info`` of :func:`detect_slots`), as a clause: the share of the
+    current's held-out mean square the count leaves, beside the next other count's and the poles' alone."""
+    h = info.get("held_out")
+    if not h:
+        return ""
+    nxt = h.get("next")
+    how = "taken by the held-out blocks" if info.get("chosen_by") == "held-out blocks" else "held-out blocks"
+    return (f"{how}: {100 * h['unexplained']:.3g} % of the current unexplained with {info['slots']} slots"
+            + (f", {100 * nxt['unexplained']:.3g} % with {nxt['slots']}" if nxt else "")
+            + f", {100 * h['poles_alone']:.3g} % with the poles' orders alone")
+
+
+def _mse_of(held_out: dict, q: int) -> float:
+    """The held-out mean square of slot count ``q``'s basis (that of the count with the same basis below ``top``)."""
+    return held_out["mse"][held_out["same_as"][q]]
+
+
+def _with_held_out(info: dict, held_out: dict) -> dict:
+    """``info`` with the held-out blocks' verdict: the chosen count's mean square, the next other basis's, and the
+    poles' alone, each as a share of the current's held-out mean square (``1 − R²``)."""
+    q = info["slots"]
+    mine = _mse_of(held_out, q)
+    others = sorted((v, x) for x, v in held_out["mse"].items() if x != held_out["same_as"][q])
+    scale = max(held_out["mean_square"], 1e-300)
+    info["held_out"] = {"unexplained": mine / scale, "poles_alone": held_out["base"] / scale}
+    if others:
+        info["held_out"]["next"] = {"slots": others[0][1], "unexplained": others[0][0] / scale}
+    return info
+
+
+def _held_out(equations, layout: _Layout, pole_pairs: int, top: int) -> dict:
+    """Each slot count's basis judged on the logs' held-out time blocks (module docstring, "The choice").
+
+    ``equations`` are the normal equations of every cogging order to ``top`` (:func:`_fit`'s, training and held-out
+    rows apart): a count's basis is a subset of their columns, so each count's ridge-validated fit and its held-out
+    mean square (:func:`pgcomm.rotary.regression._validated_ridge`) cost a solve of its own columns, not a pass over
+    the logs. Counts whose bases agree up to ``top`` are one candidate (the smallest count stands for them).
+
+    Returns:
+        dict: ``mse`` (count → held-out mean square, A², one count per distinct basis), ``own`` (count → the orders
+        of its basis the poles and the drive do not share, ``(k,)`` int), ``same_as`` (every count
+        that can be wound with ``p`` → the count standing for its basis), ``bases`` (the counts that can be wound),
+        ``base`` (the held-out mean square of the orders every count shares: 1, 2, the multiples of ``2p`` and the
+        drive's orders), ``mean_square`` (the current's held-out mean square, A²).
+    """
+    G, b, yy, n = equations
+    p = int(pole_pairs)
+    kept = np.flatnonzero(layout.keep)
+    at = np.full(layout.keep.size, -1)
+    at[kept] = np.arange(kept.size)
+    cog = np.zeros(layout.keep.size, bool)
+    cog[layout.o_c] = True
+    common = at[kept[~cog[kept]]]
+    pen = layout.pen[kept].astype(float)
+    shared = {1, 2} | set(range(2 * p, top + 1, 2 * p)) | {int(h) for h in drive_orders(p) if h <= top}
+
+    def mse(orders) -> float:
+        o = np.array(sorted(orders), int)
+        cols = at[np.concatenate([layout.o_c[o - 1], layout.o_c[top + o - 1]])]
+        idx = np.sort(np.concatenate([common, cols[cols >= 0]]))
+        return min(_validated_ridge(G[:, idx][:, :, idx], b[:, idx], yy, n, pen[idx])[1])
+
+    out = {"mse": {}, "own": {}, "same_as": {}, "bases": [], "base": mse(shared),
+           "mean_square": float(yy[1]) / max(float(n[1]), 1.0)}
+    by_basis = {}
+    for q in range(3, MAX_SLOTS + 1, 3):
+        if not winding_exists(q, p):
+            continue
+        out["bases"].append(q)
+        basis = frozenset(int(h) for h in cogging_orders(q, p) if 1 <= h <= top) | shared
+        if basis not in by_basis:
+            by_basis[basis] = q
+            out["mse"][q] = mse(basis)
+            out["own"][q] = np.array(sorted(basis - shared), int)
+        out["same_as"][q] = by_basis[basis]
+    return out
 
 
 def count_slots(logs, motor, *, current_delay="detect", angle_pll="detect", current_lag="detect",
