@@ -597,8 +597,11 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
     what the logs could see, would leave a map called resolved beyond 5 %.
 
     ``quantisation_bias`` (``shift``: the fit's shift were the encoder-noise correction
-    :data:`QUANTISATION_UNCERTAINTY` smaller, :func:`_fit`) is the RMS of that shift over the revolution, relative:
-    what the correction may leave. It does not fall with longer logs of the same kind.
+    :data:`QUANTISATION_UNCERTAINTY` smaller, or, where the correction was capped, as large as the noise model asks,
+    :func:`_fit`) is the RMS of that shift over the revolution, relative: what the correction may leave. It does not
+    fall with longer logs of the same kind. Capped, the logs hardly hold the rotor's acceleration above the encoder's
+    and the clock's noise: at one speed the acceleration is a function of the angle, and ``J/k0`` trades with every
+    map along it (a speed loop's inertia torque of the cogging's speed ripple, as large as the cogging on a joint).
 
     ``pll_bias`` (``reading``: :data:`PLL_UNCERTAINTY` times the fit's move from the angle as logged to the angle read
     through a drive's PLL, :func:`_angle_pll`; zero when the angle is the encoder's) is the RMS of that over the
@@ -726,8 +729,9 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
                 "the d-current beside the q-current: its noise is then read, not bounded)")
     if math.hypot(ridge, quant) >= RESOLVED_SHARE:
         return (f"not resolved: the encoder's rounding could move it by {100 * entry['quantisation_bias']:.0f} % (the "
-                "logs hardly carry the rotor's acceleration above it; log accelerations or a dither, or use a finer "
-                "encoder)")
+                "logs hardly carry the rotor's acceleration above it, or above a host's stamp noise, and at one speed "
+                "J/k0 trades with the maps along the speed ripple; log a speed change, accelerations or a dither, or "
+                "use a finer encoder)")
     if not math.isfinite(entry["log_time_factor_to_resolve"]):
         # the parts longer logs do not change reach the share together, none of them alone
         fixed = {"the ridge": ridge, "the encoder's rounding": quant, "the PLL's reading": pll,

@@ -86,7 +86,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import eigh
+from scipy.linalg import cho_factor, cho_solve, eigh
 from scipy.stats import chi2, f as f_dist
 
 from pgcomm.errors import DataError, ExcitationError
@@ -120,6 +120,9 @@ CHUNK_WINDOWS = 512
 #: share of the acceleration's part that the maps and friction do not explain: beyond it the logs do not carry
 #: the rotor's acceleration above the encoder's noise, and ``J/k0`` would be noise over almost nothing.
 MAX_NOISE_SHARE = 0.75
+#: Where the correction is capped, the verdict also weighs the fit under the correction the noise model asks for, up
+#: to this share of the acceleration's part the maps and friction leave (:func:`_fit`'s ``quantisation_shift``).
+UNCAPPED_SHARE = 0.99
 #: A basis fit's cost (:func:`_fit_of_normal_equations`) is the encoder-noise corrected residual, but at least this
 #: share of the residual on the rows as logged: a correction that would leave less has outgrown the noise it
 #: estimates.
@@ -1110,7 +1113,9 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
         dict: ``beta`` (kept columns, unscaled), ``cov``, ``ridge``, ``curve`` (validation MSE per grid
         weight, A²), ``cost`` (mean squared residual, A²), ``rows``, ``blocks``, ``current_noise`` (the variance
         subtracted, A², and the noise part's share, :func:`_current_noise_correction`), ``current_shift``,
-        ``equations`` (``(G, b, yy, n)`` of :func:`_normal_equations`, as the rows gave them: uncorrected).
+        ``quantisation_shift`` (the fit's shift were the encoder-noise correction :data:`QUANTISATION_UNCERTAINTY`
+        smaller or, where it was capped, as large as the noise model asks, up to :data:`UNCAPPED_SHARE`: the one that
+        moves ``J/k0`` more), ``equations`` (``(G, b, yy, n)`` of :func:`_normal_equations`, as the rows gave them: uncorrected).
     """
     G, b, yy, n, noise = _normal_equations(prepared, layout, taps, block_seconds)
     equations = (G, b, yy, n)
@@ -1134,6 +1139,19 @@ def _fit(prepared, layout: _Layout, taps: int, ridge: float | None, block_second
         A2 = A.copy()
         A2[0, 0] += QUANTISATION_UNCERTAINTY * factor * float(np.sum(noise)) / scale[0] ** 2
         shift = np.linalg.solve(A2, (b[0] + b[1]) / scale) / scale - beta
+        if factor < 1.0:
+            # capped: the acceleration beyond the maps is mostly noise, and the correction the noise model asks for
+            # (up to UNCAPPED_SHARE of what the maps leave) is as likely as the capped one; J/k0 and every map along
+            # the rotor's acceleration at speed (a function of the angle at one speed) can move that far
+            more = (min(1.0, UNCAPPED_SHARE / share) - factor) * float(np.sum(noise)) / scale[0] ** 2
+            A3 = A.copy()
+            A3[0, 0] -= more
+            try:
+                full = cho_solve(cho_factor(A3), (b[0] + b[1]) / scale) / scale - beta
+            except np.linalg.LinAlgError:  # the ridge's weight on the other columns left less than that
+                full = shift
+            if more > 0.0 and abs(full[0]) > abs(shift[0]):
+                shift = full
     c_shift = np.zeros_like(beta)
     if applied > 0.0 and current_noise_uncertainty > 0.0:
         u = float(current_noise_uncertainty) * applied
