@@ -83,7 +83,9 @@ def main(argv=None) -> int:
             added = {k: v for k, v in res.orders_added.items() if v}
             v = res.back_emf or {}
             volt = ""
-            if v and v.get("consistent") is None:
+            if v and v.get("back_emf_constant") is None:
+                volt = f"; q-voltage: nothing to read ({v.get('rows', 0)} rows away from the current's zero crossing)"
+            elif v and v.get("consistent") is None:
                 volt = f"; q-voltage: k0 not determined (±{100 * v['back_emf_constant_se'] / v['back_emf_constant']:.0f} %)"
             elif v:
                 # the q-voltage (pgcomm.rotary.back_emf): k0's error and J = (J/k0) k0's, the ripple check

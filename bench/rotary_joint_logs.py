@@ -11,8 +11,8 @@ TOML has the pole pairs, ``k_t``, the current limit and the median step; the slo
 Per motor, ``pgcomm identify`` runs as a user would (a subprocess, the CSV with its column map), and the bench prints
 its exit and, where it wrote a table, the table's correlation with the drive's map (the true compensation at zero
 demand, forward and reverse averaged: what a standstill calibration converges to) and with the map of the log's own
-direction (a one-direction log carries that direction's friction), the RMS difference as a share of the map's RMS,
-and the drives' own way from the same log: the logged current binned over the angle (512 bins). The bar for a real
+direction (a one-direction log carries that direction's friction), the RMS difference as a share of the map's RMS
+beside the cogging's verdict (what the user is told of it), and the drives' own way from the same log: the logged current binned over the angle (512 bins). The bar for a real
 joint's logs is a correlation of 0.97 with its drive's map.
 
 Usage: ``python bench/rotary_joint_logs.py [--seed 0] [--motors 0,1,2,3,4,5,6,7] [--speed 5] [--seconds 20]
@@ -108,8 +108,11 @@ def one_motor(seed: int, idx: int, args, tmp: Path) -> tuple[str, float | None]:
     corr_dir, _ = compare(table, truth.model().table(table.size, math.copysign(1.0, args.speed)))
     ident = json.loads((d / "out" / "results.json").read_text())["identification"]
     cut = ident.get("orders_not_resolved")
-    return (f"{head}: correlation {corr:.4f} (its direction's map {corr_dir:.4f}), RMS difference {100 * rms:.0f} %, "
-            f"binning {b_corr:.3f}; orders to {ident['highest_order']}"
+    se = ident["standard_error"]["cogging"]
+    verdict = f"{'resolved' if se['resolved'] else 'NOT resolved'}, se {100 * se['relative']:.1f} %" + (
+        f", the encoder's rounding {100 * se['quantisation_bias']:.0f} %" if se.get("quantisation_bias", 0) > 0.05 else "")
+    return (f"{head}: correlation {corr:.4f} (its direction's map {corr_dir:.4f}), RMS difference {100 * rms:.0f} % "
+            f"({verdict}), binning {b_corr:.3f}; orders to {ident['highest_order']}"
             + (f" (cut from {max(cut['orders'])})" if cut else "") + f" ({secs:.0f} s)"), corr
 
 
