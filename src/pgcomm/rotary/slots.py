@@ -22,11 +22,10 @@ logs show is scored by what its basis explains: ``Σ (T²/threshold − 1)`` ove
 cogging orders it predicts up to ``H`` (:func:`pgcomm.rotary.model.cogging_orders`): an order seen adds, an
 order predicted and not seen costs about one. The best score sets ``L``. The slot counts with that ``L``
 differ only in their slot sidebands (multiples of ``Q``, from magnet tolerances): the one that explains the
-most sidebands the logs show wins, then the score (9 slots beside 18 on a 16-pole motor, ``L`` = 144 both:
-18 explains the sidebands at multiples of 18 with half the orders). ``L`` is what the logs determine; the
-slot count is ambiguous when the sidebands are too weak to be seen (an 18N16P that shows only 144 and 288:
-9 slots fit as well as 18), and then the identification's screening adds the sidebands the data do
-resolve, whichever ``Q`` was taken.
+most sidebands the logs show wins, then the score (12 slots beside 84 on a 14-pole motor, ``L`` = 84 both: 12
+explains the sidebands at 12, 24, 36). ``L`` is what the logs determine; the slot count is ambiguous when the
+sidebands are too weak to be seen (an 18N16P that shows only 144 and 288: 144 slots fit as well as 18), and then
+the identification's screening adds the sidebands the data do resolve, whichever ``Q`` was taken.
 
 **What the logs predict.** The orders seen are a significance test, and on a real drive's logs it lets in tens to
 hundreds of orders that no motor has (a host's clock, the encoder's and the current sensor's errors: 60-480 of the
@@ -38,8 +37,8 @@ equations (:func:`_held_out`). Where another count leaves less than :data:`HELD_
 square of the count the orders seen give, the logs contradict that count and the other is taken; where the orders
 seen give no count, the count that predicts best is taken if it beats the poles' orders alone and the logs show one
 of its own orders (a real ODrive's log at 0.1 rev/s: no fundamental passes, and 12 slots leave 1.2 % of the current's
-held-out mean square unexplained, the next count 6.5 %, the poles' orders alone 7.2 %). A count whose fundamental is beyond ``H`` is refused, as the identification would refuse it with the slots
-given.
+held-out mean square unexplained, the next count 6.5 %, the poles' orders alone 7.2 %). A count whose fundamental
+is beyond ``H`` is refused, as the identification would refuse it with the slots given.
 """
 
 from __future__ import annotations
@@ -68,7 +67,8 @@ MAX_SLOTS = 600
 MAX_ORDER = 1024
 #: Time blocks of the detection's sandwich covariance (s). The identification's one-second blocks give a
 #: log of a few seconds so few blocks that the significance threshold (Hotelling's F quantile) is 10^5-10^7
-#: times the noise; the rows' residuals are nearly white (a small lag-1 correlation), so blocks a tenth as long still hold the correlation of overlapping filter windows (8 samples).
+#: times the noise; the rows' residuals are nearly white (a small lag-1 correlation), so blocks a tenth as long
+#: still hold the correlation of overlapping filter windows (8 samples).
 DETECTION_BLOCK_SECONDS = 0.1
 #: The fewest slots per pole and phase, ``Q / (3 · 2p)``, of a motor that is built: the concentrated (tooth) windings
 #: of fractional-slot motors span 1/4 to 1/2 (9N12P, 12N14P, 36N42P at 1/4-2/7; 9N6P, 12N8P at 1/2), distributed
@@ -246,7 +246,7 @@ def _with_held_out(info: dict, held_out: dict) -> dict:
 
 
 def _held_out(equations, layout: _Layout, pole_pairs: int, top: int) -> dict:
-    """Each slot count's basis judged on the logs' held-out time blocks (module docstring, "The choice").
+    """Each slot count's basis judged on the logs' held-out time blocks (module docstring, "What the logs predict").
 
     ``equations`` are the normal equations of every cogging order to ``top`` (:func:`_fit`'s, training and held-out
     rows apart): a count's basis is a subset of their columns, so each count's ridge-validated fit and its held-out
