@@ -99,9 +99,12 @@ def _identification_html(r: dict) -> str:
         if read.get("current_lag") is not None:
             how.append(f"the current read as the smooth curve through its snapshots, {read['current_lag']:.3g} sample "
                        "late")
-        parts.append("<p>Slot count not in the motor description: the logs"
+        held = det.get("chosen_by") == "held-out blocks"
+        parts.append("<p>Slot count not in the motor description: " + ("the held-out time blocks of the logs" if held
+                                                                       else "the logs")
                      + (f" ({html.escape(', '.join(how))})" if how else "")
-                     + f" show a cogging fundamental of {det['cogging_fundamental']} per revolution (orders seen, "
+                     + (" are predicted best with" if held else " show") + " a cogging fundamental of"
+                     + f" {det['cogging_fundamental']} per revolution (orders seen, "
                      f"strongest first: {html.escape(', '.join(map(str, det.get('orders_seen', [])[:8])))}), taken as "
                      f"{det['slots']} slots" + (f"; {html.escape(', '.join(map(str, others)))} slots have the same "
                                                 "fundamental (set <code>slots</code> in the motor TOML if you know it)"
