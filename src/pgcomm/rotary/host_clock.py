@@ -263,6 +263,21 @@ def row_weights(prepared, rows, residuals, fit: dict, taps: int, inertia_ratio: 
     return {**out, "weights": [r / mean for r in raw], "weighted": True, "reason": "the timing noise"}
 
 
+def unresolved_timing_noise(prepared, taps: int) -> list | None:
+    """:func:`timing_noise` at the clock's noise the angle reads where that noise is not resolved from the floor:
+    ``None`` where it is resolved (then taken out), or the angle reads none a clock could have.
+
+    At one speed (a joint's speed loop) the angle's noise is read at a single speed, so the encoder's floor and a
+    clock's noise that grows with the speed are hardly told apart, and the clock's is not taken out. It still pulls
+    ``J/k0`` down, and at one speed the maps with it along the speed ripple: the verdict weighs the fit with it taken
+    out (:func:`pgcomm.rotary.identify.identify`)."""
+    fit = speed_noise_fit([angle_noise_bins(np.arange(p.theta.size) * p.ts if p.t is None else p.t, p.theta)
+                           for p in prepared])
+    if fit is None or fit["resolved"] or not fit["timing_s2"] > 0.0:
+        return None
+    return timing_noise(prepared, {**fit, "resolved": True}, taps)[0]
+
+
 def timing_noise(prepared, fit: dict | None, taps: int) -> tuple[list | None, str]:
     """The host's clock's noise variance in each row's filtered acceleration (module docstring, "The acceleration's
     bias"), where the angle's speed-dependent noise is a clock's.

@@ -43,7 +43,7 @@ from pgcomm.rotary.regression import _basis_cost, _chunks, _fit, _full, _Layout,
     angle_parts_kept, DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID, \
     resolved_orders
 from pgcomm.rotary.time_lines import _time_lines
-from pgcomm.rotary.host_clock import weigh
+from pgcomm.rotary.host_clock import unresolved_timing_noise, weigh
 from pgcomm.settings import RotaryIdentifyOptions
 from pgcomm.rotary.law import MIN_GAIN
 
@@ -379,6 +379,16 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     correction = _current_noise_setting(current_noise, noise_info)
     fit = _fit(prepared, layout, taps, ridge, current_noise=correction["noise_A"],
                current_noise_uncertainty=correction["uncertainty"])
+    unresolved = None if host.get("bias_corrected") else unresolved_timing_noise(prepared, taps)
+    if unresolved is not None:
+        # a clock's noise the angle reads but does not resolve (one speed): the fit with it taken out, and what that
+        # fit's own correction may leave, is as likely as the fit without it
+        alt = _fit([replace(p, timing_noise=n) for p, n in zip(prepared, unresolved)], layout, taps, fit["ridge"],
+                   current_noise=correction["noise_A"])
+        move = alt["beta"] + alt["quantisation_shift"] - fit["beta"]
+        host = {**host, "unresolved_in_verdict": bool(abs(move[0]) > abs(fit["quantisation_shift"][0]))}
+        if host["unresolved_in_verdict"]:
+            fit["quantisation_shift"] = move
     beta = np.zeros(layout.keep.size)
     beta[layout.keep] = fit["beta"]
     cov = np.zeros((layout.keep.size, layout.keep.size))
@@ -602,6 +612,9 @@ def _standard_errors(model: RotaryModel, cov, bias, o_r, o_c, o_d, orders: Order
     fall with longer logs of the same kind. Capped, the logs hardly hold the rotor's acceleration above the encoder's
     and the clock's noise: at one speed the acceleration is a function of the angle, and ``J/k0`` trades with every
     map along it (a speed loop's inertia torque of the cogging's speed ripple, as large as the cogging on a joint).
+    A clock's noise the angle reads but does not resolve from the encoder's floor (one speed,
+    :func:`pgcomm.rotary.host_clock.unresolved_timing_noise`) is not taken out; the fit with it taken out (and what
+    that fit's own correction may leave) takes the shift's place where it moves ``J/k0`` more.
 
     ``pll_bias`` (``reading``: :data:`PLL_UNCERTAINTY` times the fit's move from the angle as logged to the angle read
     through a drive's PLL, :func:`_angle_pll`; zero when the angle is the encoder's) is the RMS of that over the
