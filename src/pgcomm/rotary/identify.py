@@ -379,7 +379,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     correction = _current_noise_setting(current_noise, noise_info)
     fit = _fit(prepared, layout, taps, ridge, current_noise=correction["noise_A"],
                current_noise_uncertainty=correction["uncertainty"])
-    unresolved = None if host.get("bias_corrected") else unresolved_timing_noise(prepared, taps)
+    unresolved = None if host is None or host.get("bias_corrected") else unresolved_timing_noise(prepared, taps)
     if unresolved is not None:
         # a clock's noise the angle reads but does not resolve (one speed): the fit with it taken out, and what that
         # fit's own correction may leave, is as likely as the fit without it
