@@ -29,7 +29,6 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import replace
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -58,38 +57,15 @@ def binned(theta: np.ndarray, iq: np.ndarray, bins: int = BINS) -> np.ndarray:
     return np.interp(grid, grid[good], out[good], period=2 * math.pi) if not good.all() else out
 
 
-def joint_log(truth, speed: float, seconds: float, seed: int) -> dict:
-    """One speed-loop log in one direction at ``speed`` rad/s after a 0.5 s ramp, the drive's tuned classical law,
-    as the truth's host records it (:func:`pgcomm.rotary.experiment.running_log`)."""
-    from pgcomm.rotary.experiment import running_log
-    from pgcomm.rotary.twin import LawParams, Reference, default_gains
-    ts = truth.motor.sample_time
-    a = truth.inertia / truth.k0
-    law = LawParams.classical(truth.motor.pole_pairs, a, truth.viscous / truth.k0, truth.coulomb / truth.k0)
-    om = np.concatenate([np.linspace(0.0, speed, int(0.5 / ts)), np.full(int(seconds / ts), speed)])
-    return running_log(truth, Reference(np.cumsum(om) * ts, om, np.gradient(om, ts), "speed"), law, default_gains(a),
-                       seed)
-
-
 def one_motor(seed: int, idx: int, args, tmp: Path) -> tuple[str, float | None]:
     """One motor's line and its table's correlation with the drive's map (``None`` where identify exited non-zero)."""
+    from pgcomm.io.rotary_zoo import write_host_log
+    from pgcomm.rotary.experiment import polled_by_host, speed_loop_log
     from pgcomm.rotary.zoo import draw_rotary
-    drawn = draw_rotary(seed, idx, real_drive=True)
-    # the drive keeps its control rate; the host polls it about every --step
-    rate = drawn.control_per_log / drawn.motor.sample_time
-    truth = replace(drawn, motor=replace(drawn.motor, sample_time=args.step),
-                    control_per_log=max(1, round(rate * args.step)))
+    truth = polled_by_host(draw_rotary(seed, idx, real_drive=True), args.step)
     m = truth.motor
-    log = joint_log(truth, args.speed, args.seconds, seed=1000 * seed + idx)
-    d = tmp / f"{seed}_{idx}"
-    d.mkdir()
-    np.savetxt(d / "log.csv", np.c_[log["t"], log["theta"] / (2 * math.pi), log["iq_1"]], delimiter=",",
-               header="time,position,q_current", comments="", fmt="%.9f")
-    (d / "columns.toml").write_text('[columns]\nt = "time"\ntheta = "position"\niq_1 = "q_current"\n'
-                                    '[units]\ntheta = "rev"\n')
-    (d / "motor.toml").write_text(f'kind = "rotary"\npole_pairs = {m.pole_pairs}\nk_t = {truth.k_t:.4g}\n'
-                                  f'current_limit = {m.current_limit:.4g}\nsample_time = {args.step}\n'
-                                  + (f"slots = {m.slots}\n" if args.slots else ""))
+    log = speed_loop_log(truth, args.speed, args.seconds, seed=1000 * seed + idx)
+    d = write_host_log(truth, tmp / f"{seed}_{idx}", log, slots=args.slots)
     cmd = [sys.executable, "-m", "pgcomm", "identify", "--motor", str(d / "motor.toml"), "--columns",
            str(d / "columns.toml"), "--data", str(d / "log.csv"), "--out", str(d / "out"), "--quiet"]
     t0 = time.perf_counter()

@@ -211,30 +211,15 @@ def _joint_identified(tmp_path, seed: int, index: int) -> tuple[dict, float]:
     import json
 
     from pgcomm.cli import main
-    from pgcomm.rotary.experiment import running_log
-    from pgcomm.rotary.twin import LawParams, Reference, default_gains
+    from pgcomm.io.rotary_zoo import write_host_log
+    from pgcomm.rotary.experiment import polled_by_host, speed_loop_log
     from pgcomm.rotary.zoo import draw_rotary
 
-    drawn = draw_rotary(seed, index, real_drive=True)
-    step = 0.0023
-    rate = drawn.control_per_log / drawn.motor.sample_time
-    t = dataclasses.replace(drawn, motor=dataclasses.replace(drawn.motor, sample_time=step),
-                            control_per_log=max(1, round(rate * step)))
-    m, a = t.motor, t.inertia / t.k0
-    om = np.concatenate([np.linspace(0.0, 5.0, int(0.5 / step)), np.full(int(20.0 / step), 5.0)])
-    law = LawParams.classical(m.pole_pairs, a, t.viscous / t.k0, t.coulomb / t.k0)
-    log = running_log(t, Reference(np.cumsum(om) * step, om, np.gradient(om, step), "speed"), law, default_gains(a),
-                      1000 * seed + index)
-    np.savetxt(tmp_path / "log.csv", np.c_[log["t"], log["theta"] / (2 * math.pi), log["iq_1"]], delimiter=",",
-               header="time,position,q_current", comments="", fmt="%.9f")
-    (tmp_path / "columns.toml").write_text('[columns]\nt = "time"\ntheta = "position"\niq_1 = "q_current"\n'
-                                           '[units]\ntheta = "rev"\n')
-    (tmp_path / "motor.toml").write_text(f'kind = "rotary"\npole_pairs = {m.pole_pairs}\nslots = {m.slots}\n'
-                                         f'k_t = {t.k_t:.4g}\ncurrent_limit = {m.current_limit:.4g}\n'
-                                         f'sample_time = {step}\n')
+    t = polled_by_host(draw_rotary(seed, index, real_drive=True), 0.0023)
+    write_host_log(t, tmp_path, speed_loop_log(t, 5.0, 20.0, 1000 * seed + index))
     assert main(["identify", "--motor", str(tmp_path / "motor.toml"), "--columns", str(tmp_path / "columns.toml"),
                  "--data", str(tmp_path / "log.csv"), "--out", str(tmp_path / "out"), "--quiet"]) == 0
-    return json.loads((tmp_path / "out" / "results.json").read_text())["identification"], a
+    return json.loads((tmp_path / "out" / "results.json").read_text())["identification"], t.inertia / t.k0
 
 
 def test_a_capped_correction_weighs_the_inertia_the_noise_model_asks_for(tmp_path):

@@ -18,7 +18,8 @@ from pgcomm.io.config import rotary_motor_to_toml
 from pgcomm.rotary.twin import RotaryTruth
 from pgcomm.rotary.zoo import running_logs, sweep_log
 
-__all__ = ["write_rotary_motor", "read_truth", "write_running_logs", "write_sweep_log", "write_drive_log"]
+__all__ = ["write_rotary_motor", "read_truth", "write_running_logs", "write_sweep_log", "write_drive_log",
+           "write_host_log"]
 
 #: The columns of a drive log, in the order written (those the twin's run has).
 DRIVE_LOG_COLUMNS = ("t", "theta", "velocity", "iq_1", "id_1", "vq_1", "vd_1")
@@ -80,3 +81,22 @@ def write_drive_log(path: Path, log: dict) -> None:
     with atomic_open(path) as f:
         f.write(",".join(cols) + "\n")
         np.savetxt(f, np.column_stack([log[c] for c in cols]), delimiter=",", fmt="%.12g")
+
+
+def write_host_log(truth: RotaryTruth, folder, log: dict, slots: bool = True) -> Path:
+    """Write ``log`` as a host's script records a drive's telemetry: ``folder/log.csv`` with the stamp (s), the position
+    in revolutions and the q-current (A), nothing else; ``folder/columns.toml``, the column map for it; and
+    ``folder/motor.toml`` with what a datasheet gives (pole pairs, ``k_t``, the current limit, the median step), the
+    slots only with ``slots``. Returns ``folder``."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    m = truth.motor
+    with atomic_open(folder / "log.csv") as f:
+        f.write("time,position,q_current\n")
+        np.savetxt(f, np.column_stack([log["t"], log["theta"] / (2 * np.pi), log["iq_1"]]), delimiter=",", fmt="%.9f")
+    atomic_write_text(folder / "columns.toml", '[columns]\nt = "time"\ntheta = "position"\niq_1 = "q_current"\n'
+                                               '[units]\ntheta = "rev"\n')
+    atomic_write_text(folder / "motor.toml", f'kind = "rotary"\npole_pairs = {m.pole_pairs}\nk_t = {truth.k_t:.4g}\n'
+                                             f'current_limit = {m.current_limit:.4g}\nsample_time = {m.sample_time}\n'
+                                             + (f"slots = {m.slots}\n" if slots else ""))
+    return folder

@@ -59,7 +59,7 @@ from pgcomm.progress import Progress
 
 __all__ = ["running_references", "running_log", "record_running_logs", "RunningLogs", "slower_for_the_host_clock",
            "drive_log_mix", "tracking_references", "closed_loop", "run", "identification_errors", "ROWS",
-           "quick_settings", "QUICK_OVERRIDES", "stall_log"]
+           "quick_settings", "QUICK_OVERRIDES", "stall_log", "polled_by_host", "speed_loop_log"]
 
 ROWS = ("classical", "standstill_table", "model", "oracle")
 #: Running-log and standstill tables agree "within the noise of the sweep" when their RMS difference is at
@@ -144,6 +144,26 @@ def running_log(truth: RotaryTruth, ref: Reference, law: LawParams, gains, seed:
     start = float(np.random.default_rng([int(seed), 0x57A7]).uniform(0.0, 2 * math.pi))
     shifted = Reference(np.asarray(ref.theta, float) + start, ref.omega, ref.alpha, ref.mode, ref.dither)
     return simulate(truth, shifted, law, gains, seed=seed, host=True)
+
+
+def polled_by_host(truth: RotaryTruth, step: float) -> RotaryTruth:
+    """``truth`` logged by a host that polls it about every ``step`` (s; its median step): the drive keeps its control
+    rate (``control_per_log`` control cycles per ``step``, at least one)."""
+    rate = truth.control_per_log / truth.motor.sample_time
+    return replace(truth, motor=replace(truth.motor, sample_time=float(step)),
+                   control_per_log=max(1, round(rate * step)))
+
+
+def speed_loop_log(truth: RotaryTruth, speed: float, seconds: float, seed: int) -> dict:
+    """What a robot joint's drive records in its own speed loop: a 0.5 s ramp from standstill to ``speed`` (rad/s, its
+    sign the direction), then ``seconds`` at it, one direction, no dither, the drive's tuned classical law
+    (:func:`running_log`, the host's log where the truth has a host's habits)."""
+    ts = truth.motor.sample_time
+    a = truth.inertia / truth.k0
+    law = LawParams.classical(truth.motor.pole_pairs, a, truth.viscous / truth.k0, truth.coulomb / truth.k0)
+    om = np.concatenate([np.linspace(0.0, speed, int(0.5 / ts)), np.full(int(seconds / ts), speed)])
+    return running_log(truth, Reference(np.cumsum(om) * ts, om, np.gradient(om, ts), "speed"), law,
+                       default_gains(a), seed)
 
 
 def stall_log(truth: RotaryTruth, seed: int = 0, seconds: float = 10.0, direction: float = 1.0,
