@@ -316,7 +316,11 @@ def test_logs_too_fast_for_the_basis_keep_the_orders_they_resolve():
     ripple = np.quantile(np.abs(np.diff(log["theta"])), 0.9) / (speed * ts) - 1.0
     assert top * (1 - 2 * ripple) - 1 <= cut["highest_order"] <= top, (cut, ripple)
     assert res.highest_order <= cut["highest_order"] and min(cut["orders"]) > cut["highest_order"]
-    assert 54 in cut["orders"] and res.model.cogging.orders.max() <= cut["highest_order"]
+    assert 54 in cut["orders"]
+    # the cogging's orders cut are read over the angle, and only they sit above the cut in its map
+    over = res.orders_over_the_angle
+    above = res.model.cogging.orders[res.model.cogging.orders > cut["highest_order"]]
+    assert sorted(above.tolist()) == sorted(over["orders"]) and 54 in over["orders"] and over["segments"] >= 1
     c = res.standard_error["cogging"]
     assert cogging_error(res.model) < 2 * np.hypot(c["relative"], c["ridge_bias"]) + 2e-3, c
     # the basis given: nothing is cut, and the guard refuses the windows

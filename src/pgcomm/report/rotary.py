@@ -13,7 +13,7 @@ from pathlib import Path
 
 from pgcomm.io.atomic import atomic_write_text
 from pgcomm.report.page import CSS, figure_html
-from pgcomm.rotary.identify import orders_text, resolution_verdict, share_text
+from pgcomm.rotary.identify import orders_text, over_the_angle_text, resolution_verdict, share_text
 from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.readings import delay_text, filter_text, pll_text
 from pgcomm.rotary.power_ups import offsets_text
@@ -73,7 +73,8 @@ def _identification_html(r: dict) -> str:
                         ("Drive offset", offset_text(ident.get("back_emf"))),
                         ("Current report", filter_text(ident.get("current_filter"))),
                         ("Power-ups", offsets_text(ident.get("index_offsets") or [])),
-                        ("Alias guard", orders_text(ident.get("orders_not_resolved")))):
+                        ("Alias guard", orders_text(ident.get("orders_not_resolved"))),
+                        ("Over the angle", over_the_angle_text(ident.get("orders_over_the_angle")))):
         if text:
             parts.append(f"<p>{label}: {html.escape(text)}.</p>")
     quant = ident.get("quantisation") or {}

@@ -39,7 +39,7 @@ from pgcomm.progress import Progress
 from pgcomm.rotary.power_ups import offsets_text
 from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.experiment import AGREEMENT_FACTOR
-from pgcomm.rotary.identify import RotaryIdentification, drive_text, fit_mechanics, identify, map_text, orders_text, \
+from pgcomm.rotary.identify import RotaryIdentification, drive_text, fit_mechanics, identify, map_text, orders_text, over_the_angle_text, \
     share_text
 from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
@@ -266,7 +266,8 @@ def _tell(res: RotaryIdentification, motor: RotaryMotor, progress: Progress) -> 
     for line in (filter_text(res.current_filter), drive_text(res.drive_orders, motor.pole_pairs),
                  pll_text(res.angle_pll or {}), delay_text(res.current_delay or {}), lines_text(res.time_lines),
                  voltage_text(res.back_emf), offset_text(res.back_emf), host_clock_text(res.host_clock),
-                 offsets_text(res.index_offsets or []), orders_text(res.orders_not_resolved)):
+                 offsets_text(res.index_offsets or []), orders_text(res.orders_not_resolved),
+                 over_the_angle_text(res.orders_over_the_angle)):
         if line:
             progress.info(line)
     if (res.model.inertia_ratio or 0.0) < 0.0:

@@ -38,6 +38,7 @@ from pgcomm.rotary.winding import BACK_EMF_FACTOR
 from pgcomm.rotary.power_ups import index_offsets, tested
 from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _with_pll, _with_report, \
     apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
+from pgcomm.rotary.over_the_angle import agreement as angle_agreement, read_over_the_angle
 from pgcomm.rotary.regression import _basis_cost, _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, \
     _map_error_quantile, _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
     angle_parts_kept, DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID, \
@@ -80,7 +81,7 @@ _RUNNING_KEYS = ("windows", "windows_used", "windows_refused_alias", "windows_re
                  "pinned", "time_lines", "back_emf", "current_noise_A", "current_noise_from",
                  "current_noise_correction", "host_clock", "seconds")
 #: ... and those written only when set: the alias guard's note, and what a rotary experiment's rounds of logs add.
-_OPTIONAL_KEYS = ("note", "orders_not_resolved", "index_offsets", "rounds", "first_round_standard_error", "log_budget_s", "speed_shares",
+_OPTIONAL_KEYS = ("note", "orders_not_resolved", "orders_over_the_angle", "index_offsets", "rounds", "first_round_standard_error", "log_budget_s", "speed_shares",
                   "set_aside_s")
 #: ... and an identification with a torque sensor.
 _TORQUE_KEYS = ("k0", "cost_Nm2", "seconds")
@@ -124,6 +125,8 @@ class RotaryIdentification:
         note: the alias guard's refusals in words, where it refused windows.
         orders_not_resolved: where the logs turn too fast for the motor's basis, the orders left out of it and the
             speeds (:func:`pgcomm.rotary.regression.resolved_orders`; :func:`orders_text`).
+        orders_over_the_angle: where orders were cut, the cogging's cut orders read over the angle
+            (:func:`_cut_orders_over_the_angle`).
         index_offsets: the encoder index's offsets found between the logs' power-ups and removed before the fit
             (:func:`pgcomm.rotary.power_ups.index_offsets`: per log file, the offset in rad and the binned maps'
             correlation before and after), where one was.
@@ -170,6 +173,7 @@ class RotaryIdentification:
     host_clock: dict | None = None
     note: str | None = None
     orders_not_resolved: dict | None = None
+    orders_over_the_angle: dict | None = None
     index_offsets: list | None = None
     rounds: int | None = None
     first_round_standard_error: dict | None = None
@@ -284,7 +288,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     orders = orders_of(options, motor)
     if options.torque_sensor:
         return check_plausible(_identify_torque(logs, motor, orders, t0))
-    cut = None
+    cut, basis = None, orders
     if options.orders is None:
         # logs that turn too fast for the basis's highest order (a joint's own speed loop, a slow host): the basis cut
         # to the orders they resolve, rather than most of their windows refused
@@ -405,6 +409,10 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
         reading[layout.keep] = PLL_UNCERTAINTY * (_fit(as_logged, layout, taps, fit["ridge"],
                                                        current_noise=correction["noise_A"])["beta"] - fit["beta"])
     o_r, o_c, o_d = layout.o_r, layout.o_c, layout.o_d
+    over = None
+    if cut is not None and not any(o["taken"] for o in offsets):
+        beta, cov, bias, shift, c_shift, reading, o_c, final, over = _cut_orders_over_the_angle(
+            logs, basis, final, o_c, beta, cov, [bias, shift, c_shift, reading], ts, report["tau_s"], timing, pll)
     if lines:
         # per log a cosine and a sine of each line (A): the amplitude of each line in each log
         cs = beta[layout.o_t].reshape(len(prepared), 2, len(lines))
@@ -448,7 +456,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
               f"{orders.highest} has fewer than {min_samples_per_period:g} samples per period")
         if counts["alias"] else None,
         index_offsets=[o for o in offsets if o["taken"]] or None, orders_not_resolved=cut,
-        seconds=time.perf_counter() - t0)
+        orders_over_the_angle=over, seconds=time.perf_counter() - t0)
     try:
         return check_plausible(result)
     except ExcitationError as e:
@@ -459,6 +467,74 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
         again = identify(logs, motor, replace(options, pin=(*pin, "ripple")))
         ripple = {**again.standard_error["ripple"], "implausible_fit": str(e)}
         return replace(again, standard_error={**again.standard_error, "ripple": ripple})
+
+
+def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, cov, zeros, ts: float, tau: float,
+                               timing: dict, pll):
+    """The cogging's orders the basis was cut of (:func:`pgcomm.rotary.regression.resolved_orders`) read over the angle
+    (:mod:`pgcomm.rotary.over_the_angle`) and appended to the fit's vector: ``(beta, cov, *zeros, o_c, final, info)``
+    extended, ``zeros`` (the bias-like vectors) with the shrinkage's pull in the first (the ridge's bias) and zeros
+    in the others.
+
+    **Checked where both read.** At the cogging's orders the time-domain fit resolves, the reading over the angle
+    is compared with it: where the two differ by more than their standard errors say, the cut orders' covariance is
+    scaled by that excess ``κ = max(1, Σ|ΔX|² / Σ tr(Cov_t + Cov_a))``, so that logs on which the model over the angle
+    does not hold give the cut orders a standard error as large as that disagreement.
+
+    **Shrunk to what the logs show.** Each cut order's coefficient ``X`` is multiplied by ``f = max(0, 1 − tr(κ
+    Cov)/|X|²)`` (the posterior mean under a zero-mean prior of the variance the estimate itself shows): an order
+    within its noise (the highest multiples, whose ``h²`` amplifies the clock's noise) adds nothing. Its covariance
+    is ``f κ Cov``, and ``(f − 1) X`` its pull towards zero, counted like the ridge's (:func:`_standard_errors`).
+
+    ``info``: ``None`` where no cogging order was cut or no log holds a steady segment, else ``{"orders"`` (added),
+    ``"kept"`` (of those, the ones not shrunk to zero), ``"agreement"`` (:func:`pgcomm.rotary.over_the_angle.agreement`
+    at the resolved orders), ``"inflation"`` (``κ``), ``"segments", "seconds", "speeds_rad_s"}``."""
+    cut_cog = np.setdiff1d(basis.cogging[basis.cogging > 0], final.cogging)
+    if not cut_cog.size:
+        return (beta, cov, *zeros, o_c, final, None)
+    every = np.union1d(np.union1d(basis.cogging, basis.ripple), np.union1d(basis.direction, final.cogging))
+    every = every[every > 0]
+    var_j = float(cov[0, 0])
+    angle = read_over_the_angle(logs, every, ts, float(beta[0]), var_j, tau=tau, delay=int(timing["samples"]),
+                                lag=lag_of(timing), pll=pll)
+    if angle is None:
+        return (beta, cov, *zeros, o_c, final, None)
+    n = final.cogging.size
+    flip = np.diag([-1.0, 1.0])  # (a, b) of the model's cogging −c  <->  (Re X, Im X) of the table's X = −a + i b
+    both = [j for j, h in enumerate(final.cogging) if h > 0]
+    x_t = np.array([-beta[o_c[j]] + 1j * beta[o_c[n + j]] for j in both])
+    at = final.cogging[both]
+    idx = np.searchsorted(angle["orders"], at)
+    diff = np.abs(x_t - angle["table"][idx]) ** 2
+    spread = sum(np.trace(flip @ cov[np.ix_([o_c[j], o_c[n + j]], [o_c[j], o_c[n + j]])] @ flip) for j in both)
+    spread += sum(np.trace(angle["cov"][i]) for i in idx)
+    kappa = float(max(1.0, diff.sum() / spread)) if spread > 0 else 1.0
+    k = beta.size
+    m = cut_cog.size
+    add_beta, add_cov, pull = np.zeros(2 * m), np.zeros((2 * m, 2 * m)), np.zeros(2 * m)
+    kept = []
+    for j, h in enumerate(cut_cog):
+        i = int(np.searchsorted(angle["orders"], h))
+        x, c = angle["table"][i], kappa * angle["cov"][i]
+        f = max(0.0, 1.0 - float(np.trace(c)) / abs(x) ** 2) if abs(x) > 0 else 0.0
+        if f > 0:
+            kept.append(int(h))
+        ab = flip @ np.array([x.real, x.imag])
+        add_beta[[j, m + j]] = f * ab
+        pull[[j, m + j]] = (f - 1.0) * ab
+        add_cov[np.ix_([j, m + j], [j, m + j])] = f * (flip @ c @ flip)
+    beta = np.concatenate([beta, add_beta])
+    big = np.zeros((k + 2 * m, k + 2 * m))
+    big[:k, :k], big[k:, k:] = cov, add_cov
+    extended = [np.concatenate([zeros[0], pull])] + [np.concatenate([z, np.zeros(2 * m)]) for z in zeros[1:]]
+    orders = np.concatenate([final.cogging, cut_cog])
+    perm = np.argsort(orders, kind="stable")
+    a_idx = np.concatenate([o_c[:n], k + np.arange(m)])[perm]
+    b_idx = np.concatenate([o_c[n:], k + m + np.arange(m)])[perm]
+    info = {"orders": [int(h) for h in cut_cog], "kept": kept,
+            "agreement": angle_agreement(x_t, angle, at), "inflation": kappa, "segments": int(angle["segments"]),
+            "seconds": float(angle["seconds"]), "speeds_rad_s": [float(w) for w in angle["speeds_rad_s"]]}
+    return (beta, big, *extended, np.concatenate([a_idx, b_idx]), replace(final, cogging=orders[perm]), info)
 
 
 def _voltage_check(fit: dict, fixed, blind, logs, motor: RotaryMotor, final: Orders, layout: _Layout, ts: float,
@@ -777,6 +853,19 @@ def resolution_verdict(entry: dict, log_seconds: float | None = None) -> str:
 def share_text(x: float) -> str:
     """A share as per cent with two significant digits, or "under 0.1 %"."""
     return "under 0.1 %" if x < 1e-3 else f"{100 * x:.2g} %"
+
+
+def over_the_angle_text(found: dict | None) -> str:
+    """One sentence on the cut orders read over the angle (``identification.orders_over_the_angle``); ``""`` where
+    none were."""
+    if not found:
+        return ""
+    kept = ", ".join(map(str, found["kept"])) or "none"
+    return (f"the cogging's orders above the alias guard's ({', '.join(map(str, found['orders']))}) read over the "
+            f"angle from {found['segments']} steady stretch(es), {found['seconds']:.3g} s: kept {kept} (the others are "
+            f"within their noise); where both read, that reading is {100 * found['agreement']:.1f} % of the map from the "
+            f"time-domain fit's" + (f", {found['inflation']:.3g} times what their noise explains: the cut orders' "
+                                    "standard errors scaled by it" if found["inflation"] > 1 else ""))
 
 
 def orders_text(cut: dict | None) -> str:

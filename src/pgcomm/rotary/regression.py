@@ -221,7 +221,8 @@ def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
     cogging fundamental ``L``), and the guard would refuse them. Where it would keep fewer than
     :data:`CUT_WINDOWS_PER_UNKNOWN` windows per unknown, every map keeps the orders up to the highest that
     :data:`GUARD_QUANTILE` of the windows at speed resolve (:func:`highest_resolved_order`), and those windows are
-    kept. The orders above are not determined by these logs; slower logs (or a faster host) would determine them.
+    kept. The orders above are not resolved in time by these logs (slower logs or a faster host would resolve
+    them); the cogging's among them are read over the angle instead (:mod:`pgcomm.rotary.over_the_angle`).
 
     Args:
         logs: as for :func:`_prepare`; motor: :class:`RotaryMotor` (its slots set ``L``, its ``sample_time`` is
