@@ -413,6 +413,16 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     if cut is not None and not any(o["taken"] for o in offsets):
         beta, cov, bias, shift, c_shift, reading, o_c, final, over = _cut_orders_over_the_angle(
             logs, basis, final, o_c, beta, cov, [bias, shift, c_shift, reading], ts, report["tau_s"], timing, pll)
+        lost = cut.get("fundamental_over_the_angle")
+        if lost is not None and (over is None or lost not in over["kept"]):
+            raise ExcitationError(
+                f"the logs turn too fast for their sampling to resolve the cogging's fundamental (order {lost} per "
+                f"revolution) in time, and read over the angle it is not determined either ("
+                + ("no steady stretch" if over is None else
+                   "it is within its noise there" if over["agreement"] <= MAX_DISAGREEMENT else
+                   f"that reading is {100 * over['agreement']:.0f} % of the map away from the time-domain fit where "
+                   "both read") + f"); log at most {cut['speed_to_resolve_fundamental_rad_s']:.3g} rad/s or poll the "
+                "drive faster")
     if lines:
         # per log a cosine and a sine of each line (A): the amplitude of each line in each log
         cs = beta[layout.o_t].reshape(len(prepared), 2, len(lines))
@@ -469,12 +479,19 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
         return replace(again, standard_error={**again.standard_error, "ripple": ripple})
 
 
+#: Where the cogging read over the angle differs from the time-domain fit's, at the orders both read, by more than this
+#: share of that map's RMS, the two are not readings of one map (their correlation may be as low as 0.87) and the cut
+#: orders stay out.
+MAX_DISAGREEMENT = 0.5
+
+
 def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, cov, zeros, ts: float, tau: float,
                                timing: dict, pll):
     """The cogging's orders the basis was cut of (:func:`pgcomm.rotary.regression.resolved_orders`) read over the angle
     (:mod:`pgcomm.rotary.over_the_angle`) and appended to the fit's vector: ``(beta, cov, *zeros, o_c, final, info)``
-    extended, ``zeros`` (the bias-like vectors) with the shrinkage's pull in the first (the ridge's bias) and zeros
-    in the others.
+    extended; ``zeros`` are the vectors of the error the covariance does not hold (the ridge's bias, the quantisation
+    shift, the current noise's shift, the PLL reading's), extended by the shrinkage's pull in the first and zeros in
+    the others. ``J/k0``'s variance for the inertia torque adds the square of its quantisation shift.
 
     **Checked where both read.** At the cogging's orders the time-domain fit resolves, the reading over the angle
     is compared with it: where the two differ by more than their standard errors say, the cut orders' covariance is
@@ -494,7 +511,9 @@ def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, co
         return (beta, cov, *zeros, o_c, final, None)
     every = np.union1d(np.union1d(basis.cogging, basis.ripple), np.union1d(basis.direction, final.cogging))
     every = every[every > 0]
-    var_j = float(cov[0, 0])
+    # J/k0's noise and what the encoder's and the clock's corrections may leave of it (the verdict's quantisation
+    # bias): at one speed it is the inertia torque of the speed's ripple that the current does not carry
+    var_j = float(cov[0, 0]) + float(zeros[1][0]) ** 2
     angle = read_over_the_angle(logs, every, ts, float(beta[0]), var_j, tau=tau, delay=int(timing["samples"]),
                                 lag=lag_of(timing), pll=pll)
     if angle is None:
@@ -509,6 +528,13 @@ def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, co
     spread = sum(np.trace(flip @ cov[np.ix_([o_c[j], o_c[n + j]], [o_c[j], o_c[n + j]])] @ flip) for j in both)
     spread += sum(np.trace(angle["cov"][i]) for i in idx)
     kappa = float(max(1.0, diff.sum() / spread)) if spread > 0 else 1.0
+    gap = angle_agreement(x_t, angle, at)
+    if gap > MAX_DISAGREEMENT:
+        # the two readings are not of one map: the model over the angle does not hold on these logs
+        info = {"orders": [int(h) for h in cut_cog], "kept": [], "agreement": gap, "inflation": kappa,
+                "segments": int(angle["segments"]), "seconds": float(angle["seconds"]),
+                "speeds_rad_s": [float(w) for w in angle["speeds_rad_s"]]}
+        return (beta, cov, *zeros, o_c, final, info)
     k = beta.size
     m = cut_cog.size
     add_beta, add_cov, pull = np.zeros(2 * m), np.zeros((2 * m, 2 * m)), np.zeros(2 * m)
@@ -532,7 +558,7 @@ def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, co
     a_idx = np.concatenate([o_c[:n], k + np.arange(m)])[perm]
     b_idx = np.concatenate([o_c[n:], k + m + np.arange(m)])[perm]
     info = {"orders": [int(h) for h in cut_cog], "kept": kept,
-            "agreement": angle_agreement(x_t, angle, at), "inflation": kappa, "segments": int(angle["segments"]),
+            "agreement": gap, "inflation": kappa, "segments": int(angle["segments"]),
             "seconds": float(angle["seconds"]), "speeds_rad_s": [float(w) for w in angle["speeds_rad_s"]]}
     return (beta, big, *extended, np.concatenate([a_idx, b_idx]), replace(final, cogging=orders[perm]), info)
 
@@ -905,6 +931,9 @@ def fit_mechanics(logs, motor: RotaryMotor, options: RotaryIdentifyOptions | Non
     options = options or RotaryIdentifyOptions()
     orders = orders_of(options, motor)
     min_samples_per_period, taps = _guard(options)
+    if options.orders is None:
+        # the windows of identify's own basis: the full basis's guard would keep only a joint's ramp from standstill
+        orders, _ = resolved_orders(logs, motor, orders, min_samples_per_period)
     encoder_step = options.encoder_step
     current_delay, current_lag = _as_logged(options.current_delay, 0), _as_logged(options.current_lag, None)
     angle_pll, current_filter = _as_logged(options.angle_pll, None), _as_logged(options.current_filter, 0.0)

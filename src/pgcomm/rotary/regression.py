@@ -235,7 +235,8 @@ def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
         ``"speed_to_resolve_rad_s"`` (the basis's guard: below it every order is resolved)``}``.
 
     Raises:
-        ExcitationError: the cut would leave out the cogging's fundamental ``L``.
+        ExcitationError: the cut would leave out the cogging's fundamental ``L`` and no log holds a steady stretch
+            to read it over the angle (:func:`_steady`).
     """
     steps, ts = _steps_and_step(logs, motor.sample_time, FILTER_TAPS)
     if not steps.size or orders.highest < 1:
@@ -247,19 +248,36 @@ def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
     speed = float(np.quantile(steps, GUARD_QUANTILE)) / ts
     full = max_speed(orders, ts, min_samples)
     fundamental = fundamental_cogging_order(motor.slots, motor.pole_pairs) if motor.slots else None
-    if fundamental is not None and top < fundamental:
+    if fundamental is not None and top < fundamental and not _steady(logs, motor.sample_time):
         need = 2 * math.pi / (ts * min_samples * fundamental)
         raise ExcitationError(
             f"the logs turn too fast for their sampling to resolve the cogging's fundamental (order {fundamental} "
             f"per revolution): nine in ten filter windows at speed turn at up to {speed:.4g} rad/s (their fastest step "
             f"over the median step, {1e3 * ts:.3g} ms), where the highest order with {min_samples:g} samples per "
             f"period is {top}; log at most {need:.3g} rad/s (every order of the basis: {full:.3g} rad/s) or poll the "
-            "drive faster" + _unit_hint(speed, need))
+            "drive faster, or hold a steady speed for two revolutions or more to read it over the angle"
+            + _unit_hint(speed, need))
     cut = Orders(*(o[o <= top] for o in (orders.cogging, orders.ripple, orders.direction)))
     left = sorted(set(np.concatenate([orders.cogging, orders.ripple, orders.direction]).tolist())
                   - set(np.concatenate([cut.cogging, cut.ripple, cut.direction]).tolist()))
     return cut, {"highest_order": int(top), "orders": [int(h) for h in left], "speed_rad_s": speed,
-                 "speed_to_resolve_rad_s": full}
+                 "speed_to_resolve_rad_s": full,
+                 "fundamental_over_the_angle": fundamental if fundamental is not None and top < fundamental else None,
+                 "speed_to_resolve_fundamental_rad_s": None if fundamental is None else
+                 2 * math.pi / (ts * min_samples * fundamental)}
+
+
+def _steady(logs, sample_time: float) -> bool:
+    """Whether a log holds a stretch of steady speed over which the cogging's orders are read over the angle
+    (:func:`pgcomm.rotary.over_the_angle.segments`)."""
+    from pgcomm.rotary.over_the_angle import segments  # it reads the logs as this module does
+
+    for log in logs:
+        th = np.asarray(log["theta"], float)
+        t = np.asarray(log["t"], float) if "t" in log else np.arange(th.size) * sample_time
+        if segments(t, th):
+            return True
+    return False
 
 
 _ZOH = np.array([0.5, 0.5])
