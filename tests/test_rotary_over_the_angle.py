@@ -80,3 +80,37 @@ def test_a_report_filter_is_taken_out_per_order():
     assert abs(plain["table"][2]) < 0.3 * abs(Y[2])
     for x, e, c in zip(read["table"], Y, read["cov"]):
         assert abs(x - e) <= 0.03 * abs(e) + 3 * math.sqrt(np.trace(c)), (x, e)
+
+
+def _joint(seed, index):
+    """A zoo motor with a real drive's habits in a joint's speed loop at 5 rad/s, polled by a host every ~2.3 ms: a
+    36N42P's fundamental (252) turns 2.9 rad per median step, beyond the regression's three samples per period."""
+    from pgcomm.rotary.experiment import polled_by_host, speed_loop_log
+    from pgcomm.rotary.zoo import draw_rotary
+    truth = polled_by_host(draw_rotary(seed, index, real_drive=True), 2.3e-3)
+    return truth, speed_loop_log(truth, 5.0, 20.0, seed=1000 * seed + index)
+
+
+def test_a_fundamental_beyond_the_time_sampling_is_counted_over_the_angle():
+    from pgcomm.rotary.slots import detect_slots
+    truth, log = _joint(0, 7)
+    q, info = detect_slots([log], truth.motor.pole_pairs, 2.3e-3)
+    assert info["chosen_by"] == "over the angle" and info["highest_order_examined"] < 252
+    assert (q, info["cogging_fundamental"]) == (truth.motor.slots, 252)
+
+
+def test_a_fundamental_read_over_the_angle_is_within_its_standard_error():
+    from pgcomm.rotary.identify import identify
+    from pgcomm.settings import RotaryIdentifyOptions
+    truth, log = _joint(0, 7)
+    motor = truth.motor
+    res = identify([log], motor, RotaryIdentifyOptions())
+    assert res.orders_not_resolved["fundamental_over_the_angle"] == 252
+    assert 252 in res.orders_over_the_angle["kept"]
+    ref = truth.model().table(4096)
+    tab = res.model.table(4096)
+    err = np.sqrt(np.mean(((tab - tab.mean()) - (ref - ref.mean())) ** 2) / np.mean((ref - ref.mean()) ** 2))
+    c = res.standard_error["cogging"]
+    # the verdict's parts: noise at its confidence, the ridge's and the shrinkage's pull, what the corrections leave
+    bound = math.hypot(c["relative_at_confidence"], c["ridge_bias"], c["quantisation_bias"], c["pll_bias"])
+    assert err <= bound, (err, c)

@@ -18,7 +18,7 @@ from pgcomm.rotary.back_emf import offset_text, voltage_text
 from pgcomm.rotary.readings import delay_text, filter_text, pll_text
 from pgcomm.rotary.power_ups import offsets_text
 from pgcomm.rotary.time_lines import lines_text
-from pgcomm.rotary.slots import held_out_text
+from pgcomm.rotary.slots import held_out_text, over_the_angle_count_text
 
 __all__ = ["write_rotary_report", "ROW_DESCRIPTIONS"]
 
@@ -110,7 +110,9 @@ def _identification_html(r: dict) -> str:
                      f"{det['slots']} slots" + (f"; {html.escape(', '.join(map(str, others)))} slots have the same "
                                                 "fundamental (set <code>slots</code> in the motor TOML if you know it)"
                                                 if others else "")
-                     + (f"; {html.escape(held_out_text(det))}" if det.get("held_out") else "") + ".</p>")
+                     + (f"; {html.escape(held_out_text(det))}" if det.get("held_out") else "")
+                     + (f"; {html.escape(over_the_angle_count_text(det))}" if over_the_angle_count_text(det) else "")
+                     + ".</p>")
     added = ident.get("orders_added") or {}
     if ident.get("orders_screened"):
         found = "; ".join(f"{k} {', '.join(map(str, v))}" for k, v in added.items() if v)

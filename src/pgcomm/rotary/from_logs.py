@@ -45,7 +45,7 @@ from pgcomm.rotary.model import RotaryModel
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.readings import delay_text, filter_text, pll_text
 from pgcomm.rotary.host_clock import host_clock_text
-from pgcomm.rotary.slots import count_slots, held_out_text
+from pgcomm.rotary.slots import count_slots, held_out_text, over_the_angle_count_text
 from pgcomm.rotary.standstill import SweepTable, table_from_sweep
 from pgcomm.rotary.static_map import combine, compare, text
 from pgcomm.rotary.time_lines import lines_text
@@ -173,7 +173,9 @@ def identify_from_logs(logs, motor: RotaryMotor, options: RotaryIdentifyOptions 
                           f"strongest first: {', '.join(map(str, slots_detected['orders_seen'][:8]))}): slots = {q}, "
                           f"{motor.name}" + (f" (also {', '.join(map(str, others))} slots have that fundamental; "
                                              "set slots in the motor TOML if you know it)" if others else "")
-                          + (f"; {held_out_text(slots_detected)}" if slots_detected.get("held_out") else ""))
+                          + (f"; {held_out_text(slots_detected)}" if slots_detected.get("held_out") else "")
+                          + (f"; {over_the_angle_count_text(slots_detected)}"
+                             if over_the_angle_count_text(slots_detected) else ""))
     how = "with the torque sensor" if torque_sensor else "without a torque sensor (from the motion)"
     with progress.stage(f"identification {how}: cogging, ripple, direction map over the revolution"):
         res = identify(data, motor, options)

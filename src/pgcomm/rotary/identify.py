@@ -409,6 +409,8 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
         reading[layout.keep] = PLL_UNCERTAINTY * (_fit(as_logged, layout, taps, fit["ridge"],
                                                        current_noise=correction["noise_A"])["beta"] - fit["beta"])
     o_r, o_c, o_d = layout.o_r, layout.o_c, layout.o_d
+    # read before the cut orders read over the angle are appended to the vector
+    viscous, reading_kept = float(beta[-1]), reading[layout.keep]
     over = None
     if cut is not None and not any(o["taken"] for o in offsets):
         beta, cov, bias, shift, c_shift, reading, o_c, final, over = _cut_orders_over_the_angle(
@@ -432,7 +434,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
         cogging=Fourier.from_vector(final.cogging, beta[o_c]),
         ripple=Fourier.from_vector(final.ripple, beta[o_r]),
         direction=Fourier.from_vector(final.direction, beta[o_d]),
-        viscous=float(beta[-1]), inertia_ratio=float(beta[0]), k_t=motor.k_t,
+        viscous=viscous, inertia_ratio=float(beta[0]), k_t=motor.k_t,
         info={"method": "running logs, no torque sensor"})
     drive = _drive_share(model.cogging, motor.pole_pairs)
     blind = None
@@ -445,7 +447,7 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
     voltage_info = None
     if back_emf and has_voltage(logs):
         # the parts of the currents' error that its covariance does not hold, as the verdict counts them
-        fixed = [fit["bias"], fit["quantisation_shift"], reading[layout.keep], fit["current_shift"]]
+        fixed = [fit["bias"], fit["quantisation_shift"], reading_kept, fit["current_shift"]]
         voltage_info = _voltage_check(fit, fixed, (blind or {}).get("ripple"), logs, motor, final, layout, ts,
                                       timing["samples"], pll)
     result = RotaryIdentification(

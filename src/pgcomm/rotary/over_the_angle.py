@@ -148,6 +148,53 @@ def _rotated(cov: np.ndarray, g: complex) -> np.ndarray:
     return m @ cov @ m.T
 
 
+def _segment_fits(logs, orders: np.ndarray, sample_time: float, delay: int = 0):
+    """Per steady segment of every log (:func:`segments`): ``(t, ω, β_i, Cov_i, β_t, Cov_t, s0)``, the fits of the
+    current (A) and of time (s) against the angle's polynomial drift and ``cos hθ, sin hθ`` of ``orders`` (their
+    coefficients from column ``s0``: cosines, then sines), with robust covariances (:func:`_robust_fit`)."""
+    for log in logs:
+        th_all = np.asarray(log["theta"], float)
+        iq_all = _shifted(np.asarray(log["iq_1"] if "iq_1" in log else log["iq"], float), delay)
+        t_all = (np.asarray(log["t"], float) if "t" in log and log["t"] is not None
+                 else np.arange(th_all.size) * float(sample_time))
+        for sl in segments(t_all, th_all):
+            t, th, iq = t_all[sl], th_all[sl], iq_all[sl]
+            revs = abs(th[-1] - th[0]) / (2 * math.pi)
+            degree = int(min(12, 3 + revs // 2))
+            x = _design(th, orders, degree)
+            if x.shape[0] < 2 * x.shape[1]:
+                continue
+            w = (th[-1] - th[0]) / (t[-1] - t[0])
+            by, cy = _robust_fit(x, iq, t)
+            bt, ct = _robust_fit(x, t - t[0], t)
+            yield t, w, by, cy, bt, ct, degree + 1
+
+
+def order_evidence(logs, orders, sample_time: float) -> tuple[np.ndarray, int]:
+    """How strongly the logs' steady segments show each of ``orders`` over the angle, whatever the reading and
+    ``J/k0``: per order, the sum over segments of ``T² = Yᵀ C_Y⁻¹ Y + Zᵀ C_Z⁻¹ Z`` of the current's and time's
+    coefficients (module docstring; the cogging moves one or the other, as the speed loop shares it), ``χ²`` with
+    ``4 S`` degrees of freedom where the order is absent (``S`` segments).
+
+    Args:
+        logs: as for :func:`read_over_the_angle`; orders: ``(m,)`` int (every order that may hold content should be
+            among them: they are fitted together); sample_time: s, where a log has no ``t``.
+
+    Returns:
+        ``(T2, segments)``: ``(m,)`` float and the number of segments (0: none, ``T2`` zeros).
+    """
+    orders = np.asarray(orders, int)
+    m = orders.size
+    t2, n = np.zeros(m), 0
+    for _, _, by, cy, bt, ct, s0 in _segment_fits(logs, orders, sample_time):
+        for j in range(m):
+            for beta, cov in ((by, cy), (bt, ct)):
+                x, c = _complex_block(beta, cov, s0, m, j)
+                t2[j] += float(_as_real(x) @ np.linalg.pinv(c) @ _as_real(x))
+        n += 1
+    return t2, n
+
+
 def read_over_the_angle(logs, orders, sample_time: float, inertia_ratio: float, inertia_ratio_var: float,
                         tau: float = 0.0, delay: int = 0, lag: float | None = None, pll=None) -> dict | None:
     """The table's coefficients at ``orders`` read over the angle (module docstring) from the logs' steady segments.
@@ -174,47 +221,32 @@ def read_over_the_angle(logs, orders, sample_time: float, inertia_ratio: float, 
     acc_w = np.zeros((m, 2, 2))  # Σ cov⁻¹
     acc_b = np.zeros((m, 2))  # Σ cov⁻¹ x
     n_seg, seconds, speeds = 0, 0.0, []
-    for log in logs:
-        th_all = np.asarray(log["theta"], float)
-        iq_all = _shifted(np.asarray(log["iq_1"] if "iq_1" in log else log["iq"], float), delay)
-        t_all = (np.asarray(log["t"], float) if "t" in log and log["t"] is not None
-                 else np.arange(th_all.size) * float(sample_time))
-        for sl in segments(t_all, th_all):
-            t, th, iq = t_all[sl], th_all[sl], iq_all[sl]
-            revs = abs(th[-1] - th[0]) / (2 * math.pi)
-            degree = int(min(12, 3 + revs // 2))
-            x = _design(th, orders, degree)
-            if x.shape[0] < 2 * x.shape[1]:
-                continue
-            w = (th[-1] - th[0]) / (t[-1] - t[0])
-            by, cy = _robust_fit(x, iq, t)
-            bt, ct = _robust_fit(x, t - t[0], t)
-            s0 = degree + 1
-            st = sample_time_of(t)
-            zs, ys, vys, vzs, gains = [], [], [], [], []
-            for j, h in enumerate(orders):
-                s = 1j * h * w
-                gain = np.exp(-s * lag_eff * st) / (1.0 + s * tau)
-                y, vy = _complex_block(by, cy, s0, m, j)
-                z, vz = _complex_block(bt, ct, s0, m, j)
-                if pll is not None:
-                    wn, zeta = pll
-                    p = (2 * zeta * wn * s + wn**2) / (s * s + 2 * zeta * wn * s + wn**2)
-                    z, vz = z / p, _rotated(vz, 1.0 / p)
-                zs.append(z), ys.append(y), vys.append(vy), vzs.append(vz), gains.append(gain)
-            # orders whose ripple is within its noise go to zero before the exact (nonlinear) acceleration: there,
-            # noise at a high order (h² amplifies it, a PLL's correction more) would move every other order
-            accel = _acceleration(np.array([_shrunk(z, vz) for z, vz in zip(zs, vzs)]), orders, w)
-            for j, h in enumerate(orders):
-                table = ys[j] / gains[j] - inertia_ratio * accel[j]
-                cov = (_rotated(vys[j], 1.0 / gains[j]) + inertia_ratio**2 * w**6 * h**4 * vzs[j]
-                       + inertia_ratio_var * np.outer(_as_real(accel[j]), _as_real(accel[j])))
-                inv = np.linalg.pinv(cov)
-                acc_w[j] += inv
-                acc_b[j] += inv @ _as_real(table)
-            n_seg += 1
-            seconds += float(t[-1] - t[0])
-            speeds.append(float(w))
+    for t, w, by, cy, bt, ct, s0 in _segment_fits(logs, orders, sample_time, delay):
+        st = sample_time_of(t)
+        zs, ys, vys, vzs, gains = [], [], [], [], []
+        for j, h in enumerate(orders):
+            s = 1j * h * w
+            gain = np.exp(-s * lag_eff * st) / (1.0 + s * tau)
+            y, vy = _complex_block(by, cy, s0, m, j)
+            z, vz = _complex_block(bt, ct, s0, m, j)
+            if pll is not None:
+                wn, zeta = pll
+                p = (2 * zeta * wn * s + wn**2) / (s * s + 2 * zeta * wn * s + wn**2)
+                z, vz = z / p, _rotated(vz, 1.0 / p)
+            zs.append(z), ys.append(y), vys.append(vy), vzs.append(vz), gains.append(gain)
+        # orders whose ripple is within its noise go to zero before the exact (nonlinear) acceleration: there,
+        # noise at a high order (h² amplifies it, a PLL's correction more) would move every other order
+        accel = _acceleration(np.array([_shrunk(z, vz) for z, vz in zip(zs, vzs)]), orders, w)
+        for j, h in enumerate(orders):
+            table = ys[j] / gains[j] - inertia_ratio * accel[j]
+            cov = (_rotated(vys[j], 1.0 / gains[j]) + inertia_ratio**2 * w**6 * h**4 * vzs[j]
+                   + inertia_ratio_var * np.outer(_as_real(accel[j]), _as_real(accel[j])))
+            inv = np.linalg.pinv(cov)
+            acc_w[j] += inv
+            acc_b[j] += inv @ _as_real(table)
+        n_seg += 1
+        seconds += float(t[-1] - t[0])
+        speeds.append(float(w))
     if not n_seg:
         return None
     cov = np.array([np.linalg.pinv(a) for a in acc_w])

@@ -195,6 +195,10 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
             return q, _with_held_out(info, held_out)
     elif best_mse >= held_out["base"]:
         strongest = int(np.argmax(ratio))
+        found = _count_over_the_angle(logs, p, sample_time, top, seen)
+        if found is not None:
+            info.update(found)
+            return found["slots"], _with_held_out(info, held_out)
         raise ExcitationError(
             f"slots not given, and the logs show no cogging fundamental LCM(Q, {2 * p}) up to order {top} (strongest "
             f"order {strongest} at {ratio[strongest]:.2g}x its threshold), nor does any slot count's basis predict "
@@ -202,7 +206,11 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
     lcm = fundamental_cogging_order(best_q, p)
     if lcm > top:
         # the count's own orders below top are one or two multiples of Q: too few to tell it from its neighbours, and
-        # the cogging's fundamental, which would, is beyond what the logs resolve (as with the slots given)
+        # the cogging's fundamental, which would, is beyond what the logs resolve in time: read over the angle
+        found = _count_over_the_angle(logs, p, sample_time, top, seen)
+        if found is not None:
+            info.update(found)
+            return found["slots"], _with_held_out(info, held_out)
         raise ExcitationError(
             f"slots not given, and the logs do not determine them: their held-out time blocks are predicted best by "
             f"{best_q} slots, whose cogging fundamental LCM({best_q}, {2 * p}) = {lcm} is beyond order {top}, the "
@@ -212,6 +220,57 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
                  "slots_with_that_fundamental": sorted(x for x in held_out["bases"]
                                                        if fundamental_cogging_order(x, p) == lcm)})
     return best_q, _with_held_out(info, held_out)
+
+
+def _count_over_the_angle(logs, p: int, sample_time: float, top: int, seen) -> dict | None:
+    """The slot count whose fundamental the logs' steady stretches show most strongly over the angle
+    (:func:`pgcomm.rotary.over_the_angle.order_evidence`), or ``None``: where the orders the logs resolve in time (up
+    to ``top``) do not give one, the fundamental may be beyond them, or hidden in time by a speed loop's ripple.
+
+    Candidates are the fundamentals ``L = LCM(Q, 2p)`` up to :data:`MAX_ORDER` of the counts a motor can be wound
+    with; each order's ``T²`` over its family-wise threshold (``α`` = :data:`EXTRA_ORDER_ALPHA` over the candidates).
+    The strongest one that passes is the fundamental: a motor's cogging fundamental outweighs the drive's and the
+    ripple's orders it may share a multiple of ``2p`` with. Of the counts with that ``L``, the one that explains the
+    most slot sidebands seen in time (``seen``: orders up to ``top`` that are not multiples of ``2p``), then the
+    fewest slots. ``{"slots", "cogging_fundamental", "chosen_by": "over the angle", "slots_with_that_fundamental",
+    "over_the_angle": {"t2_over_threshold", "segments"}}``."""
+    from scipy.stats import chi2
+
+    from pgcomm.rotary.over_the_angle import order_evidence
+
+    by_l: dict[int, list[int]] = {}
+    for q in range(3, MAX_SLOTS + 1):
+        lcm = fundamental_cogging_order(q, p)
+        if winding_exists(q, p) and lcm <= MAX_ORDER:
+            by_l.setdefault(lcm, []).append(q)
+    if not by_l:
+        return None
+    cands = np.array(sorted(by_l))
+    orders = np.union1d(np.arange(1, top + 1), cands)
+    t2, segs = order_evidence(logs, orders, sample_time)
+    if not segs:
+        return None
+    thr = chi2.isf(EXTRA_ORDER_ALPHA / cands.size, 4 * segs)
+    ratio = t2[np.searchsorted(orders, cands)] / thr
+    best = int(np.argmax(ratio))
+    if ratio[best] <= 1.0:
+        return None
+    lcm = int(cands[best])
+    side = [int(h) for h in seen if h > 2 and h % (2 * p)]
+    q = min(by_l[lcm], key=lambda x: (-sum(1 for h in side if h % x == 0), x))
+    return {"slots": q, "cogging_fundamental": lcm, "chosen_by": "over the angle",
+            "slots_with_that_fundamental": by_l[lcm],
+            "over_the_angle": {"t2_over_threshold": float(ratio[best]), "segments": int(segs)}}
+
+
+def over_the_angle_count_text(info: dict) -> str:
+    """A clause on a fundamental read over the angle (``info`` of :func:`detect_slots` chosen so), or ``""``."""
+    found = info.get("over_the_angle")
+    if info.get("chosen_by") != "over the angle" or not found:
+        return ""
+    return (f"the fundamental is beyond the orders the logs resolve in time, and read over the angle of "
+            f"{found['segments']} steady stretch(es) it stands at {found['t2_over_threshold']:.3g} times its threshold, "
+            "the strongest of the counts' fundamentals there")
 
 
 def held_out_text(info: dict) -> str:
