@@ -37,7 +37,7 @@ from pgcomm.rotary.back_emf import agreement, fit_voltage, has_voltage
 from pgcomm.rotary.winding import BACK_EMF_FACTOR
 from pgcomm.rotary.power_ups import index_offsets, tested
 from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _with_pll, _with_report, \
-    apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
+    _shifted, apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
 from pgcomm.rotary.over_the_angle import agreement as angle_agreement, read_over_the_angle
 from pgcomm.rotary.regression import _basis_cost, _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, \
     _map_error_quantile, _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
@@ -516,8 +516,9 @@ def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, co
     # J/k0's noise and what the encoder's and the clock's corrections may leave of it (the verdict's quantisation
     # bias): at one speed it is the inertia torque of the speed's ripple that the current does not carry
     var_j = float(cov[0, 0]) + float(zeros[1][0]) ** 2
-    angle = read_over_the_angle(logs, every, ts, float(beta[0]), var_j, tau=tau, delay=int(timing["samples"]),
-                                lag=lag_of(timing), pll=pll)
+    shifted = [{**log, "iq_1": _shifted(np.asarray(log["iq_1"] if "iq_1" in log else log["iq"], float),
+                                        int(timing["samples"]))} for log in logs]
+    angle = read_over_the_angle(shifted, every, ts, float(beta[0]), var_j, tau=tau, lag=lag_of(timing), pll=pll)
     if angle is None:
         return (beta, cov, *zeros, o_c, final, None)
     n = final.cogging.size

@@ -23,8 +23,10 @@ coefficient (``x(θ) = Re Σ X_h e^{ihθ}``)::
   ``λ`` (samples) that the identification found (:mod:`pgcomm.rotary.readings`; a current held over the sample lags by
   half a sample);
 * the **acceleration**: time as a function of the angle, ``t(θ) = D(θ) + Re Σ Z_h e^{ihθ}`` (``D`` a slow polynomial:
-  the speed's drift over the segment), gives ``ω(θ) = 1/t'(θ)`` and, to first order in the speed's ripple,
-  ``A_h = ω³ h² Z_h``. A drive's PLL estimate of the angle (``ω_n, ζ``) holds ``P_h = (2ζω_n s + ω_n²) / (s² + 2ζω_n s
+  the speed's drift over the segment), gives ``ω(θ) = 1/t'(θ)`` and ``θ̈ = ω dω/dθ = −t''/t'³``, taken on a grid of
+  the revolution (to first order in the speed's ripple ``A_h = ω³ h² Z_h``, which sets the standard errors; a
+  speed loop's ripple of 8 % at the fundamental puts a third of its second multiple's inertia torque in the second
+  order terms). Orders within their noise are set to zero first (:func:`_shrunk`). A drive's PLL estimate of the angle (``ω_n, ζ``) holds ``P_h = (2ζω_n s + ω_n²) / (s² + 2ζω_n s
   + ω_n²)`` of its ripple at ``s = ihω``: ``Z_h`` is divided by it.
 
 ``J/k0`` is the time-domain fit's. The host's stamp noise and the encoder's rounding are noise in ``t(θ)``, which the
@@ -47,7 +49,6 @@ import math
 
 import numpy as np
 
-from .readings import _shifted
 
 #: A segment is a stretch whose speed (averaged over :data:`SPEED_WINDOW_S`) stays within this share of its median.
 STEADY_SHARE = 0.2
@@ -148,13 +149,13 @@ def _rotated(cov: np.ndarray, g: complex) -> np.ndarray:
     return m @ cov @ m.T
 
 
-def _segment_fits(logs, orders: np.ndarray, sample_time: float, delay: int = 0):
+def _segment_fits(logs, orders: np.ndarray, sample_time: float):
     """Per steady segment of every log (:func:`segments`): ``(t, ω, β_i, Cov_i, β_t, Cov_t, s0)``, the fits of the
     current (A) and of time (s) against the angle's polynomial drift and ``cos hθ, sin hθ`` of ``orders`` (their
     coefficients from column ``s0``: cosines, then sines), with robust covariances (:func:`_robust_fit`)."""
     for log in logs:
         th_all = np.asarray(log["theta"], float)
-        iq_all = _shifted(np.asarray(log["iq_1"] if "iq_1" in log else log["iq"], float), delay)
+        iq_all = np.asarray(log["iq_1"] if "iq_1" in log else log["iq"], float)
         t_all = (np.asarray(log["t"], float) if "t" in log and log["t"] is not None
                  else np.arange(th_all.size) * float(sample_time))
         for sl in segments(t_all, th_all):
@@ -196,18 +197,18 @@ def order_evidence(logs, orders, sample_time: float) -> tuple[np.ndarray, int]:
 
 
 def read_over_the_angle(logs, orders, sample_time: float, inertia_ratio: float, inertia_ratio_var: float,
-                        tau: float = 0.0, delay: int = 0, lag: float | None = None, pll=None) -> dict | None:
+                        tau: float = 0.0, lag: float | None = None, pll=None) -> dict | None:
     """The table's coefficients at ``orders`` read over the angle (module docstring) from the logs' steady segments.
 
     Args:
         logs: the logs as :func:`pgcomm.rotary.identify.identify` takes them (``t`` s where not uniform, ``theta``
-            rad, ``iq_1`` A; ``(N_i,)`` each).
-        orders: ``(m,)`` int orders per revolution to read (every other order of the basis is fitted beside them and
-            dropped, so that none leaks into them).
+            rad, ``iq_1`` A; ``(N_i,)`` each), the current shifted by the delay the identification found
+            (:func:`pgcomm.rotary.readings._shifted`).
+        orders: ``(m,)`` int orders per revolution to read, fitted together: every order that may hold content
+            should be among them, so that none leaks into another.
         sample_time: the drive's period (s) where a log has no ``t``.
         inertia_ratio: ``J/k0`` (A·s²/rad) of the time-domain fit; inertia_ratio_var: its variance.
-        tau: the report filter (s); delay: the current's delay (samples, :func:`pgcomm.rotary.readings._shifted`);
-        lag: the smooth current's lag (samples), ``None`` for a current held over the sample (half a sample);
+        tau: the report filter (s); lag: the smooth current's lag (samples), ``None`` for a current held over the sample (half a sample);
         pll: ``(ω_n, ζ)`` of a drive's PLL angle, or ``None``.
 
     Returns:
@@ -221,7 +222,7 @@ def read_over_the_angle(logs, orders, sample_time: float, inertia_ratio: float, 
     acc_w = np.zeros((m, 2, 2))  # Σ cov⁻¹
     acc_b = np.zeros((m, 2))  # Σ cov⁻¹ x
     n_seg, seconds, speeds = 0, 0.0, []
-    for t, w, by, cy, bt, ct, s0 in _segment_fits(logs, orders, sample_time, delay):
+    for t, w, by, cy, bt, ct, s0 in _segment_fits(logs, orders, sample_time):
         st = sample_time_of(t)
         zs, ys, vys, vzs, gains = [], [], [], [], []
         for j, h in enumerate(orders):
@@ -266,6 +267,20 @@ def _acceleration(z: np.ndarray, orders: np.ndarray, w: float) -> np.ndarray:
     d2 = np.real(e @ (-(orders**2) * z))
     a = -d2 / d1**3
     return 2.0 / n * (e.conj().T @ a)
+
+
+def has_steady_segment(logs, sample_time: float) -> bool:
+    """Whether a log holds a stretch of steady speed (:func:`segments`) to read orders over the angle.
+
+    Args:
+        logs: as for :func:`read_over_the_angle`; sample_time: s, where a log has no ``t``.
+    """
+    for log in logs:
+        th = np.asarray(log["theta"], float)
+        t = np.asarray(log["t"], float) if "t" in log else np.arange(th.size) * sample_time
+        if segments(t, th):
+            return True
+    return False
 
 
 def sample_time_of(t: np.ndarray) -> float:

@@ -94,6 +94,7 @@ from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, 
     harmonic_columns, harmonic_rows, ripple_orders
 from pgcomm.rotary import quantisation
 from pgcomm.rotary.motor import RotaryMotor
+from pgcomm.rotary.over_the_angle import has_steady_segment
 
 #: Fewest samples per period of the highest modelled harmonic for a window to be used. The kernel is
 #: exact along the path (module docstring); below ~3 the cubic between encoder samples no longer follows a
@@ -236,7 +237,7 @@ def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
 
     Raises:
         ExcitationError: the cut would leave out the cogging's fundamental ``L`` and no log holds a steady stretch
-            to read it over the angle (:func:`_steady`).
+            to read it over the angle (:func:`pgcomm.rotary.over_the_angle.has_steady_segment`).
     """
     steps, ts = _steps_and_step(logs, motor.sample_time, FILTER_TAPS)
     if not steps.size or orders.highest < 1:
@@ -248,7 +249,7 @@ def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
     speed = float(np.quantile(steps, GUARD_QUANTILE)) / ts
     full = max_speed(orders, ts, min_samples)
     fundamental = fundamental_cogging_order(motor.slots, motor.pole_pairs) if motor.slots else None
-    if fundamental is not None and top < fundamental and not _steady(logs, motor.sample_time):
+    if fundamental is not None and top < fundamental and not has_steady_segment(logs, motor.sample_time):
         need = 2 * math.pi / (ts * min_samples * fundamental)
         raise ExcitationError(
             f"the logs turn too fast for their sampling to resolve the cogging's fundamental (order {fundamental} "
@@ -265,19 +266,6 @@ def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
                  "fundamental_over_the_angle": fundamental if fundamental is not None and top < fundamental else None,
                  "speed_to_resolve_fundamental_rad_s": None if fundamental is None else
                  2 * math.pi / (ts * min_samples * fundamental)}
-
-
-def _steady(logs, sample_time: float) -> bool:
-    """Whether a log holds a stretch of steady speed over which the cogging's orders are read over the angle
-    (:func:`pgcomm.rotary.over_the_angle.segments`)."""
-    from pgcomm.rotary.over_the_angle import segments  # it reads the logs as this module does
-
-    for log in logs:
-        th = np.asarray(log["theta"], float)
-        t = np.asarray(log["t"], float) if "t" in log else np.arange(th.size) * sample_time
-        if segments(t, th):
-            return True
-    return False
 
 
 _ZOH = np.array([0.5, 0.5])

@@ -37,8 +37,14 @@ equations (:func:`_held_out`). Where another count leaves less than :data:`HELD_
 square of the count the orders seen give, the logs contradict that count and the other is taken; where the orders
 seen give no count, the count that predicts best is taken if it beats the poles' orders alone and the logs show one
 of its own orders (a real ODrive's log at 0.1 rev/s: no fundamental passes, and 12 slots leave 1.2 % of the current's
-held-out mean square unexplained, the next count 6.5 %, the poles' orders alone 7.2 %). A count whose fundamental
-is beyond ``H`` is refused, as the identification would refuse it with the slots given.
+held-out mean square unexplained, the next count 6.5 %, the poles' orders alone 7.2 %).
+
+**Over the angle.** Where neither gives a count (the count that predicts best has its fundamental beyond ``H``, or
+none beats the poles' orders alone), the fundamental may turn too fast for the logs' sampling: a joint's speed loop
+polled by a host every few milliseconds. Over a stretch of steady speed, every order is read over the angle whatever
+the sample rate (:mod:`pgcomm.rotary.over_the_angle`), and the strongest fundamental of the counts a motor can be
+wound with, over its family-wise threshold, is taken (:func:`_count_over_the_angle`). Where none passes, the count is
+refused.
 """
 
 from __future__ import annotations
