@@ -234,7 +234,7 @@ def _count_over_the_angle(logs, p: int, sample_time: float, top: int, seen) -> d
     to ``top``) do not give one, the fundamental may be beyond them, or hidden in time by a speed loop's ripple.
 
     Candidates are the fundamentals ``L = LCM(Q, 2p)`` up to :data:`MAX_ORDER` of the counts a motor can be wound
-    with; each order's ``T²`` over its family-wise threshold (``α`` = :data:`EXTRA_ORDER_ALPHA` over the candidates).
+    with, but for the drive's own orders (:func:`pgcomm.rotary.model.drive_orders`); each order's ``T²`` over its family-wise threshold (``α`` = :data:`EXTRA_ORDER_ALPHA` over the candidates).
     The strongest one that passes is the fundamental: a motor's cogging fundamental outweighs the drive's and the
     ripple's orders it may share a multiple of ``2p`` with. Of the counts with that ``L``, the one that explains the
     most slot sidebands seen in time (``seen``: orders up to ``top`` that are not multiples of ``2p``), then the
@@ -245,9 +245,12 @@ def _count_over_the_angle(logs, p: int, sample_time: float, top: int, seen) -> d
     from pgcomm.rotary.over_the_angle import order_evidence
 
     by_l: dict[int, list[int]] = {}
+    # a drive's own orders (p, 2p, 3p, 4p, 6p: its current sensors, its dead time) are on every drive's logs, whatever
+    # the motor: a count whose fundamental is one of them cannot be told from the drive
+    drive = set(drive_orders(p).tolist())
     for q in range(3, MAX_SLOTS + 1):
         lcm = fundamental_cogging_order(q, p)
-        if winding_exists(q, p) and lcm <= MAX_ORDER:
+        if winding_exists(q, p) and lcm <= MAX_ORDER and lcm not in drive:
             by_l.setdefault(lcm, []).append(q)
     if not by_l:
         return None
