@@ -890,7 +890,8 @@ def over_the_angle_text(found: dict | None) -> str:
     if not found:
         return ""
     kept = ", ".join(map(str, found["kept"])) or "none"
-    return (f"the cogging's orders above the alias guard's ({', '.join(map(str, found['orders']))}) read over the "
+    shown = ", ".join(map(str, found["orders"][:8])) + (", ..." if len(found["orders"]) > 8 else "")
+    return (f"the cogging's orders above the alias guard's ({shown}) read over the "
             f"angle from {found['segments']} steady stretch(es), {found['seconds']:.3g} s: kept {kept} (the others are "
             f"within their noise); where both read, that reading is {100 * found['agreement']:.1f} % of the map from the "
             f"time-domain fit's" + (f", {found['inflation']:.3g} times what their noise explains: the cut orders' "
@@ -903,8 +904,8 @@ def orders_text(cut: dict | None) -> str:
     if not cut:
         return ""
     shown = ", ".join(map(str, cut["orders"][:8])) + (", ..." if len(cut["orders"]) > 8 else "")
-    return (f"orders above {cut['highest_order']} per revolution not resolved by these logs and left out of the "
-            f"maps ({shown}): nine in ten filter windows at speed turn at up to {cut['speed_rad_s']:.3g} rad/s (their "
+    return (f"orders above {cut['highest_order']} per revolution not resolved in time by these logs and left out of "
+            f"the time-domain fit ({shown}): nine in ten filter windows at speed turn at up to {cut['speed_rad_s']:.3g} rad/s (their "
             f"fastest step over the median step); logs at most {cut['speed_to_resolve_rad_s']:.3g} rad/s (or a host "
             "that polls faster) would resolve them")
 
