@@ -149,13 +149,38 @@ def _rotated(cov: np.ndarray, g: complex) -> np.ndarray:
     return m @ cov @ m.T
 
 
+def _source(log) -> str | None:
+    """The file a piece of a log came from (the reader names pieces between gaps ``"<file> rows a-b"``)."""
+    name = log.get("name") if isinstance(log, dict) else None
+    return None if name is None else str(name).split(" rows ")[0]
+
+
+def joined(logs) -> list[dict]:
+    """The pieces of each log between a host's gaps joined again (``t``, ``theta``, ``iq_1``): over the angle a gap
+    is no edge (the samples need not be even in time), and a joint's log split at every pause of its host keeps
+    no stretch of two revolutions. Consecutive pieces join where both have time stamps, the second starts after the
+    first ends, and they come from one file (``name``, where given)."""
+    out: list[dict] = []
+    for log in logs:
+        cur = {"t": log.get("t"), "theta": np.asarray(log["theta"], float),
+               "iq_1": np.asarray(log["iq_1"] if "iq_1" in log else log["iq"], float), "name": _source(log)}
+        prev = out[-1] if out else None
+        if (prev is not None and prev["t"] is not None and cur["t"] is not None and np.size(cur["t"])
+                and np.size(prev["t"]) and float(cur["t"][0]) > float(prev["t"][-1]) and prev["name"] == cur["name"]):
+            for key in ("t", "theta", "iq_1"):
+                prev[key] = np.concatenate([np.asarray(prev[key], float), np.asarray(cur[key], float)])
+        else:
+            out.append(cur)
+    return out
+
+
 def _segment_fits(logs, orders: np.ndarray, sample_time: float):
     """Per steady segment of every log (:func:`segments`): ``(t, ω, β_i, Cov_i, β_t, Cov_t, s0)``, the fits of the
     current (A) and of time (s) against the angle's polynomial drift and ``cos hθ, sin hθ`` of ``orders`` (their
     coefficients from column ``s0``: cosines, then sines), with robust covariances (:func:`_robust_fit`)."""
-    for log in logs:
+    for log in joined(logs):
         th_all = np.asarray(log["theta"], float)
-        iq_all = np.asarray(log["iq_1"] if "iq_1" in log else log["iq"], float)
+        iq_all = np.asarray(log["iq_1"], float)
         t_all = (np.asarray(log["t"], float) if "t" in log and log["t"] is not None
                  else np.arange(th_all.size) * float(sample_time))
         for sl in segments(t_all, th_all):
@@ -275,9 +300,9 @@ def has_steady_segment(logs, sample_time: float) -> bool:
     Args:
         logs: as for :func:`read_over_the_angle`; sample_time: s, where a log has no ``t``.
     """
-    for log in logs:
+    for log in joined(logs):
         th = np.asarray(log["theta"], float)
-        t = np.asarray(log["t"], float) if "t" in log else np.arange(th.size) * sample_time
+        t = np.asarray(log["t"], float) if log["t"] is not None else np.arange(th.size) * sample_time
         if segments(t, th):
             return True
     return False

@@ -29,7 +29,7 @@ from scipy.stats import chi2, gamma
 
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, Orders, _Layout, \
-    _basis_cost, _basis_fit, _chunks, _evidence, _prepare, _residuals
+    _basis_cost, _basis_fit, _chunks, _evidence, _prepare, _residuals, resolved_orders
 
 #: Time-periodic disturbances (:func:`_time_lines`): at most this many lines, from at most this many peaks examined
 MAX_LINES = 4
@@ -305,7 +305,9 @@ def detect_time_lines(logs, motor: RotaryMotor, orders: Orders | None = None, *,
     Returns:
         the entry :func:`identify` reports as ``time_lines`` (without the amplitudes).
     """
-    orders = orders or Orders.for_motor(motor)
+    if orders is None:
+        # the basis identify fits: cut to the orders the logs resolve in time (a joint's speed loop)
+        orders, _ = resolved_orders(logs, motor, Orders.for_motor(motor), min_samples_per_period)
     prepared, _, _, _ = _prepare(logs, motor, orders, min_samples_per_period, taps, current_lag=current_lag)
     return _time_lines(prepared, orders, taps)
 
