@@ -114,3 +114,21 @@ def test_a_fundamental_read_over_the_angle_is_within_its_standard_error():
     # the verdict's parts: noise at its confidence, the ridge's and the shrinkage's pull, what the corrections leave
     bound = math.hypot(c["relative_at_confidence"], c["ridge_bias"], c["quantisation_bias"], c["pll_bias"])
     assert err <= bound, (err, c)
+
+
+def test_a_log_split_at_its_hosts_gaps_is_read_as_one():
+    t, th, cur = _fine()
+    stamps, (theta, iq) = _host(t, (th, cur))
+    whole = read_over_the_angle([{"t": stamps, "theta": theta, "iq_1": iq}], ORDERS, 2.3e-3, J_K, 0.0, lag=0.0)
+    # the reader's pieces between gaps, each under two revolutions: none would hold a steady stretch alone
+    cuts = np.linspace(0, stamps.size, 9).astype(int)
+    pieces = [{"t": stamps[a:b], "theta": theta[a:b], "iq_1": iq[a:b], "name": f"joint.csv rows {a + 1}-{b}"}
+              for a, b in zip(cuts[:-1], cuts[1:])]
+    assert all(not segments(p["t"], p["theta"]) for p in pieces)
+    split = read_over_the_angle(pieces, ORDERS, 2.3e-3, J_K, 0.0, lag=0.0)
+    assert split["segments"] == whole["segments"] == 1
+    scale = np.abs(whole["table"]).max()
+    assert np.allclose(split["table"], whole["table"], rtol=0, atol=1e-9 * scale)
+    # pieces of two files are not joined
+    other = [dict(p, name=f"{'a' if k < 4 else 'b'}.csv rows 1-2") for k, p in enumerate(pieces)]
+    assert read_over_the_angle(other, ORDERS, 2.3e-3, J_K, 0.0, lag=0.0)["segments"] == 2
