@@ -502,8 +502,9 @@ def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, co
 
     **Shrunk to what the logs show.** Each cut order's coefficient ``X`` is multiplied by ``f = max(0, 1 − tr(κ
     Cov)/|X|²)`` (the posterior mean under a zero-mean prior of the variance the estimate itself shows): an order
-    within its noise (the highest multiples, whose ``h²`` amplifies the clock's noise) adds nothing. Its covariance
-    is ``f κ Cov``, and ``(f − 1) X`` its pull towards zero, counted like the ridge's (:func:`_standard_errors`).
+    within its noise (the highest multiples, whose ``h²`` amplifies the clock's noise) adds nothing, and is left out
+    of the verdict as the alias guard's cut left it. A kept order's covariance is ``f κ Cov``, and ``(f − 1) X`` its
+    pull towards zero, counted like the ridge's (:func:`_standard_errors`).
 
     ``info``: ``None`` where no cogging order was cut or no log holds a steady segment, else ``{"orders"`` (added),
     ``"kept"`` (of those, the ones not shrunk to zero), ``"agreement"`` (:func:`pgcomm.rotary.over_the_angle.agreement`
@@ -550,7 +551,9 @@ def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, co
             kept.append(int(h))
         ab = flip @ np.array([x.real, x.imag])
         add_beta[[j, m + j]] = f * ab
-        pull[[j, m + j]] = (f - 1.0) * ab
+        # an order within its noise is left out, as the alias guard's cut left it: its noise (h² amplifies the
+        # clock's at the highest multiples) is no part of the map's error
+        pull[[j, m + j]] = (f - 1.0) * ab if f > 0 else 0.0
         add_cov[np.ix_([j, m + j], [j, m + j])] = f * (flip @ c @ flip)
     beta = np.concatenate([beta, add_beta])
     big = np.zeros((k + 2 * m, k + 2 * m))
