@@ -39,7 +39,7 @@ from pgcomm.rotary.power_ups import index_offsets, tested
 from pgcomm.rotary.readings import PLL_UNCERTAINTY, read_logs, _with_delay, _with_pll, _with_report, \
     _shifted, apply_reading, current_noise_beside_angle, lag_of, orders_of, unfiltered
 from pgcomm.rotary.over_the_angle import agreement as angle_agreement, read_over_the_angle
-from pgcomm.rotary.regression import _basis_cost, _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, \
+from pgcomm.rotary.regression import _basis_cost, _unit_hint, _chunks, _fit, _full, _Layout, _line_columns, _log_arrays, \
     _map_error_quantile, _map_gram, _map_standard_error, _prepare, _quantisation_correction, _require_current, _significant_extra_orders, \
     angle_parts_kept, DETERMINED_SHARE, EXTRA_ORDER_ALPHA, FILTER_TAPS, information_shares, MIN_SAMPLES_PER_PERIOD, Orders, RIDGE_GRID, \
     resolved_orders
@@ -417,14 +417,16 @@ def _identify(logs, motor: RotaryMotor, options: RotaryIdentifyOptions) -> Rotar
             logs, basis, final, o_c, beta, cov, [bias, shift, c_shift, reading], ts, report["tau_s"], timing, pll)
         lost = cut.get("fundamental_over_the_angle")
         if lost is not None and (over is None or lost not in over["kept"]):
+            need = cut["speed_to_resolve_fundamental_rad_s"]
             raise ExcitationError(
                 f"the logs turn too fast for their sampling to resolve the cogging's fundamental (order {lost} per "
-                f"revolution) in time, and read over the angle it is not determined either ("
+                f"revolution) in time (nine in ten filter windows at speed turn at up to {cut['speed_rad_s']:.4g} "
+                "rad/s), and read over the angle it is not determined either ("
                 + ("no steady stretch" if over is None else
                    "it is within its noise there" if over["agreement"] <= MAX_DISAGREEMENT else
                    f"that reading is {100 * over['agreement']:.0f} % of the map away from the time-domain fit where "
-                   "both read") + f"); log at most {cut['speed_to_resolve_fundamental_rad_s']:.3g} rad/s or poll the "
-                "drive faster")
+                   "both read") + f"); log at most {need:.3g} rad/s or poll the drive faster"
+                + _unit_hint(cut["speed_rad_s"], need))
     if lines:
         # per log a cosine and a sine of each line (A): the amplitude of each line in each log
         cs = beta[layout.o_t].reshape(len(prepared), 2, len(lines))
