@@ -2,6 +2,7 @@
 second formulation: the rotor's path made in time on a fine grid, its acceleration by finite differences there and the
 report filter run sample by sample, then sampled by a host's jittered clock that does not resolve the order in time."""
 
+import functools
 import math
 
 import numpy as np
@@ -24,6 +25,7 @@ def _time_of(th):
     return th / W + np.real(e @ Z), 1.0 / W + np.real(e @ (1j * ORDERS * Z))
 
 
+@functools.lru_cache(maxsize=1)
 def _fine():
     """The path on a uniform fine grid of time: the angle from ``t(θ) = θ/W + Re Σ Z e^{ihθ}`` (Newton's steps to
     rounding), and the current ``Re Σ Y e^{ihθ}``."""
@@ -82,6 +84,7 @@ def test_a_report_filter_is_taken_out_per_order():
         assert abs(x - e) <= 0.03 * abs(e) + 3 * math.sqrt(np.trace(c)), (x, e)
 
 
+@functools.lru_cache(maxsize=1)
 def _joint(seed, index):
     """A zoo motor with a real drive's habits in a joint's speed loop at 5 rad/s, polled by a host every ~2.3 ms: a
     36N42P's fundamental (252) turns 2.9 rad per median step, beyond the regression's three samples per period."""

@@ -535,16 +535,16 @@ def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, co
     spread += sum(np.trace(angle["cov"][i]) for i in idx)
     kappa = float(max(1.0, diff.sum() / spread)) if spread > 0 else 1.0
     gap = angle_agreement(x_t, angle, at)
+    info = {"orders": [int(h) for h in cut_cog], "kept": [], "agreement": gap, "inflation": kappa,
+            "segments": int(angle["segments"]), "seconds": float(angle["seconds"]),
+            "speeds_rad_s": [float(w) for w in angle["speeds_rad_s"]]}
     if gap > MAX_DISAGREEMENT:
         # the two readings are not of one map: the model over the angle does not hold on these logs
-        info = {"orders": [int(h) for h in cut_cog], "kept": [], "agreement": gap, "inflation": kappa,
-                "segments": int(angle["segments"]), "seconds": float(angle["seconds"]),
-                "speeds_rad_s": [float(w) for w in angle["speeds_rad_s"]]}
         return (beta, cov, *zeros, o_c, final, info)
     k = beta.size
     m = cut_cog.size
     add_beta, add_cov, pull = np.zeros(2 * m), np.zeros((2 * m, 2 * m)), np.zeros(2 * m)
-    kept = []
+    kept = info["kept"]
     for j, h in enumerate(cut_cog):
         i = int(np.searchsorted(angle["orders"], h))
         x, c = angle["table"][i], kappa * angle["cov"][i]
@@ -565,9 +565,6 @@ def _cut_orders_over_the_angle(logs, basis: Orders, final: Orders, o_c, beta, co
     perm = np.argsort(orders, kind="stable")
     a_idx = np.concatenate([o_c[:n], k + np.arange(m)])[perm]
     b_idx = np.concatenate([o_c[n:], k + m + np.arange(m)])[perm]
-    info = {"orders": [int(h) for h in cut_cog], "kept": kept,
-            "agreement": gap, "inflation": kappa, "segments": int(angle["segments"]),
-            "seconds": float(angle["seconds"]), "speeds_rad_s": [float(w) for w in angle["speeds_rad_s"]]}
     return (beta, big, *extended, np.concatenate([a_idx, b_idx]), replace(final, cogging=orders[perm]), info)
 
 

@@ -53,11 +53,13 @@ import math
 from dataclasses import replace
 
 import numpy as np
+from scipy.stats import chi2
 
 from pgcomm.errors import ExcitationError
 from pgcomm.rotary.model import cogging_orders, direction_orders, drive_orders, fundamental_cogging_order, \
     ripple_orders
 from pgcomm.rotary.motor import RotaryMotor
+from pgcomm.rotary.over_the_angle import order_evidence
 from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, Orders, \
     _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders, _validated_ridge
@@ -234,16 +236,13 @@ def _count_over_the_angle(logs, p: int, sample_time: float, top: int, seen) -> d
     to ``top``) do not give one, the fundamental may be beyond them, or hidden in time by a speed loop's ripple.
 
     Candidates are the fundamentals ``L = LCM(Q, 2p)`` up to :data:`MAX_ORDER` of the counts a motor can be wound
-    with, but for the drive's own orders (:func:`pgcomm.rotary.model.drive_orders`); each order's ``T²`` over its family-wise threshold (``α`` = :data:`EXTRA_ORDER_ALPHA` over the candidates).
+    with, but for the drive's own orders (:func:`pgcomm.rotary.model.drive_orders`); each order's ``T²`` over its
+    family-wise threshold (``α`` = :data:`EXTRA_ORDER_ALPHA` over the candidates).
     The strongest one that passes is the fundamental: a motor's cogging fundamental outweighs the drive's and the
     ripple's orders it may share a multiple of ``2p`` with. Of the counts with that ``L``, the one that explains the
     most slot sidebands seen in time (``seen``: orders up to ``top`` that are not multiples of ``2p``), then the
     fewest slots. ``{"slots", "cogging_fundamental", "chosen_by": "over the angle", "slots_with_that_fundamental",
     "over_the_angle": {"t2_over_threshold", "segments"}}``."""
-    from scipy.stats import chi2
-
-    from pgcomm.rotary.over_the_angle import order_evidence
-
     by_l: dict[int, list[int]] = {}
     # a drive's own orders (p, 2p, 3p, 4p, 6p: its current sensors, its dead time) are on every drive's logs, whatever
     # the motor: a count whose fundamental is one of them cannot be told from the drive
