@@ -31,7 +31,9 @@ coefficient (``x(θ) = Re Σ X_h e^{ihθ}``)::
 
 ``J/k0`` is the time-domain fit's. The host's stamp noise and the encoder's rounding are noise in ``t(θ)``, which the
 fit averages over the segment's samples; ``h²`` amplifies it, so the highest orders come with the largest standard
-errors.
+errors. At a given acceleration the ripple in time falls as ``1/ω³`` while the stamp noise stays: the inertia
+torque's standard error grows as the cube of the speed (a joint's 12N14P at order 84: 4 % at 5 rad/s, 11 % at 8 rad/s
+over 10 s), and slower logs read it better.
 
 **Standard errors.** The residuals of a segment are correlated in time (a filtered report, a speed loop): each fit's
 covariance is the cluster-robust sandwich over one-second blocks (``(XᵀX)⁻¹ Σ_b X_bᵀ r_b r_bᵀ X_b (XᵀX)⁻¹``), and the
