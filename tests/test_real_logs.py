@@ -7,6 +7,8 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+import re
+
 import numpy as np
 import pytest
 
@@ -326,9 +328,13 @@ def test_logs_too_fast_for_the_basis_keep_the_orders_they_resolve():
     # the basis given: nothing is cut, and the guard refuses the windows
     with pytest.raises(ExcitationError, match="no usable window"):
         identify([log], MOTOR, replace(FIXED, current_filter=0.0, orders=(cogging_orders(9, 3), [], [])))
-    # a fundamental the logs cannot resolve (27 slots: order 54) is refused with the speed that would resolve it
-    with pytest.raises(ExcitationError, match=r"fundamental \(order 54 per revolution\).*log at most 38.8 rad/s"):
+    # a fundamental the logs cannot resolve (27 slots: order 54) is refused with the speed that would resolve it:
+    # 2π / (3 · 54 · T_s) = 38.8 rad/s at the median step, less the share the speed loop's ripple adds to the fastest
+    with pytest.raises(ExcitationError, match=r"fundamental \(order 54 per revolution\).*log at most") as refused:
         identify([log], replace(MOTOR, slots=27), replace(FIXED, current_filter=0.0))
+    need = float(re.search(r"log at most ([\d.]+) rad/s", str(refused.value)).group(1))
+    nominal = 2 * np.pi / (3 * 54 * ts)
+    assert nominal / (1 + 2 * ripple) <= need <= nominal * 1.001, (need, nominal, ripple)
 
 
 def test_the_report_gives_a_pinned_maps_verdict_as_a_sentence(tmp_path):

@@ -114,6 +114,8 @@ def test_a_fundamental_read_over_the_angle_is_within_its_standard_error():
     tab = res.model.table(4096)
     err = np.sqrt(np.mean(((tab - tab.mean()) - (ref - ref.mean())) ** 2) / np.mean((ref - ref.mean()) ** 2))
     c = res.standard_error["cogging"]
+    # read over the angle only, with J/k0 from a fit that cannot hold it: never called resolved
+    assert not c["resolved"] and c["fundamental_over_the_angle"] == 252
     # the verdict's parts: noise at its confidence, the ridge's and the shrinkage's pull, what the corrections leave
     bound = math.hypot(c["relative_at_confidence"], c["ridge_bias"], c["quantisation_bias"], c["pll_bias"])
     assert err <= bound, (err, c)

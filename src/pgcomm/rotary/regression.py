@@ -204,6 +204,18 @@ def _steps_and_step(logs, sample_time: float, taps: int) -> tuple[np.ndarray, fl
     return (np.concatenate(steps) if steps else np.zeros(0)), float(np.median(ts_all)) if ts_all else sample_time
 
 
+def _median_speed(logs, sample_time: float) -> float:
+    """The median speed (rad/s) over every log's moving samples: ``|Δθ| / Δt`` where the angle moves."""
+    speeds = []
+    for log in logs:
+        th = np.asarray(log["theta"], float)
+        t = np.asarray(log["t"], float) if "t" in log else np.arange(th.size) * sample_time
+        v = np.abs(np.diff(th)) / np.maximum(np.diff(t), 1e-12)
+        speeds.append(v[v > 0])
+    v = np.concatenate(speeds) if speeds else np.zeros(0)
+    return float(np.median(v)) if v.size else 0.0
+
+
 def highest_resolved_order(steps: np.ndarray, min_samples: float = MIN_SAMPLES_PER_PERIOD,
                            share: float = GUARD_QUANTILE) -> int:
     """The highest order per revolution with ``min_samples`` samples per period in ``share`` of the windows
@@ -249,8 +261,12 @@ def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
     speed = float(np.quantile(steps, GUARD_QUANTILE)) / ts
     full = max_speed(orders, ts, min_samples)
     fundamental = fundamental_cogging_order(motor.slots, motor.pole_pairs) if motor.slots else None
+    # the speed below which the guard keeps the fundamental: the logs' own speed scaled by the orders, as their steps
+    # (a host's uneven ones, the speed's ripple) make the guard's quantile of the fastest step in a window
+    need = (None if fundamental is None else
+            min(2 * math.pi / (ts * min_samples * fundamental), _median_speed(logs, motor.sample_time)
+                * 2 * math.pi / (min_samples * float(np.quantile(steps, GUARD_QUANTILE)) * fundamental)))
     if fundamental is not None and top < fundamental and not has_steady_segment(logs, motor.sample_time):
-        need = 2 * math.pi / (ts * min_samples * fundamental)
         raise ExcitationError(
             f"the logs turn too fast for their sampling to resolve the cogging's fundamental (order {fundamental} "
             f"per revolution): nine in ten filter windows at speed turn at up to {speed:.4g} rad/s (their fastest step "
@@ -264,8 +280,7 @@ def resolved_orders(logs, motor: RotaryMotor, orders: Orders,
     return cut, {"highest_order": int(top), "orders": [int(h) for h in left], "speed_rad_s": speed,
                  "speed_to_resolve_rad_s": full,
                  "fundamental_over_the_angle": fundamental if fundamental is not None and top < fundamental else None,
-                 "speed_to_resolve_fundamental_rad_s": None if fundamental is None else
-                 2 * math.pi / (ts * min_samples * fundamental)}
+                 "speed_to_resolve_fundamental_rad_s": need}
 
 
 _ZOH = np.array([0.5, 0.5])
