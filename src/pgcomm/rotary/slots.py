@@ -201,29 +201,30 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
             if len(same) > 1:
                 info["runner_up"] = {"slots": same[1][3], "sidebands_explained": same[1][0], "of": len(side)}
             return q, _with_held_out(info, held_out)
-    elif best_mse >= held_out["base"]:
+    refusal = None
+    if not scores and best_mse >= held_out["base"]:
         strongest = int(np.argmax(ratio))
-        found = _count_over_the_angle(logs, p, sample_time, top, seen)
-        if found is not None:
-            info.update(found)
-            return found["slots"], _with_held_out(info, held_out)
-        raise ExcitationError(
+        refusal = (
             f"slots not given, and the logs show no cogging fundamental LCM(Q, {2 * p}) up to order {top} (strongest "
             f"order {strongest} at {ratio[strongest]:.2g}x its threshold), nor does any slot count's basis predict "
             "the logs' held-out time blocks better than the orders of the poles alone: set slots in the motor TOML")
-    lcm = fundamental_cogging_order(best_q, p)
-    if lcm > top:
-        # the count's own orders below top are one or two multiples of Q: too few to tell it from its neighbours, and
-        # the cogging's fundamental, which would, is beyond what the logs resolve in time: read over the angle
+    else:
+        lcm = fundamental_cogging_order(best_q, p)
+        if lcm > top:
+            # the count's own orders below top are one or two multiples of Q: too few to tell it from its neighbours,
+            # and the cogging's fundamental, which would, is beyond what the logs resolve in time
+            refusal = (
+                f"slots not given, and the logs do not determine them: their held-out time blocks are predicted best "
+                f"by {best_q} slots, whose cogging fundamental LCM({best_q}, {2 * p}) = {lcm} is beyond order {top}, "
+                f"the highest the logs resolve at their speed: set slots in the motor TOML, or log at most "
+                f"{top / lcm:.2g} times as fast")
+    if refusal is not None:
+        # neither gives a count: the fundamental may turn too fast for the logs' sampling, read over the angle
         found = _count_over_the_angle(logs, p, sample_time, top, seen)
-        if found is not None:
-            info.update(found)
-            return found["slots"], _with_held_out(info, held_out)
-        raise ExcitationError(
-            f"slots not given, and the logs do not determine them: their held-out time blocks are predicted best by "
-            f"{best_q} slots, whose cogging fundamental LCM({best_q}, {2 * p}) = {lcm} is beyond order {top}, the "
-            f"highest the logs resolve at their speed: set slots in the motor TOML, or log at most {top / lcm:.2g} "
-            "times as fast")
+        if found is None:
+            raise ExcitationError(refusal)
+        info.update(found)
+        return found["slots"], _with_held_out(info, held_out)
     info.update({"slots": best_q, "cogging_fundamental": lcm, "chosen_by": "held-out blocks",
                  "slots_with_that_fundamental": sorted(x for x in held_out["bases"]
                                                        if fundamental_cogging_order(x, p) == lcm)})
