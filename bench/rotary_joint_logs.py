@@ -13,7 +13,12 @@ its exit and, where it wrote a table, the table's correlation with the drive's m
 demand, forward and reverse averaged: what a standstill calibration converges to) and with the map of the log's own
 direction (a one-direction log carries that direction's friction), the RMS difference as a share of the map's RMS
 beside the cogging's verdict (what the user is told of it), and the drives' own way from the same log: the logged current binned over the angle (512 bins). The bar for a real
-joint's logs is a correlation of 0.97 with its drive's map.
+joint's logs is a correlation of 0.97 with its drive's map. Each line also gives the report filter and ``J/k0`` the
+identification read, the latter as a share of the truth's: at one speed the table is the current read back through the
+filter, less the inertia torque of the speed's ripple, and at each order any filter and any ``J/k0`` explain a steady
+log's angle-periodic content equally well (only its speed changes and its noise tell them apart), so where the filter
+holds back the cogging's orders or a soft speed loop lets the cogging move the rotor (binning far below the table),
+these readings are what the table rests on.
 
 Usage: ``python bench/rotary_joint_logs.py [--seed 0] [--motors 0,1,2,3,4,5,6,7] [--speed 5] [--seconds 20]
 [--step 0.0023] [--slots]``. About 10-40 s per motor on 2 cores.
@@ -88,8 +93,9 @@ def one_motor(seed: int, idx: int, args, tmp: Path) -> tuple[str, float | None]:
     verdict = f"{'resolved' if se['resolved'] else 'NOT resolved'}, se {100 * se['relative']:.1f} %" + (
         f", the encoder's rounding {100 * se['quantisation_bias']:.0f} %" if se.get("quantisation_bias", 0) > 0.05 else "")
     return (f"{head}: correlation {corr:.4f} (its direction's map {corr_dir:.4f}), RMS difference {100 * rms:.0f} % "
-            f"({verdict}), binning {b_corr:.3f}; orders to {ident['highest_order']}"
-            + (f" (cut from {max(cut['orders'])})" if cut else "") + f" ({secs:.0f} s)"), corr
+            f"({verdict}), binning {b_corr:.3f}; read: filter {1e3 * ident['current_filter']['tau_s']:.1f} ms, J/k0 "
+            f"{ident['inertia_ratio'] / (truth.inertia / truth.k0):.2f} of the truth's; orders to {ident['highest_order']}" + (f" (cut from {max(cut['orders'])})" if cut else "")
+            + f" ({secs:.0f} s)"), corr
 
 
 def main(argv=None) -> int:
