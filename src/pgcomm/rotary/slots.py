@@ -8,7 +8,8 @@ Datasheets of industrial servo motors give the pole count but rarely the slots, 
 basis of *every* order from 1 to ``H`` (the highest the logs can carry: at least
 :data:`pgcomm.rotary.regression.MIN_SAMPLES_PER_PERIOD` samples per period at the 90th percentile of the logs'
 speed, at most
-:data:`MAX_ORDER`) and the ripple's orders that do not depend on ``Q``. Each order's ``T² = δᵀ C⁻¹ δ``
+:data:`MAX_ORDER`, and no higher than the logs' windows determine: :data:`COUNT_WINDOWS_PER_UNKNOWN`,
+:func:`_determined_order`) and the ripple's orders that do not depend on ``Q``. Each order's ``T² = δᵀ C⁻¹ δ``
 (cosine and sine over their block-sandwich covariance) against its family-wise threshold (the screening's,
 ``α`` = :data:`pgcomm.rotary.regression.EXTRA_ORDER_ALPHA` over the ``H`` orders) says whether the logs show it.
 The physics is in the fit: a dither or an acceleration is the inertia's, not an order of the angle, so a
@@ -36,8 +37,8 @@ what it predicts: fitted on the training rows and scored on the held-out time bl
 equations (:func:`_held_out`). Where another count leaves less than :data:`HELD_OUT_OVERRULE` of the held-out mean
 square of the count the orders seen give, the logs contradict that count and the other is taken; where the orders
 seen give no count, the count that predicts best is taken if it beats the poles' orders alone and the logs show one
-of its own orders (a real ODrive's log at 0.1 rev/s: no fundamental passes, and 12 slots leave 1.2 % of the current's
-held-out mean square unexplained, the next count 6.5 %, the poles' orders alone 7.2 %).
+of its own orders (a real ODrive's log at 0.1 rev/s, to order 216: no fundamental passes, and 12 slots leave 0.7 % of
+the current's held-out mean square unexplained, the next count 3.9 %, the poles' orders alone 4.6 %).
 
 **Over the angle.** Where neither gives a count (the count that predicts best has its fundamental beyond ``H``, or
 none beats the poles' orders alone), the fundamental may turn too fast for the logs' sampling: a joint's speed loop
@@ -62,7 +63,7 @@ from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.over_the_angle import order_evidence
 from pgcomm.rotary.readings import apply_reading, detect_reading, lag_of
 from pgcomm.rotary.regression import EXTRA_ORDER_ALPHA, FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, MIN_SPEED_SHARE, Orders, \
-    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders, _validated_ridge
+    _fit, _Layout, _log_arrays, _prepare, _significant_extra_orders, _validated_ridge, steps_at_speed
 from pgcomm.rotary.time_lines import detect_time_lines
 from pgcomm.settings import RotaryIdentifyOptions
 
@@ -84,6 +85,13 @@ DETECTION_BLOCK_SECONDS = 0.1
 #: (A. M. El-Refaie, "Fractional-slot concentrated-windings synchronous permanent magnet machines: opportunities and
 #: challenges", IEEE Trans. Ind. Electron. 57(1), 2010, which surveys the range).
 MIN_SLOTS_PER_POLE_PHASE = 0.25
+#: The fewest filter windows per unknown of the every-order fit, the bar below which the identification refuses
+#: a fit (:func:`pgcomm.rotary.identify.identify`). A slow or short log resolves orders in time that its windows
+#: cannot all determine at once (a real ODrive's 10 s at 0.1 rev/s: 714 windows for 1273 unknowns to order 626). Such
+#: a fit interpolates its rows, its validated ridge lies on a flat bottom (the grid's smallest weights within 1e-5 of
+#: each other), and which one wins, with the screening's statistics, changed with the BLAS's thread count: order 60 at
+#: 2.5 times its threshold with one thread, 0.006 with two, and the count refused.
+COUNT_WINDOWS_PER_UNKNOWN = 2.0
 #: The held-out blocks overrule the count the orders seen give where another count's basis leaves less than this
 #: share of its held-out mean square: the logs predicted twice as well by another count contradict it.
 HELD_OUT_OVERRULE = 0.5
@@ -123,6 +131,34 @@ def _highest_order(logs, sample_time: float) -> int:
     return int(min(MAX_ORDER, math.floor(2 * math.pi / (MIN_SAMPLES_PER_PERIOD * float(np.percentile(v, 90))))))
 
 
+def _every_order(top: int, p: int) -> Orders:
+    """The basis of the count's fit to order ``top``: every cogging order, the ripple's orders that do not depend on
+    the slots, the direction map's."""
+    ripple = ripple_orders(None, p)
+    return Orders(np.arange(1, top + 1), ripple[ripple <= top], direction_orders(p))
+
+
+def _determined_order(logs, p: int, sample_time: float, top: int, lines: int) -> int:
+    """The highest order, at most ``top``, whose every-order fit (:func:`_every_order`, ``lines`` time lines) the
+    logs' windows determine: the alias guard's windows at least :data:`COUNT_WINDOWS_PER_UNKNOWN` times its
+    unknowns. Fewer orders keep more windows and need fewer unknowns, so the largest such order is found by
+    bisection; ``top`` where the logs determine it, 0 where they determine no order."""
+    steps = steps_at_speed(logs, sample_time, FILTER_TAPS)
+
+    def determined(h: int) -> bool:
+        kept = int(np.sum(steps <= 2 * math.pi / (MIN_SAMPLES_PER_PERIOD * h)))
+        return kept >= COUNT_WINDOWS_PER_UNKNOWN * int(_Layout.of(_every_order(h, p), (0.0,) * lines,
+                                                                   len(logs)).keep.sum())
+
+    if top < 1 or determined(top):
+        return top
+    lo, hi = 0, top  # determined(lo) (or lo = 0), not determined(hi)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if determined(mid) else (lo, mid)
+    return lo
+
+
 def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), current_lag=None) -> tuple[int, dict]:
     """The slot count whose cogging orders the logs show best (module docstring).
 
@@ -153,14 +189,13 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
             the orders they resolve; or they are too slow or fast to say.
     """
     p = int(pole_pairs)
-    top = _highest_order(logs, sample_time)
+    top = _determined_order(logs, p, sample_time, _highest_order(logs, sample_time), len(time_lines))
     if top < 2 * p:
         raise ExcitationError(f"the logs are too fast to show the cogging: order {2 * p} (2p) has fewer than "
                               f"{MIN_SAMPLES_PER_PERIOD:g} samples per period at their usual speed; set slots in the "
                               "motor TOML or log slower")
-    ripple = ripple_orders(None, p)
-    ripple = ripple[ripple <= top]
-    every = Orders(np.arange(1, top + 1), ripple, direction_orders(p))
+    every = _every_order(top, p)
+    ripple = every.ripple
     motor = RotaryMotor(pole_pairs=p, slots=None, sample_time=sample_time)
     prepared, _, _, _ = _prepare(logs, motor, every, MIN_SAMPLES_PER_PERIOD, FILTER_TAPS, current_lag=current_lag)
     layout = _Layout.of(every, tuple(time_lines), len(prepared))
