@@ -214,6 +214,7 @@ REAL_COUNT = """
 import json, sys
 from pathlib import Path
 from pgcomm.io.logs import ROTARY_REQUIRED, read_logs
+from pgcomm.progress import Progress
 from pgcomm.rotary.from_logs import _segments
 from pgcomm.rotary.motor import RotaryMotor
 from pgcomm.rotary.slots import count_slots
