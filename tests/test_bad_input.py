@@ -456,3 +456,35 @@ def test_interrupt_leaves_no_output(tmp_path, sig, code):
     assert "Traceback" not in err
     assert not out.exists()
     assert not list(tmp_path.glob(".D.*"))
+
+
+def test_an_interrupt_is_not_raised_inside_a_finaliser():
+    """An interrupt handler's exception raised in a garbage collector's callback (JAX's ``_xla_gc_callback``) or a
+    ``__del__``, or in a function they call, is printed by Python with a traceback and dropped. Both handlers, the
+    signal's and the retry's after an import, defer it there (the retry re-arms its timer) and raise it elsewhere."""
+    import pgcomm.cli as cli
+
+    def __del__():  # noqa: N807  (a frame of the finaliser's name)
+        return inner()
+
+    def inner():
+        return sys._getframe()
+
+    deep, plain = __del__(), sys._getframe()
+    assert cli._in_finaliser(deep) and not cli._in_finaliser(plain)
+    saved = (list(cli._PENDING), signal.getsignal(signal.SIGALRM), signal.getsignal(signal.SIGINT),
+             signal.getsignal(signal.SIGTERM))
+    try:
+        cli._PENDING[:] = [int(signal.SIGTERM)]
+        assert cli._retry_interrupt(signal.SIGALRM, deep) is None
+        assert signal.getitimer(signal.ITIMER_REAL)[0] > 0  # re-armed
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        with pytest.raises(cli.Interrupted):
+            cli._retry_interrupt(signal.SIGALRM, plain)
+        cli._PENDING[:] = []
+        assert cli._on_signal(int(signal.SIGINT), deep) is None and cli._PENDING == [int(signal.SIGINT)]
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        cli._PENDING[:] = saved[0]
+        for s, h in zip((signal.SIGALRM, signal.SIGINT, signal.SIGTERM), saved[1:]):
+            signal.signal(s, h)

@@ -104,7 +104,7 @@ def _on_signal(signum, frame):
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, signal.SIG_IGN)
     _PENDING.append(signum)
-    if frame is not None and frame.f_code.co_name in ("_xla_gc_callback", "__del__"):
+    if _in_finaliser(frame):
         return  # an exception here would be printed and dropped; the next checkpoint raises it
     if _in_import(frame):
         # An exception thrown through a module body that an extension (pybind11, XLA) is
@@ -115,9 +115,21 @@ def _on_signal(signum, frame):
     raise Interrupted(signum)
 
 
+def _in_finaliser(frame) -> bool:
+    """Whether ``frame`` runs inside a garbage collector's callback or a finaliser (JAX's ``_xla_gc_callback``, a
+    ``__del__``): Python prints an exception raised there as "Exception ignored in ..." with a traceback, and drops
+    it."""
+    while frame is not None:
+        if frame.f_code.co_name in ("_xla_gc_callback", "__del__"):
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _retry_interrupt(signum, frame):
-    """SIGALRM after an interrupt deferred by :func:`_on_signal`: raise it once outside any import."""
-    if _in_import(frame):
+    """SIGALRM after an interrupt deferred by :func:`_on_signal`: raise it once outside any import and any
+    finaliser (the retry, too, can land in a garbage collector's callback)."""
+    if _in_import(frame) or _in_finaliser(frame):
         signal.setitimer(signal.ITIMER_REAL, _RETRY_S)
         return
     signal.signal(signal.SIGALRM, signal.SIG_DFL)
