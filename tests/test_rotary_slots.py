@@ -277,3 +277,33 @@ def test_a_real_motor_whose_fundamental_does_not_show_is_counted_by_its_held_out
     top = info["highest_order_examined"]
     assert top < 626
     assert windows_per_unknown(top) >= COUNT_WINDOWS_PER_UNKNOWN > windows_per_unknown(top + 1)
+
+
+@pytest.mark.skipif(not (REAL / "logs").is_dir(), reason="the shared real logs are not beside the checkout")
+def test_a_log_too_short_for_the_orders_it_resolves_is_refused_as_short():
+    """The first 0.9 s of the real 0.1 rev/s log resolve orders far beyond 2p = 14 in time, but their windows determine
+    no fit to order 14: the count is refused as too short (one line, the orders the windows determine), not as too
+    fast. The order the bisection finds is a linear scan's (the highest order with two windows per unknown)."""
+    from pgcomm.io.logs import ROTARY_REQUIRED, read_logs
+    from pgcomm.progress import Progress
+    from pgcomm.rotary.from_logs import _segments
+    from pgcomm.rotary.regression import FILTER_TAPS, MIN_SAMPLES_PER_PERIOD, _Layout, steps_at_speed
+    from pgcomm.rotary.slots import COUNT_WINDOWS_PER_UNKNOWN, _determined_order, _every_order, _highest_order
+
+    mapping = {"columns": {"t": "time_s", "theta": "pos_estimate_counts", "iq_1": "Iq_measured_A"},
+               "units": {"theta": "counts"}, "options": {"encoder_counts": 8192}}
+    (log,) = _segments(read_logs([REAL / "logs" / "slow2__nocomp_0.csv"], columns=mapping, required=ROTARY_REQUIRED,
+                                 gaps=True, stamps=True), False, Progress(enabled=False))
+    n = log["theta"].size
+    short = [{k: (v[:400] if isinstance(v, np.ndarray) and v.shape[:1] == (n,) else v) for k, v in log.items()}]
+    resolved = _highest_order(short, 0.0023)
+    assert resolved > 14
+    steps = steps_at_speed(short, 0.0023, FILTER_TAPS)
+    scan = max([h for h in range(1, resolved + 1)
+                if np.sum(steps <= 2 * np.pi / (MIN_SAMPLES_PER_PERIOD * h))
+                >= COUNT_WINDOWS_PER_UNKNOWN * _Layout.of(_every_order(h, 7), (), 1).keep.sum()], default=0)
+    assert _determined_order(short, 7, 0.0023, resolved, 0) == scan < 14
+    with pytest.raises(ExcitationError) as e:
+        detect_slots(short, 7, 0.0023)
+    msg = str(e.value)
+    assert "too short" in msg and f"orders to {scan} " in msg and "\n" not in msg

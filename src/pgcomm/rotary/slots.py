@@ -186,14 +186,19 @@ def detect_slots(logs, pole_pairs: int, sample_time: float, time_lines=(), curre
     Raises:
         ExcitationError: the logs show no slot count's fundamental and no count's basis predicts their held-out
             blocks better than the poles' orders alone; the count that predicts them best has its fundamental beyond
-            the orders they resolve; or they are too slow or fast to say.
+            the orders they resolve; or they are too slow, fast or short to say.
     """
     p = int(pole_pairs)
-    top = _determined_order(logs, p, sample_time, _highest_order(logs, sample_time), len(time_lines))
-    if top < 2 * p:
+    resolved = _highest_order(logs, sample_time)
+    if resolved < 2 * p:
         raise ExcitationError(f"the logs are too fast to show the cogging: order {2 * p} (2p) has fewer than "
                               f"{MIN_SAMPLES_PER_PERIOD:g} samples per period at their usual speed; set slots in the "
                               "motor TOML or log slower")
+    top = _determined_order(logs, p, sample_time, resolved, len(time_lines))
+    if top < 2 * p:
+        raise ExcitationError(f"the logs are too short to show the cogging: their filter windows determine the orders "
+                              f"to {top} at once, fewer than order {2 * p} (2p) ({COUNT_WINDOWS_PER_UNKNOWN:g} windows "
+                              "per unknown); set slots in the motor TOML or log longer")
     every = _every_order(top, p)
     ripple = every.ripple
     motor = RotaryMotor(pole_pairs=p, slots=None, sample_time=sample_time)
